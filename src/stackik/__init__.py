@@ -1,5 +1,43 @@
-"""stackik: inverse kinematics and sensitivity minimisation of stacked Stewart platforms."""
+"""stackik: inverse kinematics and sensitivity minimisation of stacked Stewart platforms.
+
+Conventions are those of ``docs/conventions.md``: millimetres and radians; planar poses
+``(n, 3)`` with rows ``[rho_i, z_i, theta_i]``; spatial poses ``(n, 6)`` with rows
+``[x, y, z, yaw, pitch, roll]`` and ``R = Rz(yaw) Ry(pitch) Rx(roll)``.
+"""
+
+from stackik.geometry import GeometryError, PlatformGeometry, Stack
+from stackik.kinematics import (
+    frobenius_norm,
+    lift_planar,
+    planar_fn2,
+    planar_forward,
+    planar_jacobian,
+    planar_plate_origins,
+    spatial_chain,
+    spatial_forward,
+    spatial_jacobian,
+    spatial_plate_origins,
+)
+from stackik.platform import leg_lengths, leg_vectors, platform_forward_kinematics
 
 __version__ = "0.1.0"
 
-__all__ = ["__version__"]
+__all__ = [
+    "GeometryError",
+    "PlatformGeometry",
+    "Stack",
+    "__version__",
+    "frobenius_norm",
+    "leg_lengths",
+    "leg_vectors",
+    "lift_planar",
+    "planar_fn2",
+    "planar_forward",
+    "planar_jacobian",
+    "planar_plate_origins",
+    "platform_forward_kinematics",
+    "spatial_chain",
+    "spatial_forward",
+    "spatial_jacobian",
+    "spatial_plate_origins",
+]

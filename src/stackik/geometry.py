@@ -1,0 +1,430 @@
+"""Platform and stack geometry (DESIGN §2).
+
+A :class:`PlatformGeometry` holds the six ball-joint nodes of each plate (in mm, each in
+its own plate frame) and the limits of the legs and joints. A :class:`Stack` is an ordered
+sequence of n >= 1 geometries, bottom platform first; platforms may differ.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["GeometryError", "PlatformGeometry", "Stack"]
+
+FloatArray = NDArray[np.float64]
+
+# Reference geometry (DESIGN §2): chosen, not given by the paper.
+REF_RADIUS = 150.0  # [mm] r_b = r_t
+REF_HALF_ANGLE = math.radians(15.0)  # [rad] a = b
+REF_LEG_MIN = 250.0  # [mm]
+REF_LEG_MAX = 450.0  # [mm]
+REF_JOINT_MIN = math.radians(20.0)  # [rad]
+
+
+class GeometryError(ValueError):
+    """A geometry (or geometry file) is malformed; the message names the bad field."""
+
+
+def _nodes(value: ArrayLike, name: str) -> FloatArray:
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise GeometryError(f"{name}: expected a (6, 3) array of numbers ({exc})") from None
+    if arr.shape != (6, 3):
+        raise GeometryError(f"{name}: expected shape (6, 3), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise GeometryError(f"{name}: contains NaN or infinite values")
+    d = np.linalg.norm(arr[:, None, :] - arr[None, :, :], axis=-1)
+    scale = max(1.0, float(np.abs(arr).max()))
+    if np.any(d[np.triu_indices(6, 1)] <= 1e-9 * scale):
+        raise GeometryError(f"{name}: the six nodes must be distinct")
+    centred = arr - arr.mean(axis=0)
+    sv = np.linalg.svd(centred, compute_uv=False)
+    if sv[1] <= 1e-9 * max(sv[0], 1e-300):
+        raise GeometryError(f"{name}: the six nodes must not be collinear")
+    arr.setflags(write=False)
+    return arr
+
+
+def _scalar(value: Any, name: str) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise GeometryError(f"{name}: expected a number, got {value!r}") from None
+    if not math.isfinite(x):
+        raise GeometryError(f"{name}: must be finite, got {x}")
+    return x
+
+
+@dataclass(frozen=True, eq=False)
+class PlatformGeometry:
+    """Geometry of one Stewart platform.
+
+    Parameters
+    ----------
+    base_nodes : array_like, shape (6, 3)
+        Leg attachment points ``b_k`` on the bottom plate, in its frame [mm].
+    top_nodes : array_like, shape (6, 3)
+        Leg attachment points ``t_k`` on the top plate, in its frame [mm]. Leg k joins
+        ``b_k`` to ``t_k``.
+    leg_min, leg_max : float
+        Actuator length limits [mm], ``0 < leg_min < leg_max``.
+    joint_min : float
+        Minimum angle between a leg and either plate [rad], ``0 <= joint_min < pi/2``.
+
+    Raises
+    ------
+    GeometryError
+        (a ``ValueError``) naming the bad field.
+    """
+
+    base_nodes: FloatArray
+    top_nodes: FloatArray
+    leg_min: float
+    leg_max: float
+    joint_min: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "base_nodes", _nodes(self.base_nodes, "base_nodes"))
+        object.__setattr__(self, "top_nodes", _nodes(self.top_nodes, "top_nodes"))
+        leg_min = _scalar(self.leg_min, "leg_min")
+        leg_max = _scalar(self.leg_max, "leg_max")
+        joint_min = _scalar(self.joint_min, "joint_min")
+        if leg_min <= 0:
+            raise GeometryError(f"leg_min: must be > 0 mm, got {leg_min}")
+        if leg_max <= leg_min:
+            raise GeometryError(f"leg_max: must exceed leg_min ({leg_min} mm), got {leg_max}")
+        if not 0 <= joint_min < math.pi / 2:
+            raise GeometryError(f"joint_min: must lie in [0, pi/2) rad, got {joint_min}")
+        object.__setattr__(self, "leg_min", leg_min)
+        object.__setattr__(self, "leg_max", leg_max)
+        object.__setattr__(self, "joint_min", joint_min)
+
+    @classmethod
+    def hexagonal(
+        cls,
+        base_radius: float = REF_RADIUS,
+        top_radius: float = REF_RADIUS,
+        base_half_angle: float = REF_HALF_ANGLE,
+        top_half_angle: float = REF_HALF_ANGLE,
+        leg_min: float = REF_LEG_MIN,
+        leg_max: float = REF_LEG_MAX,
+        joint_min: float = REF_JOINT_MIN,
+    ) -> PlatformGeometry:
+        """The symmetric layout of DESIGN §2 (radii in mm, angles in rad).
+
+        Base node angles ``[-a, a, 120-a, 120+a, 240-a, 240+a]`` at radius ``base_radius``;
+        top node angles ``[-60+b, 60-b, 60+b, 180-b, 180+b, 300-b]`` at ``top_radius``; all
+        at z = 0 in their plate, with ``a = base_half_angle`` and ``b = top_half_angle``.
+        """
+        r_b = _scalar(base_radius, "base_radius")
+        r_t = _scalar(top_radius, "top_radius")
+        if r_b <= 0:
+            raise GeometryError(f"base_radius: must be > 0 mm, got {r_b}")
+        if r_t <= 0:
+            raise GeometryError(f"top_radius: must be > 0 mm, got {r_t}")
+        a = _scalar(base_half_angle, "base_half_angle")
+        b = _scalar(top_half_angle, "top_half_angle")
+        d120, d60 = 2 * math.pi / 3, math.pi / 3
+        base_ang = np.array([-a, a, d120 - a, d120 + a, 2 * d120 - a, 2 * d120 + a])
+        top_ang = np.array([-d60 + b, d60 - b, d60 + b, 3 * d60 - b, 3 * d60 + b, 5 * d60 - b])
+
+        def ring(r: float, ang: FloatArray) -> FloatArray:
+            return np.column_stack([r * np.cos(ang), r * np.sin(ang), np.zeros(6)])
+
+        return cls(ring(r_b, base_ang), ring(r_t, top_ang), leg_min, leg_max, joint_min)
+
+    @classmethod
+    def reference(cls) -> PlatformGeometry:
+        """The reference geometry of DESIGN §2 (chosen, not published by the paper).
+
+        ``r_b = r_t = 150`` mm, ``a = b = 15`` deg, legs 250-450 mm, joints >= 20 deg.
+        """
+        return cls.hexagonal()
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form (lists and floats), the inverse of :meth:`from_dict`."""
+        return {
+            "base_nodes": self.base_nodes.tolist(),
+            "top_nodes": self.top_nodes.tolist(),
+            "leg_min": self.leg_min,
+            "leg_max": self.leg_max,
+            "joint_min": self.joint_min,
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], where: str = "platform") -> PlatformGeometry:
+        """Build from :meth:`to_dict` output, or from ``{"hexagonal": {...}}``.
+
+        ``where`` prefixes the field names in error messages (e.g. ``platforms[2]``).
+        """
+        if not isinstance(data, Mapping):
+            raise GeometryError(f"{where}: expected a table/object, got {type(data).__name__}")
+        if "hexagonal" in data:
+            spec = data["hexagonal"]
+            if not isinstance(spec, Mapping):
+                raise GeometryError(f"{where}.hexagonal: expected a table/object")
+            allowed = {
+                "base_radius",
+                "top_radius",
+                "base_half_angle",
+                "top_half_angle",
+                "leg_min",
+                "leg_max",
+                "joint_min",
+            }
+            unknown = set(spec) - allowed
+            if unknown:
+                raise GeometryError(f"{where}.hexagonal: unknown field(s) {sorted(unknown)}")
+            try:
+                return cls.hexagonal(**spec)
+            except GeometryError as exc:
+                raise GeometryError(f"{where}.hexagonal.{exc}") from None
+        required = ("base_nodes", "top_nodes", "leg_min", "leg_max", "joint_min")
+        for key in required:
+            if key not in data:
+                raise GeometryError(f"{where}.{key}: missing field")
+        unknown = set(data) - set(required)
+        if unknown:
+            raise GeometryError(f"{where}: unknown field(s) {sorted(unknown)}")
+        try:
+            return cls(*(data[k] for k in required))
+        except GeometryError as exc:
+            raise GeometryError(f"{where}.{exc}") from None
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, PlatformGeometry):
+            return NotImplemented
+        return (
+            np.array_equal(self.base_nodes, other.base_nodes)
+            and np.array_equal(self.top_nodes, other.top_nodes)
+            and (self.leg_min, self.leg_max, self.joint_min)
+            == (other.leg_min, other.leg_max, other.joint_min)
+        )
+
+    def __hash__(self) -> int:
+        return hash(
+            (
+                self.base_nodes.tobytes(),
+                self.top_nodes.tobytes(),
+                self.leg_min,
+                self.leg_max,
+                self.joint_min,
+            )
+        )
+
+
+@dataclass(frozen=True)
+class Stack(Sequence[PlatformGeometry]):
+    """An ordered stack of n >= 1 Stewart platforms, bottom (platform 1) first.
+
+    Parameters
+    ----------
+    platforms : sequence of PlatformGeometry
+        One geometry per platform; they may differ.
+    """
+
+    platforms: tuple[PlatformGeometry, ...]
+    _arrays: dict[str, FloatArray] = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        plats = tuple(self.platforms) if isinstance(self.platforms, Iterable) else None
+        if plats is None or len(plats) == 0:
+            raise GeometryError("platforms: a stack needs at least one platform")
+        for i, p in enumerate(plats):
+            if not isinstance(p, PlatformGeometry):
+                raise GeometryError(
+                    f"platforms[{i}]: expected a PlatformGeometry, got {type(p).__name__}"
+                )
+        object.__setattr__(self, "platforms", plats)
+
+    # --- constructors ---------------------------------------------------------------
+    @classmethod
+    def uniform(cls, geometry: PlatformGeometry, n: int) -> Stack:
+        """``n`` identical platforms."""
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1:
+            raise GeometryError(f"n: the number of platforms must be an integer >= 1, got {n!r}")
+        return cls(tuple([geometry] * int(n)))
+
+    @classmethod
+    def reference(cls, n: int = 4) -> Stack:
+        """``n`` reference platforms (:meth:`PlatformGeometry.reference`)."""
+        return cls.uniform(PlatformGeometry.reference(), n)
+
+    # --- sequence protocol ----------------------------------------------------------
+    def __len__(self) -> int:
+        return len(self.platforms)
+
+    def __getitem__(self, i):  # type: ignore[no-untyped-def, override]
+        return self.platforms[i]
+
+    def __iter__(self) -> Iterator[PlatformGeometry]:
+        return iter(self.platforms)
+
+    @property
+    def n(self) -> int:
+        """Number of platforms."""
+        return len(self.platforms)
+
+    # --- stacked arrays (cached) ----------------------------------------------------
+    def _arr(self, key: str) -> FloatArray:
+        if key not in self._arrays:
+            p = self.platforms
+            values: dict[str, FloatArray] = {
+                "base": np.stack([g.base_nodes for g in p]),
+                "top": np.stack([g.top_nodes for g in p]),
+                "leg_min": np.array([g.leg_min for g in p]),
+                "leg_max": np.array([g.leg_max for g in p]),
+                "sin_joint": np.sin([g.joint_min for g in p]),
+            }
+            for v in values.values():
+                v.setflags(write=False)
+            self._arrays.update(values)
+        return self._arrays[key]
+
+    @property
+    def base_nodes(self) -> FloatArray:
+        """Base nodes of every platform, shape (n, 6, 3) [mm]."""
+        return self._arr("base")
+
+    @property
+    def top_nodes(self) -> FloatArray:
+        """Top nodes of every platform, shape (n, 6, 3) [mm]."""
+        return self._arr("top")
+
+    @property
+    def leg_min(self) -> FloatArray:
+        """Minimum leg lengths, shape (n,) [mm]."""
+        return self._arr("leg_min")
+
+    @property
+    def leg_max(self) -> FloatArray:
+        """Maximum leg lengths, shape (n,) [mm]."""
+        return self._arr("leg_max")
+
+    @property
+    def sin_joint_min(self) -> FloatArray:
+        """``sin(joint_min)`` of every platform, shape (n,)."""
+        return self._arr("sin_joint")
+
+    # --- constraints (delegated to stackik.platform) ---------------------------------
+    def planar_constraints(self, q: ArrayLike, phi: float) -> FloatArray:
+        """Raw constraint values of a planar pose, shape (n, 24) (mm^2 and mm).
+
+        ``q`` has shape (n, 3), rows ``[rho_i, z_i, theta_i]``; DESIGN §2 order per row:
+        ``|l|^2 - leg_min^2`` (6), ``leg_max^2 - |l|^2`` (6), ``l.n - |l| s`` (6),
+        ``l.(R n) - |l| s`` (6). Feasible iff all are >= 0.
+        """
+        from stackik.platform import planar_constraints
+
+        return planar_constraints(self, q, phi)
+
+    def spatial_constraints(self, q: ArrayLike) -> FloatArray:
+        """Raw constraint values of a spatial pose (n, 6) ``[x, y, z, yaw, pitch, roll]``.
+
+        Returns shape (n, 24), same order as :meth:`planar_constraints`.
+        """
+        from stackik.platform import spatial_constraints
+
+        return spatial_constraints(self, q)
+
+    # --- serialisation ----------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """``{"platforms": [PlatformGeometry.to_dict(), ...]}``."""
+        return {"platforms": [p.to_dict() for p in self.platforms]}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Stack:
+        """Inverse of :meth:`to_dict`.
+
+        Also accepts ``{"platform": {...}, "n": 4}`` for a uniform stack, and
+        ``{"hexagonal": {...}}`` entries in place of explicit nodes.
+        """
+        if not isinstance(data, Mapping):
+            raise GeometryError(f"stack: expected a table/object, got {type(data).__name__}")
+        if "platforms" in data:
+            plats = data["platforms"]
+            if not isinstance(plats, list) or not plats:
+                raise GeometryError("platforms: expected a non-empty list of platform tables")
+            return cls(
+                tuple(
+                    PlatformGeometry.from_dict(p, where=f"platforms[{i}]")
+                    for i, p in enumerate(plats)
+                )
+            )
+        if "platform" in data:
+            n = data.get("n")
+            if n is None:
+                raise GeometryError("n: missing field (required with 'platform')")
+            return cls.uniform(PlatformGeometry.from_dict(data["platform"], where="platform"), n)
+        raise GeometryError("platforms: missing field (or 'platform' with 'n')")
+
+    def to_json(self, path: str | Path | None = None) -> str:
+        """JSON text of :meth:`to_dict`; also written to ``path`` when given."""
+        text = json.dumps(self.to_dict(), indent=2)
+        if path is not None:
+            Path(path).write_text(text + "\n")
+        return text
+
+    def to_toml(self, path: str | Path | None = None) -> str:
+        """TOML text (``[[platforms]]`` tables); also written to ``path`` when given."""
+        lines = ["# stackik stack geometry: lengths in mm, angles in rad", ""]
+        for p in self.platforms:
+            lines.append("[[platforms]]")
+            lines.append(f"leg_min = {p.leg_min!r}")
+            lines.append(f"leg_max = {p.leg_max!r}")
+            lines.append(f"joint_min = {p.joint_min!r}")
+            for key, arr in (("base_nodes", p.base_nodes), ("top_nodes", p.top_nodes)):
+                rows = ",\n    ".join("[" + ", ".join(repr(float(v)) for v in r) + "]" for r in arr)
+                lines.append(f"{key} = [\n    {rows},\n]")
+            lines.append("")
+        text = "\n".join(lines)
+        if path is not None:
+            Path(path).write_text(text)
+        return text
+
+    @classmethod
+    def from_file(cls, path: str | Path) -> Stack:
+        """Read a ``.json`` or ``.toml`` geometry file.
+
+        Raises
+        ------
+        GeometryError
+            If the file cannot be parsed or a field is malformed (the message names it).
+        """
+        path = Path(path)
+        try:
+            raw = path.read_bytes()
+        except OSError as exc:
+            raise GeometryError(f"{path}: cannot read geometry file ({exc.strerror})") from None
+        suffix = path.suffix.lower()
+        try:
+            if suffix == ".toml":
+                data = tomllib.loads(raw.decode())
+            elif suffix == ".json":
+                data = json.loads(raw.decode())
+            else:
+                raise GeometryError(f"{path}: unknown geometry file type (use .toml or .json)")
+        except (tomllib.TOMLDecodeError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise GeometryError(f"{path}: not valid {suffix[1:].upper()} ({exc})") from None
+        try:
+            return cls.from_dict(data)
+        except GeometryError as exc:
+            raise GeometryError(f"{path}: {exc}") from None
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Stack):
+            return NotImplemented
+        return self.platforms == other.platforms
+
+    def __hash__(self) -> int:
+        return hash(self.platforms)
