@@ -1,0 +1,92 @@
+"""Options of the SQP engine (:class:`SQPOptions`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+HESSIAN_STRATEGIES = ("auto", "exact", "gauss-newton", "bfgs")
+
+
+def _positive(name: str, value: Any) -> None:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
+        raise ValueError(f"SQPOptions.{name} must be a positive number, got {value!r}")
+    if math.isnan(value):
+        raise ValueError(f"SQPOptions.{name} must not be NaN")
+
+
+@dataclass(frozen=True)
+class SQPOptions:
+    """Validated, immutable options of :func:`stackik.sqp.solve`.
+
+    Parameters
+    ----------
+    tol : float
+        Tolerance on the scaled KKT residual (stationarity and complementarity).
+    constr_tol : float
+        Tolerance on the maximum *unscaled* constraint violation; success is never
+        reported at a point violating a constraint by more than this.
+    max_iter : int
+        Maximum number of SQP iterations (QP subproblems around distinct trial steps).
+    max_time : float
+        Wall-time limit in seconds (``math.inf`` for none), checked every iteration.
+    initial_tr_radius : float
+        Initial radius of the infinity-norm trust region, in scaled variables.
+    max_tr_radius : float
+        Largest trust-region radius.
+    hessian : {"auto", "exact", "gauss-newton", "bfgs"}
+        Hessian strategy.  ``"auto"`` picks exact if ``hessian`` is given, else Gauss-Newton
+        if ``gauss_newton`` is given, else damped BFGS.
+    verbose : {0, 1, 2}
+        0 silent, 1 one line per iteration, 2 also QP details.
+    fallback_qp_solver : str or None
+        QP backend tried when the main one fails on a subproblem.
+    qp_options : dict
+        Settings passed straight through to the QP backend (override its SQP defaults).
+    scaling : bool
+        Automatic objective/constraint scaling from gradient norms at ``x0`` (IPOPT rule:
+        a function whose gradient max-norm exceeds 100 is scaled down to 100).
+    """
+
+    tol: float = 1e-7
+    constr_tol: float = 1e-8
+    max_iter: int = 300
+    max_time: float = math.inf
+    initial_tr_radius: float = 1.0
+    max_tr_radius: float = 1e4
+    hessian: str = "auto"
+    verbose: int = 0
+    fallback_qp_solver: str | None = None
+    qp_options: dict[str, Any] = field(default_factory=dict)
+    scaling: bool = True
+
+    def __post_init__(self) -> None:
+        _positive("tol", self.tol)
+        _positive("constr_tol", self.constr_tol)
+        if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int):
+            raise ValueError(f"SQPOptions.max_iter must be an int, got {self.max_iter!r}")
+        if self.max_iter < 1:
+            raise ValueError(f"SQPOptions.max_iter must be >= 1, got {self.max_iter!r}")
+        _positive("max_time", self.max_time)
+        _positive("initial_tr_radius", self.initial_tr_radius)
+        _positive("max_tr_radius", self.max_tr_radius)
+        if math.isinf(self.initial_tr_radius):
+            raise ValueError("SQPOptions.initial_tr_radius must be finite")
+        if self.initial_tr_radius > self.max_tr_radius:
+            raise ValueError("SQPOptions.initial_tr_radius must not exceed max_tr_radius")
+        if self.hessian not in HESSIAN_STRATEGIES:
+            raise ValueError(
+                f"SQPOptions.hessian must be one of {HESSIAN_STRATEGIES}, got {self.hessian!r}"
+            )
+        if self.verbose not in (0, 1, 2) or isinstance(self.verbose, bool):
+            raise ValueError(f"SQPOptions.verbose must be 0, 1 or 2, got {self.verbose!r}")
+        if self.fallback_qp_solver is not None and not isinstance(self.fallback_qp_solver, str):
+            raise ValueError(
+                "SQPOptions.fallback_qp_solver must be a solver name or None, "
+                f"got {self.fallback_qp_solver!r}"
+            )
+        if not isinstance(self.qp_options, dict):
+            raise ValueError(f"SQPOptions.qp_options must be a dict, got {self.qp_options!r}")
+        if not isinstance(self.scaling, bool):
+            raise ValueError(f"SQPOptions.scaling must be a bool, got {self.scaling!r}")

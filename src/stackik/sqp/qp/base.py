@@ -1,0 +1,136 @@
+"""Common types of the internal QP backend interface.
+
+Every backend solves the convex quadratic program
+
+.. math::
+
+    \\min_d \\tfrac12 d^T P d + q^T d
+    \\quad\\text{s.t.}\\quad A_{eq} d = b_{eq},\\; G d \\le h,\\; lb \\le d \\le ub
+
+and reports multipliers in one sign convention (the one of OSQP, DAQP and qpsolvers):
+
+.. math::
+
+    P d + q + A_{eq}^T y_{eq} + G^T y_{ineq} + y_{bounds} = 0,
+
+with ``y_ineq >= 0`` and ``y_bounds`` positive where an upper bound is active and negative
+where a lower bound is active.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+
+class QPStatus(enum.Enum):
+    """Outcome of one QP solve."""
+
+    SOLVED = "solved"
+    INFEASIBLE = "infeasible"
+    FAILED = "failed"
+
+
+@dataclass(frozen=True, slots=True)
+class QPSolution:
+    """Solution of one QP.
+
+    Attributes
+    ----------
+    x : ndarray, shape (n,)
+        Primal solution (meaningless unless ``status`` is SOLVED).
+    y_eq : ndarray, shape (m_eq,)
+        Multipliers of ``A_eq d = b_eq``.
+    y_ineq : ndarray, shape (m_ineq,)
+        Multipliers of ``G d <= h`` (non-negative).
+    y_bounds : ndarray, shape (n,)
+        Multipliers of ``lb <= d <= ub`` (positive at active upper bounds).
+    status : QPStatus
+        Solve outcome.
+    info : str
+        Backend-specific status text, for messages.
+    """
+
+    x: FloatArray
+    y_eq: FloatArray
+    y_ineq: FloatArray
+    y_bounds: FloatArray
+    status: QPStatus
+    info: str = ""
+
+
+class QPBackend:
+    """Base class of the QP backends.
+
+    A backend is created once per SQP run, ``setup(n, m_eq, m_ineq)`` is called whenever the
+    problem dimensions change (the SQP engine has at most a few distinct shapes: the plain
+    QP and the elastic QP), then ``solve`` many times with fresh data of those shapes.
+
+    Parameters
+    ----------
+    options : dict, optional
+        Backend settings passed straight through to the underlying solver.
+    """
+
+    name = "base"
+
+    def __init__(self, options: dict[str, Any] | None = None) -> None:
+        self.options: dict[str, Any] = dict(options or {})
+        self.n = 0
+        self.m_eq = 0
+        self.m_ineq = 0
+
+    def setup(self, n: int, m_eq: int, m_ineq: int) -> None:
+        """Prepare for QPs with ``n`` variables, ``m_eq`` equalities, ``m_ineq`` inequalities."""
+        self.n, self.m_eq, self.m_ineq = n, m_eq, m_ineq
+
+    def solve(
+        self,
+        P: FloatArray,
+        q: FloatArray,
+        A_eq: FloatArray,
+        b_eq: FloatArray,
+        G: FloatArray,
+        h: FloatArray,
+        lb: FloatArray,
+        ub: FloatArray,
+        warm: QPSolution | None = None,
+    ) -> QPSolution:
+        """Solve one QP; see the module docstring for the form and sign conventions.
+
+        Parameters
+        ----------
+        P : ndarray, shape (n, n)
+            Symmetric positive (semi)definite Hessian (full matrix).
+        q : ndarray, shape (n,)
+        A_eq : ndarray, shape (m_eq, n)
+        b_eq : ndarray, shape (m_eq,)
+        G : ndarray, shape (m_ineq, n)
+        h : ndarray, shape (m_ineq,)
+        lb, ub : ndarray, shape (n,)
+            Finite bounds on ``d``.
+        warm : QPSolution, optional
+            Previous solution of a QP of the same shape, for warm starting.
+
+        Returns
+        -------
+        QPSolution
+        """
+        raise NotImplementedError
+
+    def failed(self, info: str, status: QPStatus = QPStatus.FAILED) -> QPSolution:
+        """Return a failure solution of the current shape."""
+        return QPSolution(
+            np.zeros(self.n),
+            np.zeros(self.m_eq),
+            np.zeros(self.m_ineq),
+            np.zeros(self.n),
+            status,
+            info,
+        )
