@@ -1,0 +1,336 @@
+"""Independent reference implementation of DESIGN.md §1-5, used as a test oracle.
+
+Written from DESIGN.md alone, deliberately naive: explicit loops over platforms and legs,
+one 3x3 matrix per platform, Rodrigues' formula written out, plain Python lists. Nothing
+here imports stackik. Jacobians are taken by the complex-step method (exact to rounding),
+which every function below supports because it uses only analytic operations (no abs,
+no conjugation). For ZYX Euler angles the rotation is written out as ``Rz Ry Rx`` (which
+supports complex arguments) and also available through scipy
+``Rotation.from_euler("ZYX", ...)`` (real only); the tests check that the two agree.
+
+A geometry is a plain dict ``{"base": (6,3), "top": (6,3), "leg_min", "leg_max",
+"joint_min"}``; a stack is a list of such dicts (bottom platform first).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+H_CS = 1e-30  # complex-step size
+
+EZ = np.array([0.0, 0.0, 1.0])
+
+
+# --------------------------------------------------------------------------- geometry
+def hexagonal_geometry(r_b=150.0, r_t=150.0, a_deg=15.0, b_deg=15.0, leg_min=250.0,
+                       leg_max=450.0, joint_min_deg=20.0):  # fmt: skip
+    """DESIGN §2 hexagonal layout, angles in degrees as written there."""
+    a, b = a_deg, b_deg
+    base_deg = [-a, a, 120 - a, 120 + a, 240 - a, 240 + a]
+    top_deg = [-60 + b, 60 - b, 60 + b, 180 - b, 180 + b, 300 - b]
+    base = [[r_b * math.cos(math.radians(d)), r_b * math.sin(math.radians(d)), 0.0]
+            for d in base_deg]  # fmt: skip
+    top = [[r_t * math.cos(math.radians(d)), r_t * math.sin(math.radians(d)), 0.0]
+           for d in top_deg]  # fmt: skip
+    return {
+        "base": np.array(base),
+        "top": np.array(top),
+        "leg_min": leg_min,
+        "leg_max": leg_max,
+        "joint_min": math.radians(joint_min_deg),
+    }
+
+
+def random_geometry(rng):
+    """An asymmetric geometry: jittered radii, angles and heights, random limits."""
+    base = []
+    top = []
+    for k in range(6):
+        ang_b = 2 * math.pi * k / 6 + rng.uniform(-0.4, 0.4)
+        ang_t = 2 * math.pi * k / 6 + math.pi / 6 + rng.uniform(-0.4, 0.4)
+        rb = rng.uniform(100.0, 200.0)
+        rt = rng.uniform(80.0, 180.0)
+        base.append([rb * math.cos(ang_b), rb * math.sin(ang_b), rng.uniform(-10.0, 10.0)])
+        top.append([rt * math.cos(ang_t), rt * math.sin(ang_t), rng.uniform(-10.0, 10.0)])
+    leg_min = rng.uniform(150.0, 300.0)
+    return {
+        "base": np.array(base),
+        "top": np.array(top),
+        "leg_min": leg_min,
+        "leg_max": leg_min + rng.uniform(50.0, 250.0),
+        "joint_min": rng.uniform(0.0, 1.2),
+    }
+
+
+# --------------------------------------------------------------------------- rotations
+def rodrigues(axis, theta):
+    """R = cos(t) I + sin(t) [s]x + (1 - cos(t)) s s^T, written out entry by entry."""
+    sx, sy, sz = axis
+    c = np.cos(theta)
+    s = np.sin(theta)
+    v = 1 - c
+    return np.array(
+        [
+            [c + v * sx * sx, v * sx * sy - s * sz, v * sx * sz + s * sy],
+            [v * sy * sx + s * sz, c + v * sy * sy, v * sy * sz - s * sx],
+            [v * sz * sx - s * sy, v * sz * sy + s * sx, c + v * sz * sz],
+        ]
+    )
+
+
+def plane_axis(phi):
+    return np.array([math.sin(phi), -math.cos(phi), 0.0])
+
+
+def euler_zyx_scipy(yaw, pitch, roll):
+    return Rotation.from_euler("ZYX", [yaw, pitch, roll]).as_matrix()
+
+
+def euler_zyx_explicit(yaw, pitch, roll):
+    """Rz(yaw) @ Ry(pitch) @ Rx(roll), elementary matrices written out (complex-safe)."""
+    cy, sy = np.cos(yaw), np.sin(yaw)
+    cp, sp = np.cos(pitch), np.sin(pitch)
+    cr, sr = np.cos(roll), np.sin(roll)
+    Rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]], dtype=complex)
+    Ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]], dtype=complex)
+    Rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]], dtype=complex)
+    return Rz @ Ry @ Rx
+
+
+def euler_zyx(yaw, pitch, roll):
+    if all(np.isrealobj(v) for v in (yaw, pitch, roll)):
+        return euler_zyx_scipy(float(yaw), float(pitch), float(roll))
+    return euler_zyx_explicit(yaw, pitch, roll)
+
+
+# --------------------------------------------------------------------------- per-platform
+def planar_platform_pose(row, phi):
+    """(P_i, R_i) of one planar platform row (rho, z, theta)."""
+    rho, z, theta = row
+    P = np.array([rho * math.cos(phi), rho * math.sin(phi), z])
+    R = rodrigues(plane_axis(phi), theta)
+    return P, R
+
+
+def spatial_platform_pose(row):
+    x, y, z, yaw, pitch, roll = row
+    return np.array([x, y, z]), euler_zyx(yaw, pitch, roll)
+
+
+def platform_constraints(geom, P, R):
+    """The 24 constraints of DESIGN §2 for one platform, in block order."""
+    s = math.sin(geom["joint_min"])
+    Rn = R @ EZ
+    blocks = [[], [], [], []]
+    for k in range(6):
+        l = R @ geom["top"][k] + P - geom["base"][k]
+        sq = l[0] * l[0] + l[1] * l[1] + l[2] * l[2]
+        norm = np.sqrt(sq)
+        blocks[0].append(sq - geom["leg_min"] ** 2)
+        blocks[1].append(geom["leg_max"] ** 2 - sq)
+        blocks[2].append(l @ EZ - norm * s)
+        blocks[3].append(l @ Rn - norm * s)
+    return np.array(blocks[0] + blocks[1] + blocks[2] + blocks[3])
+
+
+def leg_lengths(geom, P, R):
+    return np.array([np.linalg.norm(R @ geom["top"][k] + P - geom["base"][k]) for k in range(6)])
+
+
+# --------------------------------------------------------------------------- chain
+def chain(poses):
+    """Plate origins O_0..O_n and orientations A_0..A_n from per-platform (P_i, R_i)."""
+    O = [np.zeros(3)]
+    A = [np.eye(3)]
+    for P, R in poses:
+        O.append(O[-1] + A[-1] @ P)
+        A.append(A[-1] @ R)
+    return O, A
+
+
+def planar_chain(q, phi):
+    return chain([planar_platform_pose(row, phi) for row in q])
+
+
+def spatial_chain(q):
+    return chain([spatial_platform_pose(row) for row in q])
+
+
+def planar_forward(q, phi=0.3):
+    """(rho_ee, z_ee, theta_ee); computed in 3D then projected on the plane of azimuth phi."""
+    O, _ = planar_chain(q, phi)
+    e_phi = np.array([math.cos(phi), math.sin(phi), 0.0])
+    Pee = O[-1]
+    theta = 0.0
+    for row in q:
+        theta = theta + row[2]
+    return np.array([Pee @ e_phi, Pee[2], theta])
+
+
+def planar_plate_origins(q, phi=0.3):
+    """O_0..O_n as (rho, z), shape (n+1, 2)."""
+    O, _ = planar_chain(q, phi)
+    e_phi = np.array([math.cos(phi), math.sin(phi), 0.0])
+    return np.array([[o @ e_phi, o[2]] for o in O])
+
+
+def spatial_forward(q):
+    O, A = spatial_chain(q)
+    return O[-1], A[-1]
+
+
+def spatial_output(q):
+    P, R = spatial_forward(q)
+    return np.concatenate([P, np.reshape(R, 9)])
+
+
+def spatial_plate_origins(q):
+    O, _ = spatial_chain(q)
+    return np.array(O)
+
+
+def planar_constraints(stack, q, phi):
+    out = []
+    for geom, row in zip(stack, q):
+        P, R = planar_platform_pose(row, phi)
+        out.append(platform_constraints(geom, P, R))
+    return np.array(out)
+
+
+def spatial_constraints(stack, q):
+    out = []
+    for geom, row in zip(stack, q):
+        P, R = spatial_platform_pose(row)
+        out.append(platform_constraints(geom, P, R))
+    return np.array(out)
+
+
+# --------------------------------------------------------------------------- derivatives
+def complex_step(f, x):
+    """Jacobian of f at the real array x (any shape) by the complex step; f(x) any shape.
+
+    Returns an array of shape f(x).shape + x.shape.
+    """
+    x = np.asarray(x, dtype=float)
+    f0 = np.asarray(f(x))
+    out = np.zeros(f0.shape + x.shape)
+    for idx in np.ndindex(*x.shape):
+        xc = x.astype(complex)
+        xc[idx] += 1j * H_CS
+        out[(Ellipsis,) + idx] = np.imag(np.asarray(f(xc))) / H_CS
+    return out
+
+
+def planar_jacobian(q, phi=0.3):
+    """dy/dx with x = q.ravel(), shape (3, 3n), by complex step of the 3D forward model."""
+    q = np.asarray(q, dtype=float)
+    n = q.shape[0]
+    J = complex_step(lambda x: planar_forward(x, phi), q)  # (3, n, 3)
+    return J.reshape(3, 3 * n)
+
+
+def spatial_jacobian(q):
+    q = np.asarray(q, dtype=float)
+    n = q.shape[0]
+    J = complex_step(spatial_output, q)  # (12, n, 6)
+    return J.reshape(12, 6 * n)
+
+
+def planar_constraint_jacobian(stack, q, phi):
+    """Per-platform blocks (n, 24, 3) of the constraint Jacobian (complex step)."""
+    q = np.asarray(q, dtype=float)
+    full = complex_step(lambda x: planar_constraints(stack, x, phi), q)  # (n, 24, n, 3)
+    return np.array([full[i, :, i, :] for i in range(q.shape[0])]), full
+
+
+def spatial_constraint_jacobian(stack, q):
+    q = np.asarray(q, dtype=float)
+    full = complex_step(lambda x: spatial_constraints(stack, x), q)  # (n, 24, n, 6)
+    return np.array([full[i, :, i, :] for i in range(q.shape[0])]), full
+
+
+def frobenius_norm(J):
+    total = 0.0
+    for row in J:
+        for v in row:
+            total += v * v
+    return math.sqrt(total)
+
+
+# --------------------------------------------------------------------------- FN closed forms
+def planar_fn2_closed_form(q, phi=0.3):
+    """3n + sum_{j=1}^{n-1} |P_ee - O_j|^2 (DESIGN §3)."""
+    O, _ = planar_chain(q, phi)
+    n = len(q)
+    total = 3.0 * n
+    for j in range(1, n):
+        d = O[n] - O[j]
+        total += d @ d
+    return total
+
+
+def spatial_world_axes(q):
+    """World rotation axes of platform i's yaw, pitch, roll: A_{i-1} (e_z, Rz e_y, Rz Ry e_x)."""
+    _, A = spatial_chain(q)
+    axes = []
+    for i, row in enumerate(q):
+        yaw, pitch = row[3], row[4]
+        Rz = euler_zyx(yaw, 0.0, 0.0)
+        Ry = euler_zyx(0.0, pitch, 0.0)
+        local = [EZ, Rz @ np.array([0.0, 1.0, 0.0]), Rz @ Ry @ np.array([1.0, 0.0, 0.0])]
+        axes.append([A[i] @ w for w in local])
+    return axes
+
+
+def spatial_fn2_closed_form(q):
+    """9n + sum_{i,k} |w_ik x (P_ee - O_i)|^2 (translation columns: 1 each; rotation
+    columns: |w x d|^2 + |[w]x R_ee|_F^2 = |w x d|^2 + 2)."""
+    O, _ = spatial_chain(q)
+    n = len(q)
+    total = 9.0 * n
+    for i, ws in enumerate(spatial_world_axes(q)):
+        d = O[n] - O[i + 1]
+        for w in ws:
+            c = np.cross(w, d)
+            total += c @ c
+    return total
+
+
+def weighted_objective(J, variances):
+    """trace(J C_x J^T) with C_x = diag(variances)."""
+    return float(np.trace(J @ np.diag(variances) @ J.T))
+
+
+def central_diff(f, x, rel_step=1e-6):
+    """Central finite differences of f at the real array x, shape f(x).shape + x.shape.
+
+    The step of variable a is ``rel_step * max(1, |x_a|)``.
+    """
+    x = np.asarray(x, dtype=float)
+    f0 = np.asarray(f(x))
+    out = np.zeros(f0.shape + x.shape)
+    for idx in np.ndindex(*x.shape):
+        h = rel_step * max(1.0, abs(x[idx]))
+        xp = x.copy()
+        xm = x.copy()
+        xp[idx] += h
+        xm[idx] -= h
+        out[(Ellipsis,) + idx] = (np.asarray(f(xp)) - np.asarray(f(xm))) / (2 * h)
+    return out
+
+
+def random_planar_pose(rng, n):
+    """(n, 3) rows (rho, z, theta): rho may be negative [mm, mm, rad]."""
+    return np.column_stack(
+        [rng.uniform(-150, 150, n), rng.uniform(200, 450, n), rng.uniform(-0.6, 0.6, n)]
+    )
+
+
+def random_spatial_pose(rng, n):
+    """(n, 6) rows (x, y, z, yaw, pitch, roll) [mm, rad]."""
+    return np.column_stack(
+        [rng.uniform(-120, 120, (n, 2)), rng.uniform(200, 450, n), rng.uniform(-0.7, 0.7, (n, 3))]
+    )
