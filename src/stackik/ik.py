@@ -1,0 +1,923 @@
+"""Inverse kinematics of a stack: reach a target with every limit respected, least FN.
+
+The IK problem (DESIGN §3-6) in planar mode, with ``x = q.ravel()`` (3n variables):
+
+.. math::
+
+    \\min_x\\; f(x) \\quad \\text{s.t.}\\quad y(x) = y^*,\\quad c(x) \\ge 0
+
+where ``y`` is the end effector ``(rho, z, theta)``, ``c`` the 24n leg and joint limits and
+``f`` one of the objectives ``"frobenius"`` (``FN^2``), ``"feasible"`` (none: the first
+feasible pose near the start) or ``"weighted"`` (``trace(J C_x J^T)``). Spatial mode has 6n
+variables, ``y = (P_ee, R_ee)`` and the orientation written as the three components of the
+rotation vector of ``R_target^T R_ee``.
+
+Inside solvers everything is scaled to O(1): translations by ``L = max leg_max`` [mm],
+leg-length constraints (mm^2) by ``leg_max^2``, joint constraints (mm) by ``leg_max``,
+position errors by ``L``; results are reported raw.
+
+Every returned pose is re-checked by :func:`check_pose` with the forward kinematics and
+constraint functions of :mod:`stackik.kinematics` and :mod:`stackik.platform`, independently
+of what the solver claims; ``success`` is True only when that check passes.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import Executor
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from stackik.geometry import Stack
+from stackik.kinematics import (
+    lift_planar,
+    planar_fn_residuals,
+    planar_forward,
+    planar_jacobian,
+    spatial_chain,
+    spatial_forward,
+)
+from stackik.platform import (
+    constraints_from_legs,
+    planar_legs,
+    spatial_legs,
+)
+from stackik.rotations import euler_zyx, rodrigues
+
+__all__ = [
+    "FEAS_TOL",
+    "TARGET_ANGLE_TOL",
+    "TARGET_POS_TOL",
+    "IKResult",
+    "IKStatus",
+    "PlanarTarget",
+    "PoseCheck",
+    "SpatialTarget",
+    "check_pose",
+    "paper_initial_guess",
+    "solve_ik",
+    "solve_many",
+]
+
+FloatArray = NDArray[np.float64]
+
+TARGET_POS_TOL = 1e-6  # [mm] largest accepted end-effector position error
+TARGET_ANGLE_TOL = 1e-8  # [rad] largest accepted end-effector orientation error
+FEAS_TOL = 1e-6  # [mm] accepted violation of a limit, as a length (see check_pose)
+
+OBJECTIVES = ("frobenius", "feasible", "weighted")
+METHODS = ("sqp", "slsqp", "trust-constr")
+
+
+# =========================================================================================
+# Targets
+# =========================================================================================
+def _finite(value: Any, name: str) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a number, got {value!r}") from None
+    if not math.isfinite(x):
+        raise ValueError(f"{name}: must be finite, got {x}")
+    return x
+
+
+@dataclass(frozen=True)
+class PlanarTarget:
+    """End-effector target of planar mode (DESIGN §3).
+
+    Parameters
+    ----------
+    rho, z : float
+        End-effector position in cylindrical coordinates [mm]; ``rho`` may be negative.
+    theta : float
+        End-effector rotation about ``s(phi) = (sin phi, -cos phi, 0)`` [rad].
+    phi : float
+        Azimuth of the working plane [rad].
+    """
+
+    rho: float
+    z: float
+    theta: float
+    phi: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("rho", "z", "theta", "phi"):
+            object.__setattr__(self, name, _finite(getattr(self, name), name))
+
+    @property
+    def y(self) -> FloatArray:
+        """``(rho, z, theta)``, the planar output vector."""
+        return np.array([self.rho, self.z, self.theta])
+
+    def to_spatial(self) -> SpatialTarget:
+        """The same target as a :class:`SpatialTarget`."""
+        from stackik.rotations import plane_axis
+
+        P = np.array([self.rho * math.cos(self.phi), self.rho * math.sin(self.phi), self.z])
+        return SpatialTarget(P, rodrigues(plane_axis(self.phi), self.theta))
+
+
+@dataclass(frozen=True, eq=False)
+class SpatialTarget:
+    """End-effector target of spatial mode.
+
+    Parameters
+    ----------
+    position : array_like, shape (3,)
+        ``P_ee`` in the base frame [mm].
+    rotation : array_like, shape (3, 3)
+        ``R_ee``, a rotation matrix (orthonormal to 1e-6, det +1).
+    """
+
+    position: FloatArray
+    rotation: FloatArray
+
+    def __post_init__(self) -> None:
+        try:
+            P = np.array(self.position, dtype=float)
+            R = np.array(self.rotation, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError("position/rotation: expected arrays of numbers") from None
+        if P.shape != (3,) or not np.all(np.isfinite(P)):
+            raise ValueError(f"position: expected 3 finite values, got shape {P.shape}")
+        if R.shape != (3, 3) or not np.all(np.isfinite(R)):
+            raise ValueError(f"rotation: expected a finite (3, 3) matrix, got shape {R.shape}")
+        if np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0:
+            raise ValueError("rotation: not a rotation matrix (R^T R != I or det < 0)")
+        P.setflags(write=False)
+        R.setflags(write=False)
+        object.__setattr__(self, "position", P)
+        object.__setattr__(self, "rotation", R)
+
+
+Target = PlanarTarget | SpatialTarget
+
+
+# =========================================================================================
+# Results
+# =========================================================================================
+class IKStatus(Enum):
+    """Outcome of :func:`solve_ik`."""
+
+    SUCCESS = "success"
+    INFEASIBLE = "infeasible"
+    MAX_ITER = "max_iter"
+    MAX_TIME = "max_time"
+    FAILED = "failed"
+
+
+_MESSAGES = {
+    IKStatus.SUCCESS: "Target reached with every leg and joint limit respected (checked).",
+    IKStatus.INFEASIBLE: "No feasible pose found: the target looks unreachable; q is the "
+    "least-violation pose found.",
+    IKStatus.MAX_ITER: "Iteration limit reached before a checked feasible pose was found.",
+    IKStatus.MAX_TIME: "Time limit reached before a checked feasible pose was found.",
+    IKStatus.FAILED: "The solver stopped without a pose that passes the independent check.",
+}
+
+
+@dataclass(frozen=True)
+class PoseCheck:
+    """Independent check of a pose against a target (see :func:`check_pose`).
+
+    Attributes
+    ----------
+    ok : bool
+        True iff every error is within tolerance.
+    position_error : float
+        ``|P_ee - P_target|`` [mm].
+    angle_error : float
+        Orientation error [rad] (planar: ``|theta_ee - theta|``; spatial: rotation angle).
+    max_violation : float
+        Worst raw violation ``max(0, -c)`` over all 24n constraints (mm^2 or mm).
+    max_violation_mm : float
+        The same as a length [mm]: leg-length blocks converted by ``|l| - limit``.
+    constraints : ndarray, shape (n, 24)
+        Raw constraint values.
+    """
+
+    ok: bool
+    position_error: float
+    angle_error: float
+    max_violation: float
+    max_violation_mm: float
+    constraints: FloatArray
+
+
+@dataclass(frozen=True)
+class IKResult:
+    """Result of :func:`solve_ik`.
+
+    Attributes
+    ----------
+    q : ndarray
+        Pose, (n, 3) rows ``[rho, z, theta]`` (planar) or (n, 6) rows
+        ``[x, y, z, yaw, pitch, roll]`` (spatial) [mm, rad].
+    success : bool
+        True only if the independent check passed (target error <= 1e-6 mm and 1e-8 rad,
+        every limit within 1e-6 mm).
+    status : IKStatus
+    message : str
+    frobenius_norm : float
+        FN of the end-effector Jacobian at ``q``.
+    objective : str
+        Objective name.
+    objective_value : float
+        Value of the objective at ``q`` (FN^2 for "frobenius", 0 for "feasible").
+    max_violation : float
+        Worst raw constraint violation (mm^2 for leg blocks, mm for joint blocks).
+    target_error : float
+        End-effector position error [mm].
+    angle_error : float
+        End-effector orientation error [rad].
+    nit : int
+        Solver iterations, summed over starts.
+    time : float
+        Wall time [s].
+    method, qp_solver : str
+    n_starts : int
+        Starts tried.
+    P, R : ndarray, shapes (n, 3) and (n, 3, 3)
+        Per-platform translation and rotation (top plate in bottom frame) for hardware.
+    leg_lengths : ndarray, shape (n, 6)
+        Actuator lengths [mm].
+    phi : float or None
+        Plane azimuth of a planar solve.
+    """
+
+    q: FloatArray
+    success: bool
+    status: IKStatus
+    message: str
+    frobenius_norm: float
+    objective: str
+    objective_value: float
+    max_violation: float
+    target_error: float
+    angle_error: float
+    nit: int
+    time: float
+    method: str
+    qp_solver: str
+    n_starts: int
+    P: FloatArray
+    R: FloatArray
+    leg_lengths: FloatArray
+    phi: float | None = None
+    mode: str = "planar"
+    info: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary."""
+        return {
+            "success": self.success,
+            "status": self.status.value,
+            "message": self.message,
+            "mode": self.mode,
+            "q": self.q.tolist(),
+            "phi": self.phi,
+            "frobenius_norm": self.frobenius_norm,
+            "objective": self.objective,
+            "objective_value": self.objective_value,
+            "max_violation": self.max_violation,
+            "target_error": self.target_error,
+            "angle_error": self.angle_error,
+            "nit": self.nit,
+            "time_s": self.time,
+            "method": self.method,
+            "qp_solver": self.qp_solver,
+            "n_starts": self.n_starts,
+            "leg_lengths": self.leg_lengths.tolist(),
+        }
+
+
+# =========================================================================================
+# Independent check
+# =========================================================================================
+def _so3_log(R: FloatArray) -> FloatArray:
+    """Rotation vector of R (angle in [0, pi])."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_matrix(R).as_rotvec()  # type: ignore[no-any-return]
+
+
+def check_pose(stack: Stack, target: Target, q: ArrayLike) -> PoseCheck:
+    """Check a pose against a target and every limit, independently of any solver.
+
+    Uses only :func:`stackik.planar_forward` / :func:`stackik.spatial_forward` and
+    :meth:`Stack.planar_constraints` / :meth:`Stack.spatial_constraints`. Tolerances:
+    ``TARGET_POS_TOL`` = 1e-6 mm, ``TARGET_ANGLE_TOL`` = 1e-8 rad, ``FEAS_TOL`` = 1e-6 mm
+    (leg-length blocks are compared as lengths: ``|l| >= leg_min - FEAS_TOL``).
+    """
+    qa = np.asarray(q, dtype=float)
+    if isinstance(target, PlanarTarget):
+        y = planar_forward(qa)
+        pos_err = float(np.hypot(y[0] - target.rho, y[1] - target.z))
+        ang_err = float(abs(y[2] - target.theta))
+        c = stack.planar_constraints(qa, target.phi)
+    else:
+        P, R = spatial_forward(qa)
+        pos_err = float(np.linalg.norm(P - target.position))
+        ang_err = float(np.linalg.norm(_so3_log(target.rotation.T @ R)))
+        c = stack.spatial_constraints(qa)
+    viol = np.maximum(-c, 0.0)
+    max_v = float(viol.max())
+    # as lengths: |l|^2 - lmin^2 = -v  ->  lmin - |l| = lmin - sqrt(lmin^2 - v)
+    lmin = stack.leg_min[:, None]
+    lmax = stack.leg_max[:, None]
+    v_min = lmin - np.sqrt(np.maximum(lmin**2 - viol[:, 0:6], 0.0))
+    v_max = np.sqrt(lmax**2 + viol[:, 6:12]) - lmax
+    v_mm = float(max(v_min.max(), v_max.max(), viol[:, 12:].max()))
+    ok = (
+        pos_err <= TARGET_POS_TOL
+        and ang_err <= TARGET_ANGLE_TOL
+        and v_mm <= FEAS_TOL
+        and bool(np.all(np.isfinite(c)))
+    )
+    return PoseCheck(ok, pos_err, ang_err, max_v, v_mm, c)
+
+
+# =========================================================================================
+# Starts
+# =========================================================================================
+def _nominal_height(stack: Stack, frac: float = 0.35) -> FloatArray:
+    """Height of each platform at which its legs are at ``leg_min + frac * range`` [mm]."""
+    L = stack.leg_min + frac * (stack.leg_max - stack.leg_min)
+    chord = np.linalg.norm(stack.top_nodes - stack.base_nodes, axis=-1).max(axis=1)
+    return np.sqrt(np.maximum(L**2 - chord**2, (0.5 * L) ** 2))  # type: ignore[no-any-return]
+
+
+def paper_initial_guess(stack: Stack, target: Target) -> FloatArray:
+    """The paper's initial guess: share the target among the platforms, ignoring limits.
+
+    Planar: each platform turns by ``theta / n`` and moves by ``P_target / n`` in the base
+    frame (expressed in its own frame), with its local height ``z_i`` raised to at least the
+    height where its legs sit at 35% of their range ("a minimum translation in each
+    platform's normal direction"). Spatial: the same with the rotation vector of
+    ``R_target`` divided evenly. Returns (n, 3) or (n, 6).
+    """
+    n = stack.n
+    hmin = _nominal_height(stack)
+    if isinstance(target, PlanarTarget):
+        th = np.full(n, target.theta / n)
+        Theta = np.cumsum(th) - th
+        P = np.array([target.rho, target.z]) / n
+        c, s = np.cos(Theta), np.sin(Theta)
+        rho = c * P[0] + s * P[1]  # Rot(-Theta) P
+        z = -s * P[0] + c * P[1]
+        z = np.maximum(z, hmin)
+        return np.column_stack([rho, z, th])
+    from scipy.spatial.transform import Rotation
+
+    rv = Rotation.from_matrix(target.rotation).as_rotvec() / n
+    Ri = Rotation.from_rotvec(rv).as_matrix()
+    eul = Rotation.from_rotvec(rv).as_euler("ZYX")
+    q = np.zeros((n, 6))
+    A = np.eye(3)
+    for i in range(n):
+        p = A.T @ (target.position / n)
+        p[2] = max(p[2], hmin[i])
+        q[i, :3] = p
+        q[i, 3:] = eul
+        A = A @ Ri
+    return q
+
+
+# =========================================================================================
+# Problem formulation (scaled)
+# =========================================================================================
+class _Problem:
+    """Scaled IK problem: evaluation of objective, equalities and limits with derivatives.
+
+    Variables ``u = x / xs`` with ``xs`` = L for translations, 1 for angles.
+    """
+
+    def __init__(
+        self,
+        stack: Stack,
+        target: Target,
+        objective: str,
+        weights: tuple[FloatArray, FloatArray] | None,
+        x_ref: FloatArray | None = None,
+    ) -> None:
+        self.stack = stack
+        self.target = target
+        self.planar = isinstance(target, PlanarTarget)
+        n = stack.n
+        self.n = n
+        self.k = 3 if self.planar else 6
+        self.L = float(stack.leg_max.max())
+        per = [self.L, self.L, 1.0] if self.planar else [self.L] * 3 + [1.0] * 3
+        self.xs = np.tile(per, n)
+        self.objective = objective
+        # constraint scaling: leg blocks / leg_max^2, joint blocks / leg_max
+        cs = np.empty((n, 24))
+        cs[:, :12] = 1.0 / stack.leg_max[:, None] ** 2
+        cs[:, 12:] = 1.0 / stack.leg_max[:, None]
+        self.cs = cs.ravel()
+        self.es = (
+            np.array([1 / self.L, 1 / self.L, 1.0])
+            if self.planar
+            else np.array([1 / self.L] * 3 + [1.0] * 3)
+        )
+        # objective: f = (c0 + sum_i w_i |r_i|^2) / fscale ; residual weights per platform
+        if objective == "weighted":
+            assert weights is not None
+            wt, wth = weights
+        else:
+            wt, wth = np.ones(n), np.ones(n)
+        self.w_t, self.w_th = wt, wth
+        n_rot = 1 if self.planar else 3
+        n_tr = 2 if self.planar else 3
+        rot_const = 1.0 if self.planar else 2.0  # |d R_ee / d angle|_F^2 (+ theta row)
+        self.c0 = float(np.sum(wt) * n_tr + np.sum(wth) * n_rot * rot_const)
+        self.fscale = self.L**2 * float(np.max(wth))
+        self.x_ref = x_ref
+        # per-residual weights (sqrt), residuals indexed by platform j of the angle column
+        if self.planar:
+            self.rw = np.repeat(np.sqrt(wth[: n - 1]), 2)
+        else:
+            self.rw = np.repeat(np.sqrt(wth), 9)
+        self._cache_u: FloatArray | None = None
+        self._cache: tuple[Any, ...] | None = None
+        self.nfev = 0
+
+    # --- conversions ---------------------------------------------------------------
+    def q_of(self, u: FloatArray) -> FloatArray:
+        return (u * self.xs).reshape(self.n, self.k)
+
+    def u_of(self, q: FloatArray) -> FloatArray:
+        return np.asarray(q, dtype=float).ravel() / self.xs
+
+    # --- residuals of the objective -------------------------------------------------
+    def residuals(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Objective residuals (unscaled x) ``r``, ``dr/dx`` with obj = c0 + |r|^2."""
+        if self.planar:
+            r, Jr = planar_fn_residuals(q)
+        else:
+            ch = spatial_chain(q)
+            N = 6 * self.n
+            ang = np.array([a for a in range(N) if a % 6 >= 3])
+            r = ch.J[:3, ang].T.ravel()  # (3n*3,)
+            H = ch.hessian()[:3][:, ang, :]  # (3, 3n, N)
+            Jr = np.moveaxis(H, 0, 1).reshape(-1, N)
+            # group per platform: order of ang is platform-major, 3 angles x 3 coords = 9
+        return r * self.rw, Jr * self.rw[:, None]
+
+    def gauss_newton(self, u: FloatArray) -> tuple[FloatArray, FloatArray]:
+        if self.objective == "feasible":
+            return np.zeros(1), np.zeros((1, u.size))
+        r, Jr = self.residuals(self.q_of(u))
+        s = 1.0 / math.sqrt(self.fscale)
+        return r * s, Jr * self.xs * s
+
+    # --- all functions at once ------------------------------------------------------
+    def evaluate(self, u: FloatArray) -> tuple[Any, ...]:
+        if self._cache_u is not None and np.array_equal(u, self._cache_u):
+            assert self._cache is not None
+            return self._cache
+        self.nfev += 1
+        q = self.q_of(u)
+        n, k = self.n, self.k
+        st = self.stack
+        if self.planar:
+            tgt = self.target
+            assert isinstance(tgt, PlanarTarget)
+            y = planar_forward(q)
+            ceq = (y - tgt.y) * self.es
+            Jeq = planar_jacobian(q) * self.es[:, None] * self.xs
+            l, Rn, dl, dRn = planar_legs(st, q, tgt.phi, derivatives=True)
+        else:
+            tgs = self.target
+            assert isinstance(tgs, SpatialTarget)
+            ch = spatial_chain(q)
+            Pee, Ree = ch.O[-1], ch.A[-1]
+            E = tgs.rotation.T @ Ree
+            phi_v = _so3_log(E)
+            Jp = ch.J[:3]
+            # dphi = Jr^{-1}(phi) v with v = R_ee^T w (body-frame axis)
+            v = Ree.T @ ch.w.T  # (3, N)
+            Jphi = _so3_right_jac_inv(phi_v) @ v
+            ceq = np.concatenate([Pee - tgs.position, phi_v]) * self.es
+            Jeq = np.vstack([Jp, Jphi]) * self.es[:, None] * self.xs
+            l, Rn, dl, dRn = spatial_legs(st, q, derivatives=True)
+        c, Jc = constraints_from_legs(
+            l, Rn, st.leg_min, st.leg_max, st.sin_joint_min, dl=dl, dRn=dRn
+        )
+        assert Jc is not None
+        cin = c.ravel() * self.cs
+        Jin = np.zeros((n, 24, n, k))
+        idx = np.arange(n)
+        Jin[idx, :, idx, :] = Jc
+        Jin = Jin.reshape(24 * n, n * k) * self.cs[:, None] * self.xs
+        if self.objective == "feasible":
+            f, g = 0.0, np.zeros(n * k)
+        else:
+            r, Jr = self.gauss_newton(u)
+            f = float(r @ r) + self.c0 / self.fscale
+            g = 2.0 * Jr.T @ r
+        out = (f, g, ceq, Jeq, cin, Jin)
+        self._cache_u = u.copy()
+        self._cache = out
+        return out
+
+    def objective_value(self, q: FloatArray) -> float:
+        """Unscaled objective value at q."""
+        if self.objective == "feasible":
+            return 0.0
+        r, _ = self.residuals(q)
+        return float(self.c0 + r @ r)
+
+
+def _so3_right_jac_inv(phi: FloatArray) -> FloatArray:
+    """Inverse right Jacobian of SO(3) at rotation vector ``phi``."""
+    th = float(np.linalg.norm(phi))
+    K = np.array([[0, -phi[2], phi[1]], [phi[2], 0, -phi[0]], [-phi[1], phi[0], 0]])
+    if th < 1e-6:
+        return np.eye(3) + 0.5 * K + K @ K / 12.0  # type: ignore[no-any-return]
+    a = 1.0 / th**2 - (1 + math.cos(th)) / (2 * th * math.sin(th))
+    return np.eye(3) + 0.5 * K + a * (K @ K)  # type: ignore[no-any-return]
+
+
+def _frobenius(q: FloatArray, planar: bool) -> float:
+    if planar:
+        return float(np.sqrt(np.sum(planar_jacobian(q) ** 2)))
+    return float(np.sqrt(np.sum(spatial_chain(q).J ** 2)))
+
+
+def _reach_bound(stack: Stack) -> float:
+    """Upper bound on |P_ee| over all poses respecting leg_max [mm]."""
+    rb = np.linalg.norm(stack.base_nodes, axis=-1).max(axis=1)
+    rt = np.linalg.norm(stack.top_nodes, axis=-1).max(axis=1)
+    return float(np.sum(stack.leg_max + rb + rt))
+
+
+# =========================================================================================
+# Solver drivers
+# =========================================================================================
+@dataclass
+class _Run:
+    q: FloatArray
+    nit: int
+    status: str
+    check: PoseCheck
+    obj: float
+
+
+def _polish(prob: _Problem, u: FloatArray, iters: int = 3) -> FloatArray:
+    """Min-norm Newton corrections of the end-effector equalities (tiny moves)."""
+    for _ in range(iters):
+        _, _, ceq, Jeq, _, _ = prob.evaluate(u)
+        if np.abs(ceq).max() < 1e-13:
+            break
+        du = -np.linalg.lstsq(Jeq, ceq, rcond=None)[0]
+        u = u + du
+    return u
+
+
+def _run_sqp(
+    prob: _Problem, u0: FloatArray, qp_solver: str | None, options: dict[str, Any]
+) -> tuple[FloatArray, int, str]:
+    from stackik.sqp import NonlinearProgram, SQPOptions, solve
+
+    nlp = NonlinearProgram(
+        objective=None,
+        evaluate=prob.evaluate,
+        gauss_newton=None if prob.objective == "feasible" else prob.gauss_newton,
+        gn_scale=2.0,
+        eq_scale=np.ones(prob.es.size),
+        ineq_scale=np.ones(prob.cs.size),
+        name="stackik-ik",
+    )
+    opts = {"tol": 1e-7, "constr_tol": 1e-10, "max_iter": 200, "initial_tr_radius": 0.5}
+    if prob.objective == "feasible":
+        opts["hessian"] = "bfgs"
+    opts.update(options)
+    kw: dict[str, Any] = {}
+    if qp_solver is not None:
+        kw["qp_solver"] = qp_solver
+    res = solve(nlp, u0, options=SQPOptions(**opts), **kw)
+    return res.x, res.nit, res.status.value
+
+
+def _run_scipy(
+    prob: _Problem, u0: FloatArray, method: str, options: dict[str, Any]
+) -> tuple[FloatArray, int, str]:
+    from scipy.optimize import NonlinearConstraint, minimize
+
+    def fun(u: FloatArray) -> float:
+        return float(prob.evaluate(u)[0])
+
+    def jac(u: FloatArray) -> FloatArray:
+        return prob.evaluate(u)[1]  # type: ignore[no-any-return]
+
+    if method == "slsqp":
+        cons = [
+            {
+                "type": "eq",
+                "fun": lambda u: prob.evaluate(u)[2],
+                "jac": lambda u: prob.evaluate(u)[3],
+            },
+            {
+                "type": "ineq",
+                "fun": lambda u: prob.evaluate(u)[4],
+                "jac": lambda u: prob.evaluate(u)[5],
+            },
+        ]
+        opts = {"maxiter": 500, "ftol": 1e-12}
+        opts.update(options)
+        r = minimize(fun, u0, jac=jac, constraints=cons, method="SLSQP", options=opts)
+        return r.x, int(r.nit), "success" if r.success else str(r.message)
+
+    def hess(u: FloatArray) -> FloatArray:
+        if prob.objective == "feasible":
+            return np.zeros((u.size, u.size))
+        _, Jr = prob.gauss_newton(u)
+        return 2.0 * Jr.T @ Jr  # type: ignore[no-any-return]
+
+    zero_h = lambda u, v: np.zeros((u.size, u.size))  # noqa: E731
+    m_e = prob.es.size
+    cons_tc = [
+        NonlinearConstraint(
+            lambda u: prob.evaluate(u)[2], 0.0, 0.0, jac=lambda u: prob.evaluate(u)[3], hess=zero_h
+        ),
+        NonlinearConstraint(
+            lambda u: prob.evaluate(u)[4],
+            0.0,
+            np.inf,
+            jac=lambda u: prob.evaluate(u)[5],
+            hess=zero_h,
+        ),
+    ]
+    opts = {"maxiter": 1000, "gtol": 1e-9, "xtol": 1e-12}
+    opts.update(options)
+    r = minimize(
+        fun, u0, jac=jac, hess=hess, constraints=cons_tc, method="trust-constr", options=opts
+    )
+    _ = m_e
+    return r.x, int(r.nit), "success" if r.status in (1, 2) else str(r.message)
+
+
+def _solve_from(
+    prob: _Problem,
+    q0: FloatArray,
+    method: str,
+    qp_solver: str | None,
+    options: dict[str, Any],
+) -> _Run:
+    u0 = prob.u_of(q0)
+    if method == "sqp":
+        u, nit, status = _run_sqp(prob, u0, qp_solver, options)
+    else:
+        u, nit, status = _run_scipy(prob, u0, method, options)
+    if not np.all(np.isfinite(u)):
+        u = u0
+    u = _polish(prob, u)
+    q = prob.q_of(u)
+    chk = check_pose(prob.stack, prob.target, q)
+    return _Run(q=q, nit=nit, status=status, check=chk, obj=prob.objective_value(q))
+
+
+def _sigma_weights(
+    n: int, sigma_t: ArrayLike | None, sigma_theta: ArrayLike | None
+) -> tuple[FloatArray, FloatArray]:
+    if sigma_t is None or sigma_theta is None:
+        raise ValueError('objective="weighted" needs sigma_t [mm] and sigma_theta [rad]')
+    st = np.broadcast_to(np.asarray(sigma_t, dtype=float), (n,)).copy()
+    sth = np.broadcast_to(np.asarray(sigma_theta, dtype=float), (n,)).copy()
+    if not (np.all(np.isfinite(st)) and np.all(np.isfinite(sth))):
+        raise ValueError("sigma_t, sigma_theta: must be finite")
+    if np.any(st < 0) or np.any(sth <= 0):
+        raise ValueError("sigma_t must be >= 0 and sigma_theta > 0")
+    return st**2, sth**2
+
+
+def solve_ik(
+    stack: Stack,
+    target: Target,
+    *,
+    objective: Literal["frobenius", "feasible", "weighted"] = "frobenius",
+    method: Literal["sqp", "slsqp", "trust-constr"] = "sqp",
+    qp_solver: str | None = None,
+    x0: ArrayLike | None = None,
+    starts: int = 1,
+    rng: np.random.Generator | int | None = None,
+    options: dict[str, Any] | None = None,
+    sigma_t: ArrayLike | None = None,
+    sigma_theta: ArrayLike | None = None,
+    start: Literal["paper", "convex"] = "paper",
+    max_time: float = 10.0,
+) -> IKResult:
+    """Solve the inverse kinematics of a stack for one target.
+
+    Parameters
+    ----------
+    stack : Stack
+    target : PlanarTarget or SpatialTarget
+        Planar mode (3 variables per platform) or spatial mode (6).
+    objective : {"frobenius", "feasible", "weighted"}
+        ``"frobenius"`` minimises ``FN^2`` (the paper); ``"feasible"`` only reaches the
+        target within the limits (the paper's non-optimised pose: the first feasible pose
+        the solver reaches from its start); ``"weighted"`` minimises ``trace(J C_x J^T)``
+        with ``C_x = diag(sigma_t^2, ..., sigma_theta^2)`` (per platform if arrays).
+    method : {"sqp", "slsqp", "trust-constr"}
+        stackik's SQP engine, or a scipy baseline given the same scaled derivatives.
+    qp_solver : str, optional
+        QP backend of the SQP engine (default: its fastest installed one).
+    x0 : array_like, optional
+        Warm start, shape (n, 3) or (n, 6); default the paper's initial guess
+        (:func:`paper_initial_guess`) or, with ``start="convex"``, the convex restriction
+        (:func:`stackik.convex.convex_start`).
+    starts : int
+        Number of starts: the first is ``x0``; the others perturb it with Gaussian noise
+        (``rng``). The best pose that passes the check is returned.
+    rng : Generator, int or None
+        Randomness of the extra starts.
+    options : dict, optional
+        Passed to the solver (``SQPOptions`` fields for "sqp", scipy options otherwise).
+    max_time : float
+        Wall-time budget over all starts [s].
+
+    Returns
+    -------
+    IKResult
+        ``success`` only when :func:`check_pose` passes.
+    """
+    t_start = time.perf_counter()
+    if not isinstance(stack, Stack):
+        raise ValueError(f"stack: expected a Stack, got {type(stack).__name__}")
+    if not isinstance(target, PlanarTarget | SpatialTarget):
+        raise ValueError(
+            f"target: expected a PlanarTarget or SpatialTarget, got {type(target).__name__}"
+        )
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective: unknown {objective!r}; choose one of {OBJECTIVES}")
+    if method not in METHODS:
+        raise ValueError(f"method: unknown {method!r}; choose one of {METHODS}")
+    if isinstance(starts, bool) or not isinstance(starts, int | np.integer) or starts < 1:
+        raise ValueError(f"starts: expected an integer >= 1, got {starts!r}")
+    if start not in ("paper", "convex"):
+        raise ValueError(f"start: unknown {start!r}; choose 'paper' or 'convex'")
+    if method == "sqp" and qp_solver is not None:
+        from stackik.sqp.qp import make_backend
+
+        make_backend(qp_solver)  # raises ValueError listing the available ones
+    planar = isinstance(target, PlanarTarget)
+    n, k = stack.n, (3 if planar else 6)
+    gen = np.random.default_rng(rng)
+    weights = _sigma_weights(n, sigma_t, sigma_theta) if objective == "weighted" else None
+    if x0 is not None:
+        q0 = np.array(x0, dtype=float)
+        if q0.shape != (n, k) or not np.all(np.isfinite(q0)):
+            raise ValueError(f"x0: expected finite values of shape ({n}, {k}), got {q0.shape}")
+    elif start == "convex":
+        from stackik.convex import convex_start
+
+        q0 = convex_start(stack, target)
+    else:
+        q0 = paper_initial_guess(stack, target)
+    prob = _Problem(stack, target, objective, weights)
+    opts = dict(options or {})
+    qp_name = qp_solver or ("default" if method == "sqp" else "-")
+
+    def finish(run: _Run | None, status: IKStatus, nit: int, n_starts: int) -> IKResult:
+        q = q0 if run is None else run.q
+        chk = check_pose(stack, target, q) if run is None else run.check
+        if planar:
+            assert isinstance(target, PlanarTarget)
+            P, R = lift_planar(q, target.phi)
+        else:
+            P, R = q[:, :3].copy(), euler_zyx(q[:, 3:])
+        legs = np.linalg.norm(
+            np.einsum("nij,nkj->nki", R, stack.top_nodes) + P[:, None, :] - stack.base_nodes,
+            axis=-1,
+        )
+        return IKResult(
+            q=q,
+            success=status is IKStatus.SUCCESS,
+            status=status,
+            message=_MESSAGES[status],
+            frobenius_norm=_frobenius(q, planar),
+            objective=objective,
+            objective_value=prob.objective_value(q),
+            max_violation=chk.max_violation,
+            target_error=chk.position_error,
+            angle_error=chk.angle_error,
+            nit=nit,
+            time=time.perf_counter() - t_start,
+            method=method,
+            qp_solver=qp_name,
+            n_starts=n_starts,
+            P=P,
+            R=R,
+            leg_lengths=legs,
+            phi=target.phi if isinstance(target, PlanarTarget) else None,
+            mode="planar" if planar else "spatial",
+        )
+
+    # quick unreachability test (triangle inequality on every platform)
+    P_t = np.array([target.rho, target.z]) if isinstance(target, PlanarTarget) else target.position
+    if float(np.linalg.norm(P_t)) > _reach_bound(stack):
+        return finish(None, IKStatus.INFEASIBLE, 0, 0)
+
+    best: _Run | None = None
+    least: _Run | None = None
+    nit_total = 0
+    tried = 0
+    last_status = ""
+    # perturbation scale of extra starts: 10% of the leg range, 0.1 rad
+    span = float(np.mean(stack.leg_max - stack.leg_min))
+    pert = np.tile([0.15 * span] * (k - (1 if planar else 3)) + [0.1] * (1 if planar else 3), n)
+    extra_fallback = 3 if x0 is None else 0  # more starts when none succeeds
+    budget = starts
+    while tried < budget:
+        if time.perf_counter() - t_start > max_time:
+            status_out = IKStatus.MAX_TIME
+            break
+        if tried == 0:
+            qs = q0
+        elif tried == budget - 1 and best is None and x0 is None and start == "paper":
+            from stackik.convex import convex_start
+
+            try:
+                qs = convex_start(stack, target)
+            except Exception:  # noqa: BLE001 - a failed convex start just means another start
+                qs = q0 + (gen.standard_normal(n * k) * pert).reshape(n, k)
+        else:
+            qs = q0 + (gen.standard_normal(n * k) * pert).reshape(n, k)
+        if method == "sqp":
+            remaining = max_time - (time.perf_counter() - t_start)
+            opts.setdefault("max_time", max(remaining, 1e-3))
+        run = _solve_from(prob, qs, method, qp_solver, opts)
+        opts.pop("max_time", None) if "max_time" not in (options or {}) else None
+        tried += 1
+        nit_total += run.nit
+        last_status = run.status
+        if run.check.ok:
+            if best is None or run.obj < best.obj - 1e-12 * abs(best.obj):
+                best = run
+        elif least is None or run.check.max_violation_mm < least.check.max_violation_mm:
+            least = run
+        if tried == budget and best is None and extra_fallback > 0:
+            budget += 1
+            extra_fallback -= 1
+    else:
+        status_out = IKStatus.SUCCESS
+    if best is not None:
+        return finish(best, IKStatus.SUCCESS, nit_total, tried)
+    if status_out is not IKStatus.MAX_TIME:
+        if last_status == "max_iter":
+            status_out = IKStatus.MAX_ITER
+        elif last_status == "max_time":
+            status_out = IKStatus.MAX_TIME
+        elif least is not None and least.check.max_violation_mm > FEAS_TOL:
+            status_out = IKStatus.INFEASIBLE
+        else:
+            status_out = IKStatus.FAILED
+    return finish(least, status_out, nit_total, tried)
+
+
+def solve_many(
+    stack: Stack,
+    targets: Iterable[Target],
+    *,
+    progress: bool = False,
+    executor: Executor | None = None,
+    **kwargs: Any,
+) -> list[IKResult]:
+    """Solve :func:`solve_ik` for many targets (same keyword arguments).
+
+    Parameters
+    ----------
+    progress : bool
+        Show a tqdm progress bar.
+    executor : concurrent.futures.Executor, optional
+        Spread the targets (e.g. a ``ProcessPoolExecutor``); results keep the input order.
+    """
+    tlist: Sequence[Target] = list(targets)
+    call: Callable[[Target], IKResult] = _SolveOne(stack, kwargs)
+    if executor is None:
+        it: Iterable[IKResult] = map(call, tlist)
+    else:
+        it = executor.map(call, tlist)
+    if progress:
+        from tqdm.auto import tqdm
+
+        it = tqdm(it, total=len(tlist), desc="solve", unit="target")
+    return list(it)
+
+
+@dataclass(frozen=True)
+class _SolveOne:
+    stack: Stack
+    kwargs: dict[str, Any]
+
+    def __call__(self, target: Target) -> IKResult:
+        return solve_ik(self.stack, target, **self.kwargs)
