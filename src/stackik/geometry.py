@@ -36,7 +36,10 @@ class GeometryError(ValueError):
 
 def _nodes(value: ArrayLike, name: str) -> FloatArray:
     try:
-        arr = np.array(value, dtype=float)
+        raw = np.asarray(value)
+        if raw.dtype.kind not in "iuf":  # reject strings, booleans, None, ragged lists
+            raise TypeError(f"got elements of type {raw.dtype}")
+        arr = np.array(raw, dtype=float)
     except (TypeError, ValueError) as exc:
         raise GeometryError(f"{name}: expected a (6, 3) array of numbers ({exc})") from None
     if arr.shape != (6, 3):
@@ -56,6 +59,8 @@ def _nodes(value: ArrayLike, name: str) -> FloatArray:
 
 
 def _scalar(value: Any, name: str) -> float:
+    if isinstance(value, str | bytes | bool | np.bool_):
+        raise GeometryError(f"{name}: expected a number, got {value!r}")
     try:
         x = float(value)
     except (TypeError, ValueError):
@@ -352,6 +357,9 @@ class Stack(Sequence[PlatformGeometry]):
         if not isinstance(data, Mapping):
             raise GeometryError(f"stack: expected a table/object, got {type(data).__name__}")
         if "platforms" in data:
+            unknown = set(data) - {"platforms"}
+            if unknown:
+                raise GeometryError(f"stack: unknown field(s) {sorted(unknown)}")
             plats = data["platforms"]
             if not isinstance(plats, list) or not plats:
                 raise GeometryError("platforms: expected a non-empty list of platform tables")
@@ -362,6 +370,9 @@ class Stack(Sequence[PlatformGeometry]):
                 )
             )
         if "platform" in data:
+            unknown = set(data) - {"platform", "n"}
+            if unknown:
+                raise GeometryError(f"stack: unknown field(s) {sorted(unknown)}")
             n = data.get("n")
             if n is None:
                 raise GeometryError("n: missing field (required with 'platform')")
