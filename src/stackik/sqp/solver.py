@@ -62,6 +62,7 @@ BFGS_DAMP_THETA = 0.8  # Powell damping factor, N&W Proc. 18.2
 AUG_TAUS = (1.0, 1e2, 1e4)  # tried multipliers of J_A'J_A for exact-Hessian convexification
 SCALE_MAX_GRADIENT = 100.0  # IPOPT nlp_scaling_max_gradient (Waechter & Biegler 2006, 3.8)
 KKT_S_MAX = 100.0  # IPOPT s_max for multiplier-scaled stationarity (W&B 2006, eq. 5)
+ROUNDOFF_GUARD = 10.0 * np.finfo(float).eps  # 10 eps_M max(1,|phi|), CGT (2000) 17.4.2
 DELTA_MIN = 1e-12  # trust-region collapse threshold (relative to 1 + ||x/xs||_inf)
 
 
@@ -527,7 +528,8 @@ class _Engine:
                     nu = max(nu, (gd + 0.5 * dBd) / ((1.0 - RHO_PENALTY) * m0))
                 self.nu = min(nu, NU_MAX)
             nu = self.nu
-            md = self._lin_violation(d) if elastic else 0.0
+            # Linearised violation of the computed step (not assumed zero: QP tolerances).
+            md = self._lin_violation(d)
             pred = -(gd + 0.5 * dBd) + nu * (m0 - md)
             phi0 = self.f + nu * m0
             dnorm = float(np.max(np.abs(d) / self.xs)) if n else 0.0
@@ -537,10 +539,9 @@ class _Engine:
             v_t = self._violation(cE_t, cI_t)
             phi_t = f_t + nu * v_t
             ok = math.isfinite(phi_t)
-            ratio = (phi0 - phi_t) / pred if ok and pred > 0 else -math.inf
-            if ok and pred <= 0:
-                # No predicted decrease: accept only a non-increasing merit (roundoff level).
-                ratio = 1.0 if phi_t <= phi0 + 1e-14 * (1 + abs(phi0)) else -math.inf
+            # Roundoff-protected ratio, Conn, Gould & Toint (2000) Sec. 17.4.2.
+            guard = ROUNDOFF_GUARD * max(1.0, abs(phi0))
+            ratio = (phi0 - phi_t + guard) / (pred + guard) if ok and pred > -guard else -math.inf
             kind = "elastic" if elastic else "qp"
             if ratio < ETA_ACCEPT and not elastic and (mE + mI) and ok and pred > 0:
                 # Second-order correction (N&W Sec. 15.5 / Alg. 18.4).
@@ -553,9 +554,10 @@ class _Engine:
                     x_c = np.clip(x + sol_c.x, self.lower, self.upper)
                     f_c, cE_c, cI_c, ev_c = self._eval_values(x_c)
                     phi_c = f_c + nu * self._violation(cE_c, cI_c)
-                    if math.isfinite(phi_c) and (phi0 - phi_c) / pred >= ETA_ACCEPT:
+                    ratio_c = (phi0 - phi_c + guard) / (pred + guard)
+                    if math.isfinite(phi_c) and ratio_c >= ETA_ACCEPT:
                         x_t, f_t, cE_t, cI_t, ev_t = x_c, f_c, cE_c, cI_c, ev_c
-                        ratio = (phi0 - phi_c) / pred
+                        ratio = ratio_c
                         kind = "soc"
                         d = sol_c.x
             if verbose:

@@ -11,6 +11,11 @@ Rows are ordered ``[A_eq; G; I]`` (the identity rows carry the bounds on ``d``).
 
 from __future__ import annotations
 
+import ctypes
+import os
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -22,14 +27,14 @@ from .base import FloatArray, QPBackend, QPSolution, QPStatus
 #: Settings tuned for SQP subproblems; user ``qp_options`` override them.
 DEFAULT_SETTINGS: dict[str, Any] = {
     "verbose": False,
-    "eps_abs": 1e-9,
-    "eps_rel": 1e-9,
-    "eps_prim_inf": 1e-9,
-    "eps_dual_inf": 1e-9,
+    "eps_abs": 1e-8,
+    "eps_rel": 1e-8,
+    "eps_prim_inf": 1e-7,
+    "eps_dual_inf": 1e-7,
     "polishing": True,
     "polish_refine_iter": 10,
     "warm_starting": True,
-    "max_iter": 20000,
+    "max_iter": 10000,
     "adaptive_rho": True,
 }
 
@@ -39,6 +44,38 @@ _SOLVED = (
     # Accepted: the SQP ratio test guards against a poor step.
     osqp.SolverStatus.OSQP_SOLVED_INACCURATE.value,
 )
+
+
+try:
+    _LIBC: Any = ctypes.CDLL(None)
+except OSError:  # pragma: no cover - non-POSIX
+    _LIBC = None
+
+
+@contextmanager
+def _quiet_c_stdout(active: bool) -> Iterator[None]:
+    """Silence C-level stdout (OSQP prints polishing notes even with ``verbose=False``)."""
+    if not active or _LIBC is None:
+        yield
+        return
+    try:
+        sys.stdout.flush()
+        saved = os.dup(1)
+    except (OSError, ValueError):
+        yield
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        yield
+    finally:
+        _LIBC.fflush(None)
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
+
+
+_MAX_ITER = osqp.SolverStatus.OSQP_MAX_ITER_REACHED.value
 
 
 class OSQPBackend(QPBackend):
@@ -104,12 +141,14 @@ class OSQPBackend(QPBackend):
             else:
                 # OSQP warm-starts from its previous solution (warm_starting=True).
                 self._solver.update(Px=Px, Ax=Ax, q=q, l=l, u=u)
-            res = self._solver.solve()
+            with _quiet_c_stdout(not self.settings.get("verbose", False)):
+                res = self._solver.solve()
         except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
             self._solver = None
             return self.failed(f"osqp raised {exc!r}")
         status = res.info.status_val
-        if status in _SOLVED:
+        polished = getattr(res.info, "status_polish", 0) == 1
+        if status in _SOLVED or (status == _MAX_ITER and polished):
             y = res.y
             return QPSolution(
                 np.array(res.x),
