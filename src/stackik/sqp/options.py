@@ -49,7 +49,7 @@ class SQPOptions:
         a function whose gradient max-norm exceeds 100 is scaled down to 100).
     """
 
-    tol: float = 1e-7
+    tol: float = 1e-6
     constr_tol: float = 1e-8
     max_iter: int = 300
     max_time: float = math.inf

@@ -57,6 +57,7 @@ EPS2_STEER = 0.05  # eps_2 < eps_1: merit-model reduction condition, BNW 2008
 NU_FEAS = 1e6  # penalty factor emulating the pure feasibility subproblem (nu -> inf)
 SLACK_REG = 1e-8  # tiny curvature on elastic slacks keeps every backend's QP strictly convex
 HESS_REG = 1e-8  # relative floor of the QP Hessian eigenvalues (convexity)
+HESS_FLOOR = 1e-4  # absolute eigenvalue floor of a modified exact Hessian (no LP-like QPs)
 BFGS_DAMP = 0.2  # Powell damping threshold, N&W Proc. 18.2
 BFGS_DAMP_THETA = 0.8  # Powell damping factor, N&W Proc. 18.2
 AUG_TAUS = (1.0, 1e2, 1e4)  # tried multipliers of J_A'J_A for exact-Hessian convexification
@@ -256,8 +257,8 @@ class _Engine:
             return np.eye(self.n)
         w = np.linalg.eigvalsh(H)
         scale = max(1.0, float(np.max(np.abs(w))))
-        floor = HESS_REG * scale
-        if w[0] >= floor:
+        floor = max(HESS_REG * scale, HESS_FLOOR)
+        if w[0] >= HESS_REG * scale:
             return H
         # Augment with J_A'J_A over equalities and active inequalities: unchanged QP solution
         # when that active set is kept and the reduced Hessian is positive definite.
