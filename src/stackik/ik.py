@@ -36,16 +36,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from stackik.geometry import Stack
 from stackik.kinematics import (
+    _J2,
+    _planar_parts,
     lift_planar,
     planar_fn_residuals,
     planar_forward,
+    planar_hessian_fn2,
     planar_jacobian,
     spatial_chain,
     spatial_forward,
 )
 from stackik.platform import (
     constraints_from_legs,
-    planar_legs,
     spatial_legs,
 )
 from stackik.rotations import euler_zyx, rodrigues
@@ -393,6 +395,154 @@ def paper_initial_guess(stack: Stack, target: Target) -> FloatArray:
 # =========================================================================================
 # Problem formulation (scaled)
 # =========================================================================================
+class _PlanarFast:
+    """Planar constraints with their Jacobian, specialised for speed (the hot path).
+
+    Works in the plane's basis ``(e_phi, s, e_z)`` where ``P = (rho, 0, z)``, the rotation
+    about ``s`` turns the ``(e_phi, e_z)`` components by the 2D rotation and
+    ``R n = (-sin theta, 0, cos theta)``; only dot products enter the constraints, so the
+    values equal :func:`stackik.platform.planar_constraint_jacobian` (tested).
+    """
+
+    def __init__(self, stack: Stack, phi: float) -> None:
+        from stackik.rotations import plane_axis
+
+        e_phi = np.array([math.cos(phi), math.sin(phi), 0.0])
+        s = plane_axis(phi)
+        B = np.stack([e_phi, s, [0.0, 0.0, 1.0]])  # rows: basis vectors
+        b = stack.base_nodes @ B.T  # (n, 6, 3)
+        t = stack.top_nodes @ B.T
+        self.tf, self.tz = t[..., 0], t[..., 2]
+        self.ls0 = t[..., 1] - b[..., 1]  # s component of l (constant)
+        self.bf, self.bz = b[..., 0], b[..., 2]
+        self.lmin2 = (stack.leg_min**2)[:, None]
+        self.lmax2 = (stack.leg_max**2)[:, None]
+        self.sj = stack.sin_joint_min[:, None]
+        n = stack.n
+        self.n = n
+        self.c = np.empty((n, 4, 6))
+        idx = np.arange(n)
+        self.later = (idx[None, :] > idx[: n - 1, None]).astype(float)  # k > i
+        self.maxim = np.maximum(idx[: n - 1, None], idx[None, :])  # max(i, m)
+        self.J = np.zeros((n, 4, 6, n, 3))
+        self.idx = np.arange(n)
+
+    def kinematics(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """End effector y (3,), its Jacobian (3, 3n), FN residuals r and dr/dx.
+
+        Same values as :func:`planar_forward`, :func:`planar_jacobian` and
+        :func:`planar_fn_residuals`, without input validation (tested to agree).
+        """
+        n = self.n
+        Theta, _, O = _planar_parts(q)
+        c, s = np.cos(Theta), np.sin(Theta)
+        d = O[-1] - O[1:]  # (n, 2), d_n = 0
+        y = np.array([O[-1, 0], O[-1, 1], q[:, 2].sum()])
+        J = np.zeros((3, n, 3))
+        J[0, :, 0], J[1, :, 0] = c, s
+        J[0, :, 1], J[1, :, 1] = -s, c
+        J[0, :, 2], J[1, :, 2] = -d[:, 1], d[:, 0]
+        J[2, :, 2] = 1.0
+        Jr = np.empty((n - 1, 2, n, 3))
+        later = self.later
+        Jr[:, 0, :, 0] = later * c
+        Jr[:, 1, :, 0] = later * s
+        Jr[:, 0, :, 1] = later * -s
+        Jr[:, 1, :, 1] = later * c
+        dm = d[self.maxim]
+        Jr[:, 0, :, 2] = -dm[..., 1]
+        Jr[:, 1, :, 2] = dm[..., 0]
+        return y, J.reshape(3, 3 * n), d[: n - 1].ravel(), Jr.reshape(2 * (n - 1), 3 * n)
+
+    def constraint_hessian(self, q: FloatArray, y: FloatArray) -> FloatArray:
+        """``sum_r y_r * Hessian(c_r)`` of the raw constraints, shape (3n, 3n).
+
+        ``y`` has shape (n*24,) in constraint order; block diagonal by platform.
+        """
+        n = self.n
+        th = q[:, 2:3]
+        c, sn = np.cos(th), np.sin(th)
+        Rtf = c * self.tf - sn * self.tz
+        Rtz = sn * self.tf + c * self.tz
+        rf = q[:, 0:1] - self.bf
+        rz = q[:, 1:2] - self.bz
+        lf = Rtf + rf
+        lz = Rtz + rz
+        ls = self.ls0
+        norm = np.sqrt(lf * lf + ls * ls + lz * lz)
+        # second derivatives of |l|^2 (entries rr, zz, rt, zt, tt; rz = 0)
+        S_rr = 2.0
+        S_rt = -2.0 * Rtz
+        S_zt = 2.0 * Rtf
+        S_tt = 2.0 * (Rtf * Rtf + Rtz * Rtz - lf * Rtf - lz * Rtz)
+        d_r = lf / norm  # d|l|/drho
+        d_z = lz / norm
+        d_t = (lz * Rtf - lf * Rtz) / norm
+        inv = 1.0 / norm
+
+        def nh(S_ab: Any, da: FloatArray, db: FloatArray) -> FloatArray:
+            return (0.5 * S_ab - da * db) * inv  # type: ignore[no-any-return]
+
+        N_rr, N_zz, N_rz = nh(S_rr, d_r, d_r), nh(S_rr, d_z, d_z), nh(0.0, d_r, d_z)
+        N_rt, N_zt, N_tt = nh(S_rt, d_r, d_t), nh(S_zt, d_z, d_t), nh(S_tt, d_t, d_t)
+        Y = y.reshape(n, 4, 6)
+        y0, y1, y2, y3 = Y[:, 0], Y[:, 1], Y[:, 2], Y[:, 3]
+        ys = y0 - y1  # |l|^2 appears with + in block 0 and - in block 1
+        sj = self.sj
+        yn = -sj * (y2 + y3)  # |l| appears with -sin(joint_min) in blocks 2 and 3
+        H = np.zeros((n, 3, 3))
+        H[:, 0, 0] = np.sum(ys * S_rr + yn * N_rr, axis=1)
+        H[:, 1, 1] = np.sum(ys * S_rr + yn * N_zz, axis=1)
+        H[:, 0, 1] = np.sum(yn * N_rz, axis=1)
+        # block 2: l.e_z -> d2/dtheta2 = -Rtz; block 3: l.Rn = t_n - rf sin + rz cos
+        H[:, 0, 2] = np.sum(ys * S_rt + yn * N_rt - y3 * c, axis=1)
+        H[:, 1, 2] = np.sum(ys * S_zt + yn * N_zt - y3 * sn, axis=1)
+        H[:, 2, 2] = np.sum(ys * S_tt + yn * N_tt - y2 * Rtz + y3 * (rf * sn - rz * c), axis=1)
+        H[:, 1, 0] = H[:, 0, 1]
+        H[:, 2, 0] = H[:, 0, 2]
+        H[:, 2, 1] = H[:, 1, 2]
+        out = np.zeros((n, 3, n, 3))
+        out[self.idx, :, self.idx, :] = H
+        return out.reshape(3 * n, 3 * n)
+
+    def __call__(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Raw constraints (n*24,) and Jacobian (n*24, 3n) in DESIGN §2 order."""
+        th = q[:, 2:3]
+        c, sn = np.cos(th), np.sin(th)
+        Rtf = c * self.tf - sn * self.tz
+        Rtz = sn * self.tf + c * self.tz
+        lf = Rtf + q[:, 0:1] - self.bf
+        lz = Rtz + q[:, 1:2] - self.bz
+        ls = self.ls0
+        sq = lf * lf + ls * ls + lz * lz
+        norm = np.sqrt(sq)
+        lRn = c * lz - sn * lf
+        sj = self.sj
+        out = self.c
+        out[:, 0] = sq - self.lmin2
+        out[:, 1] = self.lmax2 - sq
+        out[:, 2] = lz - norm * sj
+        out[:, 3] = lRn - norm * sj
+        # derivatives wrt (rho, z, theta); dl/dtheta = (-Rtz, 0, Rtf), d(Rn)/dtheta = (-c, 0, -sn)
+        dsq_t = 2.0 * (lz * Rtf - lf * Rtz)
+        k = sj / norm
+        J = self.J
+        i = self.idx
+        D = np.empty((self.n, 4, 6, 3))
+        D[:, 0, :, 0] = 2.0 * lf
+        D[:, 0, :, 1] = 2.0 * lz
+        D[:, 0, :, 2] = dsq_t
+        D[:, 1] = -D[:, 0]
+        D[:, 2, :, 0] = -k * lf
+        D[:, 2, :, 1] = 1.0 - k * lz
+        D[:, 2, :, 2] = Rtf - 0.5 * k * dsq_t
+        D[:, 3, :, 0] = -sn - k * lf
+        D[:, 3, :, 1] = c - k * lz
+        D[:, 3, :, 2] = (sn * Rtz + c * Rtf) - (c * lf + sn * lz) - 0.5 * k * dsq_t
+        J[i, :, :, i, :] = D
+        return out.reshape(-1).copy(), J.reshape(24 * self.n, 3 * self.n).copy()
+
+
 class _Problem:
     """Scaled IK problem: evaluation of objective, equalities and limits with derivatives.
 
@@ -445,7 +595,10 @@ class _Problem:
             self.rw = np.repeat(np.sqrt(wth[: n - 1]), 2)
         else:
             self.rw = np.repeat(np.sqrt(wth), 9)
+        self.fast = _PlanarFast(stack, target.phi) if isinstance(target, PlanarTarget) else None
         self._cache_u: FloatArray | None = None
+        self._gn_cache: tuple[FloatArray, FloatArray, FloatArray] | None = None
+        self._fn_cache: tuple[FloatArray, FloatArray] = (np.zeros(0), np.zeros((0, 0)))
         self._cache: tuple[Any, ...] | None = None
         self.nfev = 0
 
@@ -461,7 +614,7 @@ class _Problem:
         """Objective residuals (unscaled x) ``r``, ``dr/dx`` with obj = c0 + |r|^2."""
         if self.planar:
             r, Jr = planar_fn_residuals(q)
-        else:
+        else:  # spatial
             ch = spatial_chain(q)
             N = 6 * self.n
             ang = np.array([a for a in range(N) if a % 6 >= 3])
@@ -474,6 +627,9 @@ class _Problem:
     def gauss_newton(self, u: FloatArray) -> tuple[FloatArray, FloatArray]:
         if self.objective == "feasible":
             return np.zeros(1), np.zeros((1, u.size))
+        gc = self._gn_cache
+        if gc is not None and np.array_equal(gc[0], u):
+            return gc[1], gc[2]
         r, Jr = self.residuals(self.q_of(u))
         s = 1.0 / math.sqrt(self.fscale)
         return r * s, Jr * self.xs * s
@@ -487,13 +643,16 @@ class _Problem:
         q = self.q_of(u)
         n, k = self.n, self.k
         st = self.stack
-        if self.planar:
+        if self.fast is not None:
             tgt = self.target
             assert isinstance(tgt, PlanarTarget)
-            y = planar_forward(q)
+            y, Jy, r_fn, Jr_fn = self.fast.kinematics(q)
+            self._fn_cache = (r_fn, Jr_fn)
             ceq = (y - tgt.y) * self.es
-            Jeq = planar_jacobian(q) * self.es[:, None] * self.xs
-            l, Rn, dl, dRn = planar_legs(st, q, tgt.phi, derivatives=True)
+            Jeq = Jy * self.es[:, None] * self.xs
+            c_raw, Jc_raw = self.fast(q)
+            cin = c_raw * self.cs
+            Jin = Jc_raw * self.cs[:, None] * self.xs
         else:
             tgs = self.target
             assert isinstance(tgs, SpatialTarget)
@@ -508,25 +667,51 @@ class _Problem:
             ceq = np.concatenate([Pee - tgs.position, phi_v]) * self.es
             Jeq = np.vstack([Jp, Jphi]) * self.es[:, None] * self.xs
             l, Rn, dl, dRn = spatial_legs(st, q, derivatives=True)
-        c, Jc = constraints_from_legs(
-            l, Rn, st.leg_min, st.leg_max, st.sin_joint_min, dl=dl, dRn=dRn
-        )
-        assert Jc is not None
-        cin = c.ravel() * self.cs
-        Jin = np.zeros((n, 24, n, k))
-        idx = np.arange(n)
-        Jin[idx, :, idx, :] = Jc
-        Jin = Jin.reshape(24 * n, n * k) * self.cs[:, None] * self.xs
+            c, Jc = constraints_from_legs(
+                l, Rn, st.leg_min, st.leg_max, st.sin_joint_min, dl=dl, dRn=dRn
+            )
+            assert Jc is not None
+            cin = c.ravel() * self.cs
+            Jin = np.zeros((n, 24, n, k))
+            idx = np.arange(n)
+            Jin[idx, :, idx, :] = Jc
+            Jin = Jin.reshape(24 * n, n * k) * self.cs[:, None] * self.xs
         if self.objective == "feasible":
             f, g = 0.0, np.zeros(n * k)
         else:
-            r, Jr = self.gauss_newton(u)
+            if self.fast is not None:
+                sc = 1.0 / math.sqrt(self.fscale)
+                r = self._fn_cache[0] * self.rw * sc
+                Jr = self._fn_cache[1] * (self.rw * sc)[:, None] * self.xs
+                self._gn_cache = (u.copy(), r, Jr)
+            else:
+                r, Jr = self.gauss_newton(u)
             f = float(r @ r) + self.c0 / self.fscale
             g = 2.0 * Jr.T @ r
         out = (f, g, ceq, Jeq, cin, Jin)
         self._cache_u = u.copy()
         self._cache = out
         return out
+
+    def lagrangian_hessian(self, u: FloatArray, y_eq: FloatArray, y_in: FloatArray) -> FloatArray:
+        """Exact Hessian of ``f - y_eq.c_E - y_in.c_I`` in scaled variables (planar only)."""
+        assert self.fast is not None
+        q = self.q_of(u)
+        n3 = 3 * self.n
+        Hx: Any = 0.0
+        if self.objective != "feasible":
+            Hx = planar_hessian_fn2(q, exact=True) * (float(self.w_th[0]) / self.fscale)
+        # end-effector equalities: sum_r y_r d2 y_r = isTheta[min(a,b)] * v[max(a,b)]
+        Jy = self.fast.kinematics(q)[1]
+        yp = y_eq[:2] * self.es[:2]
+        v = (yp @ _J2) @ Jy[:2]  # (3n,)
+        a = np.arange(n3)
+        lo = np.minimum(a[:, None], a[None, :])
+        hi = np.maximum(a[:, None], a[None, :])
+        H_eq = (lo % 3 == 2) * v[hi]
+        H_in = self.fast.constraint_hessian(q, y_in * self.cs)
+        H = Hx - H_eq - H_in
+        return H * np.outer(self.xs, self.xs)  # type: ignore[no-any-return]
 
     def objective_value(self, q: FloatArray) -> float:
         """Unscaled objective value at q."""
@@ -587,9 +772,11 @@ def _run_sqp(
 ) -> tuple[FloatArray, int, str]:
     from stackik.sqp import NonlinearProgram, SQPOptions, solve
 
+    exact_ok = prob.fast is not None and (prob.objective != "weighted" or np.ptp(prob.w_th) == 0)
     nlp = NonlinearProgram(
         objective=None,
         evaluate=prob.evaluate,
+        hessian=prob.lagrangian_hessian if exact_ok else None,
         gauss_newton=None if prob.objective == "feasible" else prob.gauss_newton,
         gn_scale=2.0,
         eq_scale=np.ones(prob.es.size),
@@ -597,7 +784,7 @@ def _run_sqp(
         name="stackik-ik",
     )
     opts = {"tol": 1e-7, "constr_tol": 1e-10, "max_iter": 200, "initial_tr_radius": 0.5}
-    if prob.objective == "feasible":
+    if prob.objective == "feasible" and not exact_ok:
         opts["hessian"] = "bfgs"
     opts.update(options)
     kw: dict[str, Any] = {}
