@@ -511,6 +511,21 @@ def test_spatial_pose_validation(bad):
             f(bad)
 
 
+@pytest.mark.parametrize("phi", [np.nan, np.inf, "x", None])
+def test_lift_planar_phi_validation(phi):
+    with pytest.raises(ValueError):
+        stackik.lift_planar(np.array([[0.0, 300.0, 0.1]]), phi)
+
+
+def test_lift_planar_batch():
+    q = ref.random_planar_pose(np.random.default_rng(8), 6).reshape(2, 3, 3)
+    P, R = stackik.lift_planar(q, 0.4)
+    assert P.shape == (2, 3, 3) and R.shape == (2, 3, 3, 3)
+    P1, R1 = stackik.lift_planar(q[1], 0.4)
+    assert_close(P[1], P1, 1e-15)
+    assert_close(R[1], R1, 1e-15)
+
+
 def test_single_pose_only_functions_reject_batches():
     with pytest.raises(ValueError):
         stackik.spatial_chain(np.zeros((2, 1, 6)))

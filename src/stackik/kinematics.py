@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from stackik.platform import check_pose
+from stackik.platform import _check_phi, check_pose
 from stackik.rotations import euler_zyx, euler_zyx_derivatives, plane_axis, rodrigues
 
 __all__ = [
@@ -212,6 +212,7 @@ def lift_planar(q: ArrayLike, phi: float) -> tuple[FloatArray, FloatArray]:
         Rodrigues rotations about ``s(phi)`` by ``theta_i``.
     """
     qa = _pose(q, 3)
+    phi = _check_phi(phi)
     P = np.stack([qa[..., 0] * np.cos(phi), qa[..., 0] * np.sin(phi), qa[..., 1]], -1)
     return P, rodrigues(plane_axis(phi), qa[..., 2])
 
