@@ -142,7 +142,7 @@ class OSQPBackend(QPBackend):
                 # OSQP warm-starts from its previous solution (warm_starting=True).
                 self._solver.update(Px=Px, Ax=Ax, q=q, l=l, u=u)
             with _quiet_c_stdout(not self.settings.get("verbose", False)):
-                res = self._solver.solve()
+                res = self._solver.solve(raise_error=False)
         except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
             self._solver = None
             return self.failed(f"osqp raised {exc!r}")
