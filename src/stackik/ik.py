@@ -784,7 +784,9 @@ def _run_sqp(
         name="stackik-ik",
     )
     opts = {"tol": 1e-7, "constr_tol": 1e-10, "max_iter": 200, "initial_tr_radius": 0.5}
-    if prob.objective == "feasible" and not exact_ok:
+    if not exact_ok:
+        # Gauss-Newton ignores the curvature of active limits and stalls there; damped
+        # BFGS on the whole Lagrangian converges superlinearly.
         opts["hessian"] = "bfgs"
     opts.update(options)
     kw: dict[str, Any] = {}
@@ -1064,6 +1066,8 @@ def solve_ik(
             status_out = IKStatus.MAX_ITER
         elif last_status == "max_time":
             status_out = IKStatus.MAX_TIME
+        elif last_status == "success":  # the solver claimed success; the check disagreed
+            status_out = IKStatus.FAILED
         elif least is not None and least.check.max_violation_mm > FEAS_TOL:
             status_out = IKStatus.INFEASIBLE
         else:

@@ -1,0 +1,259 @@
+"""Tests of the IK layer: paper targets, starts, statuses, derivatives, baselines."""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+
+import stackik as sk
+from stackik.ik import IKStatus, _Problem, check_pose, paper_initial_guess
+
+PAPER_TARGETS = [(600.0, 1000.0, -1.57), (145.0, 1500.0, -0.207), (-319.0, 1532.0, 0.332)]
+STACK4 = sk.Stack.reference(4)
+
+
+def _fd_jac(fun, u, eps=1e-6):
+    return np.array([(fun(u + eps * e) - fun(u - eps * e)) / (2 * eps) for e in np.eye(u.size)]).T
+
+
+@pytest.mark.parametrize("target", PAPER_TARGETS)
+def test_paper_targets_optimal_beats_feasible(target):
+    t = sk.PlanarTarget(*target, phi=0.0)
+    opt = sk.solve_ik(STACK4, t)
+    non = sk.solve_ik(STACK4, t, objective="feasible")
+    assert opt.success and non.success
+    assert opt.status is IKStatus.SUCCESS
+    assert opt.frobenius_norm < non.frobenius_norm
+    for res in (opt, non):
+        chk = check_pose(STACK4, t, res.q)
+        assert chk.ok
+        assert chk.position_error <= 1e-6 and chk.angle_error <= 1e-8
+        assert np.all(STACK4.planar_constraints(res.q, 0.0) >= -1e-6)
+        y = sk.planar_forward(res.q)
+        np.testing.assert_allclose(y, target, atol=1e-6)
+
+
+def test_result_fields_for_hardware():
+    t = sk.PlanarTarget(*PAPER_TARGETS[0], phi=0.4)
+    r = sk.solve_ik(STACK4, t)
+    assert r.q.shape == (4, 3) and r.P.shape == (4, 3) and r.R.shape == (4, 3, 3)
+    assert r.leg_lengths.shape == (4, 6)
+    lifted_P, lifted_R = sk.lift_planar(r.q, 0.4)
+    np.testing.assert_allclose(r.P, lifted_P)
+    legs = np.stack([sk.leg_lengths(g, r.P[i], r.R[i]) for i, g in enumerate(STACK4)])
+    np.testing.assert_allclose(r.leg_lengths, legs)
+    assert np.all(legs >= 250 - 1e-6) and np.all(legs <= 450 + 1e-6)
+    d = r.to_dict()
+    assert d["success"] is True and d["status"] == "success" and len(d["q"]) == 4
+
+
+def test_convex_start_is_feasible():
+    for target in PAPER_TARGETS:
+        t = sk.PlanarTarget(*target, phi=0.3)
+        q = sk.convex_start(STACK4, t)
+        chk = check_pose(STACK4, t, q)
+        assert chk.max_violation_mm <= 1e-6
+        assert chk.position_error <= 1e-6 and chk.angle_error <= 1e-8
+        r = sk.solve_ik(STACK4, t, start="convex")
+        assert r.success
+
+
+def test_convex_start_infeasible_raises():
+    t = sk.PlanarTarget(3000.0, 100.0, 0.0)
+    with pytest.raises(sk.ConvexStartError):
+        sk.convex_start(STACK4, t)
+
+
+def test_paper_initial_guess_shares_rotation():
+    t = sk.PlanarTarget(*PAPER_TARGETS[0])
+    g = paper_initial_guess(STACK4, t)
+    np.testing.assert_allclose(g[:, 2], -1.57 / 4)
+    assert np.all(g[:, 1] > 0)
+
+
+@pytest.mark.parametrize("qp", ["daqp", "osqp", "clarabel"])
+def test_backends_agree(qp):
+    t = sk.PlanarTarget(*PAPER_TARGETS[1])
+    r = sk.solve_ik(STACK4, t, qp_solver=qp)
+    ref = sk.solve_ik(STACK4, t)
+    assert r.success
+    assert r.frobenius_norm == pytest.approx(ref.frobenius_norm, rel=1e-4)
+
+
+@pytest.mark.parametrize("method", ["slsqp", "trust-constr"])
+def test_baselines_return_same_type(method):
+    t = sk.PlanarTarget(*PAPER_TARGETS[1])
+    r = sk.solve_ik(STACK4, t, method=method, options={"maxiter": 300})
+    assert isinstance(r, sk.IKResult) and r.method == method
+    if r.success:
+        assert check_pose(STACK4, t, r.q).ok
+
+
+def test_status_infeasible_is_quick():
+    r = sk.solve_ik(STACK4, sk.PlanarTarget(5000.0, 5000.0, 0.0))
+    assert r.status is IKStatus.INFEASIBLE and not r.success
+    assert r.nit == 0  # rejected by the reach bound before any solve
+    r2 = sk.solve_ik(STACK4, sk.PlanarTarget(100.0, 300.0, 2.5), max_time=5.0)
+    assert not r2.success
+    assert r2.status in (IKStatus.INFEASIBLE, IKStatus.MAX_ITER, IKStatus.FAILED)
+
+
+def test_status_max_iter():
+    t = sk.PlanarTarget(*PAPER_TARGETS[0])
+    x0 = paper_initial_guess(STACK4, t) + 30.0
+    r = sk.solve_ik(STACK4, t, x0=x0, options={"max_iter": 1})
+    assert r.status is IKStatus.MAX_ITER and not r.success
+
+
+def test_status_max_time():
+    t = sk.PlanarTarget(*PAPER_TARGETS[0])
+    r = sk.solve_ik(STACK4, t, max_time=1e-9, starts=3)
+    assert r.status is IKStatus.MAX_TIME or r.success  # first start always runs
+
+
+def test_status_failed(monkeypatch):
+    import stackik.ik as ik
+
+    def broken(prob, u0, qp_solver, options):
+        return u0 + 1e-3, 5, "success"  # claims success at a point that misses the target
+
+    monkeypatch.setattr(ik, "_run_sqp", broken)
+    t = sk.PlanarTarget(*PAPER_TARGETS[0])
+    r = sk.solve_ik(STACK4, t, x0=paper_initial_guess(STACK4, t))
+    assert not r.success and r.status is IKStatus.FAILED
+
+
+def test_multistart_never_worse_and_reproducible():
+    t = sk.PlanarTarget(*PAPER_TARGETS[0])
+    one = sk.solve_ik(STACK4, t)
+    many = sk.solve_ik(STACK4, t, starts=4, rng=3)
+    again = sk.solve_ik(STACK4, t, starts=4, rng=3)
+    assert many.frobenius_norm <= one.frobenius_norm + 1e-9
+    np.testing.assert_array_equal(many.q, again.q)
+    assert many.n_starts == 4
+
+
+def test_weighted_objective():
+    t = sk.PlanarTarget(*PAPER_TARGETS[0])
+    with pytest.raises(ValueError, match="sigma"):
+        sk.solve_ik(STACK4, t, objective="weighted")
+    uni = sk.solve_ik(STACK4, t, objective="weighted", sigma_t=1.0, sigma_theta=0.005)
+    fro = sk.solve_ik(STACK4, t)
+    assert uni.success
+    # uniform noise: trace(J Cx J^T) is an affine function of FN^2 in planar mode
+    assert uni.frobenius_norm == pytest.approx(fro.frobenius_norm, rel=1e-6)
+    w = sk.solve_ik(
+        STACK4, t, objective="weighted", sigma_t=1.0, sigma_theta=[0.005, 0.004, 0.003, 0.002]
+    )
+    assert w.success
+
+
+def test_spatial_agrees_with_planar_target():
+    t = sk.PlanarTarget(*PAPER_TARGETS[0], phi=0.5)
+    planar = sk.solve_ik(STACK4, t)
+    st = t.to_spatial()
+    from stackik.rotations import euler_zyx_from_matrix
+
+    q_lift = np.column_stack([planar.P, euler_zyx_from_matrix(planar.R)])
+    chk = check_pose(STACK4, st, q_lift)
+    assert chk.ok
+    spatial = sk.solve_ik(STACK4, st)
+    assert spatial.success and spatial.q.shape == (4, 6)
+    assert check_pose(STACK4, st, spatial.q).ok
+    # the spatial optimum can only be better than the lifted planar optimum
+    fn_lift = sk.frobenius_norm(sk.spatial_jacobian(q_lift))
+    assert spatial.frobenius_norm <= fn_lift + 1e-6
+
+
+@pytest.mark.parametrize("phi", [0.0, 1.1])
+def test_problem_derivatives_planar(phi):
+    t = sk.PlanarTarget(*PAPER_TARGETS[2], phi=phi)
+    p = _Problem(STACK4, t, "frobenius", None)
+    rng = np.random.default_rng(7)
+    u = p.u_of(paper_initial_guess(STACK4, t)) + 0.02 * rng.standard_normal(12)
+
+    def part(i):
+        def f(v):
+            p._cache_u = None
+            return np.atleast_1d(p.evaluate(v)[i])
+
+        return f
+
+    p._cache_u = None
+    f, g, ce, Je, ci, Ji = p.evaluate(u)
+    np.testing.assert_allclose(g, _fd_jac(part(0), u)[0], rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(Je, _fd_jac(part(2), u), rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(Ji, _fd_jac(part(4), u), rtol=1e-5, atol=1e-7)
+    ye, yi = rng.standard_normal(3), rng.standard_normal(96)
+
+    def lag_grad(v):
+        p._cache_u = None
+        _, gg, _, JJe, _, JJi = p.evaluate(v)
+        return gg - JJe.T @ ye - JJi.T @ yi
+
+    H = p.lagrangian_hessian(u, ye, yi)
+    np.testing.assert_allclose(H, _fd_jac(lag_grad, u), rtol=1e-5, atol=1e-6)
+
+
+def test_problem_derivatives_spatial():
+    t = sk.PlanarTarget(*PAPER_TARGETS[0], phi=0.2).to_spatial()
+    st = sk.Stack.reference(3)
+    p = _Problem(st, t, "frobenius", None)
+    rng = np.random.default_rng(11)
+    u = p.u_of(paper_initial_guess(st, t)) + 0.02 * rng.standard_normal(18)
+
+    def part(i):
+        def f(v):
+            p._cache_u = None
+            return np.atleast_1d(p.evaluate(v)[i])
+
+        return f
+
+    p._cache_u = None
+    f, g, ce, Je, ci, Ji = p.evaluate(u)
+    np.testing.assert_allclose(g, _fd_jac(part(0), u)[0], rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(Je, _fd_jac(part(2), u), rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(Ji, _fd_jac(part(4), u), rtol=1e-5, atol=1e-7)
+
+
+@pytest.mark.parametrize("n", [1, 2, 8, 16])
+def test_other_stack_sizes(n):
+    st = sk.Stack.reference(n)
+    q_true = np.tile([10.0, 330.0, -0.1], (n, 1))
+    y = sk.planar_forward(q_true)
+    t = sk.PlanarTarget(y[0], y[1], y[2], phi=0.7)
+    r = sk.solve_ik(st, t)
+    assert r.success and check_pose(st, t, r.q).ok
+
+
+def test_bad_input():
+    t = sk.PlanarTarget(*PAPER_TARGETS[0])
+    with pytest.raises(ValueError, match="objective"):
+        sk.solve_ik(STACK4, t, objective="nope")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="method"):
+        sk.solve_ik(STACK4, t, method="nope")  # type: ignore[arg-type]
+    with pytest.raises(ValueError):
+        sk.solve_ik(STACK4, t, qp_solver="no-such-solver")
+    with pytest.raises(ValueError, match="x0"):
+        sk.solve_ik(STACK4, t, x0=np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="starts"):
+        sk.solve_ik(STACK4, t, starts=0)
+    with pytest.raises(ValueError, match="rho"):
+        sk.PlanarTarget(math.nan, 1.0, 0.0)
+    with pytest.raises(ValueError, match="rotation"):
+        sk.SpatialTarget([0, 0, 1000], np.ones((3, 3)))
+    with pytest.raises(ValueError, match="target"):
+        sk.solve_ik(STACK4, (600, 1000, -1.57))  # type: ignore[arg-type]
+
+
+def test_solve_many_with_executor():
+    targets = [sk.PlanarTarget(*t) for t in PAPER_TARGETS]
+    serial = sk.solve_many(STACK4, targets)
+    with ThreadPoolExecutor(2) as ex:
+        parallel = sk.solve_many(STACK4, targets, executor=ex)
+    assert [r.success for r in serial] == [True] * 3
+    for a, b in zip(serial, parallel, strict=True):
+        np.testing.assert_allclose(a.q, b.q)
