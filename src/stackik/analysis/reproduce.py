@@ -1,0 +1,716 @@
+"""Reproduce the paper's numerical results (Tables 1-2, figures, FN-ratio regression).
+
+``reproduce(out_dir)`` runs, for the reference geometry (DESIGN §2, chosen, not given by
+the paper), n = 4 and phi = 0:
+
+1. the optimal pose (``objective="frobenius"``) and two non-optimal poses of each of the
+   paper's three targets: the first two successful ``objective="feasible"`` runs from the
+   paper's start perturbed by N(0, (40 mm, 40 mm, 0.15 rad)) drawn from
+   ``default_rng(seed + 1)`` (see :class:`~stackik.analysis.workspace.NonOptimalSearch`);
+2. Table 1: Monte Carlo, 10,000 samples, sigma_t = 1 mm, sigma_theta = 0.005 rad, the same
+   draws (``rng = seed + 10``) for the three poses of a target;
+3. Table 2: F factor, 100,000 samples, sigma_t = 100 mm, sigma_theta = 0.5 rad
+   (``rng = seed + 20``);
+4. the workspace study (:func:`~stackik.analysis.workspace.workspace_study`, seed ``seed``)
+   and the regression of the median-displacement ratio on the FN ratio;
+5. the figures, ``report.md``, CSV and JSON files.
+
+The same command gives the same numbers (fixed seeds, deterministic solver).
+
+Entry points for the command line (``stackik reproduce``, ``stackik mc``,
+``stackik map``) are :func:`main_reproduce`, :func:`main_mc` and :func:`main_map`; each
+returns a process exit code.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import time
+from collections.abc import Sequence
+from concurrent.futures import Executor, ProcessPoolExecutor
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from stackik.analysis.linear import linearity_check
+from stackik.analysis.montecarlo import MonteCarloResult, monte_carlo
+from stackik.analysis.workspace import (
+    DEFAULT_PERTURBATION,
+    NonOptimalSearch,
+    WorkspaceStudy,
+    workspace_study,
+)
+from stackik.geometry import Stack
+
+if TYPE_CHECKING:
+    from stackik.ik import IKResult, PlanarTarget
+
+__all__ = [
+    "DEFAULT_SEED",
+    "PAPER_REGRESSION",
+    "PAPER_TABLE1",
+    "PAPER_TABLE2",
+    "PAPER_TARGETS",
+    "ReproduceResult",
+    "ReproduceSettings",
+    "TargetPoses",
+    "main_map",
+    "main_mc",
+    "main_reproduce",
+    "reproduce",
+    "target_poses",
+]
+
+DEFAULT_SEED = 2024
+
+#: The paper's three targets ``(rho [mm], z [mm], theta [rad])`` (n = 4, phi = 0).
+PAPER_TARGETS: tuple[tuple[float, float, float], ...] = (
+    (600.0, 1000.0, -1.57),
+    (145.0, 1500.0, -0.207),
+    (-319.0, 1532.0, 0.332),
+)
+#: Table 1: ``(median, 2.5 %, 97.5 %)`` [mm] for optimal, non-opt 1, non-opt 2 per target.
+PAPER_TABLE1: tuple[tuple[tuple[float, float, float], ...], ...] = (
+    ((4.67, 0.9, 11.2), (5.47, 1.0, 14.7), (5.31, 1.0, 15.1)),
+    ((5.10, 0.84, 15.3), (5.40, 0.87, 16.5), (5.56, 0.94, 16.8)),
+    ((5.32, 0.89, 16.4), (5.58, 0.93, 17.4), (5.69, 0.92, 17.8)),
+)
+#: Table 2: F factor (fraction) for optimal, non-opt 1, non-opt 2 per target.
+PAPER_TABLE2: tuple[tuple[float, float, float], ...] = (
+    (0.25, 0.47, 0.45),
+    (0.63, 0.64, 0.66),
+    (0.61, 0.64, 0.70),
+)
+#: The paper's regression of median ratio on FN ratio.
+PAPER_REGRESSION = {"slope": 0.4, "r2": 0.97}
+
+_POSE_NAMES = ("Optimal", "Non-opt 1", "Non-opt 2")
+
+
+# =========================================================================================
+# Settings and results
+# =========================================================================================
+@dataclass(frozen=True)
+class ReproduceSettings:
+    """Sizes, noise levels and seeds of a reproduction run."""
+
+    n: int = 4
+    phi: float = 0.0
+    seed: int = DEFAULT_SEED
+    t1_samples: int = 10_000
+    t1_sigma_t: float = 1.0
+    t1_sigma_theta: float = 0.005
+    t2_samples: int = 100_000
+    t2_sigma_t: float = 100.0
+    t2_sigma_theta: float = 0.5
+    n_targets: int = 150
+    map_samples: int = 10_000
+    perturbation: tuple[float, float, float] = DEFAULT_PERTURBATION
+    max_attempts: int = 20
+    workers: int = 1
+    median_tolerance: float = 0.15
+    r2_min: float = 0.9
+    quick: bool = False
+
+    @classmethod
+    def quick_settings(cls, **kw: Any) -> ReproduceSettings:
+        """Small sizes for a smoke test (well under 30 s)."""
+        base = {"t1_samples": 4000, "t2_samples": 20_000, "n_targets": 12, "map_samples": 2000}
+        base.update(kw)
+        return cls(quick=True, **base)
+
+
+@dataclass(frozen=True)
+class TargetPoses:
+    """The optimal and non-optimal poses of one target."""
+
+    target: PlanarTarget
+    optimal: IKResult
+    nonoptimal: tuple[IKResult, ...]
+
+    @property
+    def poses(self) -> list[np.ndarray]:
+        return [self.optimal.q] + [r.q for r in self.nonoptimal]
+
+
+@dataclass(frozen=True)
+class ReproduceResult:
+    """Everything :func:`reproduce` computed (numbers also written to ``out_dir``)."""
+
+    settings: ReproduceSettings
+    out_dir: Path
+    targets: tuple[TargetPoses, ...]
+    table1: tuple[MonteCarloResult, ...]
+    table2: tuple[tuple[float, ...], ...]
+    study: WorkspaceStudy
+    checks: dict[str, bool]
+    files: tuple[Path, ...] = field(default=())
+    elapsed: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        """All done-when checks passed."""
+        return all(self.checks.values())
+
+
+# =========================================================================================
+# Building blocks
+# =========================================================================================
+def target_poses(
+    stack: Stack,
+    target: PlanarTarget,
+    count: int = 2,
+    seed: int = DEFAULT_SEED + 1,
+    perturbation: tuple[float, float, float] = DEFAULT_PERTURBATION,
+    max_attempts: int = 20,
+) -> TargetPoses:
+    """Optimal pose and the first ``count`` non-optimal poses of a target.
+
+    Raises
+    ------
+    RuntimeError
+        If the optimal solve fails or fewer than ``count`` non-optimal poses are found.
+    """
+    from stackik.ik import solve_ik
+
+    opt = solve_ik(stack, target, objective="frobenius")
+    if not opt.success:
+        opt = solve_ik(stack, target, objective="frobenius", start="convex")
+    if not opt.success:
+        raise RuntimeError(f"optimal pose not found for {target}: {opt.message}")
+    non = NonOptimalSearch(stack, count, seed, tuple(perturbation), max_attempts)(target)
+    if len(non) < count:
+        raise RuntimeError(f"only {len(non)} non-optimal poses found for {target}")
+    return TargetPoses(target, opt, tuple(non))
+
+
+def _fmt_target(t: PlanarTarget) -> str:
+    return f"({t.rho:g}, {t.z:g}) mm, theta = {t.theta:g} rad"
+
+
+def _write_csv(path: Path, rows: Sequence[dict[str, Any]]) -> Path:
+    with path.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    return path
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, Path):
+        return str(o)
+    return str(o)
+
+
+# =========================================================================================
+# Reproduction
+# =========================================================================================
+def reproduce(
+    out_dir: str | Path,
+    quick: bool = False,
+    rng: int = DEFAULT_SEED,
+    progress: bool = True,
+    settings: ReproduceSettings | None = None,
+    executor: Executor | None = None,
+) -> ReproduceResult:
+    """Reproduce Tables 1-2, the figures and the regression of the paper into ``out_dir``.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Output folder (created): ``report.md``, ``table1.csv``, ``table2.csv``,
+        ``workspace.csv``, ``results.json`` and PNG figures.
+    quick : bool
+        Small sample sizes and few workspace targets (CI smoke test, < 30 s).
+    rng : int
+        Base seed; every random stage uses a fixed offset of it.
+    progress : bool
+        tqdm progress bars on stderr.
+    settings : ReproduceSettings, optional
+        Overrides ``quick`` and ``rng`` when given.
+    executor : concurrent.futures.Executor, optional
+        Spreads the workspace solves; by default a process pool of ``settings.workers``
+        when it is > 1.
+
+    Returns
+    -------
+    ReproduceResult
+    """
+    from stackik.analysis import figures
+    from stackik.ik import PlanarTarget
+
+    t_start = time.perf_counter()
+    if settings is None:
+        settings = (
+            ReproduceSettings.quick_settings(seed=int(rng))
+            if quick
+            else ReproduceSettings(seed=int(rng))
+        )
+    s = settings
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    stack = Stack.reference(s.n)
+    targets = [PlanarTarget(rho=a, z=b, theta=c, phi=s.phi) for a, b, c in PAPER_TARGETS]
+
+    def bar(it: Any, **kw: Any) -> Any:
+        if not progress:
+            return it
+        from tqdm.auto import tqdm
+
+        return tqdm(it, **kw)
+
+    # 1. poses ------------------------------------------------------------------------
+    tp = tuple(
+        target_poses(stack, t, 2, s.seed + 1, s.perturbation, s.max_attempts)
+        for t in bar(targets, desc="paper targets: poses", unit="target")
+    )
+    # 2-3. Tables 1 and 2 ---------------------------------------------------------------
+    table1 = tuple(
+        monte_carlo(p.poses, s.t1_samples, s.t1_sigma_t, s.t1_sigma_theta, rng=s.seed + 10)
+        for p in bar(tp, desc="Table 1 Monte Carlo", unit="target")
+    )
+    table2_mc = [
+        monte_carlo(
+            p.poses,
+            s.t2_samples,
+            s.t2_sigma_t,
+            s.t2_sigma_theta,
+            rng=s.seed + 20,
+            keep_samples=False,
+        )  # fmt: skip
+        for p in bar(tp, desc="Table 2 Monte Carlo", unit="target")
+    ]
+    table2 = tuple(tuple(c.F for c in linearity_check(mc)) for mc in table2_mc)
+
+    # 4. workspace study ------------------------------------------------------------------
+    own_pool = None
+    if executor is None and s.workers > 1:
+        own_pool = executor = ProcessPoolExecutor(max_workers=s.workers)
+    try:
+        study = workspace_study(
+            stack,
+            s.n_targets,
+            n_samples=s.map_samples,
+            sigma_t=s.t1_sigma_t,
+            sigma_theta=s.t1_sigma_theta,
+            seed=s.seed,
+            phi=s.phi,
+            perturbation=s.perturbation,
+            max_attempts=10,
+            progress=progress,
+            executor=executor,
+        )
+    finally:
+        if own_pool is not None:
+            own_pool.shutdown()
+
+    # checks ----------------------------------------------------------------------------
+    med = np.array([mc.medians for mc in table1])  # (3, 3)
+    paper_med = np.array([[c[0] for c in row] for row in PAPER_TABLE1])
+    rel = np.abs(med / paper_med - 1.0)
+    F = np.array(table2)
+    checks = {
+        "optimal median below both non-optimal on every target": bool(
+            np.all(med[:, 0] < med[:, 1:].min(axis=1))
+        ),
+        f"every median within {s.median_tolerance:.0%} of the paper": bool(
+            np.all(rel <= s.median_tolerance)
+        ),
+        "optimal pose has the lowest F factor on every target": bool(
+            np.all(F[:, 0] < F[:, 1:].min(axis=1))
+        ),
+        f"regression r^2 >= {s.r2_min}": bool(
+            study.regression is not None and study.regression.r2 >= s.r2_min
+        ),
+    }
+
+    # 5. figures and files --------------------------------------------------------------
+    files: list[Path] = []
+    fig_bar = bar(range(len(tp)), desc="figures", unit="target")
+    for i in fig_bar:
+        p = tp[i]
+        labels = list(_POSE_NAMES[: len(p.poses)])  # the figures append FN / median
+        f1 = out / f"poses_target{i + 1}.png"
+        figures.plot_pose_diagram(
+            stack, p.poses, s.phi, labels, title=f"Target {i + 1}: {_fmt_target(p.target)}",
+            path=f1,
+        )  # fmt: skip
+        f2 = out / f"clouds_target{i + 1}.png"
+        figures.plot_perturbation_clouds(
+            table1[i],
+            labels,
+            title=(
+                f"Target {i + 1}: end-effector perturbations, {s.t1_samples} samples, "
+                f"sigma_t = {s.t1_sigma_t:g} mm, sigma_theta = {s.t1_sigma_theta:g} rad"
+            ),
+            path=f2,
+        )
+        files += [f1, f2]
+    figures.plot_fn_ratio_map(
+        study, highlight=[(t.rho, t.z) for t in targets], path=out / "fn_ratio_map.png"
+    )
+    files.append(out / "fn_ratio_map.png")
+    figures.plot_regression(study, path=out / "regression.png")
+    files.append(out / "regression.png")
+    figures.plot_spatial_pose(
+        stack,
+        tp[0].optimal.q,
+        phi=s.phi,
+        title=f"Optimal pose of target 1 in 3D ({_fmt_target(tp[0].target)})",
+        path=out / "pose3d_target1.png",
+    )
+    files.append(out / "pose3d_target1.png")
+
+    t1_rows = []
+    for i, (p, mc) in enumerate(zip(tp, table1, strict=True)):
+        for j, pm in enumerate(mc.poses):
+            pm_paper = PAPER_TABLE1[i][j]
+            t1_rows.append(
+                {
+                    "target": i + 1,
+                    "rho": p.target.rho,
+                    "z": p.target.z,
+                    "theta": p.target.theta,
+                    "pose": _POSE_NAMES[j],
+                    "fn": ([p.optimal, *p.nonoptimal])[j].frobenius_norm,
+                    "median_mm": pm.median,
+                    "p2.5_mm": pm.interval[0],
+                    "p97.5_mm": pm.interval[1],
+                    "paper_median_mm": pm_paper[0],
+                    "paper_p2.5_mm": pm_paper[1],
+                    "paper_p97.5_mm": pm_paper[2],
+                    "median_rel_diff": pm.median / pm_paper[0] - 1.0,
+                    "F_small_sigma": linearity_check(mc)[j].F,
+                }
+            )
+    files.append(_write_csv(out / "table1.csv", t1_rows))
+    t2_rows = [
+        {
+            "target": i + 1,
+            "pose": _POSE_NAMES[j],
+            "F": table2[i][j],
+            "paper_F": PAPER_TABLE2[i][j],
+        }
+        for i in range(len(tp))
+        for j in range(len(table2[i]))
+    ]
+    files.append(_write_csv(out / "table2.csv", t2_rows))
+    files.append(_write_csv(out / "workspace.csv", study.rows()))
+
+    elapsed = time.perf_counter() - t_start
+    result = ReproduceResult(
+        settings=s,
+        out_dir=out,
+        targets=tp,
+        table1=table1,
+        table2=table2,
+        study=study,
+        checks=checks,
+        files=tuple(files),
+        elapsed=elapsed,
+    )
+    payload = {
+        "settings": asdict(s),
+        "geometry": stack.to_dict(),
+        "targets": [
+            {
+                "target": asdict(p.target),
+                "optimal": p.optimal.to_dict(),
+                "nonoptimal": [r.to_dict() for r in p.nonoptimal],
+                "table1": mc.summary(),
+                "table2_F": list(table2[i]),
+                "paper_table1": PAPER_TABLE1[i],
+                "paper_table2": PAPER_TABLE2[i],
+            }
+            for i, (p, mc) in enumerate(zip(tp, table1, strict=True))
+        ],
+        "regression": None if study.regression is None else study.regression.to_dict(),
+        "paper_regression": PAPER_REGRESSION,
+        "workspace": {"n_targets": len(study.targets), "n_valid": int(study.valid.sum())},
+        "checks": checks,
+        "elapsed_s": elapsed,
+    }
+    (out / "results.json").write_text(json.dumps(payload, indent=2, default=_json_default))
+    files.append(out / "results.json")
+    report = _report(result)
+    (out / "report.md").write_text(report)
+    files.append(out / "report.md")
+    return replace(result, files=tuple(files))
+
+
+def _report(r: ReproduceResult) -> str:
+    s = r.settings
+    L: list[str] = []
+    L.append("# stackik: reproduction of the paper's numerical results\n")
+    L.append(
+        f"Reference geometry (DESIGN §2; chosen, the paper does not publish its own), "
+        f"n = {s.n} platforms, phi = {s.phi:g} rad, base seed {s.seed}"
+        + (" — **quick mode** (reduced sample sizes, not the paper's)" if s.quick else "")
+        + f". Run time {r.elapsed:.1f} s.\n"
+    )
+    L.append(
+        'Optimal pose: `solve_ik(objective="frobenius")`. Non-optimal poses: the first two '
+        'successful `solve_ik(objective="feasible")` runs started from the paper\'s initial '
+        f"guess plus N(0, {s.perturbation}) [mm, mm, rad] drawn from "
+        f"`default_rng({s.seed + 1})`, in draw order.\n"
+    )
+    L.append("## Checks\n")
+    for k, v in r.checks.items():
+        L.append(f"- [{'x' if v else ' '}] {k}")
+    L.append("")
+    # Table 1
+    L.append(
+        f"## Table 1: median end-effector displacement [mm] and 95 % interval\n\n"
+        f"{s.t1_samples} samples, sigma_t = {s.t1_sigma_t:g} mm, "
+        f"sigma_theta = {s.t1_sigma_theta:g} rad, the same draws for the three poses of a "
+        "target. Each cell: stackik / paper (relative difference of the medians).\n"
+    )
+    L.append("| Target | " + " | ".join(_POSE_NAMES) + " |")
+    L.append("|---|---|---|---|")
+    for i, (p, mc) in enumerate(zip(r.targets, r.table1, strict=True)):
+        cells = []
+        for j, pm in enumerate(mc.poses):
+            pp = PAPER_TABLE1[i][j]
+            cells.append(
+                f"{pm.median:.2f} [{pm.interval[0]:.2f}, {pm.interval[1]:.2f}] / "
+                f"{pp[0]:.2f} [{pp[1]:g}, {pp[2]:g}] ({pm.median / pp[0] - 1:+.1%})"
+            )
+        L.append(f"| {i + 1}: {_fmt_target(p.target)} | " + " | ".join(cells) + " |")
+    L.append("\nFrobenius norms of the poses:\n")
+    L.append("| Target | " + " | ".join(_POSE_NAMES) + " |")
+    L.append("|---|---|---|---|")
+    for i, p in enumerate(r.targets):
+        fns = [p.optimal.frobenius_norm] + [x.frobenius_norm for x in p.nonoptimal]
+        L.append(f"| {i + 1} | " + " | ".join(f"{v:.1f}" for v in fns) + " |")
+    # Table 2
+    L.append(
+        f"\n## Table 2: F factor at high noise\n\n{s.t2_samples} samples, "
+        f"sigma_t = {s.t2_sigma_t:g} mm, sigma_theta = {s.t2_sigma_theta:g} rad; "
+        "F = sum|C_est - C_obs| / sum|C_obs| over the (rho, z) covariance, "
+        "C_est = J C_x J^T. Each cell: stackik / paper.\n"
+    )
+    L.append("| Target | " + " | ".join(_POSE_NAMES) + " |")
+    L.append("|---|---|---|---|")
+    for i, row in enumerate(r.table2):
+        L.append(
+            f"| {i + 1} | "
+            + " | ".join(f"{v:.0%} / {PAPER_TABLE2[i][j]:.0%}" for j, v in enumerate(row))
+            + " |"
+        )
+    # Regression
+    st = r.study
+    reg = st.regression
+    L.append("\n## Workspace study and regression\n")
+    L.append(
+        f"{len(st.targets)} reachable targets, the forward kinematics of random feasible "
+        f"poses (seed {s.seed}); {int(st.valid.sum())} with both an optimal and a "
+        "non-optimal pose (the first successful feasible run from a perturbed paper start). "
+        f"Monte Carlo: {st.n_samples} samples, sigma_t = {st.sigma_t:g} mm, "
+        f"sigma_theta = {st.sigma_theta:g} rad.\n"
+    )
+    if reg is not None:
+        L.append(
+            f"Median-displacement ratio = {reg.slope:.3f} x FN ratio + {reg.intercept:.3f}, "
+            f"r^2 = {reg.r2:.3f} (n = {reg.n}); paper: slope {PAPER_REGRESSION['slope']}, "
+            f"r^2 {PAPER_REGRESSION['r2']}.\n"
+        )
+        fr = st.fn_ratio[st.valid]
+        mr = st.median_ratio[st.valid]
+        L.append(
+            f"FN ratio range {fr.min():.3f}-{fr.max():.3f} (median {np.median(fr):.3f}); "
+            f"median-displacement ratio range {mr.min():.3f}-{mr.max():.3f}.\n"
+        )
+    # Figures
+    L.append("## Figures\n")
+    for i, p in enumerate(r.targets):
+        L.append(
+            f"![poses target {i + 1}](poses_target{i + 1}.png)\n\n"
+            f"*Target {i + 1} ({_fmt_target(p.target)}): the optimal pose (least FN) and "
+            "the two non-optimal poses in the (rho, z) plane. Thick segments: plates (black: "
+            "base), thin lines: the six legs projected on the plane, dotted: plate centres, "
+            "red star and arrow: end effector and its normal.*\n"
+        )
+        L.append(
+            f"![clouds target {i + 1}](clouds_target{i + 1}.png)\n\n"
+            f"*Target {i + 1}: end-effector displacement (delta rho, delta z) of every Monte "
+            "Carlo sample (Table 1 noise; first 5000 drawn) with the 95 % confidence ellipse "
+            "(red, chi-square 2 dof quantile 5.991); panel titles give the median "
+            "displacement and its 95 % interval.*\n"
+        )
+    L.append(
+        "![FN ratio map](fn_ratio_map.png)\n\n*Workspace targets in the (rho, z) plane "
+        "coloured by FN_opt / FN_non (lower: the optimisation gained more); grey crosses: "
+        "a solve failed; black stars: the paper's three targets.*\n"
+    )
+    L.append(
+        "![regression](regression.png)\n\n*Median-displacement ratio against FN ratio "
+        "(optimal / non-optimal) over the workspace targets with the least-squares line.*\n"
+    )
+    L.append(
+        "![3D pose](pose3d_target1.png)\n\n*The optimal pose of target 1 drawn in 3D: "
+        "hexagonal plates, the six legs of each platform (one colour per platform), plate "
+        "frames (x red, y green, z blue), end effector (star).*\n"
+    )
+    L.append(
+        "Files: `table1.csv`, `table2.csv`, `workspace.csv` (one row per target), "
+        "`results.json` (poses, statistics, checks).\n"
+    )
+    return "\n".join(L)
+
+
+# =========================================================================================
+# Command-line entry points (called by stackik.cli)
+# =========================================================================================
+def main_reproduce(
+    out: str | Path,
+    quick: bool = False,
+    progress: bool = True,
+    seed: int = DEFAULT_SEED,
+    workers: int = 1,
+    strict: bool = False,
+) -> int:
+    """``stackik reproduce --out DIR [--quick] [--seed S] [--workers W] [--strict]``.
+
+    Writes the report into ``out`` and prints a summary. Returns 0, or 1 with ``strict``
+    when a done-when check failed.
+    """
+    settings = (
+        ReproduceSettings.quick_settings(seed=seed, workers=workers)
+        if quick
+        else ReproduceSettings(seed=seed, workers=workers)
+    )
+    res = reproduce(out, progress=progress, settings=settings)
+    print(f"report: {Path(out) / 'report.md'}  ({res.elapsed:.1f} s)")
+    for i, mc in enumerate(res.table1):
+        meds = " / ".join(f"{m:.2f}" for m in mc.medians)
+        paper = " / ".join(f"{c[0]:.2f}" for c in PAPER_TABLE1[i])
+        F = " / ".join(f"{v:.0%}" for v in res.table2[i])
+        print(f"target {i + 1}: medians {meds} mm (paper {paper}); F {F}")
+    reg = res.study.regression
+    if reg is not None:
+        print(f"regression: slope {reg.slope:.3f}, intercept {reg.intercept:.3f}, r^2 {reg.r2:.3f}")
+    for k, v in res.checks.items():
+        print(f"[{'PASS' if v else 'FAIL'}] {k}")
+    return 1 if (strict and not res.ok) else 0
+
+
+def main_mc(
+    rho: float,
+    z: float,
+    theta: float,
+    phi: float = 0.0,
+    n: int = 4,
+    n_samples: int = 10_000,
+    sigma_t: float = 1.0,
+    sigma_theta: float = 0.005,
+    n_nonopt: int = 2,
+    seed: int = DEFAULT_SEED,
+    out: str | Path | None = None,
+    stack_file: str | Path | None = None,
+) -> int:
+    """``stackik mc RHO Z THETA [--phi] [--n] [--samples] [--sigma-t] [--sigma-theta]
+    [--nonopt K] [--seed] [--out DIR] [--stack FILE]``.
+
+    Solves the optimal and ``n_nonopt`` non-optimal poses of one planar target, runs the
+    Monte Carlo with common draws, prints median [95 % interval] and F factor per pose and,
+    with ``out``, writes ``mc.json``, ``poses.png`` and ``clouds.png``. Returns 0, or 2 if
+    the poses cannot be found.
+    """
+    from stackik.analysis import figures
+    from stackik.ik import PlanarTarget
+
+    stack = Stack.from_file(stack_file) if stack_file else Stack.reference(n)
+    target = PlanarTarget(rho=rho, z=z, theta=theta, phi=phi)
+    try:
+        tp = target_poses(stack, target, n_nonopt, seed + 1)
+    except RuntimeError as exc:
+        print(f"error: {exc}")
+        return 2
+    mc = monte_carlo(tp.poses, n_samples, sigma_t, sigma_theta, rng=seed + 10)
+    lin = linearity_check(mc)
+    names = ["optimal"] + [f"non-opt {i + 1}" for i in range(len(tp.nonoptimal))]
+    fns = [tp.optimal.frobenius_norm] + [r.frobenius_norm for r in tp.nonoptimal]
+    print(f"target {_fmt_target(target)}, phi = {phi:g} rad; {n_samples} samples")
+    for name, fn, pm, c in zip(names, fns, mc.poses, lin, strict=True):
+        print(
+            f"{name:>10}: FN {fn:8.1f}  median {pm.median:.3f} mm "
+            f"[{pm.interval[0]:.3f}, {pm.interval[1]:.3f}]  F {c.F:.1%}"
+        )
+    if out is not None:
+        o = Path(out)
+        o.mkdir(parents=True, exist_ok=True)
+        data = {
+            "target": asdict(target),
+            "poses": [r.to_dict() for r in [tp.optimal, *tp.nonoptimal]],
+            "monte_carlo": mc.summary(),
+            "F": [c.F for c in lin],
+        }
+        (o / "mc.json").write_text(json.dumps(data, indent=2, default=_json_default))
+        figures.plot_pose_diagram(stack, tp.poses, phi, names, path=o / "poses.png")
+        figures.plot_perturbation_clouds(mc, names, path=o / "clouds.png")
+        print(f"wrote {o / 'mc.json'}, {o / 'poses.png'}, {o / 'clouds.png'}")
+    return 0
+
+
+def main_map(
+    out: str | Path,
+    n_targets: int = 150,
+    n: int = 4,
+    phi: float = 0.0,
+    n_samples: int = 10_000,
+    sigma_t: float = 1.0,
+    sigma_theta: float = 0.005,
+    seed: int = DEFAULT_SEED,
+    workers: int = 1,
+    progress: bool = True,
+    stack_file: str | Path | None = None,
+) -> int:
+    """``stackik map --out DIR [--targets M] [--n] [--phi] [--samples] [--sigma-t]
+    [--sigma-theta] [--seed] [--workers] [--stack FILE]``.
+
+    Workspace study: writes ``workspace.csv``, ``regression.json``, ``fn_ratio_map.png``
+    and ``regression.png`` into ``out`` and prints the regression. Returns 0, or 2 when
+    fewer than 3 targets were solved.
+    """
+    from stackik.analysis import figures
+
+    stack = Stack.from_file(stack_file) if stack_file else Stack.reference(n)
+    o = Path(out)
+    o.mkdir(parents=True, exist_ok=True)
+    pool = ProcessPoolExecutor(max_workers=workers) if workers > 1 else None
+    try:
+        study = workspace_study(
+            stack,
+            n_targets,
+            n_samples=n_samples,
+            sigma_t=sigma_t,
+            sigma_theta=sigma_theta,
+            seed=seed,
+            phi=phi,
+            progress=progress,
+            executor=pool,
+        )
+    finally:
+        if pool is not None:
+            pool.shutdown()
+    _write_csv(o / "workspace.csv", study.rows())
+    figures.plot_fn_ratio_map(study, path=o / "fn_ratio_map.png")
+    figures.plot_regression(study, path=o / "regression.png")
+    reg = study.regression
+    (o / "regression.json").write_text(
+        json.dumps(None if reg is None else reg.to_dict(), indent=2, default=_json_default)
+    )
+    print(f"{int(study.valid.sum())}/{len(study.targets)} targets solved")
+    if reg is None:
+        return 2
+    print(f"median ratio = {reg.slope:.3f} x FN ratio + {reg.intercept:.3f}, r^2 = {reg.r2:.3f}")
+    print(f"wrote {o}")
+    return 0 if math.isfinite(reg.r2) else 2
