@@ -215,9 +215,9 @@ class _Engine:
     def _max_violation_unscaled(self, cE: FloatArray, cI: FloatArray) -> float:
         v = 0.0
         if cE.size:
-            v = float(np.max(np.abs(cE) / self.wE))
+            v = float((np.abs(cE) / self.wE).max())
         if cI.size:
-            v = max(v, float(np.max(-cI / self.wI)))
+            v = max(v, float((-cI / self.wI).max()))
         return max(v, 0.0)
 
     def _kkt(self, lamE: FloatArray, lamI: FloatArray) -> tuple[float, float]:
@@ -233,8 +233,8 @@ class _Engine:
         sd = 1.0
         if m:
             sd = max(KKT_S_MAX, (np.abs(lamE).sum() + np.abs(lamI).sum()) / m) / KKT_S_MAX
-        stat = float(np.max(np.abs(r))) / sd if r.size else 0.0
-        compl = float(np.max(np.abs(lamI * self.cI))) / sd if lamI.size else 0.0
+        stat = float(np.abs(r).max()) / sd if r.size else 0.0
+        compl = float(np.abs(lamI * self.cI).max()) / sd if lamI.size else 0.0
         return stat, compl
 
     # ------------------------------------------------------------------ Hessian -------

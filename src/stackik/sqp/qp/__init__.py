@@ -8,6 +8,7 @@ solver known to :mod:`qpsolvers`, by ``"qpsolvers:NAME"`` or plain ``NAME``
 
 from __future__ import annotations
 
+import functools
 import importlib
 from collections.abc import Callable
 from typing import Any
@@ -54,6 +55,13 @@ def _qpsolvers_names() -> list[str]:
     return available()
 
 
+@functools.cache
+def _available() -> tuple[str, ...]:
+    names = [name for name in _NATIVE if _native_factory(name) is not None]
+    names += [f"qpsolvers:{s}" for s in _qpsolvers_names()]
+    return tuple(names)
+
+
 def available_qp_solvers() -> list[str]:
     """Names accepted by ``solve(..., qp_solver=NAME)`` in this environment.
 
@@ -62,9 +70,7 @@ def available_qp_solvers() -> list[str]:
     list of str
         Native backends first (fastest first), then ``"qpsolvers:NAME"`` entries.
     """
-    names = [name for name in _NATIVE if _native_factory(name) is not None]
-    names += [f"qpsolvers:{s}" for s in _qpsolvers_names()]
-    return names
+    return list(_available())
 
 
 def default_qp_solver() -> str:
@@ -99,7 +105,7 @@ def make_backend(name: str, options: dict[str, Any] | None = None) -> QPBackend:
         if factory is not None:
             return factory(options)
     sub = key.split(":", 1)[1] if key.startswith("qpsolvers:") else key
-    if sub in _qpsolvers_names():
+    if f"qpsolvers:{sub}" in _available():
         from .qpsolvers_ import QPSolversBackend
 
         return QPSolversBackend(sub, options)
