@@ -107,8 +107,8 @@ class ReproduceSettings:
     t2_samples: int = 100_000
     t2_sigma_t: float = 100.0
     t2_sigma_theta: float = 0.5
-    n_targets: int = 150
-    map_samples: int = 10_000
+    n_targets: int = 300
+    map_samples: int = 50_000
     perturbation: tuple[float, float, float] = DEFAULT_PERTURBATION
     max_attempts: int = 20
     workers: int = 1
@@ -662,7 +662,7 @@ def main_mc(
 
 def main_map(
     out: str | Path,
-    n_targets: int = 150,
+    n_targets: int = 300,
     n: int = 4,
     phi: float = 0.0,
     n_samples: int = 10_000,
