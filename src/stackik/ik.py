@@ -73,7 +73,7 @@ TARGET_ANGLE_TOL = 1e-8  # [rad] largest accepted end-effector orientation error
 FEAS_TOL = 1e-6  # [mm] accepted violation of a limit, as a length (see check_pose)
 
 OBJECTIVES = ("frobenius", "feasible", "weighted")
-METHODS = ("sqp", "slsqp", "trust-constr")
+METHODS = ("sqp", "slsqp", "trust-constr", "ipopt")
 
 
 # =========================================================================================
@@ -919,6 +919,10 @@ def _solve_from(
     u0 = prob.u_of(q0)
     if method == "sqp":
         u, nit, status = _run_sqp(prob, u0, qp_solver, options)
+    elif method == "ipopt":
+        from stackik.ipopt_ import run_ipopt
+
+        u, nit, status = run_ipopt(prob, u0, options)
     else:
         u, nit, status = _run_scipy(prob, u0, method, options)
     if not np.all(np.isfinite(u)):
@@ -948,7 +952,7 @@ def solve_ik(
     target: Target,
     *,
     objective: Literal["frobenius", "feasible", "weighted"] = "frobenius",
-    method: Literal["sqp", "slsqp", "trust-constr"] = "sqp",
+    method: Literal["sqp", "slsqp", "trust-constr", "ipopt"] = "sqp",
     qp_solver: str | None = None,
     x0: ArrayLike | None = None,
     starts: int | None = None,
@@ -971,8 +975,10 @@ def solve_ik(
         target within the limits (the paper's non-optimised pose: the first feasible pose
         the solver reaches from its start); ``"weighted"`` minimises ``trace(J C_x J^T)``
         with ``C_x = diag(sigma_t^2, ..., sigma_theta^2)`` (per platform if arrays).
-    method : {"sqp", "slsqp", "trust-constr"}
-        stackik's SQP engine, or a scipy baseline given the same scaled derivatives.
+    method : {"sqp", "slsqp", "trust-constr", "ipopt"}
+        stackik's SQP engine, a scipy baseline given the same scaled derivatives, or IPOPT
+        through CasADi (planar only; optional extra ``stackik[ipopt]``) with exact
+        derivatives by automatic differentiation.
     qp_solver : str, optional
         QP backend of the SQP engine (default: its fastest installed one).
     x0 : array_like, optional
