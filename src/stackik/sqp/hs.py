@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -49,14 +50,15 @@ class HSProblem:
 
 PROBLEMS: dict[int, HSProblem] = {}
 
-_Fn = Callable[[FloatArray], FloatArray]
+#: Test-problem callables return array-likes (lists or arrays); ``_reg`` converts them.
+_Fn = Callable[[FloatArray], Any]
 
 
 def _reg(
     number: int,
     x0: list[float],
     f_star: float,
-    f: Callable[[FloatArray], float],
+    f: Callable[[FloatArray], Any],
     g: _Fn,
     ce: _Fn | None = None,
     je: _Fn | None = None,
@@ -64,7 +66,7 @@ def _reg(
     ji: _Fn | None = None,
     lower: list[float] | None = None,
     upper: list[float] | None = None,
-    hess: Callable[[FloatArray, FloatArray, FloatArray], FloatArray] | None = None,
+    hess: Callable[[FloatArray, FloatArray, FloatArray], Any] | None = None,
 ) -> None:
     def arr(fn: _Fn | None) -> _Fn | None:
         if fn is None:

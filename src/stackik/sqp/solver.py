@@ -126,7 +126,28 @@ class _Engine:
                 "SQPOptions.hessian='gauss-newton' needs NonlinearProgram.gauss_newton"
             )
         self.strategy = strategy
-        self.x = np.clip(np.asarray(x0, dtype=float), lower, upper)
+        self.x: FloatArray = np.clip(np.asarray(x0, dtype=float), lower, upper)
+        # Iteration state, set in run() once the dimensions and scaling are known.
+        self.mE = 0
+        self.mI = 0
+        self.sf = 1.0
+        self.wE: FloatArray = np.ones(0)
+        self.wI: FloatArray = np.ones(0)
+        self.f = 0.0
+        self.cE: FloatArray = np.zeros(0)
+        self.cI: FloatArray = np.zeros(0)
+        self.g: FloatArray = np.zeros(n)
+        self.JE: FloatArray = np.zeros((0, n))
+        self.JI: FloatArray = np.zeros((0, n))
+        self.negJI: FloatArray = np.zeros((0, n))
+        self.B: FloatArray = np.eye(n)
+        self.bfgs_first = True
+        self.v = 0.0
+        self.nu = NU_INIT
+        self.any_bounds = False
+        self.bound_tol: FloatArray = np.zeros(n)
+        self.ctol_scaled = 0.0
+        self.last_qp_info = ""
 
     # ---------------------------------------------------------------- evaluation -----
     def _eval_full(self, x: FloatArray) -> Evaluation:
@@ -152,6 +173,9 @@ class _Engine:
         nlp = self.nlp
         n, mE, mI = self.n, self.mE, self.mI
         t = time.perf_counter()
+        g: Any
+        JE: Any
+        JI: Any
         if ev is not None:
             g, JE, JI = ev.g, ev.J_eq, ev.J_ineq
         else:
