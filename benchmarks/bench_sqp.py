@@ -1,12 +1,14 @@
 """Benchmark of stackik.sqp on the Hock-Schittkowski set against scipy SLSQP and trust-constr.
 
-Run: ``python benchmarks/bench_sqp.py``.  Writes ``benchmarks/results/sqp_hs.{csv,json,md}``.
+Run: ``python benchmarks/bench_sqp.py``.  Writes ``benchmarks/results/sqp_hs.{csv,json,md}``
+(``--out DIR`` elsewhere; ``--methods stackik/daqp,scipy/SLSQP`` runs a subset).
 A run counts as solved when the method reports success and reaches the published optimum
 to 1e-5 relative (1e-6 absolute when ``f* = 0``).
 """
 
 from __future__ import annotations
 
+import argparse
 import csv
 import datetime as dt
 import json
@@ -15,6 +17,7 @@ import statistics
 import time
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy.optimize import Bounds, NonlinearConstraint, minimize
@@ -64,7 +67,7 @@ def _scipy(p: HSProblem, method: str) -> tuple[bool, float, int]:
     if nlp.eq is not None:
         viol = max(viol, float(np.max(np.abs(nlp.eq(res.x)))))
     if nlp.ineq is not None:
-        viol = max(viol, float(np.max(-nlp.ineq(res.x), initial=0.0)))
+        viol = max(viol, float(np.max(-np.asarray(nlp.ineq(res.x)), initial=0.0)))
     success = bool(res.success) and viol <= 1e-6
     return success and _ok(float(res.fun), p.f_star), float(res.fun), int(res.nit)
 
@@ -75,6 +78,11 @@ def _stackik(p: HSProblem, solver: str) -> tuple[bool, float, int]:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description="stackik.sqp Hock-Schittkowski benchmark")
+    parser.add_argument("--out", type=Path, default=RESULTS, help="output directory")
+    parser.add_argument("--methods", default="", help="comma-separated subset of methods")
+    parser.add_argument("--repeats", type=int, default=REPEATS)
+    args = parser.parse_args()
     methods = {
         "stackik/daqp": lambda p: _stackik(p, "daqp"),
         "stackik/osqp": lambda p: _stackik(p, "osqp"),
@@ -82,11 +90,19 @@ def main() -> None:
         "scipy/SLSQP": lambda p: _scipy(p, "SLSQP"),
         "scipy/trust-constr": lambda p: _scipy(p, "trust-constr"),
     }
-    rows = []
+    if args.methods:
+        wanted = [m.strip() for m in args.methods.split(",") if m.strip()]
+        unknown = sorted(set(wanted) - set(methods))
+        if unknown:
+            parser.error(f"unknown methods {unknown}; known: {sorted(methods)}")
+        methods = {m: methods[m] for m in wanted}
+    out: Path = args.out
+    repeats: int = args.repeats
+    rows: list[dict[str, Any]] = []
     for name, fn in methods.items():
         for num, p in sorted(PROBLEMS.items()):
             times = []
-            for _ in range(REPEATS):
+            for _ in range(repeats):
                 t = time.perf_counter()
                 ok, fun, nit = fn(p)
                 times.append(time.perf_counter() - t)
@@ -113,8 +129,8 @@ def main() -> None:
                 "median_time_ms": 1e3 * statistics.median(r["time_s"] for r in rs),
             }
         )
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    with open(RESULTS / "sqp_hs.csv", "w", newline="") as fh:
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "sqp_hs.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
@@ -122,14 +138,14 @@ def main() -> None:
         f"{platform.machine()} {platform.processor() or ''} Python {platform.python_version()}"
     )
     date = dt.datetime.now().isoformat(timespec="seconds")
-    (RESULTS / "sqp_hs.json").write_text(
+    (out / "sqp_hs.json").write_text(
         json.dumps({"machine": machine, "date": date, "summary": summary, "runs": rows}, indent=1)
     )
     lines = [
         "# stackik.sqp on Hock-Schittkowski problems",
         "",
         f"Machine: {machine} ({platform.node()}); date: {date}; "
-        f"best of {REPEATS} runs per problem.",
+        f"best of {repeats} runs per problem.",
         "",
         "| method | solved | median iterations | median time per solve [ms] |",
         "|---|---|---|---|",
@@ -140,7 +156,7 @@ def main() -> None:
             f"{s['median_time_ms']:.3f} |"
         )
     text = "\n".join(lines) + "\n"
-    (RESULTS / "sqp_hs.md").write_text(text)
+    (out / "sqp_hs.md").write_text(text)
     print(text)
 
 
