@@ -1,0 +1,351 @@
+"""Solver-comparison benchmark (``stackik bench``): every method on one fixed target set.
+
+Sections, all measured in the same run:
+
+1. **planar n = 4**: the paper's three targets plus random reachable targets (forward
+   kinematics of random feasible poses, fixed seed, several phi). Methods: stackik's
+   default (SQP, three structured starts), the SQP engine with each QP backend, one-start
+   SQP, SciPy SLSQP and trust-constr (same scaled analytic derivatives) and IPOPT through
+   CasADi (exact AD derivatives) from the paper's initial guess, and a "best global
+   effort": IPOPT from eight starts. FN gap is relative to the best FN any method found.
+2. **scaling** in n (4 ... 64) with the fitted exponent of median time vs n.
+3. **spatial** n = 4 (6 DOF per platform).
+
+Each solve's success is the independent :func:`stackik.check_pose`. Results are written
+as CSV (one row per solve), JSON (summary) and Markdown (tables with machine and date).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import platform
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from stackik.geometry import Stack
+from stackik.ik import PlanarTarget, SpatialTarget, solve_ik
+
+__all__ = ["BenchConfig", "main", "run_benchmark"]
+
+PAPER_TARGETS = [(600.0, 1000.0, -1.57), (145.0, 1500.0, -0.207), (-319.0, 1532.0, 0.332)]
+
+
+@dataclass(frozen=True)
+class Method:
+    """One benchmarked configuration of :func:`solve_ik`."""
+
+    label: str
+    kwargs: dict[str, Any]
+    max_targets: int | None = None  # slow baselines run on the first targets only
+
+
+@dataclass
+class BenchConfig:
+    """What to run (defaults: the full benchmark; ``quick()`` for a smoke test)."""
+
+    n_random: int = 200
+    phis: tuple[float, ...] = (0.0, 0.8, -2.1)
+    sizes: tuple[int, ...] = (4, 8, 16, 32, 64)
+    per_size: int = 5
+    n_spatial: int = 30
+    rng: int = 0
+    trust_constr_targets: int = 20
+    ipopt: bool = True
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def quick(cls) -> BenchConfig:
+        return cls(n_random=6, sizes=(4, 8), per_size=2, n_spatial=2, trust_constr_targets=2)
+
+
+def _machine() -> dict[str, Any]:
+    import scipy
+
+    info = {
+        "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "cpus": os.cpu_count(),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+    }
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    info["cpu"] = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return info
+
+
+def _ipopt_ok() -> bool:
+    from stackik.ipopt_ import ipopt_available
+
+    return ipopt_available()
+
+
+def _planar_methods(cfg: BenchConfig) -> list[Method]:
+    from stackik.sqp.qp import available_qp_solvers
+
+    avail = set(available_qp_solvers())
+    ms = [Method("stackik (default)", {})]
+    for qp in ("osqp", "clarabel"):
+        if qp in avail:
+            ms.append(Method(f"sqp/{qp}", {"qp_solver": qp}))
+    ms.append(Method("sqp, 1 start", {"starts": 1}))
+    ms.append(Method("slsqp, 1 start", {"method": "slsqp", "starts": 1}))
+    ms.append(
+        Method(
+            "trust-constr, 1 start",
+            {"method": "trust-constr", "starts": 1, "options": {"maxiter": 300}},
+            max_targets=cfg.trust_constr_targets,
+        )
+    )
+    if cfg.ipopt and _ipopt_ok():
+        ms.append(Method("ipopt, 1 start", {"method": "ipopt", "starts": 1}))
+        ms.append(Method("ipopt, 8 starts", {"method": "ipopt", "starts": 8, "rng": 0}))
+    return ms
+
+
+def _targets(stack: Stack, cfg: BenchConfig, count: int, seed: int) -> list[PlanarTarget]:
+    from stackik.analysis.workspace import random_reachable_targets
+
+    out: list[PlanarTarget] = []
+    per = [count // len(cfg.phis) + (i < count % len(cfg.phis)) for i in range(len(cfg.phis))]
+    for i, (phi, k) in enumerate(zip(cfg.phis, per, strict=True)):
+        if k:
+            out += list(random_reachable_targets(stack, k, rng=seed + i, phi=phi))
+    return out
+
+
+def _spatial_targets(stack: Stack, count: int, seed: int) -> list[SpatialTarget]:
+    from stackik.kinematics import spatial_forward
+
+    gen = np.random.default_rng(seed)
+    out: list[SpatialTarget] = []
+    n = stack.n
+    while len(out) < count:
+        q = np.column_stack(
+            [
+                gen.uniform(-60, 60, (n, 2)),
+                gen.uniform(260, 420, n),
+                gen.uniform(-0.25, 0.25, (n, 3)),
+            ]
+        )
+        if stack.spatial_constraints(q).min() >= 0:
+            P, R = spatial_forward(q)
+            out.append(SpatialTarget(P, R))
+    return out
+
+
+def _run(stack: Stack, targets: Sequence[Any], method: Method, section: str) -> list[dict]:
+    rows = []
+    k = len(targets) if method.max_targets is None else min(len(targets), method.max_targets)
+    for i, t in enumerate(targets[:k]):
+        t0 = time.perf_counter()
+        r = solve_ik(stack, t, **method.kwargs)
+        dt = time.perf_counter() - t0
+        rows.append(
+            {
+                "section": section,
+                "n": stack.n,
+                "target": i,
+                "method": method.label,
+                "success": bool(r.success),
+                "status": r.status.value,
+                "fn": r.frobenius_norm if r.success else float("nan"),
+                "time_s": dt,
+                "nit": r.nit,
+                "starts": r.n_starts,
+            }
+        )
+    return rows
+
+
+def _summarise(rows: list[dict], key: tuple[str, ...] = ("section", "n", "method")) -> list[dict]:
+    best: dict[tuple[Any, ...], float] = {}
+    for r in rows:
+        k = (r["section"], r["n"], r["target"])
+        if r["success"]:
+            best[k] = min(best.get(k, np.inf), r["fn"])
+    groups: dict[tuple[Any, ...], list[dict]] = {}
+    for r in rows:
+        groups.setdefault(tuple(r[x] for x in key), []).append(r)
+    out = []
+    for g, rs in groups.items():
+        t = np.array([r["time_s"] for r in rs])
+        gaps = np.array(
+            [
+                r["fn"] / best[(r["section"], r["n"], r["target"])] - 1.0
+                if r["success"]
+                else np.inf
+                for r in rs
+            ]
+        )
+        out.append(
+            {
+                **dict(zip(key, g, strict=True)),
+                "targets": len(rs),
+                "success_rate": float(np.mean([r["success"] for r in rs])),
+                "within_0.1%": float(np.mean(gaps <= 1e-3)),
+                "median_gap_%": float(np.median(gaps) * 100) if np.isfinite(gaps).any() else None,
+                "max_gap_%": float(np.max(gaps[np.isfinite(gaps)]) * 100)
+                if np.isfinite(gaps).any()
+                else None,
+                "median_ms": float(np.median(t) * 1e3),
+                "p90_ms": float(np.quantile(t, 0.9) * 1e3),
+                "median_nit": float(np.median([r["nit"] for r in rs])),
+            }
+        )
+    return out
+
+
+def _md_table(summary: list[dict], cols: Sequence[str]) -> str:
+    def fmt(v: Any) -> str:
+        if isinstance(v, float):
+            return f"{v:.3g}" if abs(v) < 1e4 else f"{v:.0f}"
+        return "-" if v is None else str(v)
+
+    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    lines += ["| " + " | ".join(fmt(s.get(c)) for c in cols) + " |" for s in summary]
+    return "\n".join(lines)
+
+
+def run_benchmark(cfg: BenchConfig, out: Path, progress: bool = True) -> dict[str, Any]:
+    """Run every section, write ``ik_bench.{csv,json,md}`` to ``out``; return the summary."""
+    out.mkdir(parents=True, exist_ok=True)
+    rows: list[dict] = []
+    stack = Stack.reference(4)
+    targets = [PlanarTarget(*t, phi=0.0) for t in PAPER_TARGETS]
+    targets += _targets(stack, cfg, cfg.n_random, cfg.rng)
+    methods = _planar_methods(cfg)
+    jobs: list[tuple[Stack, Sequence[Any], Method, str]] = [
+        (stack, targets, m, "planar") for m in methods
+    ]
+    scale_methods = [
+        Method("stackik (default)", {}),
+        Method("slsqp, 1 start", {"method": "slsqp", "starts": 1}),
+    ]
+    if cfg.ipopt and _ipopt_ok():
+        scale_methods.append(Method("ipopt, 1 start", {"method": "ipopt", "starts": 1}))
+    for n in cfg.sizes:
+        st = Stack.reference(n)
+        tg = _targets(st, cfg, cfg.per_size, cfg.rng + 100 * n)
+        jobs += [(st, tg, m, "scaling") for m in scale_methods]
+    sp_targets = _spatial_targets(stack, cfg.n_spatial, cfg.rng + 7)
+    jobs += [
+        (stack, sp_targets, Method("stackik (default)", {}), "spatial"),
+        (stack, sp_targets, Method("slsqp, 1 start", {"method": "slsqp", "starts": 1}), "spatial"),
+    ]
+    # warm up imports and caches so the first timed solve is not penalised
+    solve_ik(stack, targets[0])
+    it: Any = jobs
+    if progress:
+        from tqdm.auto import tqdm
+
+        it = tqdm(jobs, desc="bench", unit="config")
+    for st, tg, m, section in it:
+        if m.kwargs.get("method") == "ipopt" and tg:
+            solve_ik(st, tg[0], **m.kwargs)  # build and cache the CasADi solver first
+        rows += _run(st, tg, m, section)
+    summary = _summarise(rows)
+    # fitted exponent of median time vs n (scaling section)
+    fits = {}
+    for label in {s["method"] for s in summary if s["section"] == "scaling"}:
+        pts = sorted(
+            (s["n"], s["median_ms"])
+            for s in summary
+            if s["section"] == "scaling" and s["method"] == label
+        )
+        if len(pts) >= 2:
+            x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
+            fits[label] = float(np.polyfit(x, y, 1)[0])
+    machine = _machine()
+    result = {"machine": machine, "config": cfg.__dict__, "summary": summary, "exponents": fits}
+    with open(out / "ik_bench.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    (out / "ik_bench.json").write_text(json.dumps(result, indent=2, default=str))
+    cols = [
+        "method",
+        "targets",
+        "success_rate",
+        "within_0.1%",
+        "median_gap_%",
+        "max_gap_%",
+        "median_ms",
+        "p90_ms",
+        "median_nit",
+    ]
+    md = [
+        "# stackik solver benchmark",
+        "",
+        f"Machine: {machine.get('cpu', machine['processor'])}, {machine['cpus']} CPUs, "
+        f"{machine['platform']}; Python {machine['python']}, NumPy {machine['numpy']}, "
+        f"SciPy {machine['scipy']}. Date: {machine['date']}.",
+        "",
+        "Success = independent check (target within 1e-6 mm / 1e-8 rad, limits within 1e-6 mm). "
+        "FN gap relative to the best FN any method found for that target. Times are wall "
+        "time per solve_ik call, including starts and the final check.",
+        "",
+        f"## Planar, n = 4 ({len(targets)} targets: the paper's 3 + random reachable, "
+        f"phi in {list(cfg.phis)})",
+        "",
+        _md_table([s for s in summary if s["section"] == "planar"], cols),
+        "",
+        "## Scaling in n (planar, random reachable targets)",
+        "",
+        _md_table([s for s in summary if s["section"] == "scaling"], ["n", *cols]),
+        "",
+        "Fitted exponent of median time vs n: "
+        + ", ".join(f"{k}: {v:.2f}" for k, v in sorted(fits.items())),
+        "",
+        f"## Spatial, n = 4 ({len(sp_targets)} random reachable 6-DOF targets)",
+        "",
+        _md_table([s for s in summary if s["section"] == "spatial"], cols),
+        "",
+        "Re-run: `stackik bench --out benchmarks/results` (or `python benchmarks/bench_ik.py`).",
+        "",
+    ]
+    (out / "ik_bench.md").write_text("\n".join(md))
+    return result
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Command-line entry point of ``stackik bench``."""
+    ap = argparse.ArgumentParser(prog="stackik bench", description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=Path("benchmarks/results"))
+    ap.add_argument("--quick", action="store_true", help="a few targets only (smoke test)")
+    ap.add_argument("--n-random", type=int, default=None, help="random planar n=4 targets")
+    ap.add_argument("--sizes", type=int, nargs="+", default=None, help="stack sizes to scale over")
+    ap.add_argument("--no-ipopt", action="store_true", help="skip IPOPT even if installed")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--no-progress", action="store_true")
+    args = ap.parse_args(argv)
+    cfg = BenchConfig.quick() if args.quick else BenchConfig()
+    if args.n_random is not None:
+        cfg.n_random = args.n_random
+    if args.sizes is not None:
+        cfg.sizes = tuple(args.sizes)
+    cfg.ipopt = not args.no_ipopt
+    cfg.rng = args.seed
+    res = run_benchmark(cfg, args.out, progress=not args.no_progress)
+    print((args.out / "ik_bench.md").read_text())
+    _ = res
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
