@@ -209,6 +209,7 @@ def test_unreachable_target_exit_1(capsys: pytest.CaptureFixture[str]) -> None:
         ["solve"],
         ["solve", "--spatial", "--target", *TARGET],
         ["solve", "--spatial", "--position", "0", "0", "nan"],
+        ["solve", "--spatial", "--position", "0", "0", "900", "--method", "ipopt"],
         ["frobnicate"],
         [],
     ],
@@ -306,10 +307,20 @@ def test_mc_bad_sigma(capsys: pytest.CaptureFixture[str]) -> None:
     _assert_one_line_error(rc, err)
 
 
+def test_mc_out_dir(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    out = tmp_path / "mc"
+    rc, text, err = _run(
+        capsys, "mc", "--target", *TARGET, "--samples", "200", "--quiet", "--out", str(out)
+    )
+    assert rc == 0, err
+    assert "optimal" in text and "non-opt 2" in text
+    data = json.loads((out / "mc.json").read_text())
+    assert data["seed"] == 2024 and len(data["poses"]) == 3
+
+
 def test_map_small(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
-    pytest.importorskip("stackik.analysis.workspace")
-    csv_path = tmp_path / "map.csv"
-    rc, out, err = _run(
+    out = tmp_path / "map"
+    rc, text, err = _run(
         capsys,
         "map",
         "--targets",
@@ -318,13 +329,27 @@ def test_map_small(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
         "200",
         "--quiet",
         "--out",
-        str(csv_path),
+        str(out),
         "--json",
     )
     assert rc == 0, err
-    data = json.loads(out)
+    data = json.loads(text)
     assert data["targets"] == 4 and len(data["rows"]) == 4
-    assert csv_path.read_text().startswith("rho,z,theta")
+    assert (out / "workspace.csv").read_text().startswith("rho,z,theta")
+    assert (out / "regression.json").exists()
+
+
+def test_map_too_few_targets(capsys: pytest.CaptureFixture[str]) -> None:
+    rc, _, err = _run(capsys, "map", "--targets", "2")
+    _assert_one_line_error(rc, err)
+
+
+def test_reproduce_quick(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    out = tmp_path / "results"
+    rc, text, err = _run(capsys, "reproduce", "--quick", "--quiet", "--out", str(out))
+    assert rc == 0, err
+    assert (out / "report.md").exists()
+    assert "target 1" in text
 
 
 def test_missing_entry_point_exit_2(capsys: pytest.CaptureFixture[str]) -> None:

@@ -42,6 +42,9 @@ PROG = "stackik"
 EXIT_OK = 0
 EXIT_INFEASIBLE = 1
 EXIT_USAGE = 2
+#: Base seed of the analysis commands (same as ``stackik.analysis.reproduce.DEFAULT_SEED``,
+#: so ``stackik mc`` on a paper target repeats the numbers of ``stackik reproduce``).
+DEFAULT_SEED = 2024
 #: The paper's three planar test targets (rho [mm], z [mm], theta [rad]), phi = 0.
 PAPER_TARGETS: tuple[tuple[float, float, float], ...] = (
     (600.0, 1000.0, -1.57),
@@ -162,6 +165,19 @@ def _progress(iterable: Any, total: int | None, desc: str, quiet: bool) -> Any:
     from tqdm.auto import tqdm
 
     return tqdm(iterable, total=total, desc=desc, disable=True if quiet else None, leave=False)
+
+
+def _figures(draw: Callable[[Any], Any]) -> bool:
+    """Draw figures with :mod:`stackik.analysis.figures`; False (with a note) without
+    matplotlib (the ``[plot]`` extra)."""
+    try:
+        from stackik.analysis import figures
+
+        draw(figures)
+    except ImportError as exc:
+        print(f"{PROG}: note: figures skipped ({exc}); install stackik[plot]", file=sys.stderr)
+        return False
+    return True
 
 
 def _json_default(obj: Any) -> Any:
@@ -398,12 +414,13 @@ def _cmd_mc(args: argparse.Namespace) -> int:
         return EXIT_INFEASIBLE
     bar.update()
     bar.set_postfix_str("non-optimised poses")
-    others = _nonoptimal(stack, target, args.nonopt, args.seed, method=args.method, qp_solver=qp)
+    seed = DEFAULT_SEED if args.seed is None else args.seed
+    others = _nonoptimal(stack, target, args.nonopt, seed + 1, method=args.method, qp_solver=qp)
     bar.update()
     bar.set_postfix_str(f"{args.samples} samples")
     results = [opt, *others]
     mc = monte_carlo(
-        [r.q for r in results], args.samples, args.sigma_t, args.sigma_theta, rng=args.seed
+        [r.q for r in results], args.samples, args.sigma_t, args.sigma_theta, rng=seed + 10
     )
     bar.update()
     bar.close()
@@ -421,23 +438,37 @@ def _cmd_mc(args: argparse.Namespace) -> int:
                 "f_factor": f_factor(C_est, pm.covariance),
             }
         )
+    data = {
+        "target": {"rho": target.rho, "z": target.z, "theta": target.theta},
+        "phi": target.phi,
+        "n_samples": args.samples,
+        "sigma_t": args.sigma_t,
+        "sigma_theta": args.sigma_theta,
+        "seed": seed,
+        "poses": rows,
+        "geometry": stack.to_dict(),
+    }
+    written: list[Path] = []
+    if args.out is not None:
+        out: Path = args.out
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "mc.json").write_text(json.dumps(data, indent=2, default=_json_default) + "\n")
+        written.append(out / "mc.json")
+
+        def draw(figures: Any) -> None:
+            figures.plot_pose_diagram(
+                stack, [r.q for r in results], target.phi, labels, path=out / "poses.png"
+            )
+            figures.plot_perturbation_clouds(mc, labels, path=out / "clouds.png")
+
+        if _figures(draw):
+            written += [out / "poses.png", out / "clouds.png"]
     if args.json:
-        _dump_json(
-            {
-                "target": {"rho": target.rho, "z": target.z, "theta": target.theta},
-                "phi": target.phi,
-                "n_samples": args.samples,
-                "sigma_t": args.sigma_t,
-                "sigma_theta": args.sigma_theta,
-                "seed": args.seed,
-                "poses": rows,
-                "geometry": stack.to_dict(),
-            }
-        )
+        _dump_json(data)
         return EXIT_OK
     print(
         f"Monte Carlo (Algorithm 1): {args.samples} common-noise samples, "
-        f"sigma_t = {args.sigma_t} mm, sigma_theta = {args.sigma_theta} rad, seed {args.seed}"
+        f"sigma_t = {args.sigma_t} mm, sigma_theta = {args.sigma_theta} rad, seed {seed}"
     )
     print(f"target rho = {target.rho} mm, z = {target.z} mm, theta = {target.theta} rad")
     print(f"{'pose':<10} {'FN':>9} {'median[mm]':>11} {'95% interval [mm]':>20} {'F':>7}")
@@ -447,6 +478,8 @@ def _cmd_mc(args: argparse.Namespace) -> int:
             f"{r['pose']:<10} {r['frobenius_norm']:>9.2f} {r['median_mm']:>11.3f} "
             f"{'[' + f'{lo:.2f}, {hi:.2f}' + ']':>20} {r['f_factor']:>7.1%}"
         )
+    for path in written:
+        print(f"wrote {path}")
     return EXIT_OK
 
 
@@ -485,14 +518,22 @@ def _call_entry(module: str, names: Sequence[str], argv: list[str], what: str) -
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    argv = ["--out", str(args.out)]
-    if args.quick:
-        argv.append("--quick")
-    if args.seed is not None:
-        argv += ["--seed", str(args.seed)]
-    if args.quiet:
-        argv.append("--quiet")
-    return _call_entry("stackik.analysis.reproduce", ("main",), argv, "reproduce")
+    if args.workers < 1:
+        raise CLIError(f"--workers: expected an integer >= 1, got {args.workers}")
+    try:
+        fn = _lookup("stackik.analysis.reproduce", ("main_reproduce",))
+    except _NotAvailableError as exc:
+        print(f"{PROG}: error: `{PROG} reproduce` is not available yet ({exc})", file=sys.stderr)
+        return EXIT_USAGE
+    rc = fn(
+        args.out,
+        quick=args.quick,
+        progress=not args.quiet,
+        seed=DEFAULT_SEED if args.seed is None else args.seed,
+        workers=args.workers,
+        strict=args.strict,
+    )
+    return int(rc) if rc is not None else EXIT_OK
 
 
 def _cmd_map(args: argparse.Namespace) -> int:
@@ -506,31 +547,44 @@ def _cmd_map(args: argparse.Namespace) -> int:
         print(f"{PROG}: error: `{PROG} map` is not available yet ({exc})", file=sys.stderr)
         return EXIT_USAGE
     qp = _resolve_qp(args.method, args.qp_solver)
+    seed = DEFAULT_SEED if args.seed is None else args.seed
     study = study_fn(
         stack,
         args.targets,
         n_samples=args.samples,
         sigma_t=args.sigma_t,
         sigma_theta=args.sigma_theta,
-        seed=args.seed,
+        seed=seed,
         phi=phi,
         progress=not args.quiet,
         solve_kwargs={"method": args.method, "qp_solver": qp},
     )
     rows = study.rows()
+    reg = study.regression
+    written: list[Path] = []
     if args.out is not None:
         import csv
 
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        with open(args.out, "w", newline="") as fh:
+        out: Path = args.out
+        out.mkdir(parents=True, exist_ok=True)
+        with open(out / "workspace.csv", "w", newline="") as fh:
             writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
             writer.writeheader()
             writer.writerows(rows)
-    if args.plot is not None:
-        from stackik.analysis.figures import plot_fn_ratio_map
+        reg_data = None if reg is None else reg.to_dict()
+        (out / "regression.json").write_text(json.dumps(reg_data, indent=2) + "\n")
+        written += [out / "workspace.csv", out / "regression.json"]
 
-        plot_fn_ratio_map(study, highlight=[t[:2] for t in PAPER_TARGETS], path=args.plot)
-    reg = study.regression
+        def draw(figures: Any) -> None:
+            highlight = [t[:2] for t in PAPER_TARGETS]
+            figures.plot_fn_ratio_map(study, highlight=highlight, path=out / "fn_ratio_map.png")
+            if reg is not None:
+                figures.plot_regression(study, path=out / "regression.png")
+
+        if _figures(draw):
+            written.append(out / "fn_ratio_map.png")
+            if reg is not None:
+                written.append(out / "regression.png")
     import numpy as np
 
     valid = study.valid
@@ -545,7 +599,7 @@ def _cmd_map(args: argparse.Namespace) -> int:
         "n_samples": study.n_samples,
         "sigma_t": study.sigma_t,
         "sigma_theta": study.sigma_theta,
-        "seed": args.seed,
+        "seed": seed,
         "phi": phi,
     }
     if args.json:
@@ -563,10 +617,8 @@ def _cmd_map(args: argparse.Namespace) -> int:
                 f"intercept {reg.intercept:.3f}, r^2 {reg.r2:.3f} (n = {reg.n}; "
                 "paper: slope 0.4, r^2 0.97)"
             )
-        if args.out is not None:
-            print(f"wrote {args.out}")
-        if args.plot is not None:
-            print(f"wrote {args.plot}")
+        for path in written:
+            print(f"wrote {path}")
     return EXIT_OK if valid.any() else EXIT_INFEASIBLE
 
 
@@ -717,7 +769,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--nonopt", type=int, default=2, help="non-optimised poses (2)")
     _add_method_args(p)
     p.add_argument("--starts", type=_positive_int, default=1, metavar="K", help="starts (1)")
-    p.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (0)")
+    p.add_argument("--seed", type=int, default=None, metavar="S", help=f"seed ({DEFAULT_SEED})")
+    p.add_argument(
+        "--out", type=Path, default=None, metavar="DIR", help="write mc.json and the figures"
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_mc)
@@ -739,9 +794,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sigma-t", type=float, default=1.0, help="translation noise [mm] (1)")
     p.add_argument("--sigma-theta", type=float, default=0.005, help="angle noise [rad] (0.005)")
     _add_method_args(p)
-    p.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (0)")
-    p.add_argument("--out", type=Path, default=None, metavar="CSV", help="write rows to CSV")
-    p.add_argument("--plot", type=Path, default=None, metavar="PNG", help="FN-ratio map")
+    p.add_argument("--seed", type=int, default=None, metavar="S", help=f"seed ({DEFAULT_SEED})")
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="write workspace.csv, regression.json and the figures into DIR",
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of a summary")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=_cmd_map)
@@ -754,7 +814,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--out", type=Path, default=Path("results"), metavar="DIR", help="(results)")
     p.add_argument("--quick", action="store_true", help="fewer samples: a fast smoke run")
-    p.add_argument("--seed", type=int, default=None, metavar="S", help="random seed")
+    p.add_argument("--seed", type=int, default=None, metavar="S", help=f"seed ({DEFAULT_SEED})")
+    p.add_argument("--workers", type=int, default=1, metavar="W", help="processes (1)")
+    p.add_argument("--strict", action="store_true", help="exit 1 when a reproduction check fails")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=_cmd_reproduce)
 
@@ -791,9 +853,10 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_method_args(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--method",
-        choices=("sqp", "slsqp", "trust-constr"),
+        choices=("sqp", "slsqp", "trust-constr", "ipopt"),
         default="sqp",
-        help="stackik's SQP engine or a scipy baseline (default sqp)",
+        help="stackik's SQP engine (default), a scipy baseline, or IPOPT through CasADi "
+        "(planar; needs the [ipopt] extra)",
     )
     p.add_argument(
         "--qp-solver",
@@ -811,9 +874,13 @@ def _one_line(exc: BaseException) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code (0 ok, 1 infeasible, 2 bad input)."""
+    tokens = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     try:
-        args = parser.parse_args(list(sys.argv[1:] if argv is None else argv))
+        if tokens[:1] == ["bench"]:  # every later token (even --help) belongs to the benchmark
+            args = argparse.Namespace(command="bench", args=tokens[1:], func=_cmd_bench)
+        else:
+            args = parser.parse_args(tokens)
     except SystemExit as exc:  # usage error (already reported on stderr), --help, --version
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE
     try:
@@ -821,6 +888,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (CLIError, ValueError, OSError) as exc:  # GeometryError is a ValueError
         sys.stdout.flush()
         print(f"{PROG}: error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_USAGE
+    except ImportError as exc:  # an optional dependency (e.g. casadi for ipopt) is missing
+        name = getattr(exc, "name", None) or _one_line(exc)
+        print(
+            f"{PROG}: error: missing optional dependency {name} ({_one_line(exc)})", file=sys.stderr
+        )
         return EXIT_USAGE
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
