@@ -73,6 +73,9 @@ TARGET_ANGLE_TOL = 1e-8  # [rad] largest accepted end-effector orientation error
 FEAS_TOL = 1e-6  # [mm] accepted violation of a limit, as a length (see check_pose)
 
 OBJECTIVES = ("frobenius", "feasible", "weighted")
+# Loose SQP settings used to rank the default structured starts before refining the best.
+SCREEN_OPTIONS = {"tol": 1e-4, "constr_tol": 1e-7}
+SCREEN_FEAS_MM = 1e-3  # [mm] screened runs farther from feasibility rank last
 METHODS = ("sqp", "slsqp", "trust-constr", "ipopt")
 
 
@@ -420,6 +423,8 @@ class _PlanarFast:
         n = stack.n
         self.n = n
         self.c = np.empty((n, 4, 6))
+        self.D = np.empty((n, 4, 6, 3))
+        self._legs_cache: tuple[FloatArray, tuple[FloatArray, ...]] | None = None
         idx = np.arange(n)
         self.later = (idx[None, :] > idx[: n - 1, None]).astype(float)  # k > i
         self.maxim = np.maximum(idx[: n - 1, None], idx[None, :])  # max(i, m)
@@ -431,8 +436,8 @@ class _PlanarFast:
         self._kq: FloatArray | None = None
         self._kout: tuple[FloatArray, FloatArray, FloatArray, FloatArray]
         self._kin: tuple[FloatArray, FloatArray, FloatArray]
-        self.J = np.zeros((n, 4, 6, n, 3))
         self.idx = np.arange(n)
+        self.set_scaling(np.ones(24 * n), np.ones(3 * n))
 
     def kinematics(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """End effector y (3,), its Jacobian (3, 3n), FN residuals r and dr/dx.
@@ -494,16 +499,9 @@ class _PlanarFast:
         ``y`` has shape (n*24,) in constraint order; block diagonal by platform.
         """
         n = self.n
-        th = q[:, 2:3]
-        c, sn = np.cos(th), np.sin(th)
-        Rtf = c * self.tf - sn * self.tz
-        Rtz = sn * self.tf + c * self.tz
-        rf = q[:, 0:1] - self.bf
-        rz = q[:, 1:2] - self.bz
-        lf = Rtf + rf
-        lz = Rtz + rz
-        ls = self.ls0
-        norm = np.sqrt(lf * lf + ls * ls + lz * lz)
+        lc = self._legs_cache
+        legs = lc[1] if lc is not None and np.array_equal(lc[0], q) else self._legs(q)
+        c, sn, Rtf, Rtz, rf, rz, lf, lz, sq, norm = legs
         # second derivatives of |l|^2 (entries rr, zz, rt, zt, tt; rz = 0)
         S_rr = 2.0
         S_rt = -2.0 * Rtz
@@ -539,17 +537,39 @@ class _PlanarFast:
         out[self.idx, :, self.idx, :] = H
         return out.reshape(3 * n, 3 * n)
 
-    def __call__(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Raw constraints (n*24,) and Jacobian (n*24, 3n) in DESIGN §2 order."""
+    def set_scaling(self, row_scale: FloatArray, col_scale: FloatArray) -> None:
+        """Scale rows (constraints) and columns (variables) of what :meth:`__call__` returns."""
+        n = self.n
+        r = np.arange(24)[None, :, None] + 24 * self.idx[:, None, None]  # (n, 24, 1)
+        cidx = np.arange(3)[None, None, :] + 3 * self.idx[:, None, None]  # (n, 1, 3)
+        rows = np.broadcast_to(r, (n, 24, 3))
+        cols = np.broadcast_to(cidx, (n, 24, 3))
+        self.jflat = (rows * (3 * n) + cols).ravel()
+        self.jscale = (row_scale[rows] * col_scale[cols]).ravel()
+        self.cscale = row_scale.copy()
+
+    def _legs(self, q: FloatArray) -> tuple[FloatArray, ...]:
         th = q[:, 2:3]
         c, sn = np.cos(th), np.sin(th)
         Rtf = c * self.tf - sn * self.tz
         Rtz = sn * self.tf + c * self.tz
-        lf = Rtf + q[:, 0:1] - self.bf
-        lz = Rtz + q[:, 1:2] - self.bz
+        rf = q[:, 0:1] - self.bf
+        rz = q[:, 1:2] - self.bz
+        lf = Rtf + rf
+        lz = Rtz + rz
         ls = self.ls0
         sq = lf * lf + ls * ls + lz * lz
         norm = np.sqrt(sq)
+        return c, sn, Rtf, Rtz, rf, rz, lf, lz, sq, norm
+
+    def __call__(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Constraints (n*24,) and Jacobian (n*24, 3n) in DESIGN §2 order.
+
+        Raw unless :meth:`set_scaling` was called, then scaled by rows and columns.
+        """
+        legs = self._legs(q)
+        self._legs_cache = (q.copy(), legs)
+        c, sn, Rtf, Rtz, rf, rz, lf, lz, sq, norm = legs
         lRn = c * lz - sn * lf
         sj = self.sj
         out = self.c
@@ -560,9 +580,7 @@ class _PlanarFast:
         # derivatives wrt (rho, z, theta); dl/dtheta = (-Rtz, 0, Rtf), d(Rn)/dtheta = (-c, 0, -sn)
         dsq_t = 2.0 * (lz * Rtf - lf * Rtz)
         k = sj / norm
-        J = self.J
-        i = self.idx
-        D = np.empty((self.n, 4, 6, 3))
+        D = self.D
         D[:, 0, :, 0] = 2.0 * lf
         D[:, 0, :, 1] = 2.0 * lz
         D[:, 0, :, 2] = dsq_t
@@ -573,8 +591,10 @@ class _PlanarFast:
         D[:, 3, :, 0] = -sn - k * lf
         D[:, 3, :, 1] = c - k * lz
         D[:, 3, :, 2] = (sn * Rtz + c * Rtf) - (c * lf + sn * lz) - 0.5 * k * dsq_t
-        J[i, :, :, i, :] = D
-        return out.reshape(-1).copy(), J.reshape(24 * self.n, 3 * self.n).copy()
+        n = self.n
+        J = np.zeros(72 * n * n)
+        J[self.jflat] = D.ravel() * self.jscale
+        return out.ravel() * self.cscale, J.reshape(24 * n, 3 * n)
 
 
 class _Problem:
@@ -630,6 +650,8 @@ class _Problem:
         else:
             self.rw = np.repeat(np.sqrt(wth), 9)
         self.fast = _PlanarFast(stack, target.phi) if isinstance(target, PlanarTarget) else None
+        if self.fast is not None:
+            self.fast.set_scaling(self.cs, self.xs)
         a = np.arange(n * self.k)
         self._hi = np.maximum(a[:, None], a[None, :])
         self._theta_lo = (np.minimum(a[:, None], a[None, :]) % 3 == 2).astype(float)
@@ -687,9 +709,7 @@ class _Problem:
             self._fn_cache = (r_fn, Jr_fn)
             ceq = (y - tgt.y) * self.es
             Jeq = Jy * self.es[:, None] * self.xs
-            c_raw, Jc_raw = self.fast(q)
-            cin = c_raw * self.cs
-            Jin = Jc_raw * self.cs[:, None] * self.xs
+            cin, Jin = self.fast(q)  # scaled (set_scaling in __init__)
         else:
             tgs = self.target
             assert isinstance(tgs, SpatialTarget)
@@ -1085,12 +1105,23 @@ def solve_ik(
 
     best: _Run | None = None
     least: _Run | None = None
-    nit_total = 0
     tried = 0
     last_status = ""
     status_out = IKStatus.SUCCESS
+    nit_total = 0
     queue = _initial_starts(stack, target, q0, structured=x0 is None and start == "paper")
     n_planned = len(queue) if starts is None else int(starts)
+    if starts is None and len(queue) > 1 and method == "sqp":
+        # Screen the structured starts with a loose tolerance, then refine only the most
+        # promising one (the others remain as fallbacks, best first).
+        screened = []
+        for qs in queue:
+            run = _solve_from(prob, qs, method, qp_solver, {**opts, **SCREEN_OPTIONS})
+            nit_total += run.nit
+            screened.append(run)
+        screened.sort(key=lambda r: (r.check.max_violation_mm > SCREEN_FEAS_MM, r.obj))
+        queue = [r.q for r in screened]
+        n_planned = 1
     fallback = 3 if x0 is None else 0  # more starts when none passes the check
     # perturbation scale of random starts: 15% of the leg range [mm], 0.1 rad
     span = float(np.mean(stack.leg_max - stack.leg_min))
