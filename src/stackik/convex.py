@@ -19,7 +19,7 @@ from stackik.geometry import Stack
 from stackik.rotations import euler_zyx, plane_axis, rodrigues
 
 if TYPE_CHECKING:
-    from stackik.ik import PlanarTarget, SpatialTarget
+    from stackik.ik import PlanarTarget, SpatialTarget  # noqa: F401
 
 __all__ = ["ConvexStartError", "convex_start"]
 
@@ -61,12 +61,12 @@ def convex_start(
     """
     import cvxpy as cp
 
-    from stackik.ik import PlanarTarget, paper_initial_guess
+    from stackik.ik import PlanarTarget, SpatialTarget, paper_initial_guess
 
     n = stack.n
     guess = paper_initial_guess(stack, target)
     planar = isinstance(target, PlanarTarget)
-    if planar:
+    if isinstance(target, PlanarTarget):
         th = guess[:, 2] if rotations is None else np.asarray(rotations, dtype=float)
         if th.shape != (n,):
             raise ValueError(f"rotations: expected shape ({n},), got {th.shape}")
@@ -81,6 +81,7 @@ def convex_start(
         p0 = guess[:, :2]
         dim = 2
     else:
+        assert isinstance(target, SpatialTarget)
         eul = guess[:, 3:] if rotations is None else np.asarray(rotations, dtype=float)
         if eul.shape != (n, 3):
             raise ValueError(f"rotations: expected shape ({n}, 3), got {eul.shape}")

@@ -836,7 +836,12 @@ def _run_sqp(
         ineq_scale=np.ones(prob.cs.size),
         name="stackik-ik",
     )
-    opts = {"tol": 1e-7, "constr_tol": 1e-10, "max_iter": 200, "initial_tr_radius": 0.5}
+    opts: dict[str, Any] = {
+        "tol": 1e-7,
+        "constr_tol": 1e-10,
+        "max_iter": 200,
+        "initial_tr_radius": 0.5,
+    }
     if not exact_ok:
         # Gauss-Newton ignores the curvature of active limits and stalls there; damped
         # BFGS on the whole Lagrangian converges superlinearly.

@@ -51,8 +51,8 @@ def _solver(stack: Stack, phi: float, objective: str, xs: tuple[float, ...]) -> 
     xsv = np.asarray(xs)
     x = u * xsv
     rho, z, th = x[0::3], x[1::3], x[2::3]
-    Theta = 0
-    P = [0, 0]
+    Theta: Any = 0
+    P: list[Any] = [0, 0]
     origins = []
     for i in range(n):
         c, s = ca.cos(Theta), ca.sin(Theta)
@@ -61,7 +61,7 @@ def _solver(stack: Stack, phi: float, objective: str, xs: tuple[float, ...]) -> 
         Theta = Theta + th[i]
     theta_ee = ca.sum1(th)
     g_eq = ca.vertcat((P[0] - p[0]) / L, (P[1] - p[1]) / L, theta_ee - p[2])
-    fn2 = 3 * n
+    fn2: Any = 3 * n
     for j in range(n - 1):
         fn2 = fn2 + (P[0] - origins[j][0]) ** 2 + (P[1] - origins[j][1]) ** 2
     f = 0 if objective == "feasible" else fn2 / L**2
@@ -84,7 +84,7 @@ def _solver(stack: Stack, phi: float, objective: str, xs: tuple[float, ...]) -> 
         g_in += rows[0] + rows[1] + rows[2] + rows[3]
     g = ca.vertcat(g_eq, *g_in)
     nlp = {"x": u, "p": p, "f": f, "g": g}
-    opts = {
+    opts: dict[str, Any] = {
         "print_time": False,
         "ipopt": {
             "print_level": 0,
@@ -95,7 +95,7 @@ def _solver(stack: Stack, phi: float, objective: str, xs: tuple[float, ...]) -> 
             "sb": "yes",
         },
     }
-    solver = ca.nlpsol("stackik_ipopt", "ipopt", nlp, opts)
+    solver = ca.nlpsol("stackik_ipopt", "ipopt", nlp, opts)  # type: ignore[arg-type]
     lbg = np.concatenate([np.zeros(3), np.zeros(24 * n)])
     ubg = np.concatenate([np.zeros(3), np.full(24 * n, np.inf)])
     return solver, lbg, ubg

@@ -42,6 +42,7 @@ from stackik.analysis.workspace import (
     DEFAULT_PERTURBATION,
     NonOptimalSearch,
     WorkspaceStudy,
+    _triple,
     workspace_study,
 )
 from stackik.geometry import Stack
@@ -119,7 +120,12 @@ class ReproduceSettings:
     @classmethod
     def quick_settings(cls, **kw: Any) -> ReproduceSettings:
         """Small sizes for a smoke test (well under 30 s)."""
-        base = {"t1_samples": 4000, "t2_samples": 20_000, "n_targets": 12, "map_samples": 2000}
+        base: dict[str, Any] = {
+            "t1_samples": 4000,
+            "t2_samples": 20_000,
+            "n_targets": 12,
+            "map_samples": 2000,
+        }
         base.update(kw)
         return cls(quick=True, **base)
 
@@ -182,7 +188,7 @@ def target_poses(
         opt = solve_ik(stack, target, objective="frobenius", start="convex")
     if not opt.success:
         raise RuntimeError(f"optimal pose not found for {target}: {opt.message}")
-    non = NonOptimalSearch(stack, count, seed, tuple(perturbation), max_attempts)(target)
+    non = NonOptimalSearch(stack, count, seed, _triple(perturbation), max_attempts)(target)
     if len(non) < count:
         raise RuntimeError(f"only {len(non)} non-optimal poses found for {target}")
     return TargetPoses(target, opt, tuple(non))
@@ -538,17 +544,17 @@ def _report(r: ReproduceResult) -> str:
         from stackik.analysis.linear import linear_covariance
         from stackik.analysis.workspace import regress
 
-        v = st.valid
+        valid = st.valid
         rms = np.array(
             [
                 np.sqrt(
                     np.trace(linear_covariance(a, st.sigma_t, st.sigma_theta))
                     / np.trace(linear_covariance(b, st.sigma_t, st.sigma_theta))
                 )
-                for a, b in zip(st.q_opt[v], st.q_non[v], strict=True)
+                for a, b in zip(st.q_opt[valid], st.q_non[valid], strict=True)
             ]
         )
-        r_rms = regress(rms, st.median_ratio[v])
+        r_rms = regress(rms, st.median_ratio[valid])
         L.append(
             "For comparison, regressing the median ratio on the linear-theory RMS ratio "
             "sqrt(trace C_opt / trace C_non) (C = J C_x J^T) gives "

@@ -50,6 +50,12 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
+
+def _triple(values: Any) -> tuple[float, float, float]:
+    a, b, c = (float(v) for v in values)
+    return (a, b, c)
+
+
 #: Standard deviations of the start perturbation for non-optimal poses [mm, mm, rad].
 DEFAULT_PERTURBATION = (40.0, 40.0, 0.15)
 
@@ -221,7 +227,7 @@ def nonoptimal_poses(
     Returns up to ``count`` successful :class:`~stackik.ik.IKResult` (fewer if
     ``max_attempts`` starts did not give enough).
     """
-    return NonOptimalSearch(stack, count, seed, tuple(perturbation), max_attempts, solve_kwargs)(
+    return NonOptimalSearch(stack, count, seed, _triple(perturbation), max_attempts, solve_kwargs)(
         target
     )
 
@@ -346,7 +352,7 @@ def workspace_study(
     opt = solve_many(
         stack, tlist, objective="frobenius", progress=progress, executor=executor, **kw
     )
-    search = NonOptimalSearch(stack, 1, seed + 1, tuple(perturbation), max_attempts, kw)
+    search = NonOptimalSearch(stack, 1, seed + 1, _triple(perturbation), max_attempts, kw)
     it = map(search, tlist) if executor is None else executor.map(search, tlist)
     if progress:
         from tqdm.auto import tqdm
