@@ -23,12 +23,14 @@ of what the solver claims; ``success`` is True only when that check passes.
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import Executor
+from concurrent.futures import Executor, as_completed
 from dataclasses import dataclass, field
 from enum import Enum
+from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
@@ -278,6 +280,46 @@ class IKResult:
     mode: str = "planar"
     info: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
 
+    def to_record(self) -> dict[str, Any]:
+        """Lossless JSON-ready form (floats round-trip exactly); see :meth:`from_record`."""
+        d = self.to_dict()
+        d.update(
+            {
+                "P": self.P.tolist(),
+                "R": self.R.tolist(),
+                "time": self.time,
+                "info": {k: v for k, v in self.info.items() if _jsonable(v)},
+            }
+        )
+        return d
+
+    @classmethod
+    def from_record(cls, d: dict[str, Any]) -> IKResult:
+        """Rebuild a result from :meth:`to_record` output."""
+        return cls(
+            q=np.array(d["q"], dtype=float),
+            success=bool(d["success"]),
+            status=IKStatus(d["status"]),
+            message=str(d["message"]),
+            frobenius_norm=float(d["frobenius_norm"]),
+            objective=str(d["objective"]),
+            objective_value=float(d["objective_value"]),
+            max_violation=float(d["max_violation"]),
+            target_error=float(d["target_error"]),
+            angle_error=float(d["angle_error"]),
+            nit=int(d["nit"]),
+            time=float(d["time"]),
+            method=str(d["method"]),
+            qp_solver=str(d["qp_solver"]),
+            n_starts=int(d["n_starts"]),
+            P=np.array(d["P"], dtype=float),
+            R=np.array(d["R"], dtype=float),
+            leg_lengths=np.array(d["leg_lengths"], dtype=float),
+            phi=None if d.get("phi") is None else float(d["phi"]),
+            mode=str(d.get("mode", "planar")),
+            info=dict(d.get("info", {})),
+        )
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary."""
         return {
@@ -300,6 +342,14 @@ class IKResult:
             "n_starts": self.n_starts,
             "leg_lengths": self.leg_lengths.tolist(),
         }
+
+
+def _jsonable(v: Any) -> bool:
+    try:
+        json.dumps(v)
+    except (TypeError, ValueError):
+        return False
+    return True
 
 
 # =========================================================================================
@@ -1177,12 +1227,56 @@ def solve_ik(
     return finish(least, status_out, nit_total, tried)
 
 
+def target_to_dict(target: Target) -> dict[str, Any]:
+    """Plain-data form of a target (for checkpoints and JSON)."""
+    if isinstance(target, PlanarTarget):
+        return {"rho": target.rho, "z": target.z, "theta": target.theta, "phi": target.phi}
+    return {"position": target.position.tolist(), "rotation": target.rotation.tolist()}
+
+
+def target_from_dict(data: dict[str, Any]) -> Target:
+    """Inverse of :func:`target_to_dict`."""
+    if "position" in data:
+        return SpatialTarget(data["position"], data["rotation"])
+    return PlanarTarget(data["rho"], data["z"], data["theta"], data.get("phi", 0.0))
+
+
+def _read_checkpoint(path: Path, targets: Sequence[Target]) -> dict[int, IKResult]:
+    """Finished results of an earlier run; drops a torn last line (interrupted write)."""
+    if not path.exists():
+        return {}
+    raw = path.read_bytes()
+    if raw and not raw.endswith(b"\n"):  # the run died while writing: keep whole lines only
+        raw = raw[: raw.rfind(b"\n") + 1]
+        path.write_bytes(raw)
+    done: dict[int, IKResult] = {}
+    for k, line in enumerate(raw.decode().splitlines()):
+        if not line.strip():
+            continue
+        try:
+            rec = json.loads(line)
+            i = int(rec["index"])
+            res = IKResult.from_record(rec["result"])
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ValueError(
+                f"checkpoint {path}: line {k + 1} is not a stackik record ({exc})"
+            ) from None
+        if not 0 <= i < len(targets) or rec["target"] != target_to_dict(targets[i]):
+            raise ValueError(
+                f"checkpoint {path}: line {k + 1} belongs to a different set of targets; "
+                "use another checkpoint file"
+            )
+        done[i] = res
+    return done
+
+
 def solve_many(
     stack: Stack,
     targets: Iterable[Target],
     *,
     progress: bool = False,
     executor: Executor | None = None,
+    checkpoint: str | Path | None = None,
     **kwargs: Any,
 ) -> list[IKResult]:
     """Solve :func:`solve_ik` for many targets (same keyword arguments).
@@ -1193,18 +1287,51 @@ def solve_many(
         Show a tqdm progress bar.
     executor : concurrent.futures.Executor, optional
         Spread the targets (e.g. a ``ProcessPoolExecutor``); results keep the input order.
+    checkpoint : path, optional
+        JSON-lines file: every finished result is appended (and flushed) as soon as it
+        completes; a later call with the same targets and file skips the targets already
+        there, so an interrupted batch resumes without losing or repeating work.
+
+    Returns
+    -------
+    list of IKResult
+        In the order of ``targets``.
     """
     tlist: Sequence[Target] = list(targets)
     call: Callable[[Target], IKResult] = _SolveOne(stack, kwargs)
-    if executor is None:
-        it: Iterable[IKResult] = map(call, tlist)
-    else:
-        it = executor.map(call, tlist)
+    path = None if checkpoint is None else Path(checkpoint)
+    done = {} if path is None else _read_checkpoint(path, tlist)
+    todo = [i for i in range(len(tlist)) if i not in done]
+    bar: Any = None
     if progress:
         from tqdm.auto import tqdm
 
-        it = tqdm(it, total=len(tlist), desc="solve", unit="target")
-    return list(it)
+        bar = tqdm(total=len(tlist), initial=len(done), desc="solve", unit="target")
+    fh = None if path is None else open(path, "a")  # noqa: SIM115 - closed in finally
+    try:
+
+        def record(i: int, res: IKResult) -> None:
+            done[i] = res
+            if fh is not None:
+                rec = {"index": i, "target": target_to_dict(tlist[i]), "result": res.to_record()}
+                fh.write(json.dumps(rec) + "\n")
+                fh.flush()
+            if bar is not None:
+                bar.update(1)
+
+        if executor is None:
+            for i in todo:
+                record(i, call(tlist[i]))
+        else:
+            futures = {executor.submit(call, tlist[i]): i for i in todo}
+            for fut in as_completed(futures):
+                record(futures[fut], fut.result())
+    finally:
+        if fh is not None:
+            fh.close()
+        if bar is not None:
+            bar.close()
+    return [done[i] for i in range(len(tlist))]
 
 
 @dataclass(frozen=True)
