@@ -5,6 +5,8 @@ Conventions are those of ``docs/conventions.md``: millimetres and radians; plana
 ``[x, y, z, yaw, pitch, roll]`` and ``R = Rz(yaw) Ry(pitch) Rx(roll)``.
 """
 
+from typing import Any
+
 from stackik.convex import ConvexStartError, convex_start
 from stackik.geometry import GeometryError, PlatformGeometry, Stack
 from stackik.ik import (
@@ -17,6 +19,8 @@ from stackik.ik import (
     paper_initial_guess,
     solve_ik,
     solve_many,
+    target_from_dict,
+    target_to_dict,
 )
 from stackik.kinematics import (
     frobenius_norm,
@@ -35,32 +39,72 @@ from stackik.platform import leg_lengths, leg_vectors, platform_forward_kinemati
 __version__ = "0.1.0"
 
 __all__ = [
+    "__version__",
+    "check_pose",
+    "ConfidenceEllipse",
+    "convex_start",
     "ConvexStartError",
+    "draw_perturbations",
+    "f_factor",
+    "frobenius_norm",
     "GeometryError",
     "IKResult",
     "IKStatus",
-    "PlanarTarget",
-    "PlatformGeometry",
-    "PoseCheck",
-    "SpatialTarget",
-    "Stack",
-    "__version__",
-    "check_pose",
-    "convex_start",
-    "frobenius_norm",
     "leg_lengths",
     "leg_vectors",
     "lift_planar",
+    "linear_covariance",
+    "linearity_check",
+    "monte_carlo",
+    "MonteCarloResult",
+    "nonoptimal_poses",
     "paper_initial_guess",
     "planar_fn2",
     "planar_forward",
     "planar_jacobian",
     "planar_plate_origins",
+    "PlanarTarget",
     "platform_forward_kinematics",
+    "PlatformGeometry",
+    "PoseCheck",
+    "PoseMonteCarlo",
+    "random_feasible_poses",
+    "random_reachable_targets",
+    "reproduce",
     "solve_ik",
     "solve_many",
     "spatial_chain",
     "spatial_forward",
     "spatial_jacobian",
     "spatial_plate_origins",
+    "SpatialTarget",
+    "Stack",
+    "target_from_dict",
+    "target_to_dict",
+    "workspace_study",
 ]
+
+# Analysis names are imported on first use: they pull in scipy.stats and friends.
+_LAZY = {
+    "monte_carlo": "stackik.analysis",
+    "MonteCarloResult": "stackik.analysis",
+    "PoseMonteCarlo": "stackik.analysis",
+    "ConfidenceEllipse": "stackik.analysis",
+    "draw_perturbations": "stackik.analysis",
+    "linear_covariance": "stackik.analysis",
+    "f_factor": "stackik.analysis",
+    "linearity_check": "stackik.analysis",
+    "workspace_study": "stackik.analysis.workspace",
+    "nonoptimal_poses": "stackik.analysis.workspace",
+    "random_reachable_targets": "stackik.analysis.workspace",
+    "random_feasible_poses": "stackik.analysis.workspace",
+    "reproduce": "stackik.analysis.reproduce",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'stackik' has no attribute {name!r}")
