@@ -10,7 +10,7 @@ estimate ``sqrt(trace(J C_x J^T))`` is printed instead.
 
 import numpy as np
 
-from stackik import PlanarTarget, Stack, paper_initial_guess, planar_jacobian, solve_ik
+from stackik import PlanarTarget, Stack, nonoptimal_poses, planar_jacobian, solve_ik
 
 SIGMA_T, SIGMA_THETA = 1.0, 0.005  # [mm], [rad]
 SAMPLES = 10_000
@@ -19,15 +19,8 @@ stack = Stack.reference(4)
 target = PlanarTarget(600.0, 1000.0, -1.57)
 optimal = solve_ik(stack, target)
 
-rng = np.random.default_rng(1)
-start = paper_initial_guess(stack, target)
-for _ in range(20):  # perturbed starts until one reaches a feasible pose
-    x0 = start + rng.normal(0.0, (40.0, 40.0, 0.15), start.shape)
-    other = solve_ik(stack, target, objective="feasible", x0=x0)
-    if other.success:
-        break
-else:
-    raise SystemExit("no feasible non-optimised pose found")
+# the paper's non-optimised pose: first feasible pose from a perturbed initial guess
+other = nonoptimal_poses(stack, target, count=1, seed=1)[0]
 
 poses = {"optimal": optimal, "non-optimised": other}
 print(f"target: rho = {target.rho} mm, z = {target.z} mm, theta = {target.theta} rad")

@@ -361,32 +361,10 @@ def _cmd_solve(args: argparse.Namespace) -> int:
 # mc
 # =========================================================================================
 def _nonoptimal(stack: Stack, target: PlanarTarget, k: int, seed: int, **kw: Any) -> list[IKResult]:
-    """``k`` non-optimised feasible poses (the paper's "Non-Opt" poses).
+    """``k`` non-optimised feasible poses (:func:`stackik.analysis.workspace.nonoptimal_poses`)."""
+    from stackik.analysis.workspace import nonoptimal_poses
 
-    Uses :func:`stackik.analysis.workspace.nonoptimal_poses` when present; otherwise the
-    same recipe here: ``objective="feasible"`` from the paper's initial guess perturbed
-    with N(0, (40 mm, 40 mm, 0.15 rad)), seeded with ``seed``, the first ``k`` successes.
-    """
-    found: list[IKResult]
-    try:
-        from stackik.analysis.workspace import nonoptimal_poses
-    except ImportError:
-        import numpy as np
-
-        from stackik.ik import paper_initial_guess, solve_ik
-
-        gen = np.random.default_rng(seed)
-        g = paper_initial_guess(stack, target)
-        found = []
-        for _ in range(20):
-            if len(found) >= k:
-                break
-            x0 = g + gen.normal(0.0, (40.0, 40.0, 0.15), g.shape)
-            res = solve_ik(stack, target, objective="feasible", x0=x0, **kw)
-            if res.success:
-                found.append(res)
-    else:
-        found = nonoptimal_poses(stack, target, k, seed=seed, **kw)
+    found = nonoptimal_poses(stack, target, k, seed=seed, **kw)
     if len(found) < k:
         raise ValueError(f"found only {len(found)} of {k} non-optimised poses of the target")
     return found

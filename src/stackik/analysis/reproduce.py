@@ -5,7 +5,7 @@ the paper), n = 4 and phi = 0:
 
 1. the optimal pose (``objective="frobenius"``) and two non-optimal poses of each of the
    paper's three targets: the first two successful ``objective="feasible"`` runs from the
-   paper's start perturbed by N(0, (40 mm, 40 mm, 0.15 rad)) drawn from
+   paper's start perturbed by N(0, (80 mm, 80 mm, 0.3 rad)) drawn from
    ``default_rng(seed + 1)`` (see :class:`~stackik.analysis.workspace.NonOptimalSearch`);
 2. Table 1: Monte Carlo, 10,000 samples, sigma_t = 1 mm, sigma_theta = 0.005 rad, the same
    draws (``rng = seed + 10``) for the three poses of a target;

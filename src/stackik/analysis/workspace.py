@@ -12,7 +12,7 @@ Choices (documented, not given by the paper):
   through :func:`stackik.solve_many` (so an executor can spread it).
 * **Non-optimal poses**: ``solve_ik(objective="feasible")`` (the first feasible point the
   solver reaches) started from :func:`stackik.paper_initial_guess` plus Gaussian noise of
-  standard deviations ``perturbation`` = (40 mm, 40 mm, 0.15 rad) drawn from a generator
+  standard deviations ``perturbation`` = (80 mm, 80 mm, 0.3 rad) drawn from a generator
   seeded with ``seed``; the first ``count`` successful runs are kept, in draw order.
 * **Ratios**: ``FN_opt / FN_non`` and ``median_opt / median_non`` of the Monte Carlo
   displacement (common draws for the two poses of a target, the same seed for every
@@ -57,7 +57,7 @@ def _triple(values: Any) -> tuple[float, float, float]:
 
 
 #: Standard deviations of the start perturbation for non-optimal poses [mm, mm, rad].
-DEFAULT_PERTURBATION = (40.0, 40.0, 0.15)
+DEFAULT_PERTURBATION = (80.0, 80.0, 0.3)
 
 
 # =========================================================================================
