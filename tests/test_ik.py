@@ -257,3 +257,8 @@ def test_solve_many_with_executor():
     assert [r.success for r in serial] == [True] * 3
     for a, b in zip(serial, parallel, strict=True):
         np.testing.assert_allclose(a.q, b.q)
+
+
+def test_unknown_sqp_option_is_a_value_error():
+    with pytest.raises(ValueError, match="bogus"):
+        sk.solve_ik(STACK4, sk.PlanarTarget(*PAPER_TARGETS[0]), options={"bogus": 1})

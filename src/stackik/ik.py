@@ -900,7 +900,14 @@ def _run_sqp(
     kw: dict[str, Any] = {}
     if qp_solver is not None:
         kw["qp_solver"] = qp_solver
-    res = solve(nlp, u0, options=SQPOptions(**opts), **kw)
+    try:
+        sqp_options = SQPOptions(**opts)
+    except TypeError as exc:  # an unknown keyword
+        from dataclasses import fields
+
+        known = sorted(f.name for f in fields(SQPOptions))
+        raise ValueError(f"options: {exc}; SQP options are {known}") from None
+    res = solve(nlp, u0, options=sqp_options, **kw)
     return res.x, res.nit, res.status.value
 
 
