@@ -86,6 +86,7 @@ def test_qp_failure_and_fallback(monkeypatch: pytest.MonkeyPatch) -> None:
         return self.failed("monkeypatched failure")
 
     monkeypatch.setattr(DAQPBackend, "solve", broken)
+    monkeypatch.setattr(DAQPBackend, "solve_sqp", broken)
     p = PROBLEMS[71]
     res = solve(p.nlp, p.x0, qp_solver="daqp")
     assert res.status is SQPStatus.QP_FAILURE
@@ -261,3 +262,30 @@ def test_backend_interface_directly() -> None:
         stat += sol.y_bounds
         assert np.allclose(stat, 0, atol=1e-6), name
         assert sol.y_ineq[0] > 0
+
+
+def test_backend_solve_sqp_matches_solve() -> None:
+    # The SQP form c + J d (=, >=) 0 is solve() with A_eq = J_E, b_eq = -c_E, G = -J_I,
+    # h = c_I: same solution and multipliers, on every native backend, repeatedly (warm).
+    rng = np.random.default_rng(3)
+    n, me, mi = 4, 1, 5
+    for name in ("daqp", "osqp", "clarabel"):
+        be, ref = make_backend(name), make_backend(name)
+        be.setup(n, me, mi)
+        ref.setup(n, me, mi)
+        for _ in range(3):
+            M = rng.normal(size=(n, n))
+            P = M @ M.T + np.eye(n)
+            q = rng.normal(size=n)
+            J = rng.normal(size=(me + mi, n))
+            # Feasible: a small step meets the equality, the inequalities hold with margin.
+            c = np.concatenate((0.1 * rng.normal(size=me), np.abs(rng.normal(size=mi)) + 0.5))
+            lb, ub = np.full(n, -2.0), np.full(n, 2.0)
+            sol = be.solve_sqp(P, q, J, c, lb, ub)
+            exp = ref.solve(P, q, J[:me], -c[:me], -J[me:], c[me:], lb, ub)
+            assert sol.status is QPStatus.SOLVED and exp.status is QPStatus.SOLVED, name
+            assert np.allclose(sol.x, exp.x, atol=1e-6), name
+            assert np.allclose(sol.y_eq, exp.y_eq, atol=1e-5), name
+            assert np.allclose(sol.y_ineq, exp.y_ineq, atol=1e-5), name
+            assert np.all(J[me:] @ sol.x + c[me:] >= -1e-6), name
+            assert np.allclose(J[:me] @ sol.x + c[:me], 0.0, atol=1e-6), name

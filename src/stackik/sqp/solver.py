@@ -33,11 +33,19 @@ import time
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
+from scipy.linalg.lapack import dpotrf as _dpotrf
+from scipy.linalg.lapack import dsyev as _dsyev
+from scipy.linalg.lapack import dsyevd as _dsyevd
 
 from .options import SQPOptions
 from .problem import Evaluation, FloatArray, NonlinearProgram
 from .qp import QPBackend, QPSolution, QPStatus, default_qp_solver, make_backend
 from .result import MESSAGES, SQPResult, SQPStatus
+
+BoolArray = NDArray[np.bool_]
+#: (lam, g, J, c_I, at_lower, at_upper) of one KKT evaluation.
+_KKTArgs = tuple[FloatArray, FloatArray, FloatArray, FloatArray, BoolArray | None, BoolArray | None]
 
 # --- Algorithm constants --------------------------------------------------------------
 ETA_ACCEPT = 1e-4  # eta: step acceptance threshold on ared/pred, N&W Alg. 18.4 (eta in (0,1))
@@ -82,8 +90,27 @@ def _as2d(J: Any, m: int, n: int) -> FloatArray:
     return np.asarray(J, dtype=float).reshape(m, n)
 
 
+def _all_finite(a: FloatArray) -> bool:
+    """``np.all(np.isfinite(a))``, via one sum when that is finite (the usual case)."""
+    return math.isfinite(float(a.sum())) or bool(np.all(np.isfinite(a)))
+
+
+def _chol_ok(H: FloatArray, shift: float, eye: FloatArray) -> bool:
+    """Whether the symmetric ``H - shift I`` is numerically positive definite (Cholesky
+    succeeds; ``H`` is not modified)."""
+    if shift == 0.0:
+        return int(_dpotrf(H.T, lower=1, clean=0, overwrite_a=0)[1]) == 0
+    # The transpose of the (symmetric, C-ordered) temporary is Fortran-ordered: no copy.
+    return int(_dpotrf((H - shift * eye).T, lower=1, clean=0, overwrite_a=1)[1]) == 0
+
+
 class _Engine:
-    """One SQP run (all state of the iteration)."""
+    """One SQP run (all state of the iteration).
+
+    Constraints are kept stacked, ``c = [c_E; c_I]`` and ``J = [J_E; J_I]`` (scaled), with
+    ``cE``/``cI`` and ``JE``/``JI`` views of their blocks, and the multipliers likewise as
+    ``lam = [lam_E; lam_I]`` (``L = f - lam'c``, ``lam_I >= 0``).
+    """
 
     def __init__(
         self,
@@ -99,18 +126,26 @@ class _Engine:
         self.timer = _Timer()
         self.nfev = 0
         self.backends: dict[tuple[str, int, int, int], QPBackend] = {}
+        self.main_backend: QPBackend | None = None  # of the plain QP
         n = x0.size
         self.n = n
         lower = np.full(n, -np.inf) if nlp.lower is None else np.asarray(nlp.lower, float)
         upper = np.full(n, np.inf) if nlp.upper is None else np.asarray(nlp.upper, float)
         if lower.shape != (n,) or upper.shape != (n,):
             raise ValueError(f"lower/upper must have shape ({n},)")
-        if np.any(lower > upper):
-            raise ValueError("lower must not exceed upper")
+        self.any_bounds = False
+        if nlp.lower is not None or nlp.upper is not None:
+            if (lower > upper).any():
+                raise ValueError("lower must not exceed upper")
+            self.any_bounds = bool(np.isfinite(lower).any() or np.isfinite(upper).any())
         self.lower, self.upper = lower, upper
+        self.unit_xs = nlp.x_scale is None
         self.xs = np.ones(n) if nlp.x_scale is None else np.asarray(nlp.x_scale, float)
-        if self.xs.shape != (n,) or np.any(~(self.xs > 0)) or np.any(~np.isfinite(self.xs)):
-            raise ValueError(f"x_scale must be positive and finite with shape ({n},)")
+        if not self.unit_xs:
+            xs = self.xs
+            if xs.shape != (n,) or not ((xs > 0).all() and np.isfinite(xs).all()):
+                raise ValueError(f"x_scale must be positive and finite with shape ({n},)")
+            self.unit_xs = bool((xs == 1.0).all())
         strategy = opts.hessian
         if strategy == "auto":
             if nlp.hessian is not None:
@@ -126,28 +161,43 @@ class _Engine:
                 "SQPOptions.hessian='gauss-newton' needs NonlinearProgram.gauss_newton"
             )
         self.strategy = strategy
-        self.x: FloatArray = np.clip(np.asarray(x0, dtype=float), lower, upper)
+        x0 = np.array(x0, dtype=float)
+        self.x: FloatArray = np.minimum(np.maximum(x0, lower), upper) if self.any_bounds else x0
+        self.eye: FloatArray = np.eye(n)
         # Iteration state, set in run() once the dimensions and scaling are known.
         self.mE = 0
         self.mI = 0
+        self.m = 0
         self.sf = 1.0
-        self.wE: FloatArray = np.ones(0)
-        self.wI: FloatArray = np.ones(0)
+        self.w: FloatArray = np.ones(0)  # constraint scale factors [wE; wI]
+        self.wE: FloatArray = self.w
+        self.wI: FloatArray = self.w
+        self.unit_w = True
+        self.viol_a: FloatArray = np.zeros(0)
+        self.viol_b: FloatArray = np.zeros(0)
         self.f = 0.0
-        self.cE: FloatArray = np.zeros(0)
-        self.cI: FloatArray = np.zeros(0)
+        self.c: FloatArray = np.zeros(0)
+        self.cE: FloatArray = self.c
+        self.cI: FloatArray = self.c
         self.g: FloatArray = np.zeros(n)
-        self.JE: FloatArray = np.zeros((0, n))
-        self.JI: FloatArray = np.zeros((0, n))
-        self.negJI: FloatArray = np.zeros((0, n))
+        self.J: FloatArray = np.zeros((0, n))
+        self.JE: FloatArray = self.J
+        self.JI: FloatArray = self.J
         self.B: FloatArray = np.eye(n)
         self.bfgs_first = True
+        self.hess_modified = False  # the last exact Hessian needed convexification
         self.v = 0.0
         self.nu = NU_INIT
-        self.any_bounds = False
         self.bound_tol: FloatArray = np.zeros(n)
         self.ctol_scaled = 0.0
         self.last_qp_info = ""
+        # Caches of quantities that depend on x only (refreshed by _new_point).
+        self.viol_u = 0.0
+        self.xnorm = 0.0
+        self.lo_tol: FloatArray = lower
+        self.up_tol: FloatArray = upper
+        self.at_lo: BoolArray | None = None  # None: no bounds
+        self.at_up: BoolArray | None = None
 
     # ---------------------------------------------------------------- evaluation -----
     def _eval_full(self, x: FloatArray) -> Evaluation:
@@ -156,17 +206,27 @@ class _Engine:
         self.timer.eval += time.perf_counter() - t
         return ev
 
-    def _eval_values(
-        self, x: FloatArray
-    ) -> tuple[float, FloatArray, FloatArray, Evaluation | None]:
+    def _stack_c(self, cE: Any, cI: Any) -> FloatArray:
+        """Scaled stacked constraint values ``[wE cE; wI cI]``."""
+        mE = self.mE
+        c = np.empty(self.m)
+        if mE:
+            c[:mE] = np.asarray(cE, float).ravel()
+        if self.mI:
+            c[mE:] = np.asarray(cI, float).ravel()
+        if not self.unit_w:
+            c *= self.w
+        return c
+
+    def _eval_values(self, x: FloatArray) -> tuple[float, FloatArray, Evaluation | None]:
         t = time.perf_counter()
         f, cE, cI, ev = self.nlp.evaluate_values(x)
         self.timer.eval += time.perf_counter() - t
         self.nfev += 1
-        fs = float(f) * self.sf
-        cEs = self.wE * (np.zeros(0) if cE is None else np.asarray(cE, float).ravel())
-        cIs = self.wI * (np.zeros(0) if cI is None else np.asarray(cI, float).ravel())
-        return fs, cEs, cIs, ev
+        return float(f) * self.sf, self._stack_c(cE, cI), ev
+
+    def _set_c(self, c: FloatArray) -> None:
+        self.c, self.cE, self.cI = c, c[: self.mE], c[self.mE :]
 
     def _derivs(self, x: FloatArray, ev: Evaluation | None) -> None:
         """Set gradient and Jacobians (scaled) at ``x`` (``ev`` reused when available)."""
@@ -185,9 +245,26 @@ class _Engine:
             JI = None if nlp.ineq_jacobian is None else nlp.ineq_jacobian(x)
         self.timer.eval += time.perf_counter() - t
         self.g = self.sf * np.asarray(g, dtype=float).ravel()
-        self.JE = self.wE[:, None] * _as2d(JE, mE, n)
-        self.JI = self.wI[:, None] * _as2d(JI, mI, n)
-        self.negJI = -self.JI
+        J = np.empty((self.m, n))
+        if mE:
+            J[:mE] = _as2d(JE, mE, n)
+        if mI:
+            J[mE:] = _as2d(JI, mI, n)
+        if not self.unit_w:
+            J *= self.w[:, None]
+        self.J, self.JE, self.JI = J, J[:mE], J[mE:]
+
+    def _new_point(self) -> None:
+        """Refresh the caches that depend on x (and c) only."""
+        x = self.x
+        self.viol_u = self._max_violation_unscaled(self.c)
+        if self.unit_xs:
+            self.xnorm = float(np.abs(x).max())
+        else:
+            self.xnorm = float(np.max(np.abs(x) / self.xs, initial=0.0))
+        if self.any_bounds:
+            self.at_lo = x <= self.lo_tol
+            self.at_up = x >= self.up_tol
 
     # ----------------------------------------------------------------- helpers -------
     def _backend(self, name: str, n: int, me: int, mi: int) -> QPBackend:
@@ -199,6 +276,21 @@ class _Engine:
             be.setup(n, me, mi)
             self.backends[key] = be
         return be
+
+    @staticmethod
+    def _bad(sol: QPSolution, lb: FloatArray) -> bool:
+        """A SOLVED status with a non-finite or bound-violating ``x`` (a backend glitch)."""
+        if sol.status is not QPStatus.SOLVED:
+            return False
+        x = sol.x
+        if not math.isfinite(float(x.sum())) and not np.isfinite(x).all():
+            return True
+        return not bool((x >= lb - 1e-6 * (1.0 + np.abs(lb))).all())
+
+    def _finish_qp(self, sol: QPSolution, t: float) -> QPSolution:
+        self.timer.qp += time.perf_counter() - t
+        self.last_qp_info = sol.info
+        return sol
 
     def _qp(
         self,
@@ -215,89 +307,154 @@ class _Engine:
         n, me, mi = q.size, b_eq.size, h.size
         t = time.perf_counter()
         sol = self._backend(self.qp_name, n, me, mi).solve(P, q, A_eq, b_eq, G, h, lb, ub)
-        if (
-            sol.status is QPStatus.SOLVED
-            and not np.all(np.isfinite(sol.x))
-            or sol.status is QPStatus.SOLVED
-            and np.any(sol.x < lb - 1e-6 * (1 + np.abs(lb)))
-        ):
+        if self._bad(sol, lb):
             sol = QPSolution(sol.x, sol.y_eq, sol.y_ineq, sol.y_bounds, QPStatus.FAILED, "bad")
         fb = self.opts.fallback_qp_solver
         if sol.status is QPStatus.FAILED and fb is not None and fb != self.qp_name:
             sol = self._backend(fb, n, me, mi).solve(P, q, A_eq, b_eq, G, h, lb, ub)
-        self.timer.qp += time.perf_counter() - t
-        self.last_qp_info = sol.info
-        return sol
+        return self._finish_qp(sol, t)
 
-    def _violation(self, cE: FloatArray, cI: FloatArray) -> float:
-        """Scaled l1 violation ``||c_E||_1 + ||min(c_I, 0)||_1``."""
-        return float(np.abs(cE).sum() - np.minimum(cI, 0.0).sum())
+    def _qp_sqp(self, c: FloatArray, lb: FloatArray, ub: FloatArray) -> QPSolution:
+        """The QP ``min g'd + d'Bd/2  s.t.  c + J d (=, >=) 0, lb <= d <= ub`` (:meth:`_qp`)."""
+        n, mE, mI = self.n, self.mE, self.mI
+        B, g, J = self.B, self.g, self.J
+        t = time.perf_counter()
+        be = self.main_backend
+        if be is None:
+            be = self.main_backend = self._backend(self.qp_name, n, mE, mI)
+        sol = be.solve_sqp(B, g, J, c, lb, ub)
+        if self._bad(sol, lb):
+            sol = QPSolution(sol.x, sol.y_eq, sol.y_ineq, sol.y_bounds, QPStatus.FAILED, "bad")
+        fb = self.opts.fallback_qp_solver
+        if sol.status is QPStatus.FAILED and fb is not None and fb != self.qp_name:
+            sol = self._backend(fb, n, mE, mI).solve_sqp(B, g, J, c, lb, ub)
+        return self._finish_qp(sol, t)
+
+    def _violation(self, c: FloatArray) -> float:
+        """Scaled l1 violation ``||c_E||_1 + ||min(c_I, 0)||_1`` of stacked ``c``, as
+        ``a'|c| - b'c`` (``a = [1; 1/2], b = [0; 1/2]``: ``-min(t, 0) = (|t| - t) / 2``)."""
+        if not self.m:
+            return 0.0
+        return float(np.abs(c) @ self.viol_a - c @ self.viol_b)
 
     def _lin_violation(self, d: FloatArray) -> float:
-        return self._violation(self.cE + self.JE @ d, self.cI + self.JI @ d)
+        return self._violation(self.c + self.J @ d)
 
-    def _max_violation_unscaled(self, cE: FloatArray, cI: FloatArray) -> float:
+    def _max_violation_unscaled(self, c: FloatArray) -> float:
+        u = c if self.unit_w else c / self.w
+        mE = self.mE
         v = 0.0
-        if cE.size:
-            v = float((np.abs(cE) / self.wE).max())
-        if cI.size:
-            v = max(v, float((-cI / self.wI).max()))
+        if mE:
+            v = float(np.abs(u[:mE]).max())
+        if self.mI:
+            v = max(v, -float(u[mE:].min()))
         return max(v, 0.0)
 
-    def _kkt(self, lamE: FloatArray, lamI: FloatArray) -> tuple[float, float]:
-        """Scaled stationarity and complementarity at the current x."""
-        r = self.g - self.JE.T @ lamE - self.JI.T @ lamI
-        if self.any_bounds:
-            x = self.x
-            at_lo = x <= self.lower + self.bound_tol
-            at_up = x >= self.upper - self.bound_tol
-            r = np.where(at_lo, np.minimum(r, 0.0), r)
-            r = np.where(at_up, np.maximum(r, 0.0), r)
-        m = lamE.size + lamI.size
+    def _multipliers(self, sol: QPSolution) -> FloatArray:
+        """Stacked ``[lam_E; lam_I]`` of the QP (lam_I clipped at 0)."""
+        mE = self.mE
+        lam = np.empty(self.m)
+        if mE:
+            np.negative(sol.y_eq[:mE], out=lam[:mE])
+        if self.mI:
+            np.maximum(sol.y_ineq[: self.mI], 0.0, out=lam[mE:])
+        return lam
+
+    def _kkt_args(self, lam: FloatArray) -> _KKTArgs:
+        """What :meth:`_kkt` needs at the current x (evaluated now or later: the engine
+        replaces these arrays at a new point, never modifies them)."""
+        return lam, self.g, self.J, self.cI, self.at_lo, self.at_up
+
+    def _kkt(self, args: _KKTArgs) -> tuple[float, float]:
+        """Scaled stationarity and complementarity (of :meth:`_kkt_args`)."""
+        lam, g, J, cI, at_lo, at_up = args
+        m = self.m
+        r = g - lam @ J if m else g.copy()
+        if at_lo is not None:
+            np.minimum(r, 0.0, out=r, where=at_lo)
+        if at_up is not None:
+            np.maximum(r, 0.0, out=r, where=at_up)
         sd = 1.0
         if m:
-            sd = max(KKT_S_MAX, (np.abs(lamE).sum() + np.abs(lamI).sum()) / m) / KKT_S_MAX
+            sd = max(KKT_S_MAX, float(np.abs(lam).sum()) / m) / KKT_S_MAX
         stat = float(np.abs(r).max()) / sd if r.size else 0.0
-        compl = float(np.abs(lamI * self.cI).max()) / sd if lamI.size else 0.0
+        compl = float(np.abs(lam[self.mE :] * cI).max()) / sd if self.mI else 0.0
         return stat, compl
 
     # ------------------------------------------------------------------ Hessian -------
-    def _exact_hessian(self, lamE: FloatArray, lamI: FloatArray) -> FloatArray:
+    def _exact_hessian(self, lam: FloatArray) -> FloatArray:
         nlp = self.nlp
         assert nlp.hessian is not None
-        yE = lamE * self.wE / self.sf
-        yI = lamI * self.wI / self.sf
+        y = lam * self.w
+        if self.sf != 1.0:
+            y /= self.sf
+        mE = self.mE
         t = time.perf_counter()
-        H = np.asarray(nlp.hessian(self.x, yE, yI), dtype=float).reshape(self.n, self.n)
+        H = np.asarray(nlp.hessian(self.x, y[:mE], y[mE:]), dtype=float).reshape(self.n, self.n)
         self.timer.eval += time.perf_counter() - t
         t = time.perf_counter()
-        H = self.sf * 0.5 * (H + H.T)
-        B = self._convexify(H, lamI)
+        H = H + H.T
+        H *= 0.5 * self.sf
+        B = self._convexify(H, lam)
         self.timer.build += time.perf_counter() - t
         return B
 
-    def _convexify(self, H: FloatArray, lamI: FloatArray) -> FloatArray:
-        if not np.all(np.isfinite(H)):
-            return np.eye(self.n)
+    def _pd_enough(self, H: FloatArray, fro: float) -> bool:
+        """Whether ``lambda_min(H) >= HESS_REG max(1, max|lambda(H)|)`` (the convexity test of
+        the QP Hessian), for symmetric finite ``H`` with Frobenius norm ``fro``.
+
+        Decided by Cholesky factorisations when possible: ``H`` not positive definite fails
+        the test, ``H - HESS_REG max(1, fro) I`` positive definite passes it (``fro`` bounds
+        ``max|lambda|``); only in between are the eigenvalues computed.
+        """
+        if math.isfinite(fro):
+            if not _chol_ok(H, 0.0, self.eye):
+                return False
+            if _chol_ok(H, HESS_REG * max(1.0, fro), self.eye):
+                return True
         w = np.linalg.eigvalsh(H)
-        scale = max(1.0, float(np.max(np.abs(w))))
+        return bool(w[0] >= HESS_REG * max(1.0, float(np.max(np.abs(w)))))
+
+    def _convexify(self, H: FloatArray, lam: FloatArray) -> FloatArray:
+        fro2 = float(np.vdot(H, H))
+        if not math.isfinite(fro2) and not np.all(np.isfinite(H)):
+            return np.eye(self.n)
+        # Cheap exit: a shifted Cholesky factorisation certifies a positive definite enough H
+        # (||H||_F bounds max|lambda|); otherwise the eigenvalues decide exactly.  Skipped
+        # while the Hessians keep needing a modification (it would fail).
+        fro = math.sqrt(fro2)
+        if (
+            not self.hess_modified
+            and math.isfinite(fro)
+            and _chol_ok(H, HESS_REG * max(1.0, fro), self.eye)
+        ):
+            return H
+        self.hess_modified = True
+        w, _v, info = _dsyev(H, compute_v=0, lower=1)
+        if info != 0:  # pragma: no cover - LAPACK failure, retry through numpy
+            w = np.linalg.eigvalsh(H)
+        scale = max(1.0, float(max(abs(w[0]), abs(w[-1]))))
         floor = max(HESS_REG * scale, HESS_FLOOR)
         if w[0] >= HESS_REG * scale:
+            self.hess_modified = False
             return H
         # Augment with J_A'J_A over equalities and active inequalities: unchanged QP solution
         # when that active set is kept and the reduced Hessian is positive definite.
-        active = lamI > 0
-        JA = np.vstack((self.JE, self.JI[active])) if self.mE + self.mI else np.zeros((0, 1))
+        active = lam > 0
+        active[: self.mE] = True
+        JA = self.J[active]
         if JA.shape[0]:
             JtJ = JA.T @ JA
-            nj = max(float(np.max(np.abs(JtJ))), 1e-300)
+            # max|JtJ| is on the diagonal of a Gram matrix.
+            nj = max(float(JtJ.diagonal().max()), 1e-300)
             for tau in AUG_TAUS:
                 Ha = H + (tau * max(1.0, -w[0]) / nj) * JtJ
-                wa = np.linalg.eigvalsh(Ha)
-                if wa[0] >= HESS_REG * max(1.0, float(np.max(np.abs(wa)))):
+                if self._pd_enough(Ha, math.sqrt(float(np.vdot(Ha, Ha)))):
                     return Ha
         # Eigenvalue clipping.
-        w, V = np.linalg.eigh(H)
+        w, V, info = _dsyevd(H, compute_v=1, lower=1)
+        if info != 0:  # pragma: no cover - LAPACK failure, retry through numpy
+            w, V = np.linalg.eigh(H)
         w = np.maximum(w, floor)
         Hc: FloatArray = (V * w) @ V.T
         return 0.5 * (Hc + Hc.T)
@@ -340,6 +497,9 @@ class _Engine:
         B += np.outer(r, r) / sr - np.outer(Bs, Bs) / sBs
         self.B = 0.5 * (B + B.T)
 
+    def _grad_lagrangian(self, lam: FloatArray) -> FloatArray:
+        return self.g - lam @ self.J if self.m else self.g.copy()
+
     # --------------------------------------------------------------- subproblem -------
     def _elastic(
         self, nu: float, lb: FloatArray, ub: FloatArray, delta_vec: FloatArray
@@ -359,7 +519,7 @@ class _Engine:
         A_eq[:, n : n + mE] = -np.eye(mE)
         A_eq[:, n + mE : n + 2 * mE] = np.eye(mE)
         G = np.zeros((self.mI, nz))
-        G[:, :n] = self.negJI
+        G[:, :n] = -self.JI
         G[viol_idx, n + 2 * mE + np.arange(k)] = -1.0
         lbz = np.zeros(nz)
         ubz = np.empty(nz)
@@ -379,10 +539,10 @@ class _Engine:
         self, lb: FloatArray, ub: FloatArray, delta: float
     ) -> tuple[QPSolution | None, FloatArray, bool, bool]:
         """Return (solution, d, elastic?, locally-infeasible?)."""
-        sol = self._qp(self.B, self.g, self.JE, -self.cE, self.negJI, self.cI, lb, ub)
+        sol = self._qp_sqp(self.c, lb, ub)
         if sol.status is QPStatus.SOLVED:
             return sol, sol.x, False, False
-        if self.mE + self.mI == 0:
+        if self.m == 0:
             return None, np.zeros(self.n), False, False
         delta_vec = np.minimum(np.maximum(ub, -lb), delta * self.xs)
         m0 = self.v
@@ -418,6 +578,11 @@ class _Engine:
     def _time_up(self) -> bool:
         return time.perf_counter() - self.t0 > self.opts.max_time
 
+    def _project(self, x: FloatArray) -> FloatArray:
+        if self.any_bounds:
+            return np.minimum(np.maximum(x, self.lower), self.upper)
+        return x
+
     def run(self) -> SQPResult:
         opts, nlp, n = self.opts, self.nlp, self.n
         verbose = opts.verbose
@@ -428,71 +593,78 @@ class _Engine:
         cE_raw = np.zeros(0) if ev.c_eq is None else np.asarray(ev.c_eq, float).ravel()
         cI_raw = np.zeros(0) if ev.c_ineq is None else np.asarray(ev.c_ineq, float).ravel()
         self.mE, self.mI = mE, mI = cE_raw.size, cI_raw.size
+        self.m = m = mE + mI
         g_raw = np.asarray(ev.g, dtype=float).ravel()
         JE_raw = _as2d(ev.J_eq, mE, n)
         JI_raw = _as2d(ev.J_ineq, mI, n)
         # Scaling (IPOPT gradient-based rule, W&B 2006 Sec. 3.8) or user-given factors.
         self.sf = 1.0
-        self.wE = np.ones(mE)
-        self.wI = np.ones(mI)
         if opts.scaling:
-            gmax = float(np.max(np.abs(g_raw))) if n else 0.0
-            if np.isfinite(gmax) and gmax > SCALE_MAX_GRADIENT:
+            gmax = float(np.abs(g_raw).max()) if n else 0.0
+            if math.isfinite(gmax) and gmax > SCALE_MAX_GRADIENT:
                 self.sf = SCALE_MAX_GRADIENT / gmax
-            if mE:
-                rn = np.max(np.abs(JE_raw), axis=1) if n else np.zeros(mE)
-                self.wE = SCALE_MAX_GRADIENT / np.maximum(rn, SCALE_MAX_GRADIENT)
-            if mI:
-                rn = np.max(np.abs(JI_raw), axis=1) if n else np.zeros(mI)
-                self.wI = SCALE_MAX_GRADIENT / np.maximum(rn, SCALE_MAX_GRADIENT)
-            self.wE[~np.isfinite(self.wE)] = 1.0
-            self.wI[~np.isfinite(self.wI)] = 1.0
-        if nlp.eq_scale is not None:
-            self.wE = np.broadcast_to(np.asarray(nlp.eq_scale, float), (mE,)).copy()
-        if nlp.ineq_scale is not None:
-            self.wI = np.broadcast_to(np.asarray(nlp.ineq_scale, float), (mI,)).copy()
-        if np.any(~(self.wE > 0)) or np.any(~(self.wI > 0)):
+
+        def row_scale(user: Any, Jraw: FloatArray, mc: int) -> FloatArray:
+            if user is not None:
+                return np.broadcast_to(np.asarray(user, float), (mc,)).copy()
+            if not (opts.scaling and mc and n):
+                return np.ones(mc)
+            ws = SCALE_MAX_GRADIENT / np.maximum(np.abs(Jraw).max(axis=1), SCALE_MAX_GRADIENT)
+            ws[~np.isfinite(ws)] = 1.0
+            return ws
+
+        wE = row_scale(nlp.eq_scale, JE_raw, mE)
+        wI = row_scale(nlp.ineq_scale, JI_raw, mI)
+        self.w = np.concatenate((wE, wI))
+        if not (self.w > 0).all():
             raise ValueError("eq_scale and ineq_scale must be positive")
+        self.wE, self.wI = self.w[:mE], self.w[mE:]
+        self.unit_w = bool((self.w == 1.0).all())
+        w_min = min(1.0, float(self.w.min())) if m else 1.0
+        self.viol_a = np.concatenate((np.ones(mE), np.full(mI, 0.5)))
+        self.viol_b = np.concatenate((np.zeros(mE), np.full(mI, 0.5)))
         self.f = self.sf * f_raw
-        self.cE = self.wE * cE_raw
-        self.cI = self.wI * cI_raw
+        self._set_c(self._stack_c(cE_raw, cI_raw))
         self._derivs(x, ev)
-        self.any_bounds = bool(np.any(np.isfinite(self.lower)) or np.any(np.isfinite(self.upper)))
-        self.bound_tol = opts.constr_tol * (1.0 + np.minimum(np.abs(self.lower), 1e300))
-        self.ctol_scaled = opts.constr_tol * float(
-            min(np.min(self.wE, initial=1.0), np.min(self.wI, initial=1.0))
-        )
+        if self.any_bounds:
+            self.bound_tol = opts.constr_tol * (1.0 + np.minimum(np.abs(self.lower), 1e300))
+            self.lo_tol = self.lower + self.bound_tol
+            self.up_tol = self.upper - self.bound_tol
+        self.ctol_scaled = opts.constr_tol * w_min
         self.nu = NU_INIT
-        self.v = self._violation(self.cE, self.cI)
-        lamE = np.zeros(mE)
-        lamI = np.zeros(mI)
+        self.v = self._violation(self.c)
+        self._new_point()
+        lam = np.zeros(m)
         self.bfgs_first = True
         self.last_qp_info = ""
 
         status: SQPStatus | None = None
         detail = ""
-        if not (np.isfinite(self.f) and np.all(np.isfinite(self.g)) and np.isfinite(self.v)):
+        if not (math.isfinite(self.f) and _all_finite(self.g) and math.isfinite(self.v)):
             status = SQPStatus.NUMERICAL_ERROR
             detail = " (at x0)"
-        elif not (np.all(np.isfinite(self.JE)) and np.all(np.isfinite(self.JI))):
+        elif not _all_finite(self.J):
             status = SQPStatus.NUMERICAL_ERROR
             detail = " (Jacobian at x0)"
         if status is None:
-            t = time.perf_counter()
             if self.strategy == "exact":
-                self.B = self._exact_hessian(lamE, lamI)
+                self.B = self._exact_hessian(lam)
             elif self.strategy == "gauss-newton":
                 self.B = self._gn_hessian()
             else:
                 self.B = np.eye(n)
-            self.timer.build += 0.0 * (time.perf_counter() - t)
 
         delta = opts.initial_tr_radius
         nit = 0
         have_lam = False
         x_changed = True
         stat = compl = math.inf
-        best_x, best_v = x.copy(), self._max_violation_unscaled(self.cE, self.cI)
+        # Stationarity/complementarity are only needed for the termination test (which
+        # needs the violation within tol first), the log and the result: otherwise the
+        # evaluation is deferred (``pending``) and done at the end if still the latest.
+        pending: _KKTArgs | None = None
+        ctol = opts.constr_tol
+        best_x, best_v = x.copy(), self.viol_u
         if verbose and status is None:
             print(
                 f"{'it':>4} {'f':>14} {'viol':>9} {'stat':>9} {'compl':>9} "
@@ -502,23 +674,29 @@ class _Engine:
             if self._time_up():
                 status = SQPStatus.MAX_TIME
                 break
-            viol_u = self._max_violation_unscaled(self.cE, self.cI)
+            viol_u = self.viol_u
             if have_lam and x_changed:
-                stat, compl = self._kkt(lamE, lamI)
-                if stat <= opts.tol and compl <= opts.tol and viol_u <= opts.constr_tol:
-                    status = SQPStatus.SUCCESS
-                    break
+                pending = self._kkt_args(lam)
+                if viol_u <= ctol:
+                    stat, compl = self._kkt(pending)
+                    pending = None
+                    if stat <= opts.tol and compl <= opts.tol:
+                        status = SQPStatus.SUCCESS
+                        break
             if nit >= opts.max_iter:
                 status = SQPStatus.MAX_ITER
                 break
             x_changed = False
             # ---- QP subproblem
             t = time.perf_counter()
-            dvec = delta * self.xs
-            lb = np.maximum(self.lower - x, -dvec)
-            ub = np.minimum(self.upper - x, dvec)
-            np.minimum(lb, 0.0, out=lb)
-            np.maximum(ub, 0.0, out=ub)
+            # lb = min(max(lower - x, -D xs), 0), ub = max(min(upper - x, D xs), 0).
+            dvec: Any = delta if self.unit_xs else delta * self.xs
+            if self.any_bounds:
+                lb = np.maximum(np.minimum(self.lower - x, 0.0), -dvec)
+                ub = np.minimum(np.maximum(self.upper - x, 0.0), dvec)
+            else:
+                ub = np.full(n, delta) if self.unit_xs else dvec
+                lb = -ub
             self.timer.build += time.perf_counter() - t
             nit += 1
             sol, d, elastic, infeasible = self._subproblem(lb, ub, delta)
@@ -526,13 +704,15 @@ class _Engine:
                 status = SQPStatus.QP_FAILURE
                 detail = f" ({self.last_qp_info})"
                 break
-            lamE = -sol.y_eq[:mE] if mE else lamE
-            lamI = np.maximum(sol.y_ineq[:mI], 0.0) if mI else lamI
+            lam = self._multipliers(sol)
             have_lam = True
-            stat, compl = self._kkt(lamE, lamI)
-            if stat <= opts.tol and compl <= opts.tol and viol_u <= opts.constr_tol:
-                status = SQPStatus.SUCCESS
-                break
+            pending = self._kkt_args(lam)
+            if viol_u <= ctol or verbose:
+                stat, compl = self._kkt(pending)
+                pending = None
+                if stat <= opts.tol and compl <= opts.tol and viol_u <= ctol:
+                    status = SQPStatus.SUCCESS
+                    break
             if infeasible:
                 status = SQPStatus.INFEASIBLE
                 break
@@ -544,44 +724,44 @@ class _Engine:
             dBd = float(d @ (self.B @ d))
             gd = float(self.g @ d)
             if not elastic:
-                lam_inf = max(
-                    float(np.max(np.abs(lamE), initial=0.0)),
-                    float(np.max(lamI, initial=0.0)),
-                )
+                lam_inf = float(np.abs(lam).max()) if m else 0.0
                 nu = max(self.nu, PENALTY_MARGIN * lam_inf)
                 if m0 > 0:
                     nu = max(nu, (gd + 0.5 * dBd) / ((1.0 - RHO_PENALTY) * m0))
                 self.nu = min(nu, NU_MAX)
             nu = self.nu
             # Linearised violation of the computed step (not assumed zero: QP tolerances).
-            md = self._lin_violation(d)
+            Jd = self.J @ d
+            md = self._violation(self.c + Jd)
             pred = -(gd + 0.5 * dBd) + nu * (m0 - md)
             phi0 = self.f + nu * m0
-            dnorm = float(np.max(np.abs(d) / self.xs)) if n else 0.0
+            if n == 0:
+                dnorm = 0.0
+            elif self.unit_xs:
+                dnorm = float(np.abs(d).max())
+            else:
+                dnorm = float(np.max(np.abs(d) / self.xs))
             # ---- trial point
-            x_t = np.clip(x + d, self.lower, self.upper)
-            f_t, cE_t, cI_t, ev_t = self._eval_values(x_t)
-            v_t = self._violation(cE_t, cI_t)
+            x_t = self._project(x + d)
+            f_t, c_t, ev_t = self._eval_values(x_t)
+            v_t = self._violation(c_t)
             phi_t = f_t + nu * v_t
             ok = math.isfinite(phi_t)
             # Roundoff-protected ratio, Conn, Gould & Toint (2000) Sec. 17.4.2.
             guard = ROUNDOFF_GUARD * max(1.0, abs(phi0))
             ratio = (phi0 - phi_t + guard) / (pred + guard) if ok and pred > -guard else -math.inf
             kind = "elastic" if elastic else "qp"
-            if ratio < ETA_ACCEPT and not elastic and (mE + mI) and ok and pred > 0:
+            if ratio < ETA_ACCEPT and not elastic and m and ok and pred > 0:
                 # Second-order correction (N&W Sec. 15.5 / Alg. 18.4).
-                Jd_E = self.JE @ d
-                Jd_I = self.JI @ d
-                sol_c = self._qp(
-                    self.B, self.g, self.JE, -(cE_t - Jd_E), self.negJI, cI_t - Jd_I, lb, ub
-                )
+                sol_c = self._qp_sqp(c_t - Jd, lb, ub)
                 if sol_c.status is QPStatus.SOLVED:
-                    x_c = np.clip(x + sol_c.x, self.lower, self.upper)
-                    f_c, cE_c, cI_c, ev_c = self._eval_values(x_c)
-                    phi_c = f_c + nu * self._violation(cE_c, cI_c)
+                    x_c = self._project(x + sol_c.x)
+                    f_c, c_c, ev_c = self._eval_values(x_c)
+                    v_c = self._violation(c_c)
+                    phi_c = f_c + nu * v_c
                     ratio_c = (phi0 - phi_c + guard) / (pred + guard)
                     if math.isfinite(phi_c) and ratio_c >= ETA_ACCEPT:
-                        x_t, f_t, cE_t, cI_t, ev_t = x_c, f_c, cE_c, cI_c, ev_c
+                        x_t, f_t, c_t, ev_t = x_c, f_c, c_c, ev_c
                         ratio = ratio_c
                         kind = "soc"
                         d = sol_c.x
@@ -594,64 +774,57 @@ class _Engine:
             if ratio >= ETA_ACCEPT:
                 # ---- accept
                 if self.strategy == "bfgs":
-                    gL_old = self.g - self.JE.T @ lamE - self.JI.T @ lamI
+                    gL_old = self._grad_lagrangian(lam)
                 x_old = x
                 x = self.x = x_t
                 x_changed = True
-                self.f, self.cE, self.cI = f_t, cE_t, cI_t
+                self.f = f_t
+                self._set_c(c_t)
                 self.v = v_t
                 if ev_t is None and self.nlp.evaluate is not None:
                     ev_t = self._eval_full(x)
                 self._derivs(x, ev_t)
-                if not (
-                    np.all(np.isfinite(self.g))
-                    and np.all(np.isfinite(self.JE))
-                    and np.all(np.isfinite(self.JI))
-                ):
+                if not (_all_finite(self.g) and _all_finite(self.J)):
                     status = SQPStatus.NUMERICAL_ERROR
                     break
+                self._new_point()
                 if self.strategy == "exact":
-                    self.B = self._exact_hessian(lamE, lamI)
+                    self.B = self._exact_hessian(lam)
                 elif self.strategy == "gauss-newton":
                     self.B = self._gn_hessian()
                 else:
                     t = time.perf_counter()
-                    gL_new = self.g - self.JE.T @ lamE - self.JI.T @ lamI
+                    gL_new = self._grad_lagrangian(lam)
                     self._bfgs_update(x - x_old, gL_new - gL_old)
                     self.timer.build += time.perf_counter() - t
-                viol_new = self._max_violation_unscaled(self.cE, self.cI)
-                if viol_new < best_v:
-                    best_x, best_v = x.copy(), viol_new
+                if self.viol_u < best_v:
+                    best_x, best_v = x.copy(), self.viol_u
                 if ratio >= ETA_GOOD and dnorm >= BOUNDARY_FRACTION * delta:
                     delta = min(GAMMA_GROW * delta, opts.max_tr_radius)
                 elif ratio < ETA_BAD:
                     delta = GAMMA_SHRINK * delta
             else:
                 delta = GAMMA_SHRINK * min(delta, dnorm if dnorm > 0 else delta)
-            if delta < DELTA_MIN * (1.0 + float(np.max(np.abs(x) / self.xs, initial=0.0))):
-                stat, compl = self._kkt(lamE, lamI)
+            if delta < DELTA_MIN * (1.0 + self.xnorm):
+                stat, compl = self._kkt(self._kkt_args(lam))
+                pending = None
                 status = SQPStatus.SMALL_STEP
                 break
 
         # ---- final re-check and result
-        if status is SQPStatus.INFEASIBLE and best_v < self._max_violation_unscaled(
-            self.cE, self.cI
-        ):
-            x = best_x
-            f_b, cE_b, cI_b, _ = self._eval_values(x)
-            self.f, self.cE, self.cI = f_b, cE_b, cI_b
-        viol_u = self._max_violation_unscaled(self.cE, self.cI)
+        if pending is not None:
+            stat, compl = self._kkt(pending)
+        if status is SQPStatus.INFEASIBLE and best_v < self.viol_u:
+            x = self.x = best_x
+            f_b, c_b, _ = self._eval_values(x)
+            self.f = f_b
+            self._set_c(c_b)
+        viol_u = self._max_violation_unscaled(self.c)
         if status is SQPStatus.SUCCESS and not viol_u <= opts.constr_tol:
             status = SQPStatus.SMALL_STEP
             detail = " (final violation check failed)"
-        mult_scale = 1.0 / self.sf
-        yE = lamE * self.wE * mult_scale
-        yI = lamI * self.wI * mult_scale
-        kkt = max(
-            stat,
-            compl,
-            viol_u * float(min(np.min(self.wE, initial=1.0), np.min(self.wI, initial=1.0))),
-        )
+        y = lam * self.w / self.sf
+        kkt = max(stat, compl, viol_u * w_min)
         total = time.perf_counter() - self.t0
         if verbose:
             print(f"stackik.sqp: {status.value}: {MESSAGES[status]}{detail}")
@@ -665,8 +838,8 @@ class _Engine:
             nfev=self.nfev,
             kkt_residual=float(kkt),
             max_violation=float(viol_u),
-            y_eq=yE,
-            y_ineq=yI,
+            y_eq=y[:mE],
+            y_ineq=y[mE:],
             tr_radius=float(delta),
             penalty=float(self.nu),
             qp_solver=self.qp_name,

@@ -37,6 +37,7 @@ _INSTALL_HINT = (
 )
 
 
+@functools.cache
 def _native_factory(name: str) -> Callable[[dict[str, Any] | None], QPBackend] | None:
     module_name, cls_name = _NATIVE[name]
     try:

@@ -124,6 +124,30 @@ class QPBackend:
         """
         raise NotImplementedError
 
+    def solve_sqp(
+        self,
+        P: FloatArray,
+        q: FloatArray,
+        J: FloatArray,
+        c: FloatArray,
+        lb: FloatArray,
+        ub: FloatArray,
+    ) -> QPSolution:
+        """Solve the SQP subproblem form of the QP (the engine's per-iteration fast path).
+
+        .. math::
+
+            \\min_d \\tfrac12 d^T P d + q^T d \\quad\\text{s.t.}\\quad
+            c_E + J_E d = 0,\\; c_I + J_I d \\ge 0,\\; lb \\le d \\le ub
+
+        with ``J = [J_E; J_I]`` (shape ``(m_eq + m_ineq, n)``) and ``c = [c_E; c_I]``.  It is
+        :meth:`solve` with ``A_eq = J_E, b_eq = -c_E, G = -J_I, h = c_I``, and the returned
+        multipliers are those of that form.  Backends may override it to avoid building
+        ``A_eq``, ``G`` and ``h`` (the arrays must not be modified or kept).
+        """
+        me = self.m_eq
+        return self.solve(P, q, J[:me], -c[:me], -J[me:], c[me:], lb, ub)
+
     def failed(self, info: str, status: QPStatus = QPStatus.FAILED) -> QPSolution:
         """Return a failure solution of the current shape."""
         return QPSolution(
