@@ -761,7 +761,7 @@ class _Engine:
                     phi_c = f_c + nu * v_c
                     ratio_c = (phi0 - phi_c + guard) / (pred + guard)
                     if math.isfinite(phi_c) and ratio_c >= ETA_ACCEPT:
-                        x_t, f_t, c_t, ev_t = x_c, f_c, c_c, ev_c
+                        x_t, f_t, c_t, v_t, ev_t = x_c, f_c, c_c, v_c, ev_c
                         ratio = ratio_c
                         kind = "soc"
                         d = sol_c.x
