@@ -889,7 +889,7 @@ def _run_sqp(
     opts: dict[str, Any] = {
         "tol": 1e-7,
         "constr_tol": 1e-10,
-        "max_iter": 200,
+        "max_iter": max(200, 25 * prob.n),  # large stacks need more (observed ~10 n)
         "initial_tr_radius": 0.5,
     }
     if not exact_ok:
@@ -1221,7 +1221,9 @@ def _solve_ik(
         # promising one (the others remain as fallbacks, best first).
         screened = []
         for qs in queue:
-            run = _solve_from(prob, qs, method, qp_solver, {**opts, **SCREEN_OPTIONS})
+            left = max(max_time - (time.perf_counter() - t_start), 1e-3)
+            screen_opts = {"max_time": left, **opts, **SCREEN_OPTIONS}
+            run = _solve_from(prob, qs, method, qp_solver, screen_opts)
             nit_total += run.nit
             screened.append(run)
         screened.sort(key=lambda r: (r.check.max_violation_mm > SCREEN_FEAS_MM, r.obj))

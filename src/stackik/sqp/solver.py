@@ -68,7 +68,8 @@ HESS_REG = 1e-8  # relative floor of the QP Hessian eigenvalues (convexity)
 HESS_FLOOR = 1e-4  # absolute eigenvalue floor of a modified exact Hessian (no LP-like QPs)
 BFGS_DAMP = 0.2  # Powell damping threshold, N&W Proc. 18.2
 BFGS_DAMP_THETA = 0.8  # Powell damping factor, N&W Proc. 18.2
-AUG_TAUS = (1.0, 1e2, 1e4)  # tried multipliers of J_A'J_A for exact-Hessian convexification
+AUG_TAUS = (1.0, 1e2, 1e4)
+ACTIVE_MULTIPLIER_TOL = 1e-6  # relative multiplier above which a row counts as active  # tried multipliers of J_A'J_A for exact-Hessian convexification
 SCALE_MAX_GRADIENT = 100.0  # IPOPT nlp_scaling_max_gradient (Waechter & Biegler 2006, 3.8)
 KKT_S_MAX = 100.0  # IPOPT s_max for multiplier-scaled stationarity (W&B 2006, eq. 5)
 ROUNDOFF_GUARD = 10.0 * np.finfo(float).eps  # 10 eps_M max(1,|phi|), CGT (2000) 17.4.2
@@ -440,7 +441,10 @@ class _Engine:
             return H
         # Augment with J_A'J_A over equalities and active inequalities: unchanged QP solution
         # when that active set is kept and the reduced Hessian is positive definite.
-        active = lam > 0
+        # Interior-point backends (Clarabel, OSQP) return tiny positive multipliers on
+        # inactive rows: count a row active only above a relative threshold.
+        lam_max = float(np.abs(lam).max()) if lam.size else 0.0
+        active = lam > ACTIVE_MULTIPLIER_TOL * max(1.0, lam_max)
         active[: self.mE] = True
         JA = self.J[active]
         if JA.shape[0]:

@@ -27,8 +27,8 @@ from .base import FloatArray, QPBackend, QPSolution, QPStatus
 #: Settings tuned for SQP subproblems; user ``qp_options`` override them.
 DEFAULT_SETTINGS: dict[str, Any] = {
     "verbose": False,
-    "eps_abs": 1e-8,
-    "eps_rel": 1e-8,
+    "eps_abs": 1e-6,
+    "eps_rel": 1e-6,
     "eps_prim_inf": 1e-7,
     "eps_dual_inf": 1e-7,
     "polishing": True,
