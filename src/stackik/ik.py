@@ -1043,7 +1043,7 @@ def solve_ik(
     sigma_t: ArrayLike | None = None,
     sigma_theta: ArrayLike | None = None,
     start: Literal["paper", "convex"] = "paper",
-    max_time: float = 10.0,
+    max_time: float | None = None,
     blas_threads: int | None = 1,
 ) -> IKResult:
     """Solve the inverse kinematics of a stack for one target.
@@ -1079,8 +1079,8 @@ def solve_ik(
         Randomness of the extra starts.
     options : dict, optional
         Passed to the solver (``SQPOptions`` fields for "sqp", scipy options otherwise).
-    max_time : float
-        Wall-time budget over all starts [s].
+    max_time : float, optional
+        Wall-time budget over all starts [s]; default ``10 + 2 n``.
     blas_threads : int or None
         BLAS threads during the solve (default 1: the matrices are small and threads
         only contend, 5x slower at n = 32 on a loaded 2-core machine); None leaves the
@@ -1127,9 +1127,15 @@ def _solve_ik(
     sigma_t: ArrayLike | None,
     sigma_theta: ArrayLike | None,
     start: str,
-    max_time: float,
+    max_time: float | None,
 ) -> IKResult:
     t_start = time.perf_counter()
+    if not isinstance(stack, Stack):
+        raise ValueError(f"stack: expected a Stack, got {type(stack).__name__}")
+    if max_time is None:
+        max_time = 10.0 + 2.0 * stack.n
+    if not (isinstance(max_time, int | float) and max_time > 0):
+        raise ValueError(f"max_time: expected a positive number of seconds, got {max_time!r}")
     if not isinstance(stack, Stack):
         raise ValueError(f"stack: expected a Stack, got {type(stack).__name__}")
     if not isinstance(target, PlanarTarget | SpatialTarget):
