@@ -255,3 +255,11 @@ def test_solve_many_with_executor():
 def test_unknown_sqp_option_is_a_value_error():
     with pytest.raises(ValueError, match="bogus"):
         sk.solve_ik(STACK4, sk.PlanarTarget(*PAPER_TARGETS[0]), options={"bogus": 1})
+
+
+def test_convex_start_falls_back_when_socp_infeasible():
+    t = sk.PlanarTarget(1500.0, 100.0, 0.0)  # within the reach bound, not reachable
+    with pytest.raises(sk.ConvexStartError):
+        sk.convex_start(STACK4, t)
+    r = sk.solve_ik(STACK4, t, start="convex", max_time=5.0)
+    assert not r.success and r.status is IKStatus.INFEASIBLE

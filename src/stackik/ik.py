@@ -1067,7 +1067,8 @@ def solve_ik(
     x0 : array_like, optional
         Warm start, shape (n, 3) or (n, 6); default the paper's initial guess
         (:func:`paper_initial_guess`) or, with ``start="convex"``, the convex restriction
-        (:func:`stackik.convex.convex_start`).
+        (:func:`stackik.convex.convex_start`; the paper's guess when that SOCP is
+        infeasible).
     starts : int, optional
         Number of starts. Default: in planar mode without ``x0``, three structured starts
         (the paper's guess and two "folded" variants whose top two platforms are offset
@@ -1165,9 +1166,12 @@ def _solve_ik(
         if q0.shape != (n, k) or not np.all(np.isfinite(q0)):
             raise ValueError(f"x0: expected finite values of shape ({n}, {k}), got {q0.shape}")
     elif start == "convex":
-        from stackik.convex import convex_start
+        from stackik.convex import ConvexStartError, convex_start
 
-        q0 = convex_start(stack, target)
+        try:
+            q0 = convex_start(stack, target)
+        except ConvexStartError:  # no convex start for these rotations: the paper's guess
+            q0 = paper_initial_guess(stack, target)
     else:
         q0 = paper_initial_guess(stack, target)
     prob = _Problem(stack, target, objective, weights)
