@@ -9,8 +9,10 @@ from stackik.sqp import SQPOptions, SQPStatus, solve
 from stackik.sqp.hs import PROBLEMS
 
 #: Problems where the standard start point leads to a documented *local* minimiser
-#: (HS2: f=4.9412 at x1<0; HS16: f=23.14; HS20: f=40.20; HS33: f=-4).
-LOCAL_ONLY = {2, 16, 20, 33}
+#: (HS2: f=4.9412 at x1<0; HS16: f=23.14; HS20: f=40.20; HS33: f=-4), or to another KKT
+#: point (HS47: the cubic term lets f go below the published 0; the engine reaches a
+#: feasible KKT point with f = -0.0267 at x = (0.677, 0.726, 1.215, 1.751, 1.477)).
+LOCAL_ONLY = {2, 16, 20, 33, 47}
 #: Known backend-specific failures (honest xfails, see the report).
 KNOWN_FAIL = {("osqp", 10), ("clarabel", 32)}
 SOLVERS = ("daqp", "osqp", "clarabel")

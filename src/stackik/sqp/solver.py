@@ -57,6 +57,7 @@ BOUNDARY_FRACTION = 0.8  # a step "hits the boundary" if ||d|| >= 0.8 radius
 RHO_PENALTY = 0.1  # rho in N&W eq. (18.36) for the penalty lower bound
 PENALTY_MARGIN = 1.1  # nu >= 1.1 ||y||_inf (exactness of the l1 penalty, N&W Thm. 17.3)
 NU_INIT = 1.0  # initial penalty parameter
+NU_DECREASE_RATIO = 10.0  # nu is lowered to this multiple of 1.1 ||y||_inf when far above it
 NU_MAX = 1e10  # cap on the penalty parameter
 NU_STEER_FACTOR = 10.0  # penalty increase during steering, Byrd-Nocedal-Waltz 2008
 NU_STEER_MAX_TRIES = 6
@@ -729,7 +730,12 @@ class _Engine:
             gd = float(self.g @ d)
             if not elastic:
                 lam_inf = float(np.abs(lam).max()) if m else 0.0
-                nu = max(self.nu, PENALTY_MARGIN * lam_inf)
+                nu_req = PENALTY_MARGIN * lam_inf
+                if self.nu > NU_DECREASE_RATIO * nu_req and self.nu > NU_INIT:
+                    # a transient large multiplier left nu far above what the current
+                    # multipliers need: let it come down (keeps exactness, nu >= 1.1 |y|)
+                    self.nu = max(NU_DECREASE_RATIO * nu_req, NU_INIT)
+                nu = max(self.nu, nu_req)
                 if m0 > 0:
                     nu = max(nu, (gd + 0.5 * dBd) / ((1.0 - RHO_PENALTY) * m0))
                 self.nu = min(nu, NU_MAX)
@@ -755,7 +761,7 @@ class _Engine:
             guard = ROUNDOFF_GUARD * max(1.0, abs(phi0))
             ratio = (phi0 - phi_t + guard) / (pred + guard) if ok and pred > -guard else -math.inf
             kind = "elastic" if elastic else "qp"
-            if ratio < ETA_ACCEPT and not elastic and m and ok and pred > 0:
+            if ratio < ETA_GOOD and not elastic and m and ok and pred > 0:
                 # Second-order correction (N&W Sec. 15.5 / Alg. 18.4).
                 sol_c = self._qp_sqp(c_t - Jd, lb, ub)
                 if sol_c.status is QPStatus.SOLVED:
@@ -764,7 +770,7 @@ class _Engine:
                     v_c = self._violation(c_c)
                     phi_c = f_c + nu * v_c
                     ratio_c = (phi0 - phi_c + guard) / (pred + guard)
-                    if math.isfinite(phi_c) and ratio_c >= ETA_ACCEPT:
+                    if math.isfinite(phi_c) and ratio_c >= ETA_ACCEPT and ratio_c > ratio:
                         x_t, f_t, c_t, v_t, ev_t = x_c, f_c, c_c, v_c, ev_c
                         ratio = ratio_c
                         kind = "soc"
