@@ -113,18 +113,7 @@ def test_infeasible_geometry(seed):
 @fuzz(10)
 @given(seed=SEEDS)
 def test_extreme_x0(seed):
-    case = fc.gen_extreme_x0(np.random.default_rng(seed))
-    if case.info["kind"] == "huge" and case.info["method"] == "trust-constr":
-        case.make = _without_trust_constr(case.make)  # known bug, see the xfail test
-    run(case)
-
-
-def _without_trust_constr(make):
-    def wrapped():
-        s, t, kw = make()
-        return s, t, {**kw, "method": "slsqp", "options": {}}
-
-    return wrapped
+    run(fc.gen_extreme_x0(np.random.default_rng(seed)))
 
 
 @fuzz(10)
@@ -469,13 +458,9 @@ def test_convex_start_returns_a_result(spatial):
 
 
 # =========================================================================================
-# Known open library bugs (reported; strict xfail so that CI notices the fix)
+# Bugs found by the fuzz campaign: fixed ones stay as regression tests, open ones are
+# strict xfails so that CI notices the fix
 # =========================================================================================
-@pytest.mark.xfail(
-    strict=True,
-    reason="BUG: max_time is only checked between starts for slsqp/trust-constr/ipopt; one "
-    "run can exceed it by far",
-)
 def test_max_time_is_respected_by_trust_constr():
     stack, target = sk.Stack.reference(6), PlanarTarget(0.0, -1350.0, 0.0)  # unreachable
     t0 = time.perf_counter()
@@ -504,7 +489,6 @@ def test_max_time_is_respected_by_one_slow_qp():
     assert time.perf_counter() - t0 <= 0.2 + 1.0  # measured ~2.75 s; 1 s is ample slack
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: method='ipopt' ignores the options dict")
 def test_ipopt_honours_iteration_limit():
     if not fc.HAVE_IPOPT:
         pytest.skip("casadi not installed")
@@ -519,28 +503,17 @@ def test_ipopt_honours_iteration_limit():
     assert res.nit <= 3
 
 
-@pytest.mark.xfail(strict=True, reason="BUG: rng is not validated (TypeError from numpy)")
 def test_rng_type_is_validated():
     with pytest.raises(ValueError, match="rng"):
         sk.solve_ik(*REACHABLE3, starts=2, rng="seed")
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="BUG: scipy options are passed through unchecked: trust-constr raises TypeError for "
-    "an unknown key or a non-numeric maxiter",
-)
 @pytest.mark.parametrize("options", [{"ftol": 1e-9}, {"maxiter": "a"}], ids=["key", "value"])
 def test_trust_constr_bad_option_is_value_error(options):
     with pytest.raises(ValueError):
         sk.solve_ik(*REACHABLE3, method="trust-constr", options=options)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="BUG: a finite but huge x0 (1e300) makes trust-constr raise scipy's "
-    "'array must not contain infs or NaNs' from inside solve_ik",
-)
 def test_trust_constr_survives_huge_x0():
     stack, target = REACHABLE3
     with warnings.catch_warnings():

@@ -59,6 +59,7 @@ __all__ = [
     "TARGET_POS_TOL",
     "IKResult",
     "IKStatus",
+    "OptionError",
     "PlanarTarget",
     "PoseCheck",
     "SpatialTarget",
@@ -169,6 +170,10 @@ Target = PlanarTarget | SpatialTarget
 # =========================================================================================
 # Results
 # =========================================================================================
+class OptionError(ValueError):
+    """Solver options that the chosen method does not accept (a ``ValueError``)."""
+
+
 class IKStatus(Enum):
     """Outcome of :func:`solve_ik`."""
 
@@ -906,15 +911,64 @@ def _run_sqp(
         from dataclasses import fields
 
         known = sorted(f.name for f in fields(SQPOptions))
-        raise ValueError(f"options: {exc}; SQP options are {known}") from None
+        raise OptionError(f"options: {exc}; SQP options are {known}") from None
+    except ValueError as exc:
+        raise OptionError(f"options: {exc}") from None
     res = solve(nlp, u0, options=sqp_options, **kw)
     return res.x, res.nit, res.status.value
 
 
+#: Options of the scipy baselines that stackik passes on, with their kind.
+_SCIPY_OPTIONS: dict[str, dict[str, str]] = {
+    "slsqp": {"maxiter": "int", "ftol": "pos", "eps": "pos", "disp": "bool"},
+    "trust-constr": {
+        "maxiter": "int",
+        "gtol": "pos",
+        "xtol": "pos",
+        "barrier_tol": "pos",
+        "initial_tr_radius": "pos",
+        "initial_constr_penalty": "pos",
+        "initial_barrier_parameter": "pos",
+        "initial_barrier_tolerance": "pos",
+        "verbose": "int0",
+        "disp": "bool",
+    },
+}
+
+
+def _check_scipy_options(method: str, options: dict[str, Any]) -> None:
+    allowed = _SCIPY_OPTIONS[method]
+    for key, value in options.items():
+        kind = allowed.get(key)
+        if kind is None:
+            raise OptionError(f"options: {key!r} is not a {method} option; use {sorted(allowed)}")
+        if kind == "bool":
+            ok = isinstance(value, bool)
+        elif kind in ("int", "int0"):
+            ok = isinstance(value, int | np.integer) and not isinstance(value, bool)
+            ok = ok and value >= (1 if kind == "int" else 0)
+        else:
+            ok = isinstance(value, int | float) and not isinstance(value, bool)
+            ok = ok and math.isfinite(value) and value > 0
+        if not ok:
+            raise OptionError(f"options: bad value {value!r} for {method} option {key!r}")
+
+
 def _run_scipy(
-    prob: _Problem, u0: FloatArray, method: str, options: dict[str, Any]
+    prob: _Problem,
+    u0: FloatArray,
+    method: str,
+    options: dict[str, Any],
+    time_left: float = math.inf,
 ) -> tuple[FloatArray, int, str]:
     from scipy.optimize import NonlinearConstraint, minimize
+
+    _check_scipy_options(method, options)
+    deadline = time.perf_counter() + time_left
+
+    def stop_at_deadline(*_: Any) -> None:
+        if time.perf_counter() > deadline:
+            raise StopIteration  # scipy ends the run and returns the current point
 
     def fun(u: FloatArray) -> float:
         return float(prob.evaluate(u)[0])
@@ -937,7 +991,15 @@ def _run_scipy(
         ]
         opts = {"maxiter": 500, "ftol": 1e-12}
         opts.update(options)
-        r = minimize(fun, u0, jac=jac, constraints=cons, method="SLSQP", options=opts)
+        r = minimize(
+            fun,
+            u0,
+            jac=jac,
+            constraints=cons,
+            method="SLSQP",
+            options=opts,
+            callback=stop_at_deadline,
+        )
         return r.x, int(r.nit), "success" if r.success else str(r.message)
 
     def hess(u: FloatArray) -> FloatArray:
@@ -963,7 +1025,14 @@ def _run_scipy(
     opts = {"maxiter": 1000, "gtol": 1e-9, "xtol": 1e-12}
     opts.update(options)
     r = minimize(
-        fun, u0, jac=jac, hess=hess, constraints=cons_tc, method="trust-constr", options=opts
+        fun,
+        u0,
+        jac=jac,
+        hess=hess,
+        constraints=cons_tc,
+        method="trust-constr",
+        options=opts,
+        callback=stop_at_deadline,
     )
     _ = m_e
     return r.x, int(r.nit), "success" if r.status in (1, 2) else str(r.message)
@@ -997,16 +1066,30 @@ def _solve_from(
     method: str,
     qp_solver: str | None,
     options: dict[str, Any],
+    time_left: float = math.inf,
 ) -> _Run:
-    u0 = prob.u_of(q0)
-    if method == "sqp":
-        u, nit, status = _run_sqp(prob, u0, qp_solver, options)
-    elif method == "ipopt":
-        from stackik.ipopt_ import run_ipopt
+    """One local solve from ``q0``, polished and checked.
 
-        u, nit, status = run_ipopt(prob, u0, options)
-    else:
-        u, nit, status = _run_scipy(prob, u0, method, options)
+    A solver that raises on a well-formed problem (e.g. scipy on a huge start) makes a
+    failed start, not an exception; bad options (:class:`OptionError`) still raise.
+    """
+    u0 = prob.u_of(q0)
+    try:
+        if method == "sqp":
+            opts = dict(options)
+            if "max_time" not in opts and math.isfinite(time_left):
+                opts["max_time"] = max(time_left, 1e-3)
+            u, nit, status = _run_sqp(prob, u0, qp_solver, opts)
+        elif method == "ipopt":
+            from stackik.ipopt_ import run_ipopt
+
+            u, nit, status = run_ipopt(prob, u0, options, time_left)
+        else:
+            u, nit, status = _run_scipy(prob, u0, method, options, time_left)
+    except OptionError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a crashing start is a failed start
+        u, nit, status = u0, 0, f"error: {type(exc).__name__}: {exc}"
     if not np.all(np.isfinite(u)):
         u = u0
     u = _polish(prob, u)
@@ -1159,7 +1242,10 @@ def _solve_ik(
         make_backend(qp_solver)  # raises ValueError listing the available ones
     planar = isinstance(target, PlanarTarget)
     n, k = stack.n, (3 if planar else 6)
-    gen = np.random.default_rng(rng)
+    try:
+        gen = np.random.default_rng(rng)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"rng: expected None, an int seed or a numpy Generator ({exc})") from None
     weights = _sigma_weights(n, sigma_t, sigma_theta) if objective == "weighted" else None
     if x0 is not None:
         q0 = np.array(x0, dtype=float)
@@ -1232,8 +1318,7 @@ def _solve_ik(
         screened = []
         for qs in queue:
             left = max(max_time - (time.perf_counter() - t_start), 1e-3)
-            screen_opts = {"max_time": left, **opts, **SCREEN_OPTIONS}
-            run = _solve_from(prob, qs, method, qp_solver, screen_opts)
+            run = _solve_from(prob, qs, method, qp_solver, {**opts, **SCREEN_OPTIONS}, left)
             nit_total += run.nit
             screened.append(run)
         screened.sort(key=lambda r: (r.check.max_violation_mm > SCREEN_FEAS_MM, r.obj))
@@ -1258,10 +1343,8 @@ def _solve_ik(
                 qs = q0 + (gen.standard_normal(n * k) * pert).reshape(n, k)
         else:
             qs = q0 + (gen.standard_normal(n * k) * pert).reshape(n, k)
-        run_opts = dict(opts)
-        if method == "sqp" and "max_time" not in run_opts:
-            run_opts["max_time"] = max(max_time - (time.perf_counter() - t_start), 1e-3)
-        run = _solve_from(prob, qs, method, qp_solver, run_opts)
+        left = max(max_time - (time.perf_counter() - t_start), 1e-3)
+        run = _solve_from(prob, qs, method, qp_solver, opts, left)
         tried += 1
         nit_total += run.nit
         last_status = run.status

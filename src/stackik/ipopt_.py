@@ -33,7 +33,13 @@ def ipopt_available() -> bool:
 
 
 @lru_cache(maxsize=32)
-def _solver(stack: Stack, phi: float, objective: str, xs: tuple[float, ...]) -> Any:
+def _solver(
+    stack: Stack,
+    phi: float,
+    objective: str,
+    xs: tuple[float, ...],
+    user: tuple[tuple[str, Any], ...] = (),
+) -> Any:
     try:
         import casadi as ca
     except ImportError:
@@ -93,24 +99,50 @@ def _solver(stack: Stack, phi: float, objective: str, xs: tuple[float, ...]) -> 
             "bound_relax_factor": 0.0,
             "max_iter": 3000,
             "sb": "yes",
+            **dict(user),
         },
     }
-    solver = ca.nlpsol("stackik_ipopt", "ipopt", nlp, opts)  # type: ignore[arg-type]
+    try:
+        solver = ca.nlpsol("stackik_ipopt", "ipopt", nlp, opts)  # type: ignore[arg-type]
+    except RuntimeError as exc:  # e.g. "No such IPOPT option"
+        from stackik.ik import OptionError
+
+        msg = str(exc).strip().splitlines()[-1]
+        raise OptionError(f"options: IPOPT rejected them ({msg})") from None
     lbg = np.concatenate([np.zeros(3), np.zeros(24 * n)])
     ubg = np.concatenate([np.zeros(3), np.full(24 * n, np.inf)])
     return solver, lbg, ubg
 
 
-def run_ipopt(prob: Any, u0: FloatArray, options: dict[str, Any]) -> tuple[FloatArray, int, str]:
-    """Solve the scaled planar problem ``prob`` (an ``ik._Problem``) with IPOPT from ``u0``."""
+def run_ipopt(
+    prob: Any, u0: FloatArray, options: dict[str, Any], time_left: float = math.inf
+) -> tuple[FloatArray, int, str]:
+    """Solve the scaled planar problem ``prob`` (an ``ik._Problem``) with IPOPT from ``u0``.
+
+    ``options`` are IPOPT options (``max_iter``, ``tol``, ...). ``time_left`` [s] becomes
+    IPOPT's ``max_wall_time``, rounded down to a power of two so that cached solvers are
+    reused.
+    """
     from stackik.ik import PlanarTarget
+
+    from stackik.ik import OptionError
 
     target = prob.target
     if not isinstance(target, PlanarTarget):
-        raise ValueError('method "ipopt" supports planar targets only')
+        raise OptionError('method "ipopt" supports planar targets only')
     if prob.objective == "weighted" and np.ptp(prob.w_th) != 0:
-        raise ValueError('method "ipopt" supports "weighted" only with uniform sigma_theta')
-    solver, lbg, ubg = _solver(prob.stack, target.phi, prob.objective, tuple(prob.xs))
+        raise OptionError('method "ipopt" supports "weighted" only with uniform sigma_theta')
+    user = dict(options)
+    if math.isfinite(time_left):
+        user["max_wall_time"] = 2.0 ** math.floor(math.log2(max(time_left, 1e-3)))
+    try:
+        key = tuple(sorted(user.items()))
+        hash(key)
+    except TypeError:
+        from stackik.ik import OptionError
+
+        raise OptionError("options: IPOPT option values must be numbers or strings") from None
+    solver, lbg, ubg = _solver(prob.stack, target.phi, prob.objective, tuple(prob.xs), key)
     sol = solver(x0=u0, p=target.y, lbg=lbg, ubg=ubg)
     stats = solver.stats()
     u = np.asarray(sol["x"], dtype=float).ravel()
