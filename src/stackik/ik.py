@@ -864,14 +864,27 @@ class _Run:
     obj: float
 
 
+POLISH_MARGIN = 1e-12  # scaled margin the polish puts violated limits at (>= 0 raw)
+POLISH_REACH = 1e-6  # only limits violated by less than this (scaled) are polished
+
+
 def _polish(prob: _Problem, u: FloatArray, iters: int = 3) -> FloatArray:
-    """Min-norm Newton corrections of the end-effector equalities (tiny moves)."""
+    """Min-norm Newton corrections of the end-effector equalities and of limits that a
+    solver left violated by roundoff (tiny moves; a far-off point is left as it is).
+
+    Each step solves ``[J_E; J_V] du = -[c_E; c_V - margin]`` in the least-norm sense,
+    where V are the limits with ``-POLISH_REACH < c < 0``, so that the returned pose meets
+    the target to rounding and its limits with ``c >= 0`` raw, not only within the
+    solver's tolerance.
+    """
     for _ in range(iters):
-        _, _, ceq, Jeq, _, _ = prob.evaluate(u)
-        if np.abs(ceq).max() < 1e-13:
+        _, _, ceq, Jeq, cin, Jin = prob.evaluate(u)
+        viol = (cin < 0) & (cin > -POLISH_REACH)
+        if np.abs(ceq).max() < 1e-13 and not viol.any():
             break
-        du = -np.linalg.lstsq(Jeq, ceq, rcond=None)[0]
-        u = u + du
+        A = np.vstack([Jeq, Jin[viol]])
+        r = np.concatenate([ceq, cin[viol] - POLISH_MARGIN])
+        u = u - np.linalg.lstsq(A, r, rcond=None)[0]
     return u
 
 

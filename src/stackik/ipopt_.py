@@ -123,9 +123,7 @@ def run_ipopt(
     IPOPT's ``max_wall_time``, rounded down to a power of two so that cached solvers are
     reused.
     """
-    from stackik.ik import PlanarTarget
-
-    from stackik.ik import OptionError
+    from stackik.ik import OptionError, PlanarTarget
 
     target = prob.target
     if not isinstance(target, PlanarTarget):
