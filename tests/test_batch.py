@@ -91,7 +91,7 @@ def test_interrupted_batch_resumes_to_same_results(tmp_path, monkeypatch):
 def test_checkpoint_of_other_targets_is_refused(tmp_path):
     ckpt = tmp_path / "run.jsonl"
     sk.solve_many(STACK, TARGETS[:2], checkpoint=ckpt)
-    with pytest.raises(ValueError, match="different set of targets"):
+    with pytest.raises(ValueError, match="different batch"):
         sk.solve_many(STACK, TARGETS[1:3], checkpoint=ckpt)
 
 
@@ -131,3 +131,47 @@ def test_killed_process_resumes(tmp_path):
     resumed = sk.solve_many(STACK, TARGETS, checkpoint=ckpt)
     _same(resumed, sk.solve_many(STACK, TARGETS))
     assert sorted(rec["index"] for rec in _lines(ckpt)) == list(range(len(TARGETS)))
+
+
+def test_checkpointed_map_resumes_with_executor(tmp_path):
+    from concurrent.futures import ThreadPoolExecutor
+
+    from stackik.batch import checkpointed_map
+
+    calls: list[int] = []
+    interrupt = {"armed": True}
+
+    def square(x: int) -> int:
+        calls.append(x)
+        if interrupt["armed"] and len(calls) == 5:
+            raise KeyboardInterrupt
+        return x * x
+
+    kw = dict(key=lambda x: x, encode=lambda r: r, decode=lambda r: r)
+    ckpt = tmp_path / "sq.jsonl"
+    with pytest.raises(KeyboardInterrupt):
+        checkpointed_map(square, range(10), checkpoint=ckpt, **kw)
+    assert len(_lines(ckpt)) == 4
+    calls.clear()
+    interrupt["armed"] = False
+    with ThreadPoolExecutor(2) as ex:
+        out = checkpointed_map(square, range(10), checkpoint=ckpt, executor=ex, **kw)
+    assert out == [x * x for x in range(10)]
+    assert sorted(calls) == list(range(4, 10))  # only the unfinished items ran
+    assert sorted(rec["index"] for rec in _lines(ckpt)) == list(range(10))
+
+
+def test_workspace_study_resumes_from_checkpoint(tmp_path, monkeypatch):
+    from stackik.analysis.workspace import workspace_study
+
+    kw = dict(n_samples=500, seed=3)
+    first = workspace_study(STACK, 4, checkpoint_dir=tmp_path, **kw)
+    assert (tmp_path / "optimal.jsonl").exists() and (tmp_path / "nonoptimal.jsonl").exists()
+
+    def no_solving(*args, **kwargs):
+        raise AssertionError("a finished solve was repeated")
+
+    monkeypatch.setattr(ik, "solve_ik", no_solving)
+    again = workspace_study(STACK, 4, checkpoint_dir=tmp_path, **kw)
+    np.testing.assert_array_equal(first.fn_opt, again.fn_opt)
+    np.testing.assert_array_equal(first.median_non, again.median_non)

@@ -30,8 +30,9 @@ from typing import Any
 
 import numpy as np
 
+from stackik.batch import checkpointed_map
 from stackik.geometry import Stack
-from stackik.ik import PlanarTarget, SpatialTarget, solve_ik
+from stackik.ik import PlanarTarget, SpatialTarget, solve_ik, target_to_dict
 
 __all__ = ["BenchConfig", "main", "run_benchmark"]
 
@@ -149,28 +150,22 @@ def _spatial_targets(stack: Stack, count: int, seed: int) -> list[SpatialTarget]
     return out
 
 
-def _run(stack: Stack, targets: Sequence[Any], method: Method, section: str) -> list[dict]:
-    rows = []
-    k = len(targets) if method.max_targets is None else min(len(targets), method.max_targets)
-    for i, t in enumerate(targets[:k]):
-        t0 = time.perf_counter()
-        r = solve_ik(stack, t, **method.kwargs)
-        dt = time.perf_counter() - t0
-        rows.append(
-            {
-                "section": section,
-                "n": stack.n,
-                "target": i,
-                "method": method.label,
-                "success": bool(r.success),
-                "status": r.status.value,
-                "fn": r.frobenius_norm if r.success else float("nan"),
-                "time_s": dt,
-                "nit": r.nit,
-                "starts": r.n_starts,
-            }
-        )
-    return rows
+def _solve_row(stack: Stack, target: Any, i: int, method: Method, section: str) -> dict:
+    t0 = time.perf_counter()
+    r = solve_ik(stack, target, **method.kwargs)
+    dt = time.perf_counter() - t0
+    return {
+        "section": section,
+        "n": stack.n,
+        "target": i,
+        "method": method.label,
+        "success": bool(r.success),
+        "status": r.status.value,
+        "fn": r.frobenius_norm if r.success else float("nan"),
+        "time_s": dt,
+        "nit": r.nit,
+        "starts": r.n_starts,
+    }
 
 
 def _summarise(rows: list[dict], key: tuple[str, ...] = ("section", "n", "method")) -> list[dict]:
@@ -222,10 +217,16 @@ def _md_table(summary: list[dict], cols: Sequence[str]) -> str:
     return "\n".join(lines)
 
 
-def run_benchmark(cfg: BenchConfig, out: Path, progress: bool = True) -> dict[str, Any]:
-    """Run every section, write ``ik_bench.{csv,json,md}`` to ``out``; return the summary."""
+def run_benchmark(
+    cfg: BenchConfig, out: Path, progress: bool = True, fresh: bool = False
+) -> dict[str, Any]:
+    """Run every section, write ``ik_bench.{csv,json,md}`` to ``out``; return the summary.
+
+    Every finished solve is appended to ``out/ik_bench.jsonl``; rerunning the same
+    configuration resumes after an interruption (``fresh=True`` starts over). Resuming
+    mixes timings of two runs: rerun fresh for numbers to publish.
+    """
     out.mkdir(parents=True, exist_ok=True)
-    rows: list[dict] = []
     stack = Stack.reference(4)
     targets = [PlanarTarget(*t, phi=0.0) for t in PAPER_TARGETS]
     targets += _targets(stack, cfg, cfg.n_random, cfg.rng)
@@ -255,15 +256,43 @@ def run_benchmark(cfg: BenchConfig, out: Path, progress: bool = True) -> dict[st
     ]
     # warm up imports and caches so the first timed solve is not penalised
     solve_ik(stack, targets[0])
-    it: Any = jobs
-    if progress:
-        from tqdm.auto import tqdm
+    tasks: list[tuple[int, int]] = []
+    for j, job in enumerate(jobs):
+        n_t, limit = len(job[1]), job[2].max_targets
+        tasks += [(j, i) for i in range(n_t if limit is None else min(n_t, limit))]
+    warmed: set[int] = set()
 
-        it = tqdm(jobs, desc="bench", unit="config")
-    for st, tg, m, section in it:
-        if m.kwargs.get("method") == "ipopt" and tg:
+    def one(task: tuple[int, int]) -> dict:
+        j, i = task
+        st, tg, m, section = jobs[j]
+        if m.kwargs.get("method") == "ipopt" and j not in warmed:
             solve_ik(st, tg[0], **m.kwargs)  # build and cache the CasADi solver first
-        rows += _run(st, tg, m, section)
+            warmed.add(j)
+        return _solve_row(st, tg[i], i, m, section)
+
+    def key(task: tuple[int, int]) -> dict:
+        st, tg, m, section = jobs[task[0]]
+        return {
+            "section": section,
+            "n": st.n,
+            "method": m.label,
+            "target": task[1],
+            "at": target_to_dict(tg[task[1]]),
+        }
+
+    ckpt = out / "ik_bench.jsonl"
+    if fresh and ckpt.exists():
+        ckpt.unlink()
+    rows = checkpointed_map(
+        one,
+        tasks,
+        key=key,
+        encode=lambda row: row,
+        decode=lambda row: row,
+        checkpoint=ckpt,
+        progress=progress,
+        desc="bench",
+    )
     summary = _summarise(rows)
     # fitted exponent of median time vs n (scaling section)
     fits = {}
@@ -338,6 +367,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--no-ipopt", action="store_true", help="skip IPOPT even if installed")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--no-progress", action="store_true")
+    ap.add_argument("--fresh", action="store_true", help="ignore the checkpoint of an earlier run")
     args = ap.parse_args(argv)
     cfg = BenchConfig.quick() if args.quick else BenchConfig()
     if args.n_random is not None:
@@ -346,7 +376,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         cfg.sizes = tuple(args.sizes)
     cfg.ipopt = not args.no_ipopt
     cfg.rng = args.seed
-    res = run_benchmark(cfg, args.out, progress=not args.no_progress)
+    res = run_benchmark(cfg, args.out, progress=not args.no_progress, fresh=args.fresh)
     print((args.out / "ik_bench.md").read_text())
     _ = res
     return 0

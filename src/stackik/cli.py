@@ -536,6 +536,7 @@ def _cmd_map(args: argparse.Namespace) -> int:
         phi=phi,
         progress=not args.quiet,
         solve_kwargs={"method": args.method, "qp_solver": qp},
+        checkpoint_dir=None if args.out is None else args.out / "checkpoint",
     )
     rows = study.rows()
     reg = study.regression
@@ -778,7 +779,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=Path,
         default=None,
         metavar="DIR",
-        help="write workspace.csv, regression.json and the figures into DIR",
+        help="write workspace.csv, regression.json and the figures into DIR; finished "
+        "solves are recorded in DIR/checkpoint, so an interrupted run resumes there",
     )
     p.add_argument("--json", action="store_true", help="print JSON instead of a summary")
     p.add_argument("--quiet", action="store_true", help="no progress bars")

@@ -26,8 +26,8 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import Executor, as_completed
+from collections.abc import Iterable
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from enum import Enum
 from pathlib import Path
@@ -1399,35 +1399,6 @@ def target_from_dict(data: dict[str, Any]) -> Target:
     return PlanarTarget(data["rho"], data["z"], data["theta"], data.get("phi", 0.0))
 
 
-def _read_checkpoint(path: Path, targets: Sequence[Target]) -> dict[int, IKResult]:
-    """Finished results of an earlier run; drops a torn last line (interrupted write)."""
-    if not path.exists():
-        return {}
-    raw = path.read_bytes()
-    if raw and not raw.endswith(b"\n"):  # the run died while writing: keep whole lines only
-        raw = raw[: raw.rfind(b"\n") + 1]
-        path.write_bytes(raw)
-    done: dict[int, IKResult] = {}
-    for k, line in enumerate(raw.decode().splitlines()):
-        if not line.strip():
-            continue
-        try:
-            rec = json.loads(line)
-            i = int(rec["index"])
-            res = IKResult.from_record(rec["result"])
-        except (ValueError, KeyError, TypeError) as exc:
-            raise ValueError(
-                f"checkpoint {path}: line {k + 1} is not a stackik record ({exc})"
-            ) from None
-        if not 0 <= i < len(targets) or rec["target"] != target_to_dict(targets[i]):
-            raise ValueError(
-                f"checkpoint {path}: line {k + 1} belongs to a different set of targets; "
-                "use another checkpoint file"
-            )
-        done[i] = res
-    return done
-
-
 def solve_many(
     stack: Stack,
     targets: Iterable[Target],
@@ -1455,41 +1426,19 @@ def solve_many(
     list of IKResult
         In the order of ``targets``.
     """
-    tlist: Sequence[Target] = list(targets)
-    call: Callable[[Target], IKResult] = _SolveOne(stack, kwargs)
-    path = None if checkpoint is None else Path(checkpoint)
-    done = {} if path is None else _read_checkpoint(path, tlist)
-    todo = [i for i in range(len(tlist)) if i not in done]
-    bar: Any = None
-    if progress:
-        from tqdm.auto import tqdm
+    from stackik.batch import checkpointed_map
 
-        bar = tqdm(total=len(tlist), initial=len(done), desc="solve", unit="target")
-    fh = None if path is None else open(path, "a")  # noqa: SIM115 - closed in finally
-    try:
-
-        def record(i: int, res: IKResult) -> None:
-            done[i] = res
-            if fh is not None:
-                rec = {"index": i, "target": target_to_dict(tlist[i]), "result": res.to_record()}
-                fh.write(json.dumps(rec) + "\n")
-                fh.flush()
-            if bar is not None:
-                bar.update(1)
-
-        if executor is None:
-            for i in todo:
-                record(i, call(tlist[i]))
-        else:
-            futures = {executor.submit(call, tlist[i]): i for i in todo}
-            for fut in as_completed(futures):
-                record(futures[fut], fut.result())
-    finally:
-        if fh is not None:
-            fh.close()
-        if bar is not None:
-            bar.close()
-    return [done[i] for i in range(len(tlist))]
+    return checkpointed_map(
+        _SolveOne(stack, kwargs),
+        targets,
+        key=target_to_dict,
+        encode=IKResult.to_record,
+        decode=IKResult.from_record,
+        checkpoint=checkpoint,
+        executor=executor,
+        progress=progress,
+        desc="solve",
+    )
 
 
 @dataclass(frozen=True)

@@ -24,12 +24,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from stackik.analysis.montecarlo import monte_carlo
+from stackik.batch import checkpointed_map
 from stackik.geometry import Stack
 from stackik.kinematics import planar_forward
 
@@ -317,6 +319,7 @@ def workspace_study(
     progress: bool = False,
     executor: Executor | None = None,
     solve_kwargs: dict[str, Any] | None = None,
+    checkpoint_dir: str | Path | None = None,
 ) -> WorkspaceStudy:
     """Compare the optimal and the first non-optimal pose on many targets.
 
@@ -340,8 +343,12 @@ def workspace_study(
         Spreads the solves (passed to :func:`stackik.solve_many` and ``executor.map``).
     solve_kwargs : dict, optional
         Extra keyword arguments of :func:`stackik.solve_ik`.
+    checkpoint_dir : path, optional
+        Folder for ``optimal.jsonl`` and ``nonoptimal.jsonl``: every finished solve is
+        recorded there, and a rerun with the same arguments resumes where it stopped
+        (:func:`stackik.batch.checkpointed_map`). The Monte Carlo is recomputed (seeded).
     """
-    from stackik.ik import solve_many
+    from stackik.ik import IKResult, solve_many, target_to_dict
 
     kw = dict(solve_kwargs or {})
     if isinstance(targets, int | np.integer):
@@ -349,16 +356,30 @@ def workspace_study(
     else:
         tlist = list(targets)
     m, n = len(tlist), stack.n
+    ckpt = None if checkpoint_dir is None else Path(checkpoint_dir)
+    if ckpt is not None:
+        ckpt.mkdir(parents=True, exist_ok=True)
     opt = solve_many(
-        stack, tlist, objective="frobenius", progress=progress, executor=executor, **kw
+        stack,
+        tlist,
+        objective="frobenius",
+        progress=progress,
+        executor=executor,
+        checkpoint=None if ckpt is None else ckpt / "optimal.jsonl",
+        **kw,
     )
     search = NonOptimalSearch(stack, 1, seed + 1, _triple(perturbation), max_attempts, kw)
-    it = map(search, tlist) if executor is None else executor.map(search, tlist)
-    if progress:
-        from tqdm.auto import tqdm
-
-        it = tqdm(it, total=m, desc="non-optimal", unit="target")
-    non = list(it)
+    non = checkpointed_map(
+        search,
+        tlist,
+        key=target_to_dict,
+        encode=lambda rs: [r.to_record() for r in rs],
+        decode=lambda data: [IKResult.from_record(d) for d in data],
+        checkpoint=None if ckpt is None else ckpt / "nonoptimal.jsonl",
+        executor=executor,
+        progress=progress,
+        desc="non-optimal",
+    )
 
     valid = np.zeros(m, dtype=bool)
     q_opt = np.full((m, n, 3), np.nan)
