@@ -14,9 +14,8 @@ Rules checked on every case (see ``fuzz_cases.run_case``):
 Hypothesis draws seeds for the generators of ``fuzz_cases`` (derandomized, so CI is
 reproducible; set ``STACKIK_FUZZ_EXAMPLES`` to run more) plus raw values for the malformed
 inputs; a seeded campaign mixes every category like ``benchmarks/soak.py`` does.
-Bugs the suite found have tests at the end: regressions for the fixed ones, and
-``xfail(strict=True)`` for the open ones, which are left out of the fuzzed inputs so that
-the rest stays green.
+Bugs the suite found have regression tests at the end (all fixed so far; an open one
+would be an ``xfail(strict=True)`` left out of the fuzzed inputs).
 """
 
 from __future__ import annotations
@@ -458,8 +457,7 @@ def test_convex_start_returns_a_result(spatial):
 
 
 # =========================================================================================
-# Bugs found by the fuzz campaign: fixed ones stay as regression tests, open ones are
-# strict xfails so that CI notices the fix
+# Bugs found by the fuzz campaign, fixed: regression tests
 # =========================================================================================
 def test_max_time_is_respected_by_trust_constr():
     stack, target = sk.Stack.reference(6), PlanarTarget(0.0, -1350.0, 0.0)  # unreachable
@@ -475,11 +473,6 @@ def test_max_time_is_respected_by_trust_constr():
     assert time.perf_counter() - t0 <= 0.05 + fc.TIME_SLACK
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="BUG: one QP subproblem is not time-limited: with clarabel at n = 16 the refine run, "
-    "given max_time=1e-3, spends ~2.4 s in a single elastic-mode QP",
-)
 def test_max_time_is_respected_by_one_slow_qp():
     if "clarabel" not in fc.NATIVE_QP:
         pytest.skip("clarabel not installed")

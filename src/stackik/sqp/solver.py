@@ -276,6 +276,7 @@ class _Engine:
             opts = self.opts.qp_options if name == self.qp_name else None
             be = make_backend(name, opts)
             be.setup(n, me, mi)
+            be.deadline = self.t0 + self.opts.max_time
             self.backends[key] = be
         return be
 

@@ -20,6 +20,7 @@ where a lower bound is active.
 from __future__ import annotations
 
 import enum
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -82,6 +83,9 @@ class QPBackend:
 
     def __init__(self, options: dict[str, Any] | None = None) -> None:
         self.options: dict[str, Any] = dict(options or {})
+        #: ``time.perf_counter()`` value after which an iterative backend should stop
+        #: (set by the SQP engine from ``SQPOptions.max_time``; inf: no limit).
+        self.deadline = math.inf
         self.n = 0
         self.m_eq = 0
         self.m_ineq = 0

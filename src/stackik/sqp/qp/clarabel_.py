@@ -10,6 +10,8 @@ structural-zero dropping disabled), and later QPs only call
 
 from __future__ import annotations
 
+import math
+import time
 from typing import Any
 
 import clarabel
@@ -102,6 +104,11 @@ class ClarabelBackend(QPBackend):
                 self._solver = clarabel.DefaultSolver(
                     P_csc, q, A_csc, b, cones, self._make_settings()
                 )
+                if math.isfinite(self.deadline):
+                    # stop an interior-point run that would outlast the SQP time budget
+                    self._solver.set_termination_callback(
+                        lambda _info: time.perf_counter() > self.deadline
+                    )
             else:
                 self._solver.update(P=Px, q=q, A=Ax, b=b)
             sol = self._solver.solve()
