@@ -1325,10 +1325,11 @@ def _solve_ik(
     nit_total = 0
     queue = _initial_starts(stack, target, q0, structured=x0 is None and start == "paper")
     n_planned = len(queue) if starts is None else int(starts)
+    screened: list[_Run] = []
     if starts is None and len(queue) > 1 and method == "sqp":
-        # Screen the structured starts with a loose tolerance, then refine only the most
-        # promising one (the others remain as fallbacks, best first).
-        screened = []
+        # Screen the structured starts with a loose KKT tolerance and keep the best that
+        # passes the check (its FN is within ~1e-8 of the fully converged value); when none
+        # passes, the others are solved in full, best first.
         for qs in queue:
             left = max(max_time - (time.perf_counter() - t_start), 1e-3)
             run = _solve_from(prob, qs, method, qp_solver, {**opts, **SCREEN_OPTIONS}, left)
@@ -1336,7 +1337,7 @@ def _solve_ik(
             screened.append(run)
         screened.sort(key=lambda r: (r.check.max_violation_mm > SCREEN_FEAS_MM, r.obj))
         queue = [r.q for r in screened]
-        n_planned = 1
+        n_planned = 0 if screened[0].check.ok else 1
     fallback = 3 if x0 is None else 0  # more starts when none passes the check
     # perturbation scale of random starts: 15% of the leg range [mm], 0.1 rad
     span = float(np.mean(stack.leg_max - stack.leg_min))
@@ -1369,6 +1370,9 @@ def _solve_ik(
         if tried == n_planned and best is None and fallback > 0:
             n_planned += fallback
             fallback = 0
+    if best is None and screened and screened[0].check.ok:
+        best = screened[0]
+        tried = len(screened)
     if best is not None:
         return finish(best, IKStatus.SUCCESS, nit_total, tried)
     if status_out is not IKStatus.MAX_TIME:
