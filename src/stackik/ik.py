@@ -888,10 +888,25 @@ def _polish(prob: _Problem, u: FloatArray, iters: int = 3) -> FloatArray:
     return u
 
 
+def _sqp_options(opts: dict[str, Any]) -> Any:
+    """``SQPOptions(**opts)``, with bad options reported as :class:`OptionError`."""
+    from stackik.sqp import SQPOptions
+
+    try:
+        return SQPOptions(**opts)
+    except TypeError as exc:  # an unknown keyword
+        from dataclasses import fields
+
+        known = sorted(f.name for f in fields(SQPOptions))
+        raise OptionError(f"options: {exc}; SQP options are {known}") from None
+    except ValueError as exc:
+        raise OptionError(f"options: {exc}") from None
+
+
 def _run_sqp(
     prob: _Problem, u0: FloatArray, qp_solver: str | None, options: dict[str, Any]
 ) -> tuple[FloatArray, int, str]:
-    from stackik.sqp import NonlinearProgram, SQPOptions, solve
+    from stackik.sqp import NonlinearProgram, solve
 
     exact_ok = prob.fast is not None and (prob.objective != "weighted" or np.ptp(prob.w_th) == 0)
     nlp = NonlinearProgram(
@@ -918,16 +933,7 @@ def _run_sqp(
     kw: dict[str, Any] = {}
     if qp_solver is not None:
         kw["qp_solver"] = qp_solver
-    try:
-        sqp_options = SQPOptions(**opts)
-    except TypeError as exc:  # an unknown keyword
-        from dataclasses import fields
-
-        known = sorted(f.name for f in fields(SQPOptions))
-        raise OptionError(f"options: {exc}; SQP options are {known}") from None
-    except ValueError as exc:
-        raise OptionError(f"options: {exc}") from None
-    res = solve(nlp, u0, options=sqp_options, **kw)
+    res = solve(nlp, u0, options=_sqp_options(opts), **kw)
     return res.x, res.nit, res.status.value
 
 
@@ -1275,6 +1281,8 @@ def _solve_ik(
         q0 = paper_initial_guess(stack, target)
     prob = _Problem(stack, target, objective, weights)
     opts = dict(options or {})
+    if method == "sqp":
+        _sqp_options(opts)  # bad options are reported before any solve
     qp_name = qp_solver or ("default" if method == "sqp" else "-")
 
     def finish(run: _Run | None, status: IKStatus, nit: int, n_starts: int) -> IKResult:
@@ -1332,7 +1340,7 @@ def _solve_ik(
         # passes, the others are solved in full, best first.
         for qs in queue:
             left = max(max_time - (time.perf_counter() - t_start), 1e-3)
-            run = _solve_from(prob, qs, method, qp_solver, {**opts, **SCREEN_OPTIONS}, left)
+            run = _solve_from(prob, qs, method, qp_solver, {**SCREEN_OPTIONS, **opts}, left)
             nit_total += run.nit
             screened.append(run)
         screened.sort(key=lambda r: (r.check.max_violation_mm > SCREEN_FEAS_MM, r.obj))
