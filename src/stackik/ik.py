@@ -488,8 +488,8 @@ class _PlanarFast:
         self.top3 = np.maximum(self.i3, M[None])  # max(i, m, l), (n-1, n, n)
         self.before = (idx[None, :] < idx[:, None]).astype(float)  # [k, m]: m < k
         self.Hx = np.zeros((n, 3, n, 3))
-        self._kq: FloatArray | None = None
-        self._kout: tuple[FloatArray, FloatArray, FloatArray, FloatArray]
+        # the last few points: the engine alternates between the iterate and trial points
+        self._kcache: dict[bytes, tuple[Any, ...]] = {}
         self._kin: tuple[FloatArray, FloatArray, FloatArray]
         self.idx = np.arange(n)
         self.set_scaling(np.ones(24 * n), np.ones(3 * n))
@@ -501,8 +501,11 @@ class _PlanarFast:
         :func:`planar_fn_residuals`, without input validation (tested to agree).
         """
         n = self.n
-        if self._kq is not None and np.array_equal(q, self._kq):
-            return self._kout
+        key = q.tobytes()
+        hit = self._kcache.get(key)
+        if hit is not None:
+            self._kin = hit[1]
+            return hit[0]  # type: ignore[no-any-return]
         Theta, _, O = _planar_parts(q)
         c, s = np.cos(Theta), np.sin(Theta)
         d = O[-1] - O[1:]  # (n, 2), d_n = 0
@@ -522,9 +525,11 @@ class _PlanarFast:
         Jr[:, 0, :, 2] = -dm[..., 1]
         Jr[:, 1, :, 2] = dm[..., 0]
         self._kin = (c, s, d)
-        self._kq = q.copy()
-        self._kout = (y, J.reshape(3, 3 * n), d[: n - 1].ravel(), Jr.reshape(2 * (n - 1), 3 * n))
-        return self._kout
+        out = (y, J.reshape(3, 3 * n), d[: n - 1].ravel(), Jr.reshape(2 * (n - 1), 3 * n))
+        if len(self._kcache) >= 4:
+            self._kcache.pop(next(iter(self._kcache)))
+        self._kcache[key] = (out, self._kin)
+        return out
 
     def fn2_hessian(self, q: FloatArray) -> FloatArray:
         """Exact Hessian of ``FN^2`` (same as :func:`stackik.kinematics.planar_hessian_fn2`)."""
