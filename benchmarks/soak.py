@@ -29,7 +29,6 @@ import argparse
 import json
 import multiprocessing as mp
 import os
-import platform
 import statistics
 import sys
 import time
@@ -43,18 +42,10 @@ ROOT = Path(__file__).resolve().parent.parent
 TESTS = ROOT / "tests"
 DEFAULT_OUT = ROOT / "benchmarks" / "results"
 
-OUTCOME_ORDER = (
-    "success",
-    "infeasible",
-    "max_iter",
-    "max_time",
-    "failed",
-    "value_error",
-    "unexpected_exception",
-    "accepted_malformed",
-    "hang",
-    "harness_error",
-)
+sys.path.insert(0, str(TESTS))  # the case generators live with the fuzz tests
+import fuzz_cases  # noqa: E402
+
+OUTCOME_ORDER = (*fuzz_cases.OUTCOMES, "hang", "harness_error")
 BAD_OUTCOMES = ("unexpected_exception", "accepted_malformed", "hang")
 
 
@@ -196,29 +187,9 @@ def _dead(slot: _Slot, why: str, now: float) -> dict[str, Any]:
 # Summary
 # =========================================================================================
 def _machine() -> dict[str, Any]:
-    import numpy
-    import scipy
+    from stackik.bench import machine_info
 
-    import stackik
-
-    info: dict[str, Any] = {
-        "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
-        "platform": platform.platform(),
-        "processor": platform.processor() or platform.machine(),
-        "cpus": os.cpu_count(),
-        "python": platform.python_version(),
-        "numpy": numpy.__version__,
-        "scipy": scipy.__version__,
-        "stackik": stackik.__version__,
-    }
-    try:
-        with open("/proc/cpuinfo") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    info["cpu"] = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
+    info = machine_info()
     try:
         import subprocess
 

@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 import reference_impl as ref
+from helpers import assert_close
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -30,16 +31,6 @@ PHIS = [0.0, 0.7, -2.1, math.pi / 2, 3.0]
 SEEDS = [0, 1, 2]
 REF_RTOL = 1e-9  # agreement with the reference implementation, relative to magnitude
 FD_RTOL = 1e-6  # central differences, relative to magnitude
-
-
-def assert_close(actual, expected, rtol, what=""):
-    """max |actual - expected| <= rtol * max(1, max |expected|)."""
-    actual = np.asarray(actual, dtype=float)
-    expected = np.asarray(expected, dtype=float)
-    assert actual.shape == expected.shape, (what, actual.shape, expected.shape)
-    scale = max(1.0, float(np.abs(expected).max(initial=0.0)))
-    err = float(np.abs(actual - expected).max(initial=0.0))
-    assert err <= rtol * scale, f"{what}: max error {err:.3e} > {rtol:.0e} * {scale:.3e}"
 
 
 def to_stack(geoms):

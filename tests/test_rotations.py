@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 import reference_impl as ref
+from helpers import assert_close
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -28,15 +29,6 @@ PHIS = [0.0, 0.7, -2.1, math.pi / 2, 3.0]
 
 angle = st.floats(-4.0, 4.0, allow_nan=False)
 angles3 = arrays(float, 3, elements=angle)
-
-
-def assert_close(actual, expected, rtol, what=""):
-    actual = np.asarray(actual, dtype=float)
-    expected = np.asarray(expected, dtype=float)
-    assert actual.shape == expected.shape, (what, actual.shape, expected.shape)
-    scale = max(1.0, float(np.abs(expected).max(initial=0.0)))
-    err = float(np.abs(actual - expected).max(initial=0.0))
-    assert err <= rtol * scale, f"{what}: max error {err:.3e} > {rtol:.0e} * {scale:.3e}"
 
 
 def assert_rotation(R, tol=1e-12):

@@ -34,7 +34,7 @@ from stackik.batch import checkpointed_map
 from stackik.geometry import Stack
 from stackik.ik import PlanarTarget, SpatialTarget, solve_ik, target_to_dict
 
-__all__ = ["BenchConfig", "main", "run_benchmark"]
+__all__ = ["BenchConfig", "machine_info", "main", "run_benchmark"]
 
 PAPER_TARGETS = [(600.0, 1000.0, -1.57), (145.0, 1500.0, -0.207), (-319.0, 1532.0, 0.332)]
 
@@ -67,7 +67,8 @@ class BenchConfig:
         return cls(n_random=6, sizes=(4, 8), per_size=2, n_spatial=2, trust_constr_targets=2)
 
 
-def _machine() -> dict[str, Any]:
+def machine_info() -> dict[str, Any]:
+    """Machine, versions and date stamped on every benchmark result."""
     import scipy
 
     info = {
@@ -78,6 +79,7 @@ def _machine() -> dict[str, Any]:
         "python": platform.python_version(),
         "numpy": np.__version__,
         "scipy": scipy.__version__,
+        "stackik": __import__("stackik").__version__,
     }
     try:
         with open("/proc/cpuinfo") as fh:
@@ -305,7 +307,7 @@ def run_benchmark(
         if len(pts) >= 2:
             x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
             fits[label] = float(np.polyfit(x, y, 1)[0])
-    machine = _machine()
+    machine = machine_info()
     result = {"machine": machine, "config": cfg.__dict__, "summary": summary, "exponents": fits}
     with open(out / "ik_bench.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))

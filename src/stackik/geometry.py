@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["GeometryError", "PlatformGeometry", "Stack"]
+__all__ = ["GeometryError", "PlatformGeometry", "Stack", "finite_number"]
 
 FloatArray = NDArray[np.float64]
 
@@ -58,16 +58,24 @@ def _nodes(value: ArrayLike, name: str) -> FloatArray:
     return arr
 
 
-def _scalar(value: Any, name: str) -> float:
+def finite_number(value: Any, name: str, error: type[ValueError] = ValueError) -> float:
+    """``float(value)`` if it is a finite number (not a string or bool), else ``error``.
+
+    The message names ``name``; ``error`` is a ``ValueError`` subclass.
+    """
     if isinstance(value, str | bytes | bool | np.bool_):
-        raise GeometryError(f"{name}: expected a number, got {value!r}")
+        raise error(f"{name}: expected a number, got {value!r}")
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise GeometryError(f"{name}: expected a number, got {value!r}") from None
+        raise error(f"{name}: expected a number, got {value!r}") from None
     if not math.isfinite(x):
-        raise GeometryError(f"{name}: must be finite, got {x}")
+        raise error(f"{name}: must be finite, got {x}")
     return x
+
+
+def _scalar(value: Any, name: str) -> float:
+    return finite_number(value, name, GeometryError)
 
 
 @dataclass(frozen=True, eq=False)

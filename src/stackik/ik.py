@@ -36,7 +36,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from stackik.geometry import Stack
+from stackik.geometry import Stack, finite_number
 from stackik.kinematics import (
     _J2,
     _planar_parts,
@@ -86,13 +86,8 @@ METHODS = ("sqp", "slsqp", "trust-constr", "ipopt")
 # Targets
 # =========================================================================================
 def _finite(value: Any, name: str) -> float:
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a number, got {value!r}") from None
-    if not math.isfinite(x):
-        raise ValueError(f"{name}: must be finite, got {x}")
-    return x
+    """A finite float, or a ``ValueError`` naming ``name``."""
+    return finite_number(value, name, ValueError)
 
 
 @dataclass(frozen=True)
