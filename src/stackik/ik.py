@@ -735,7 +735,7 @@ class _Problem:
             r = ch.J[:3, ang].T.ravel()  # (3n*3,)
             H = ch.hessian()[:3][:, ang, :]  # (3, 3n, N)
             Jr = np.moveaxis(H, 0, 1).reshape(-1, N)
-            # group per platform: order of ang is platform-major, 3 angles x 3 coords = 9
+            # rows are platform-major (3 angles x 3 coordinates = 9 per platform): rw matches
         return r * self.rw, Jr * self.rw[:, None]
 
     def gauss_newton(self, u: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -1028,7 +1028,6 @@ def _run_scipy(
         return 2.0 * Jr.T @ Jr  # type: ignore[no-any-return]
 
     zero_h = lambda u, v: np.zeros((u.size, u.size))  # noqa: E731
-    m_e = prob.es.size
     cons_tc = [
         NonlinearConstraint(
             lambda u: prob.evaluate(u)[2], 0.0, 0.0, jac=lambda u: prob.evaluate(u)[3], hess=zero_h
@@ -1053,7 +1052,6 @@ def _run_scipy(
         options=opts,
         callback=stop_at_deadline,
     )
-    _ = m_e
     return r.x, int(r.nit), "success" if r.status in (1, 2) else str(r.message)
 
 

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from stackik.platform import _check_phi, check_pose
-from stackik.rotations import euler_zyx, euler_zyx_derivatives, plane_axis, rodrigues
+from stackik.rotations import euler_zyx, plane_axis, rodrigues
 
 __all__ = [
     "PlanarFN",
@@ -406,7 +406,3 @@ def noise_weights(n: int, sigma_t: float, sigma_theta: float, spatial: bool = Fa
         [sigma_t**2] * 3 + [sigma_theta**2] * 3 if spatial else [sigma_t**2] * 2 + [sigma_theta**2]
     )
     return np.tile(per, n)
-
-
-# keep euler_zyx_derivatives importable from here for users of the chain
-_ = euler_zyx_derivatives
