@@ -1192,14 +1192,11 @@ def solve_ik(
     IKResult
         ``success`` only when :func:`check_pose` passes.
     """
+    args = {k: v for k, v in locals().items() if k != "blas_threads"}
     if blas_threads is None:
-        return _solve_ik(**_locals_for_impl(locals()))
+        return _solve_ik(**args)
     with _blas_controller().limit(limits=blas_threads, user_api="blas"):
-        return _solve_ik(**_locals_for_impl(locals()))
-
-
-def _locals_for_impl(loc: dict[str, Any]) -> dict[str, Any]:
-    return {k: v for k, v in loc.items() if k != "blas_threads"}
+        return _solve_ik(**args)
 
 
 _BLAS: list[Any] = []
