@@ -538,3 +538,11 @@ def test_single_platform_forward_is_identity_map():
     P, R = stackik.spatial_forward(qs)
     assert_close(P, qs[0, :3], 1e-15)
     assert_close(R, euler_zyx(qs[0, 3:]), 1e-15)
+
+
+def test_position_hessian_matches_full_tensor():
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=(5, 6)) * [40, 40, 40, 0.3, 0.3, 0.3] + [0, 0, 300, 0, 0, 0]
+    ch = stackik.spatial_chain(q)
+    cols = np.array([c for c in range(30) if c % 6 >= 3])
+    np.testing.assert_allclose(ch.position_hessian(cols), ch.hessian()[:3][:, cols, :], atol=1e-12)

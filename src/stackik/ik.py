@@ -708,6 +708,7 @@ class _Problem:
         if self.fast is not None:
             self.fast.set_scaling(self.cs, self.xs)
         a = np.arange(n * self.k)
+        self._angle_cols = a[a % 6 >= 3] if self.k == 6 else a[a % 3 == 2]
         self._hi = np.maximum(a[:, None], a[None, :])
         self._theta_lo = (np.minimum(a[:, None], a[None, :]) % 3 == 2).astype(float)
         self._cache_u: FloatArray | None = None
@@ -724,16 +725,19 @@ class _Problem:
         return np.asarray(q, dtype=float).ravel() / self.xs
 
     # --- residuals of the objective -------------------------------------------------
-    def residuals(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Objective residuals (unscaled x) ``r``, ``dr/dx`` with obj = c0 + |r|^2."""
+    def residuals(self, q: FloatArray, ch: Any = None) -> tuple[FloatArray, FloatArray]:
+        """Objective residuals (unscaled x) ``r``, ``dr/dx`` with obj = c0 + |r|^2.
+
+        ``ch``: the :class:`~stackik.kinematics.SpatialChain` of ``q`` if already built.
+        """
         if self.planar:
             r, Jr = planar_fn_residuals(q)
         else:  # spatial
-            ch = spatial_chain(q)
+            ch = spatial_chain(q) if ch is None else ch
             N = 6 * self.n
-            ang = np.array([a for a in range(N) if a % 6 >= 3])
+            ang = self._angle_cols
             r = ch.J[:3, ang].T.ravel()  # (3n*3,)
-            H = ch.hessian()[:3][:, ang, :]  # (3, 3n, N)
+            H = ch.position_hessian(ang)  # (3, 3n, N)
             Jr = np.moveaxis(H, 0, 1).reshape(-1, N)
             # rows are platform-major (3 angles x 3 coordinates = 9 per platform): rw matches
         return r * self.rw, Jr * self.rw[:, None]
@@ -757,6 +761,7 @@ class _Problem:
         q = self.q_of(u)
         n, k = self.n, self.k
         st = self.stack
+        spatial_ch: Any = None
         if self.fast is not None:
             tgt = self.target
             assert isinstance(tgt, PlanarTarget)
@@ -768,7 +773,7 @@ class _Problem:
         else:
             tgs = self.target
             assert isinstance(tgs, SpatialTarget)
-            ch = spatial_chain(q)
+            ch = spatial_ch = spatial_chain(q)
             Pee, Ree = ch.O[-1], ch.A[-1]
             E = tgs.rotation.T @ Ree
             phi_v = _so3_log(E)
@@ -797,7 +802,10 @@ class _Problem:
                 Jr = self._fn_cache[1] * (self.rw * sc)[:, None] * self.xs
                 self._gn_cache = (u.copy(), r, Jr)
             else:
-                r, Jr = self.gauss_newton(u)
+                sc = 1.0 / math.sqrt(self.fscale)
+                r, Jr = self.residuals(q, spatial_ch)
+                r, Jr = r * sc, Jr * self.xs * sc
+                self._gn_cache = (u.copy(), r, Jr)
             f = float(r @ r) + self.c0 / self.fscale
             g = 2.0 * Jr.T @ r
         out = (f, g, ceq, Jeq, cin, Jin)

@@ -269,6 +269,18 @@ class SpatialChain:
         hi = np.maximum(a[:, None], a[None, :])
         return self._omega(self.J[:, hi], self.w[lo])
 
+    def position_hessian(self, cols: FloatArray) -> FloatArray:
+        """Rows ``P_ee`` of :meth:`hessian` for the columns ``cols`` only, (3, len(cols), 6n).
+
+        Cheaper than the full tensor when only position curvature is needed (FN^2 residuals).
+        """
+        N = self.J.shape[1]
+        b = np.arange(N)
+        lo = np.minimum(cols[:, None], b[None, :])
+        hi = np.maximum(cols[:, None], b[None, :])
+        Jp = self.J[:3].T  # (N, 3)
+        return np.moveaxis(np.cross(self.w[lo], Jp[hi]), -1, 0)  # type: ignore[no-any-return]
+
     def third(self) -> FloatArray:
         """Third derivatives ``T[r, a, b, c]``, shape (12, 6n, 6n, 6n): memory O((6n)^3)."""
         N = self.J.shape[1]
