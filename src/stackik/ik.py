@@ -1346,6 +1346,10 @@ def _solve_ik(
             run = _solve_from(prob, qs, method, qp_solver, {**SCREEN_OPTIONS, **opts}, left)
             nit_total += run.nit
             screened.append(run)
+            if not run.check.ok and (
+                least is None or run.check.max_violation_mm < least.check.max_violation_mm
+            ):
+                least = run
         screened.sort(key=lambda r: (r.check.max_violation_mm > SCREEN_FEAS_MM, r.obj))
         queue = [r.q for r in screened]
         n_planned = 0 if screened[0].check.ok else 1
@@ -1383,7 +1387,7 @@ def _solve_ik(
             fallback = 0
     if best is None and screened and screened[0].check.ok:
         best = screened[0]
-        tried = len(screened)
+    tried += len(screened)  # every local solve counts as a start
     if best is not None:
         return finish(best, IKStatus.SUCCESS, nit_total, tried)
     if status_out is not IKStatus.MAX_TIME:
