@@ -18,7 +18,6 @@ as CSV (one row per solve), JSON (summary) and Markdown (tables with machine and
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import os
 import platform
@@ -30,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from stackik._io import write_csv
 from stackik.batch import checkpointed_map
 from stackik.geometry import Stack
 from stackik.ik import PlanarTarget, SpatialTarget, solve_ik, target_to_dict
@@ -309,10 +309,7 @@ def run_benchmark(
             fits[label] = float(np.polyfit(x, y, 1)[0])
     machine = machine_info()
     result = {"machine": machine, "config": cfg.__dict__, "summary": summary, "exponents": fits}
-    with open(out / "ik_bench.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(out / "ik_bench.csv", rows)
     (out / "ik_bench.json").write_text(json.dumps(result, indent=2, default=str))
     cols = [
         "method",

@@ -181,17 +181,9 @@ def _figures(draw: Callable[[Any], Any]) -> bool:
 
 
 def _json_default(obj: Any) -> Any:
-    import numpy as np
+    from stackik._io import json_default
 
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, Path):
-        return str(obj)
-    if hasattr(obj, "value"):  # Enum
-        return obj.value
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+    return json_default(obj)
 
 
 def _dump_json(data: Any) -> None:
@@ -542,14 +534,11 @@ def _cmd_map(args: argparse.Namespace) -> int:
     reg = study.regression
     written: list[Path] = []
     if args.out is not None:
-        import csv
+        from stackik._io import write_csv
 
         out: Path = args.out
         out.mkdir(parents=True, exist_ok=True)
-        with open(out / "workspace.csv", "w", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
+        write_csv(out / "workspace.csv", rows)
         reg_data = None if reg is None else reg.to_dict()
         (out / "regression.json").write_text(json.dumps(reg_data, indent=2) + "\n")
         written += [out / "workspace.csv", out / "regression.json"]

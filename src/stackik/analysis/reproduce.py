@@ -24,11 +24,9 @@ returns a process exit code.
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import time
-from collections.abc import Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -36,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from stackik._io import json_default_lenient, write_csv
 from stackik.analysis.linear import linearity_check
 from stackik.analysis.montecarlo import MonteCarloResult, monte_carlo
 from stackik.analysis.workspace import (
@@ -196,24 +195,6 @@ def target_poses(
 
 def _fmt_target(t: PlanarTarget) -> str:
     return f"({t.rho:g}, {t.z:g}) mm, theta = {t.theta:g} rad"
-
-
-def _write_csv(path: Path, rows: Sequence[dict[str, Any]]) -> Path:
-    with path.open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    return path
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, Path):
-        return str(o)
-    return str(o)
 
 
 # =========================================================================================
@@ -397,7 +378,7 @@ def reproduce(
                     "F_small_sigma": linearity_check(mc)[j].F,
                 }
             )
-    files.append(_write_csv(out / "table1.csv", t1_rows))
+    files.append(write_csv(out / "table1.csv", t1_rows))
     t2_rows = [
         {
             "target": i + 1,
@@ -408,8 +389,8 @@ def reproduce(
         for i in range(len(tp))
         for j in range(len(table2[i]))
     ]
-    files.append(_write_csv(out / "table2.csv", t2_rows))
-    files.append(_write_csv(out / "workspace.csv", study.rows()))
+    files.append(write_csv(out / "table2.csv", t2_rows))
+    files.append(write_csv(out / "workspace.csv", study.rows()))
 
     elapsed = time.perf_counter() - t_start
     result = ReproduceResult(
@@ -444,7 +425,7 @@ def reproduce(
         "checks": checks,
         "elapsed_s": elapsed,
     }
-    (out / "results.json").write_text(json.dumps(payload, indent=2, default=_json_default))
+    (out / "results.json").write_text(json.dumps(payload, indent=2, default=json_default_lenient))
     files.append(out / "results.json")
     report = _report(result)
     (out / "report.md").write_text(report)
@@ -692,7 +673,7 @@ def main_mc(
             "monte_carlo": mc.summary(),
             "F": [c.F for c in lin],
         }
-        (o / "mc.json").write_text(json.dumps(data, indent=2, default=_json_default))
+        (o / "mc.json").write_text(json.dumps(data, indent=2, default=json_default_lenient))
         figures.plot_pose_diagram(stack, tp.poses, phi, names, path=o / "poses.png")
         figures.plot_perturbation_clouds(mc, names, path=o / "clouds.png")
         print(f"wrote {o / 'mc.json'}, {o / 'poses.png'}, {o / 'clouds.png'}")
@@ -740,12 +721,12 @@ def main_map(
     finally:
         if pool is not None:
             pool.shutdown()
-    _write_csv(o / "workspace.csv", study.rows())
+    write_csv(o / "workspace.csv", study.rows())
     figures.plot_fn_ratio_map(study, path=o / "fn_ratio_map.png")
     figures.plot_regression(study, path=o / "regression.png")
     reg = study.regression
     (o / "regression.json").write_text(
-        json.dumps(None if reg is None else reg.to_dict(), indent=2, default=_json_default)
+        json.dumps(None if reg is None else reg.to_dict(), indent=2, default=json_default_lenient)
     )
     print(f"{int(study.valid.sum())}/{len(study.targets)} targets solved")
     if reg is None:
