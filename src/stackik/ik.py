@@ -79,7 +79,7 @@ OBJECTIVES = ("frobenius", "feasible", "weighted")
 # Loose SQP settings used to rank the default structured starts before refining the best.
 SCREEN_OPTIONS = {"tol": 1e-4, "constr_tol": 1e-7}
 SCREEN_FEAS_MM = 1e-3  # [mm] screened runs farther from feasibility rank last
-METHODS = ("sqp", "slsqp", "trust-constr", "ipopt")
+METHODS = ("sqp", "ip", "slsqp", "trust-constr", "ipopt")
 
 
 # =========================================================================================
@@ -1105,6 +1105,13 @@ def _solve_from(
             if "max_time" not in opts and math.isfinite(time_left):
                 opts["max_time"] = max(time_left, 1e-3)
             u, nit, status = _run_sqp(prob, u0, qp_solver, opts)
+        elif method == "ip":
+            from stackik._ipm import ip_solve
+
+            opts = dict(options)
+            if "max_time" not in opts and math.isfinite(time_left):
+                opts["max_time"] = max(time_left, 1e-3)
+            u, nit, status = ip_solve(prob, u0, opts)
         elif method == "ipopt":
             from stackik.ipopt_ import run_ipopt
 
@@ -1337,13 +1344,14 @@ def _solve_ik(
     queue = _initial_starts(stack, target, q0, structured=x0 is None and start == "paper")
     n_planned = len(queue) if starts is None else int(starts)
     screened: list[_Run] = []
-    if starts is None and len(queue) > 1 and method == "sqp":
+    if starts is None and len(queue) > 1 and method in ("sqp", "ip"):
         # Screen the structured starts with a loose KKT tolerance and keep the best that
         # passes the check (its FN is within ~1e-8 of the fully converged value); when none
         # passes, the others are solved in full, best first.
         for qs in queue:
             left = max(max_time - (time.perf_counter() - t_start), 1e-3)
-            run = _solve_from(prob, qs, method, qp_solver, {**SCREEN_OPTIONS, **opts}, left)
+            sopts = {**SCREEN_OPTIONS, **opts} if method == "sqp" else opts
+            run = _solve_from(prob, qs, method, qp_solver, sopts, left)
             nit_total += run.nit
             screened.append(run)
             if not run.check.ok and (

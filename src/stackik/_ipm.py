@@ -1,0 +1,645 @@
+"""Compiled primal-dual interior-point solver for the planar IK problem (the fast path).
+
+The planar problem of :class:`stackik.ik._Problem` (scaled variables ``u = q / xs``):
+
+    min f(u) = (c0 + w |r(u)|^2) / fscale
+    s.t. c_E(u) = 0   (3 end-effector equalities, scaled by ``es``)
+         c_I(u) >= 0  (24 n limits, scaled by ``cs``)
+
+is solved by a primal-dual barrier method in the spirit of IPOPT (Waechter & Biegler 2006;
+Nocedal & Wright 2006, ch. 19): slacks ``s > 0`` with ``c_I(u) - s = 0``, barrier
+parameter ``mu`` decreased Fiacco-McCormick style, Newton steps on the perturbed KKT
+conditions with the exact Hessian of the Lagrangian, a null-space solve of the KKT system
+whose reduced Hessian is made positive definite by eigenvalue modification, the
+fraction-to-the-boundary rule, and a backtracking line search on the l1 merit function
+``f - mu sum log s + nu (|c_E|_1 + |c_I - s|_1)``. The interior path is what makes the
+method find good local minima from few starts: it keeps away from the limits until the
+objective has shaped the pose, where an active-set SQP commits early to the limits it
+meets first.
+
+Everything that runs per iteration is compiled with numba (``cache=True``: compiled once
+per machine, then loaded from ``__pycache__``). The caller re-checks every returned pose
+(:func:`stackik.ik.check_pose`); this module makes no claim of its own.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+from numba import njit, objmode
+
+FloatArray = np.ndarray
+
+LS_MULTIPLIERS = True
+
+#: Status codes returned by :func:`ip_solve`.
+IP_SUCCESS, IP_MAX_ITER, IP_STALLED, IP_NONFINITE, IP_MAX_TIME = 0, 1, 2, 3, 4
+IP_STATUS = {
+    IP_SUCCESS: "success",
+    IP_MAX_ITER: "max_iter",
+    IP_STALLED: "stalled",
+    IP_NONFINITE: "nonfinite",
+    IP_MAX_TIME: "max_time",
+}
+
+
+# =========================================================================================
+# Evaluation (raw kinematics, then scaled)
+# =========================================================================================
+@njit(cache=True)
+def _kinematics(q: FloatArray) -> tuple[Any, ...]:
+    """Cumulative cos/sin, end effector y, its Jacobian (3, 3n), lever arms d (n, 2)."""
+    n = q.shape[0]
+    c = np.empty(n)
+    s = np.empty(n)
+    O = np.zeros((n + 1, 2))
+    th = 0.0
+    for i in range(n):
+        c[i] = math.cos(th)
+        s[i] = math.sin(th)
+        O[i + 1, 0] = O[i, 0] + c[i] * q[i, 0] - s[i] * q[i, 1]
+        O[i + 1, 1] = O[i, 1] + s[i] * q[i, 0] + c[i] * q[i, 1]
+        th += q[i, 2]
+    d = np.empty((n, 2))
+    for i in range(n):
+        d[i, 0] = O[n, 0] - O[i + 1, 0]
+        d[i, 1] = O[n, 1] - O[i + 1, 1]
+    y = np.array([O[n, 0], O[n, 1], th])
+    J = np.zeros((3, 3 * n))
+    for i in range(n):
+        J[0, 3 * i] = c[i]
+        J[1, 3 * i] = s[i]
+        J[0, 3 * i + 1] = -s[i]
+        J[1, 3 * i + 1] = c[i]
+        J[0, 3 * i + 2] = -d[i, 1]
+        J[1, 3 * i + 2] = d[i, 0]
+        J[2, 3 * i + 2] = 1.0
+    return c, s, y, J, d
+
+
+@njit(cache=True)
+def _fn_residual_jacobian(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatArray:
+    """``dr/dq`` of the FN residuals ``r_i = d_i`` (i < n-1), shape (2(n-1), 3n)."""
+    n = c.shape[0]
+    Jr = np.zeros((2 * (n - 1), 3 * n))
+    for i in range(n - 1):
+        for m in range(n):
+            if m > i:
+                Jr[2 * i, 3 * m] = c[m]
+                Jr[2 * i + 1, 3 * m] = s[m]
+                Jr[2 * i, 3 * m + 1] = -s[m]
+                Jr[2 * i + 1, 3 * m + 1] = c[m]
+            k = max(i, m)
+            Jr[2 * i, 3 * m + 2] = -d[k, 1]
+            Jr[2 * i + 1, 3 * m + 2] = d[k, 0]
+    return Jr
+
+
+@njit(cache=True)
+def _fn2_hessian(c: FloatArray, s: FloatArray, d: FloatArray, Jr: FloatArray) -> FloatArray:
+    """Exact Hessian of ``sum_i |d_i|^2`` (i < n-1) in raw q, shape (3n, 3n)."""
+    n = c.shape[0]
+    H = 2.0 * (Jr.T @ Jr)
+    # G[i, k] = r_i . d_k
+    G = np.empty((n - 1, n))
+    for i in range(n - 1):
+        for k in range(n):
+            G[i, k] = d[i, 0] * d[k, 0] + d[i, 1] * d[k, 1]
+    for m in range(n):
+        for l in range(n):
+            acc = 0.0
+            for i in range(n - 1):
+                acc += G[i, max(i, max(m, l))]
+            H[3 * m + 2, 3 * l + 2] -= 2.0 * acc
+    c0 = 0.0
+    c1 = 0.0  # sum_{i<k} r_i
+    for k in range(n):
+        t0 = -s[k] * c0 + c[k] * c1
+        t1 = -c[k] * c0 - s[k] * c1
+        for m in range(k):
+            H[3 * k, 3 * m + 2] += 2.0 * t0
+            H[3 * k + 1, 3 * m + 2] += 2.0 * t1
+            H[3 * m + 2, 3 * k] += 2.0 * t0
+            H[3 * m + 2, 3 * k + 1] += 2.0 * t1
+        if k < n - 1:
+            c0 += d[k, 0]
+            c1 += d[k, 1]
+    return H
+
+
+@njit(cache=True)
+def _legs(q: FloatArray, tf: FloatArray, tz: FloatArray, bf: FloatArray, bz: FloatArray,
+          ls: FloatArray) -> tuple[Any, ...]:  # fmt: skip
+    n = q.shape[0]
+    cth = np.cos(q[:, 2])
+    sth = np.sin(q[:, 2])
+    Rtf = np.empty((n, 6))
+    Rtz = np.empty((n, 6))
+    lf = np.empty((n, 6))
+    lz = np.empty((n, 6))
+    sq = np.empty((n, 6))
+    for i in range(n):
+        for j in range(6):
+            Rtf[i, j] = cth[i] * tf[i, j] - sth[i] * tz[i, j]
+            Rtz[i, j] = sth[i] * tf[i, j] + cth[i] * tz[i, j]
+            lf[i, j] = Rtf[i, j] + q[i, 0] - bf[i, j]
+            lz[i, j] = Rtz[i, j] + q[i, 1] - bz[i, j]
+            sq[i, j] = lf[i, j] ** 2 + ls[i, j] ** 2 + lz[i, j] ** 2
+    return cth, sth, Rtf, Rtz, lf, lz, sq
+
+
+@njit(cache=True)
+def _constraints(q: FloatArray, tf: FloatArray, tz: FloatArray, bf: FloatArray, bz: FloatArray,
+                 ls: FloatArray, lmin2: FloatArray, lmax2: FloatArray,
+                 sj: FloatArray) -> tuple[FloatArray, FloatArray]:  # fmt: skip
+    """Raw limits (n*24,) and their Jacobian blocks (n, 24, 3), DESIGN §2 order."""
+    n = q.shape[0]
+    cth, sth, Rtf, Rtz, lf, lz, sq = _legs(q, tf, tz, bf, bz, ls)
+    g = np.empty(24 * n)
+    D = np.empty((n, 24, 3))
+    for i in range(n):
+        c = cth[i]
+        sn = sth[i]
+        for j in range(6):
+            nrm = math.sqrt(sq[i, j])
+            k = sj[i] / nrm
+            g[24 * i + j] = sq[i, j] - lmin2[i]
+            g[24 * i + 6 + j] = lmax2[i] - sq[i, j]
+            g[24 * i + 12 + j] = lz[i, j] - nrm * sj[i]
+            g[24 * i + 18 + j] = c * lz[i, j] - sn * lf[i, j] - nrm * sj[i]
+            dsq_t = 2.0 * (lz[i, j] * Rtf[i, j] - lf[i, j] * Rtz[i, j])
+            D[i, j, 0] = 2.0 * lf[i, j]
+            D[i, j, 1] = 2.0 * lz[i, j]
+            D[i, j, 2] = dsq_t
+            D[i, 6 + j, 0] = -2.0 * lf[i, j]
+            D[i, 6 + j, 1] = -2.0 * lz[i, j]
+            D[i, 6 + j, 2] = -dsq_t
+            D[i, 12 + j, 0] = -k * lf[i, j]
+            D[i, 12 + j, 1] = 1.0 - k * lz[i, j]
+            D[i, 12 + j, 2] = Rtf[i, j] - 0.5 * k * dsq_t
+            D[i, 18 + j, 0] = -sn - k * lf[i, j]
+            D[i, 18 + j, 1] = c - k * lz[i, j]
+            D[i, 18 + j, 2] = (
+                (sn * Rtz[i, j] + c * Rtf[i, j]) - (c * lf[i, j] + sn * lz[i, j]) - 0.5 * k * dsq_t
+            )
+    return g, D
+
+
+@njit(cache=True)
+def _constraint_hessian(q: FloatArray, yraw: FloatArray, tf: FloatArray, tz: FloatArray,
+                        bf: FloatArray, bz: FloatArray, ls: FloatArray,
+                        sj: FloatArray) -> FloatArray:  # fmt: skip
+    """``sum_r yraw_r Hessian(c_r)`` per platform, shape (n, 3, 3) (block diagonal)."""
+    n = q.shape[0]
+    cth, sth, Rtf, Rtz, lf, lz, sq = _legs(q, tf, tz, bf, bz, ls)
+    H = np.zeros((n, 3, 3))
+    for i in range(n):
+        c = cth[i]
+        sn = sth[i]
+        h00 = h11 = h01 = h02 = h12 = h22 = 0.0
+        for j in range(6):
+            nrm = math.sqrt(sq[i, j])
+            inv = 1.0 / nrm
+            S_rt = -2.0 * Rtz[i, j]
+            S_zt = 2.0 * Rtf[i, j]
+            S_tt = 2.0 * (
+                Rtf[i, j] ** 2 + Rtz[i, j] ** 2 - lf[i, j] * Rtf[i, j] - lz[i, j] * Rtz[i, j]
+            )
+            d_r = lf[i, j] * inv
+            d_z = lz[i, j] * inv
+            d_t = (lz[i, j] * Rtf[i, j] - lf[i, j] * Rtz[i, j]) * inv
+            N_rr = (1.0 - d_r * d_r) * inv
+            N_zz = (1.0 - d_z * d_z) * inv
+            N_rz = -d_r * d_z * inv
+            N_rt = (0.5 * S_rt - d_r * d_t) * inv
+            N_zt = (0.5 * S_zt - d_z * d_t) * inv
+            N_tt = (0.5 * S_tt - d_t * d_t) * inv
+            y0 = yraw[24 * i + j]
+            y1 = yraw[24 * i + 6 + j]
+            y2 = yraw[24 * i + 12 + j]
+            y3 = yraw[24 * i + 18 + j]
+            ys = y0 - y1
+            yn = -sj[i] * (y2 + y3)
+            rf = lf[i, j] - Rtf[i, j]
+            rz = lz[i, j] - Rtz[i, j]
+            h00 += ys * 2.0 + yn * N_rr
+            h11 += ys * 2.0 + yn * N_zz
+            h01 += yn * N_rz
+            h02 += ys * S_rt + yn * N_rt - y3 * c
+            h12 += ys * S_zt + yn * N_zt - y3 * sn
+            h22 += ys * S_tt + yn * N_tt - y2 * Rtz[i, j] + y3 * (rf * sn - rz * c)
+        H[i, 0, 0] = h00
+        H[i, 1, 1] = h11
+        H[i, 2, 2] = h22
+        H[i, 0, 1] = H[i, 1, 0] = h01
+        H[i, 0, 2] = H[i, 2, 0] = h02
+        H[i, 1, 2] = H[i, 2, 1] = h12
+    return H
+
+
+@njit(cache=True)
+def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
+    """Scaled f, grad f, c_E, A_E (3, N), c_I (m,), A_I blocks (n, 24, 3) at ``u``."""
+    (xs, cs, es, yt, fscale, c0, w, tf, tz, bf, bz, ls, lmin2, lmax2, sj, feasible) = P
+    n = tf.shape[0]
+    q = (u * xs).reshape(n, 3)
+    c, s, y, J, d = _kinematics(q)
+    cE = (y - yt) * es
+    AE = J * es.reshape(3, 1) * xs.reshape(1, -1)
+    g, D = _constraints(q, tf, tz, bf, bz, ls, lmin2, lmax2, sj)
+    cI = g * cs
+    for i in range(n):
+        for r in range(24):
+            for k in range(3):
+                D[i, r, k] *= cs[24 * i + r] * xs[3 * i + k]
+    if feasible:
+        return 0.0, np.zeros(3 * n), cE, AE, cI, D
+    Jr = _fn_residual_jacobian(c, s, d)
+    r = d[: n - 1].ravel()
+    f = (c0 + w * (r @ r)) / fscale
+    grad = (2.0 * w / fscale) * (Jr.T @ r) * xs
+    return f, grad, cE, AE, cI, D
+
+
+@njit(cache=True)
+def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
+    """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (N, N)."""
+    (xs, cs, es, yt, fscale, c0, w, tf, tz, bf, bz, ls, lmin2, lmax2, sj, feasible) = P
+    n = tf.shape[0]
+    N = 3 * n
+    q = (u * xs).reshape(n, 3)
+    c, s, y, J, d = _kinematics(q)
+    if feasible:
+        H = np.zeros((N, N))
+    else:
+        Jr = _fn_residual_jacobian(c, s, d)
+        H = _fn2_hessian(c, s, d, Jr) * (w / fscale)
+    # end-effector equalities: sum_r yE_r d2 y_r = [min(a,b) is an angle] * v[max(a,b)]
+    yp0 = yE[0] * es[0]
+    yp1 = yE[1] * es[1]
+    v = yp1 * J[0] - yp0 * J[1]
+    for a in range(N):
+        for b in range(N):
+            if min(a, b) % 3 == 2:
+                H[a, b] -= v[max(a, b)]
+    Hb = _constraint_hessian(q, z * cs, tf, tz, bf, bz, ls, sj)
+    for i in range(n):
+        for a in range(3):
+            for b in range(3):
+                H[3 * i + a, 3 * i + b] -= Hb[i, a, b]
+    for a in range(N):
+        for b in range(N):
+            H[a, b] *= xs[a] * xs[b]
+    return H
+
+
+@njit(cache=True)
+def _AI_dot(D: FloatArray, dx: FloatArray) -> FloatArray:
+    n = D.shape[0]
+    out = np.empty(24 * n)
+    for i in range(n):
+        for r in range(24):
+            out[24 * i + r] = (
+                D[i, r, 0] * dx[3 * i] + D[i, r, 1] * dx[3 * i + 1] + D[i, r, 2] * dx[3 * i + 2]
+            )
+    return out
+
+
+@njit(cache=True)
+def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
+    n = D.shape[0]
+    out = np.zeros(3 * n)
+    for i in range(n):
+        for r in range(24):
+            vr = v[24 * i + r]
+            for k in range(3):
+                out[3 * i + k] += D[i, r, k] * vr
+    return out
+
+
+@njit(cache=True)
+def _cholesky(A: FloatArray, shift: float) -> tuple[FloatArray, bool]:
+    """Lower Cholesky factor of ``A + shift I``; ``ok`` False when not positive definite."""
+    k = A.shape[0]
+    L = np.zeros((k, k))
+    dmax = 0.0
+    for i in range(k):
+        dmax = max(dmax, abs(A[i, i]) + shift)
+    for j in range(k):
+        acc = A[j, j] + shift
+        for p in range(j):
+            acc -= L[j, p] * L[j, p]
+        if not acc > 1e-14 * dmax:
+            return L, False
+        L[j, j] = math.sqrt(acc)
+        for i in range(j + 1, k):
+            acc = A[i, j]
+            for p in range(j):
+                acc -= L[i, p] * L[j, p]
+            L[i, j] = acc / L[j, j]
+    return L, True
+
+
+@njit(cache=True)
+def _cho_solve(L: FloatArray, b: FloatArray) -> FloatArray:
+    k = L.shape[0]
+    y = np.empty(k)
+    for i in range(k):
+        acc = b[i]
+        for p in range(i):
+            acc -= L[i, p] * y[p]
+        y[i] = acc / L[i, i]
+    x = np.empty(k)
+    for i in range(k - 1, -1, -1):
+        acc = y[i]
+        for p in range(i + 1, k):
+            acc -= L[p, i] * x[p]
+        x[i] = acc / L[i, i]
+    return x
+
+
+@njit(cache=True)
+def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
+              last_shift: float) -> tuple[FloatArray, FloatArray, float, float]:  # fmt: skip
+    """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` by a null-space method.
+
+    The null-space basis ``Z = [-B^-1 C; I]`` uses the first platform's three columns
+    ``B`` of ``AE = [B C]`` (always invertible: a rotation and a unit angle row). When the
+    reduced Hessian ``Z^T W Z`` is not positive definite, a multiple of the identity is
+    added until it is (the shift), so that ``dx`` is a descent direction of the merit
+    function. Returns ``dx``, ``dy``, the curvature ``dx^T W dx`` and the shift used.
+    """
+    N = W.shape[0]
+    B = AE[:, :3].copy()
+    C = AE[:, 3:].copy()
+    Binv = np.linalg.inv(B)
+    E = -(Binv @ C)  # (3, N-3): dependent part of Z
+    dxp = -(Binv @ cE)
+    W1 = W[:, :3].copy()
+    M = W1 @ E + W[:, 3:]  # W Z
+    Et = E.T.copy()
+    Hz = Et @ M[:3] + M[3:]
+    r = rhs - W1 @ dxp
+    rz = Et @ r[:3] + r[3:]
+    # inertia correction as in IPOPT: the smallest shift (tried in factors of 8, starting
+    # from a third of the last one) that makes the reduced Hessian positive definite
+    shift = 0.0
+    L, ok = _cholesky(Hz, 0.0)
+    if not ok:
+        scale = 0.0
+        for i in range(Hz.shape[0]):
+            scale = max(scale, abs(Hz[i, i]))
+        ZtZ = Et @ E  # the shift is delta I in x-space: Z^T (W + delta I) Z
+        for i in range(ZtZ.shape[0]):
+            ZtZ[i, i] += 1.0
+        shift = max(last_shift / 3.0, 1e-4) if last_shift > 0.0 else 1e-4
+        grow = 8.0 if last_shift > 0.0 else 100.0
+        while True:
+            L, ok = _cholesky(Hz + shift * ZtZ, 0.0)
+            if ok or shift > 1e20 * (1.0 + scale):
+                break
+            shift *= grow
+    w = _cho_solve(L, rz)
+    dx = np.empty(N)
+    dx[:3] = dxp + E @ w
+    dx[3:] = w
+    Wdx = W @ dx + shift * dx
+    dy = np.linalg.solve(B.T, (Wdx - rhs)[:3])
+    return dx, dy, dx @ Wdx, shift
+
+
+@njit(cache=True)
+def _now() -> float:
+    with objmode(t="float64"):
+        t = time.perf_counter()
+    return t
+
+
+# =========================================================================================
+# The barrier method
+# =========================================================================================
+@njit(cache=True)
+def _ip_loop(u0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: float,
+             max_iter: int, deadline: float,
+             trace: FloatArray) -> tuple[FloatArray, int, int]:  # fmt: skip
+    n = P[7].shape[0]
+    m = 24 * n
+    x = u0.copy()
+    f, g, cE, AE, cI, D = _evaluate(x, P)
+    if not (np.all(np.isfinite(cI)) and np.all(np.isfinite(cE)) and math.isfinite(f)):
+        return x, IP_NONFINITE, 0
+    mu = mu0
+    mu_min = min(tol, constr_tol) / 10.0
+    s = np.maximum(cI, 1e-2)
+    z = np.minimum(np.maximum(mu / s, 1e-3), 1e3)
+    # least-squares equality multipliers
+    rhs0 = g - _AIT_dot(D, z)
+    yE = np.linalg.solve(AE @ AE.T, AE @ rhs0)
+    last_shift = 0.0
+    theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
+    theta_max = 1e4 * max(1.0, theta0)
+    theta_min = 1e-4 * max(1.0, theta0)
+    filt = np.empty((max_iter + 1, 2))
+    nfilt = 0
+    status = IP_MAX_ITER
+    fails = 0
+    it = 0
+    for it in range(max_iter):
+        if it % 8 == 7 and _now() > deadline:
+            status = IP_MAX_TIME
+            break
+        rd = g - AE.T @ yE - _AIT_dot(D, z)
+        sd = max(100.0, (np.abs(yE).sum() + np.abs(z).sum()) / (m + 3)) / 100.0
+        e_pr = max(np.abs(cE).max(), np.abs(cI - s).max())
+        e_du = np.abs(rd).max() / sd
+        sz = s * z
+        if max(e_du, np.abs(sz).max() / sd) <= tol and e_pr <= constr_tol:
+            status = IP_SUCCESS
+            break
+        while mu > mu_min:
+            e_mu = max(e_du, np.abs(sz - mu).max() / sd, e_pr)
+            if e_mu > 10.0 * mu:
+                break
+            mu = max(mu_min, min(0.2 * mu, mu**1.5))
+            nfilt = 0
+        # --- Newton step -----------------------------------------------------------
+        W = _lagrangian_hessian(x, yE, z, P)
+        Sig = z / s
+        for i in range(n):
+            for a in range(3):
+                for b in range(3):
+                    acc = 0.0
+                    for r in range(24):
+                        acc += D[i, r, a] * Sig[24 * i + r] * D[i, r, b]
+                    W[3 * i + a, 3 * i + b] += acc
+        rhs = -g + AE.T @ yE + _AIT_dot(D, mu / s - Sig * (cI - s))
+        dx, dy, curv, shift = _kkt_step(W, AE, cE, rhs, last_shift)
+        if shift > 0.0:
+            last_shift = shift
+        AIdx = _AI_dot(D, dx)
+        ds = AIdx + cI - s
+        dz = -z + mu / s - Sig * ds
+        trace[it, 0] = mu
+        trace[it, 1] = e_du
+        trace[it, 2] = e_pr
+        trace[it, 3] = f
+        trace[it, 6] = shift
+        trace[it, 7] = nfilt
+        # --- fraction to the boundary -------------------------------------------------
+        tau = max(0.99, 1.0 - mu)
+        a_s = 1.0
+        a_z = 1.0
+        for r in range(m):
+            if ds[r] < 0.0:
+                a_s = min(a_s, -tau * s[r] / ds[r])
+            if dz[r] < 0.0:
+                a_z = min(a_z, -tau * z[r] / dz[r])
+        # --- filter line search (Waechter & Biegler 2006, sec. 2.3) -------------------
+        theta = np.abs(cE).sum() + np.abs(cI - s).sum()
+        phi = f - mu * np.log(s).sum()
+        gphi = g @ dx - mu * (ds / s).sum()
+        alpha = a_s
+        accepted = False
+        ftype = False
+        for _ in range(40):
+            xt = x + alpha * dx
+            st = s + alpha * ds
+            ft, gt, cEt, AEt, cIt, Dt = _evaluate(xt, P)
+            if math.isfinite(ft) and np.all(np.isfinite(cIt)) and np.all(np.isfinite(cEt)):
+                theta_t = np.abs(cEt).sum() + np.abs(cIt - st).sum()
+                phi_t = ft - mu * np.log(st).sum()
+                ok = theta_t <= theta_max
+                for j in range(nfilt):
+                    if theta_t >= filt[j, 0] and phi_t >= filt[j, 1]:
+                        ok = False
+                        break
+                if ok:
+                    switching = gphi < 0.0 and alpha * (-gphi) ** 2.3 > theta**1.1
+                    if switching and theta <= theta_min:
+                        if phi_t <= phi + 1e-4 * alpha * gphi + 1e-14 * abs(phi):
+                            accepted = True
+                            ftype = True
+                    elif theta_t <= (1.0 - 1e-5) * theta or phi_t <= phi - 1e-8 * theta:
+                        accepted = True
+                    elif switching and phi_t <= phi + 1e-4 * alpha * gphi + 1e-14 * abs(phi):
+                        accepted = True
+                        ftype = True
+                if accepted:
+                    break
+            alpha *= 0.5
+            if alpha < 1e-12:
+                break
+        if accepted and not ftype and nfilt < filt.shape[0]:
+            filt[nfilt, 0] = (1.0 - 1e-5) * theta
+            filt[nfilt, 1] = phi - 1e-8 * theta
+            nfilt += 1
+        if not accepted:
+            fails += 1
+            if fails >= 3:
+                status = IP_STALLED
+                break
+            # a tiny step keeps the iteration going; the barrier will be re-centred
+            nfilt = 0
+            alpha = min(alpha, 1e-8)
+            xt = x + alpha * dx
+            st = s + alpha * ds
+            ft, gt, cEt, AEt, cIt, Dt = _evaluate(xt, P)
+            if not (math.isfinite(ft) and np.all(np.isfinite(cIt))):
+                status = IP_NONFINITE
+                break
+        else:
+            fails = 0
+        trace[it, 3] = a_s
+        trace[it, 4] = alpha
+        trace[it, 5] = a_z
+        x = xt
+        # slack reset: a slack below its constraint value only adds violation
+        s = st.copy()
+        for r in range(m):
+            if cIt[r] > s[r]:
+                s[r] = cIt[r]
+        f, g, cE, AE, cI, D = ft, gt, cEt, AEt, cIt, Dt
+        z = z + a_z * dz
+        for r in range(m):
+            lo = mu / (1e10 * s[r])
+            hi = 1e10 * mu / s[r]
+            z[r] = min(max(z[r], lo), hi)
+        if LS_MULTIPLIERS:
+            yE = np.linalg.solve(AE @ AE.T, AE @ (g - _AIT_dot(D, z)))
+        else:
+            yE = yE + alpha * dy
+    return x, status, it + 1 if status != IP_SUCCESS else it
+
+
+def problem_arrays(prob: Any) -> tuple[Any, ...]:
+    """The tuple of arrays :func:`_ip_loop` needs, from a planar :class:`_Problem`."""
+    fast = prob.fast
+    assert fast is not None
+    n = prob.n
+    tgt = prob.target
+    feasible = prob.objective == "feasible"
+    w = float(prob.w_th[0])
+    return (
+        np.ascontiguousarray(prob.xs, dtype=float),
+        np.ascontiguousarray(prob.cs, dtype=float),
+        np.ascontiguousarray(prob.es, dtype=float),
+        np.array([tgt.rho, tgt.z, tgt.theta], dtype=float),
+        float(prob.fscale),
+        float(prob.c0),
+        w,
+        np.ascontiguousarray(fast.tf, dtype=float),
+        np.ascontiguousarray(fast.tz, dtype=float),
+        np.ascontiguousarray(fast.bf, dtype=float),
+        np.ascontiguousarray(fast.bz, dtype=float),
+        np.ascontiguousarray(fast.ls0, dtype=float),
+        np.ascontiguousarray(fast.lmin2.reshape(n), dtype=float),
+        np.ascontiguousarray(fast.lmax2.reshape(n), dtype=float),
+        np.ascontiguousarray(fast.sj.reshape(n), dtype=float),
+        feasible,
+    )
+
+
+#: Default options of :func:`ip_solve`.
+IP_DEFAULTS: dict[str, float] = {
+    "tol": 1e-7,
+    "constr_tol": 1e-9,
+    "mu0": 0.1,
+    "max_iter": 300,
+    "max_time": math.inf,
+}
+
+
+def ip_solve(prob: Any, u0: FloatArray, options: dict[str, Any] | None = None) -> tuple[
+    FloatArray, int, str
+]:  # fmt: skip
+    """Run the barrier method on a planar :class:`stackik.ik._Problem` from ``u0``.
+
+    Returns the scaled point, the iteration count and a status string
+    (``"success"``, ``"max_iter"``, ``"stalled"``, ``"nonfinite"``, ``"max_time"``).
+    """
+    opts = dict(IP_DEFAULTS)
+    for key, value in (options or {}).items():
+        if key not in IP_DEFAULTS:
+            from stackik.ik import OptionError
+
+            raise OptionError(f"options: {key!r} is not an interior-point option; use "
+                              f"{sorted(IP_DEFAULTS)}")  # fmt: skip
+        opts[key] = value
+    P = problem_arrays(prob)
+    deadline = time.perf_counter() + float(opts["max_time"])
+    trace = np.zeros((int(opts["max_iter"]), 8))
+    ip_solve.last_trace = trace  # type: ignore[attr-defined]
+    x, status, nit = _ip_loop(
+        np.ascontiguousarray(u0, dtype=float),
+        P,
+        float(opts["tol"]),
+        float(opts["constr_tol"]),
+        float(opts["mu0"]),
+        int(opts["max_iter"]),
+        deadline if math.isfinite(deadline) else 1e300,
+        trace,
+    )
+    return x, int(nit), IP_STATUS[int(status)]
