@@ -574,6 +574,70 @@ def _ip_loop(u0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: float,
     return x, status, it + 1 if status != IP_SUCCESS else it
 
 
+@njit(cache=True)
+def _polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> FloatArray:
+    """Min-norm Newton corrections of the equalities and of limits violated by less than
+    ``reach`` (scaled), as :func:`stackik.ik._polish` (tiny moves only)."""
+    n = P[7].shape[0]
+    N = 3 * n
+    for _ in range(iters):
+        f, g, cE, AE, cI, D = _evaluate(u, P)
+        nv = 0
+        for r in range(cI.size):
+            if -reach < cI[r] < 0.0:
+                nv += 1
+        if np.abs(cE).max() < 1e-13 and nv == 0:
+            break
+        A = np.zeros((3 + nv, N))
+        rr = np.empty(3 + nv)
+        A[:3] = AE
+        rr[:3] = cE
+        k = 3
+        for r in range(cI.size):
+            if -reach < cI[r] < 0.0:
+                i = r // 24
+                A[k, 3 * i : 3 * i + 3] = D[i, r % 24]
+                rr[k] = cI[r] - margin
+                k += 1
+        du = np.linalg.lstsq(A, rr)[0]
+        u = u - du
+    return u
+
+
+@njit(cache=True)
+def _ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: float,
+              max_iter: int, deadline: float, reach: float,
+              margin: float) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`_ip_loop` and :func:`_polish` from each row of ``U0``.
+
+    Returns the points (k, N), statuses, iteration counts, scaled objective values and
+    the worst scaled violation of each (equalities and limits), for ranking; the caller
+    re-checks the pose it returns.
+    """
+    k, N = U0.shape
+    X = np.empty((k, N))
+    status = np.full(k, IP_MAX_TIME)
+    nit = np.zeros(k, dtype=np.int64)
+    obj = np.full(k, np.inf)
+    viol = np.full(k, np.inf)
+    trace = np.zeros((max_iter, 8))
+    for j in range(k):
+        X[j] = U0[j]
+        if j > 0 and _now() > deadline:
+            break
+        x, st, it = _ip_loop(U0[j], P, tol, constr_tol, mu0, max_iter, deadline, trace)
+        if st == IP_NONFINITE or not np.all(np.isfinite(x)):
+            x = U0[j].copy()
+        x = _polish(x, P, 3, reach, margin)
+        X[j] = x
+        status[j] = st
+        nit[j] = it
+        f, g, cE, AE, cI, D = _evaluate(x, P)
+        obj[j] = f
+        viol[j] = max(np.abs(cE).max(), max(0.0, -cI.min()))
+    return X, status, nit, obj, viol
+
+
 def problem_arrays(prob: Any) -> tuple[Any, ...]:
     """The tuple of arrays :func:`_ip_loop` needs, from a planar :class:`_Problem`."""
     fast = prob.fast
@@ -612,6 +676,23 @@ IP_DEFAULTS: dict[str, float] = {
 }
 
 
+def _ip_options(options: dict[str, Any] | None) -> dict[str, Any]:
+    """The defaults updated by ``options``; unknown keys or bad values raise OptionError."""
+    from stackik.ik import OptionError
+
+    opts: dict[str, Any] = dict(IP_DEFAULTS)
+    for key, value in (options or {}).items():
+        if key not in IP_DEFAULTS:
+            raise OptionError(
+                f"options: {key!r} is not an interior-point option; use {sorted(IP_DEFAULTS)}"
+            )
+        bad = isinstance(value, bool) or not isinstance(value, int | float)
+        if bad or not (value > 0) or (key == "max_iter" and not math.isfinite(value)):
+            raise OptionError(f"options: bad value {value!r} for interior-point option {key!r}")
+        opts[key] = value
+    return opts
+
+
 def ip_solve(prob: Any, u0: FloatArray, options: dict[str, Any] | None = None) -> tuple[
     FloatArray, int, str
 ]:  # fmt: skip
@@ -620,14 +701,7 @@ def ip_solve(prob: Any, u0: FloatArray, options: dict[str, Any] | None = None) -
     Returns the scaled point, the iteration count and a status string
     (``"success"``, ``"max_iter"``, ``"stalled"``, ``"nonfinite"``, ``"max_time"``).
     """
-    opts = dict(IP_DEFAULTS)
-    for key, value in (options or {}).items():
-        if key not in IP_DEFAULTS:
-            from stackik.ik import OptionError
-
-            raise OptionError(f"options: {key!r} is not an interior-point option; use "
-                              f"{sorted(IP_DEFAULTS)}")  # fmt: skip
-        opts[key] = value
+    opts = _ip_options(options)
     P = problem_arrays(prob)
     deadline = time.perf_counter() + float(opts["max_time"])
     trace = np.zeros((int(opts["max_iter"]), 8))
@@ -643,3 +717,28 @@ def ip_solve(prob: Any, u0: FloatArray, options: dict[str, Any] | None = None) -
         trace,
     )
     return x, int(nit), IP_STATUS[int(status)]
+
+
+def ip_multi(prob: Any, U0: FloatArray, options: dict[str, Any] | None = None) -> tuple[Any, ...]:
+    """Run the barrier method from each row of ``U0`` (scaled starts) in one compiled call.
+
+    Returns ``(X, statuses, nits, objective values, violations)`` (see :func:`_ip_multi`);
+    statuses as strings.
+    """
+    from stackik.ik import POLISH_MARGIN, POLISH_REACH
+
+    opts = _ip_options(options)
+    P = problem_arrays(prob)
+    deadline = time.perf_counter() + float(opts["max_time"])
+    X, st, nit, obj, viol = _ip_multi(
+        np.ascontiguousarray(np.atleast_2d(U0), dtype=float),
+        P,
+        float(opts["tol"]),
+        float(opts["constr_tol"]),
+        float(opts["mu0"]),
+        int(opts["max_iter"]),
+        deadline if math.isfinite(deadline) else 1e300,
+        POLISH_REACH,
+        POLISH_MARGIN,
+    )
+    return X, [IP_STATUS[int(s)] for s in st], nit, obj, viol

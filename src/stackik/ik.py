@@ -79,7 +79,7 @@ OBJECTIVES = ("frobenius", "feasible", "weighted")
 # Loose SQP settings used to rank the default structured starts before refining the best.
 SCREEN_OPTIONS = {"tol": 1e-4, "constr_tol": 1e-7}
 SCREEN_FEAS_MM = 1e-3  # [mm] screened runs farther from feasibility rank last
-METHODS = ("sqp", "ip", "slsqp", "trust-constr", "ipopt")
+METHODS = ("auto", "sqp", "ip", "slsqp", "trust-constr", "ipopt")
 
 
 # =========================================================================================
@@ -487,7 +487,8 @@ class _PlanarFast:
         self._kcache: dict[bytes, tuple[Any, ...]] = {}
         self._kin: tuple[FloatArray, FloatArray, FloatArray]
         self.idx = np.arange(n)
-        self.set_scaling(np.ones(24 * n), np.ones(3 * n))
+        self._scaling = (np.ones(24 * n), np.ones(3 * n))
+        self.jflat: FloatArray | None = None  # index arrays, built on first use
 
     def kinematics(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """End effector y (3,), its Jacobian (3, 3n), FN residuals r and dr/dx.
@@ -594,6 +595,11 @@ class _PlanarFast:
 
     def set_scaling(self, row_scale: FloatArray, col_scale: FloatArray) -> None:
         """Scale rows (constraints) and columns (variables) of what :meth:`__call__` returns."""
+        self._scaling = (row_scale, col_scale)
+        self.jflat = None
+
+    def _build_scaling(self) -> None:
+        row_scale, col_scale = self._scaling
         n = self.n
         r = np.arange(24)[None, :, None] + 24 * self.idx[:, None, None]  # (n, 24, 1)
         cidx = np.arange(3)[None, None, :] + 3 * self.idx[:, None, None]  # (n, 1, 3)
@@ -647,6 +653,9 @@ class _PlanarFast:
         D[:, 3, :, 1] = c - k * lz
         D[:, 3, :, 2] = (sn * Rtz + c * Rtf) - (c * lf + sn * lz) - 0.5 * k * dsq_t
         n = self.n
+        if self.jflat is None:
+            self._build_scaling()
+        assert self.jflat is not None
         J = np.zeros(72 * n * n)
         J[self.jflat] = D.ravel() * self.jscale
         return out.ravel() * self.cscale, J.reshape(24 * n, 3 * n)
@@ -1130,6 +1139,49 @@ def _solve_from(
     return _Run(q=q, nit=nit, status=status, check=chk, obj=prob.objective_value(q))
 
 
+def _auto_method(planar: bool, objective: str, sigma_theta: Any, qp_solver: str | None) -> str:
+    """``method="auto"``: the compiled interior-point path where it applies, else SQP.
+
+    The interior-point path (:mod:`stackik._ipm`) covers planar targets with the
+    ``"frobenius"`` objective or ``"weighted"`` with one ``sigma_theta`` for all platforms.
+    ``"feasible"`` stays with the SQP engine: its poses are the paper's "first feasible
+    pose from the start", which a barrier method (drawn to the centre of the feasible
+    set) does not reproduce. A given ``qp_solver`` also selects the SQP engine.
+    """
+    if not planar or objective == "feasible" or qp_solver is not None:
+        return "sqp"
+    if objective == "weighted" and np.ptp(np.asarray(sigma_theta, dtype=float)) != 0:
+        return "sqp"
+    return "ip"
+
+
+def _ip_starts(
+    prob: _Problem, starts: list[FloatArray], options: dict[str, Any], max_time: float
+) -> tuple[_Run | None, _Run | None, int]:
+    """Interior-point runs from every start in one compiled call; the best that passes
+    :func:`check_pose` (tried in order of objective among those the solver reports
+    feasible), the least-violation run when none passes, and the total iterations."""
+    from stackik._ipm import ip_multi
+
+    U0 = np.stack([prob.u_of(q) for q in starts])
+    opts = {"max_time": max_time, **options}
+    X, statuses, nits, objs, viols = ip_multi(prob, U0, opts)
+    order = sorted(range(len(starts)), key=lambda j: (not viols[j] <= 1e-10, objs[j]))
+    least: _Run | None = None
+    for j in order:
+        q = prob.q_of(X[j])
+        chk = check_pose(prob.stack, prob.target, q)
+        # the objective at the polished point, unscaled (f = objective / fscale)
+        run = _Run(q=q, nit=int(nits[j]), status=statuses[j], check=chk, obj=objs[j] * prob.fscale)
+        if chk.ok:
+            return run, least, int(np.sum(nits))
+        if least is None or chk.max_violation_mm < least.check.max_violation_mm:
+            least = run
+        if viols[j] > 1e-6:  # the rest are farther off: stop checking
+            break
+    return None, least, int(np.sum(nits))
+
+
 def _sigma_weights(
     n: int, sigma_t: ArrayLike | None, sigma_theta: ArrayLike | None
 ) -> tuple[FloatArray, FloatArray]:
@@ -1149,7 +1201,7 @@ def solve_ik(
     target: Target,
     *,
     objective: Literal["frobenius", "feasible", "weighted"] = "frobenius",
-    method: Literal["sqp", "slsqp", "trust-constr", "ipopt"] = "sqp",
+    method: Literal["auto", "sqp", "ip", "slsqp", "trust-constr", "ipopt"] = "auto",
     qp_solver: str | None = None,
     x0: ArrayLike | None = None,
     starts: int | None = None,
@@ -1173,10 +1225,17 @@ def solve_ik(
         target within the limits (the paper's non-optimised pose: the first feasible pose
         the solver reaches from its start); ``"weighted"`` minimises ``trace(J C_x J^T)``
         with ``C_x = diag(sigma_t^2, ..., sigma_theta^2)`` (per platform if arrays).
-    method : {"sqp", "slsqp", "trust-constr", "ipopt"}
-        stackik's SQP engine, a scipy baseline given the same scaled derivatives, or IPOPT
-        through CasADi (planar only; optional extra ``stackik[ipopt]``) with exact
-        derivatives by automatic differentiation.
+    method : {"auto", "sqp", "ip", "slsqp", "trust-constr", "ipopt"}
+        ``"ip"``: stackik's compiled primal-dual interior-point solver (planar; see
+        :mod:`stackik._ipm`); ``"sqp"``: stackik's SQP engine (:mod:`stackik.sqp`, any QP
+        backend, planar and spatial); ``"auto"`` (default) picks ``"ip"`` for planar
+        targets with the ``"frobenius"`` objective (or ``"weighted"`` with one
+        ``sigma_theta``) and ``"sqp"`` otherwise (see :func:`_auto_method`). When no
+        interior-point start passes the check, the SQP engine takes over (it reports
+        infeasibility and the least-violation pose); the result's ``method`` says which
+        produced the pose. ``"slsqp"``/``"trust-constr"``: scipy baselines given the same
+        scaled derivatives; ``"ipopt"``: IPOPT through CasADi (planar only; optional extra
+        ``stackik[ipopt]``) with exact derivatives by automatic differentiation.
     qp_solver : str, optional
         QP backend of the SQP engine (default: its fastest installed one).
     x0 : array_like, optional
@@ -1194,7 +1253,9 @@ def solve_ik(
     rng : Generator, int or None
         Randomness of the extra starts.
     options : dict, optional
-        Passed to the solver (``SQPOptions`` fields for "sqp", scipy options otherwise).
+        Passed to the solver: ``SQPOptions`` fields for "sqp", ``tol``, ``constr_tol``,
+        ``mu0``, ``max_iter``, ``max_time`` for "ip" (:data:`stackik._ipm.IP_DEFAULTS`),
+        scipy or IPOPT options otherwise.
     max_time : float, optional
         Wall-time budget over all starts [s]; default ``10 + 2 n``.
     blas_threads : int or None
@@ -1265,11 +1326,15 @@ def _solve_ik(
         raise ValueError(f"starts: expected an integer >= 1, got {starts!r}")
     if start not in ("paper", "convex"):
         raise ValueError(f"start: unknown {start!r}; choose 'paper' or 'convex'")
+    planar = isinstance(target, PlanarTarget)
+    if method == "auto":
+        method = _auto_method(planar, objective, sigma_theta, qp_solver)
+    if method == "ip" and not planar:
+        raise ValueError('method "ip" is planar only (PlanarTarget); use "sqp" or "auto"')
     if method == "sqp" and qp_solver is not None:
         from stackik.sqp.qp import make_backend
 
         make_backend(qp_solver)  # raises ValueError listing the available ones
-    planar = isinstance(target, PlanarTarget)
     n, k = stack.n, (3 if planar else 6)
     try:
         gen = np.random.default_rng(rng)
@@ -1290,9 +1355,15 @@ def _solve_ik(
     else:
         q0 = paper_initial_guess(stack, target)
     prob = _Problem(stack, target, objective, weights)
+    if method == "ip" and np.ptp(prob.w_th) != 0:
+        raise ValueError('method "ip" needs one sigma_theta for all platforms; use "sqp"')
     opts = dict(options or {})
     if method == "sqp":
         _sqp_options(opts)  # bad options are reported before any solve
+    elif method == "ip":
+        from stackik._ipm import _ip_options
+
+        _ip_options(opts)
     qp_name = qp_solver or ("default" if method == "sqp" else "-")
 
     def finish(run: _Run | None, status: IKStatus, nit: int, n_starts: int) -> IKResult:
@@ -1314,7 +1385,7 @@ def _solve_ik(
             message=_MESSAGES[status],
             frobenius_norm=_frobenius(q, planar),
             objective=objective,
-            objective_value=prob.objective_value(q),
+            objective_value=prob.objective_value(q) if run is None else run.obj,
             max_violation=chk.max_violation,
             target_error=chk.position_error,
             angle_error=chk.angle_error,
@@ -1343,6 +1414,24 @@ def _solve_ik(
     nit_total = 0
     queue = _initial_starts(stack, target, q0, structured=x0 is None and start == "paper")
     n_planned = len(queue) if starts is None else int(starts)
+    # perturbation scale of random starts: 15% of the leg range [mm], 0.1 rad
+    span = float(np.mean(stack.leg_max - stack.leg_min))
+    pert = np.tile([0.15 * span] * (k - (1 if planar else 3)) + [0.1] * (1 if planar else 3), n)
+    if method == "ip":
+        qs_all = queue[:n_planned]
+        while len(qs_all) < n_planned:
+            qs_all.append(q0 + (gen.standard_normal(n * k) * pert).reshape(n, k))
+        ip_run, ip_least, nit_ip = _ip_starts(prob, qs_all, opts, max_time)
+        if ip_run is not None:
+            return finish(ip_run, IKStatus.SUCCESS, nit_ip, len(qs_all))
+        # no start passed: the SQP engine decides (least violation, infeasibility status)
+        method = "sqp"
+        opts = {}
+        nit_total = nit_ip
+        tried_ip = len(qs_all)
+        least = ip_least
+    else:
+        tried_ip = 0
     screened: list[_Run] = []
     if starts is None and len(queue) > 1 and method in ("sqp", "ip"):
         # Screen the structured starts with a loose KKT tolerance and keep the best that
@@ -1362,9 +1451,6 @@ def _solve_ik(
         queue = [r.q for r in screened]
         n_planned = 0 if screened[0].check.ok else 1
     fallback = 3 if x0 is None else 0  # more starts when none passes the check
-    # perturbation scale of random starts: 15% of the leg range [mm], 0.1 rad
-    span = float(np.mean(stack.leg_max - stack.leg_min))
-    pert = np.tile([0.15 * span] * (k - (1 if planar else 3)) + [0.1] * (1 if planar else 3), n)
     while tried < n_planned:
         if tried > 0 and time.perf_counter() - t_start > max_time:
             status_out = IKStatus.MAX_TIME
@@ -1395,7 +1481,7 @@ def _solve_ik(
             fallback = 0
     if best is None and screened and screened[0].check.ok:
         best = screened[0]
-    tried += len(screened)  # every local solve counts as a start
+    tried += len(screened) + tried_ip  # every local solve counts as a start
     if best is not None:
         return finish(best, IKStatus.SUCCESS, nit_total, tried)
     if status_out is not IKStatus.MAX_TIME:

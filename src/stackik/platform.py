@@ -48,6 +48,13 @@ CONSTRAINT_BLOCKS = ("leg_min", "leg_max", "joint_base", "joint_top")
 _EZ = np.array([0.0, 0.0, 1.0])
 
 
+def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
+    """``np.cross(a, b)`` over the last axis (length 3), without its overhead."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def check_pose(q: ArrayLike, n: int, ncols: int, name: str = "q") -> FloatArray:
     """Validate a pose array of shape (..., n, ncols): finite floats, right shape."""
     try:
@@ -163,7 +170,7 @@ def planar_legs(
     t = stack.top_nodes  # (n, 6, 3)
     t_par = np.einsum("nki,i->nk", t, s)[..., None] * s
     t_perp = t - t_par
-    t_cross = np.cross(s, t)
+    t_cross = _cross(s, t)
     th = q[..., 2]
     c = np.cos(th)[..., None, None]
     sn = np.sin(th)[..., None, None]
@@ -171,17 +178,17 @@ def planar_legs(
     P = q[..., 0, None] * e_phi + q[..., 1, None] * _EZ  # (..., n, 3)
     l = Rt + P[..., None, :] - stack.base_nodes
     # R e_z: e_z has no component along s (s is horizontal), so R e_z = c e_z + s (s x e_z).
-    s_x_ez = np.cross(s, _EZ)
+    s_x_ez = _cross(s, _EZ)
     Rn = np.cos(th)[..., None] * _EZ + np.sin(th)[..., None] * s_x_ez
     if not derivatives:
         return l, Rn, None, None
-    dRt = np.cross(s, Rt)  # d(R t)/dtheta = s x (R t)
+    dRt = _cross(s, Rt)  # d(R t)/dtheta = s x (R t)
     dl = np.empty(l.shape[:-2] + (3, 6, 3))
     dl[..., 0, :, :] = e_phi
     dl[..., 1, :, :] = _EZ
     dl[..., 2, :, :] = dRt
     dRn = np.zeros(Rn.shape[:-1] + (3, 3))
-    dRn[..., 2, :] = np.cross(s, Rn)
+    dRn[..., 2, :] = _cross(s, Rn)
     return l, Rn, dl, dRn
 
 
