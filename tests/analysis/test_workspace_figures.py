@@ -52,6 +52,25 @@ def test_random_feasible_poses_and_targets():
     assert [x.rho for x in again] == [x.rho for x in t]
 
 
+def test_spatial_pose_plates_carry_every_leg_end():
+    """The 3D drawing outlines each plate through all nodes it carries (12 in between)."""
+    from matplotlib.collections import PolyCollection
+
+    s = Stack.reference(4)
+    fig = figures.plot_spatial_pose(s, Q2, phi=0.4)
+    ax = fig.axes[0]
+    polys = [c for c in ax.collections if isinstance(c, PolyCollection)]
+    assert len(polys) == s.n + 1
+    nodes = figures.stack_nodes(s, Q2, 0.4)
+    # the outline line of plate 1 passes through platform 1's top and platform 2's base nodes
+    rings = [ln for ln in ax.lines if len(ln.get_data_3d()[0]) == 13]
+    assert len(rings) == s.n - 1
+    ring = np.array(rings[0].get_data_3d()).T[:-1]
+    want = np.concatenate([nodes["top"][0], nodes["base"][1]])
+    d = np.linalg.norm(want[:, None, :] - ring[None, :, :], axis=-1).min(axis=1)
+    assert np.all(d < 1e-9)
+
+
 def test_figures_written(tmp_path):
     s = Stack.reference(4)
     mc = monte_carlo([Q1, Q2], 2000, 1.0, 0.005, rng=0)

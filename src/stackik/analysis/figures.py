@@ -327,23 +327,38 @@ def plot_spatial_pose(
     elev: float = 18.0,
     azim: float = -60.0,
 ) -> Figure:
-    """3D drawing of a pose: hexagonal plates, the six legs per platform, plate frames.
+    """3D drawing of a pose: plates, the six legs per platform, plate frames.
+
+    Each plate is the (shaded) polygon through the leg nodes it carries: the base plate
+    and the end-effector plate through their six nodes, an intermediate plate through the
+    six top nodes of the platform below and the six base nodes of the platform above.
 
     Parameters
     ----------
     q : array_like, shape (n, 6) spatial, or (n, 3) planar with ``phi``
     """
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
     nodes = stack_nodes(stack, q, phi)
     O, A, base, top = nodes["O"], nodes["A"], nodes["base"], nodes["top"]
     fig = _figure(6.0, 6.4)
     ax: Any = fig.add_subplot(projection="3d")
     n = stack.n
-    plates = [base[0]] + [top[i] for i in range(n)]
-    local = [stack.base_nodes[0]] + [stack.top_nodes[i] for i in range(n)]
-    for j, (P, L) in enumerate(zip(plates, local, strict=True)):
-        order = np.argsort(np.arctan2(L[:, 1], L[:, 0]))
-        ring = P[np.r_[order, order[:1]]]
-        ax.plot(ring[:, 0], ring[:, 1], ring[:, 2], color="k" if j == 0 else "0.25", lw=2)
+    # plate j carries the top nodes of platform j (1-based, below it) and the base nodes
+    # of platform j + 1 (above it): outline all of them, so every leg ends on its plate
+    outlines: list[tuple[FloatArray, FloatArray]] = []  # (world nodes, plate-frame nodes)
+    for j in range(n + 1):
+        world = ([top[j - 1]] if j > 0 else []) + ([base[j]] if j < n else [])
+        frame = ([stack.top_nodes[j - 1]] if j > 0 else []) + (
+            [stack.base_nodes[j]] if j < n else []
+        )
+        outlines.append((np.concatenate(world), np.concatenate(frame)))
+    for j, (nodes_w, nodes_p) in enumerate(outlines):
+        order = np.argsort(np.arctan2(nodes_p[:, 1], nodes_p[:, 0]))
+        ring = nodes_w[np.r_[order, order[:1]]]
+        color = "k" if j == 0 else "0.25"
+        ax.add_collection3d(Poly3DCollection([ring[:-1]], facecolor=color, alpha=0.12))
+        ax.plot(ring[:, 0], ring[:, 1], ring[:, 2], color=color, lw=2)
     for i in range(n):
         c = _COLORS[i % len(_COLORS)]
         for k in range(6):
