@@ -10,9 +10,11 @@ import pytest
 from stackik import Stack, planar_forward
 from stackik.analysis import figures, monte_carlo
 from stackik.analysis.workspace import (
+    platform_box,
     random_feasible_poses,
     random_reachable_targets,
     regress,
+    uniform_reachable_targets,
     workspace_study,
 )
 
@@ -50,6 +52,42 @@ def test_random_feasible_poses_and_targets():
     np.testing.assert_allclose([t[0].rho, t[0].z, t[0].theta], planar_forward(q[0]))
     again = random_reachable_targets(s, 5, rng=3)
     assert [x.rho for x in again] == [x.rho for x in t]
+
+
+def test_platform_box_contains_the_feasible_set():
+    s = Stack.reference(4)
+    box = np.array(platform_box(s))
+    # a much larger box: every feasible pose found there lies inside platform_box
+    q = random_feasible_poses(s, 3000, rng=0, box=[(-1500, 1500), (-600, 1200), (-3.1, 3.1)])
+    p = q.reshape(-1, 3)
+    assert np.all(p >= box[:, 0]) and np.all(p <= box[:, 1])
+    # and it is not absurdly loose (theta is the loosest: 0.93 of 2.44 rad)
+    assert np.all(p.max(axis=0) > 0.3 * box[:, 1])
+
+
+def test_uniform_reachable_targets_even_and_reachable():
+    pytest.importorskip("stackik.ik")
+    s = Stack.reference(4)
+    t = uniform_reachable_targets(s, 200, rng=7, phi=0.3)
+    assert len(t) == 200 and all(x.phi == 0.3 for x in t)
+    again = uniform_reachable_targets(s, 200, rng=7, phi=0.3)
+    assert [(x.rho, x.z, x.theta) for x in again] == [(x.rho, x.z, x.theta) for x in t]
+    # at most one target per 100 mm square until every square has one: far more even than
+    # the unthinned forward kinematics of random poses
+    X = np.array([[x.rho, x.z] for x in t])
+    _, per_cell = np.unique(np.floor(X / 100.0), axis=0, return_counts=True)
+    Y = np.array([[x.rho, x.z] for x in random_reachable_targets(s, 200, rng=7, phi=0.3)])
+    _, per_cell_poses = np.unique(np.floor(Y / 100.0), axis=0, return_counts=True)
+    assert per_cell.max() <= 2 < per_cell_poses.max()
+    assert per_cell.size > per_cell_poses.size
+    # every target is reached by the optimal solve
+    from stackik.ik import solve_ik
+
+    assert all(solve_ik(s, x, objective="frobenius").success for x in t[:5])
+    with pytest.raises(ValueError):
+        uniform_reachable_targets(s, 0)
+    with pytest.raises(ValueError):
+        uniform_reachable_targets(s, 5, cell=0.0)
 
 
 def test_spatial_pose_plates_carry_every_leg_end():
@@ -90,6 +128,8 @@ def test_workspace_study_and_map(tmp_path):
     s = Stack.reference(4)
     st = workspace_study(s, 6, n_samples=1000, seed=1)
     assert len(st.targets) == 6 and st.valid.sum() >= 3
+    with pytest.raises(ValueError):
+        workspace_study(s, 6, sampling="grid")  # type: ignore[arg-type]
     v = st.valid
     assert np.all(st.fn_ratio[v] < 1.0 + 1e-9)  # the optimum has the least FN
     assert st.regression is not None and st.regression.n == v.sum()

@@ -2,12 +2,23 @@
 
 Choices (documented, not given by the paper):
 
-* **Targets** are generated from random *feasible poses*: every platform's
-  ``(rho_i, z_i, theta_i)`` is drawn uniformly in a box and kept when its 24 limits hold
-  (the limits of one platform depend on its own variables only, so platforms are drawn
-  independently); the target is the forward kinematics of the assembled pose, in the
-  plane ``phi``. Every target is therefore reachable, and they cluster where the stack
-  reaches most easily, like the paper's "found solutions".
+* **Targets** (``sampling="uniform"``, the default) are spread evenly over the reachable
+  ``(rho, z)`` region, so that the FN-ratio map covers the workspace as the paper's
+  figure of "found solutions" does (the paper does not say how its targets were drawn)
+  and the edge of the workspace, where the optimisation has least freedom, weighs as
+  much as the interior. A pool of random *feasible poses* is drawn (every platform's
+  ``(rho_i, z_i, theta_i)`` uniformly in a box that contains its whole feasible set,
+  :func:`platform_box`, kept when its 24 limits hold; the limits of one platform depend on
+  its own variables only, so platforms are drawn independently), their forward
+  kinematics in the plane ``phi`` give reachable targets, and these are thinned to an
+  even density on a grid of ``cell`` x ``cell`` mm squares: cells are visited in a random
+  order, one target each, round after round (:func:`uniform_reachable_targets`). Every
+  target is therefore reachable; theta keeps its distribution among the pool's targets
+  of the same cell. ``sampling="poses"`` keeps the forward kinematics of random feasible
+  poses unthinned (:func:`random_reachable_targets`): they cluster where the stack
+  reaches most easily and under-represent the edge of the workspace, where the FN ratio
+  is close to 1; with the reference geometry this narrows the range of FN ratios and
+  lowers the regression's r^2 markedly (README, "Reproducing the paper").
 * **Optimal pose**: ``solve_ik(objective="frobenius")`` from the paper's start, run
   through :func:`stackik.solve_many` (so an executor can spread it).
 * **Non-optimal poses**: ``solve_ik(objective="feasible")`` (the first feasible point the
@@ -25,7 +36,7 @@ from collections.abc import Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,9 +55,11 @@ __all__ = [
     "Regression",
     "WorkspaceStudy",
     "nonoptimal_poses",
+    "platform_box",
     "random_feasible_poses",
     "random_reachable_targets",
     "regress",
+    "uniform_reachable_targets",
     "workspace_study",
 ]
 
@@ -176,6 +189,68 @@ def random_reachable_targets(
 
     y = planar_forward(random_feasible_poses(stack, count, rng, phi, box))
     return [PlanarTarget(rho=float(a), z=float(b), theta=float(c), phi=phi) for a, b, c in y]
+
+
+def platform_box(stack: Stack) -> list[tuple[float, float]]:
+    """A ``(rho_i, z_i, theta_i)`` box containing every feasible pose of every platform.
+
+    From the limits alone: a leg is at most ``leg_max`` long and joins nodes at most
+    ``r_b`` and ``r_t`` from their plate centres, so ``|P| <= r_b + leg_max + r_t`` and
+    ``z >= -r_t``; both joint-angle limits keep every leg within ``90 deg - joint_min``
+    of each plate normal, so the plates tilt by at most ``180 deg - 2 joint_min``.
+    Returns ``[(rho_lo, rho_hi), (z_lo, z_hi), (theta_lo, theta_hi)]`` [mm, mm, rad].
+    """
+    r_b = float(np.max(np.linalg.norm(stack.base_nodes, axis=-1)))
+    r_t = float(np.max(np.linalg.norm(stack.top_nodes, axis=-1)))
+    lmax = float(np.max(stack.leg_max))
+    tilt = float(np.pi - 2.0 * np.min(np.arcsin(stack.sin_joint_min)))
+    reach = r_b + lmax + r_t
+    return [(-reach, reach), (-r_t, lmax + r_t), (-tilt, tilt)]
+
+
+def uniform_reachable_targets(
+    stack: Stack,
+    count: int,
+    rng: np.random.Generator | int | None = None,
+    phi: float = 0.0,
+    cell: float = 100.0,
+    pool: int | None = None,
+) -> list[PlanarTarget]:
+    """Reachable planar targets spread evenly over the reachable ``(rho, z)`` region.
+
+    ``pool`` random feasible poses (:func:`random_feasible_poses` in
+    :func:`platform_box`, default ``max(2000, 50 count)``) give reachable targets by
+    forward kinematics; the ``(rho, z)`` plane is cut into ``cell`` x ``cell`` mm squares
+    and targets are taken one per occupied square, the squares in a random order, round
+    after round, until ``count`` are chosen. The result is close to uniform over the
+    reachable region (at the resolution of ``cell``) instead of piling up where random
+    poses land most often; theta keeps its distribution within a square.
+
+    Returns
+    -------
+    list of PlanarTarget (``count`` of them, in the plane ``phi``)
+    """
+    from stackik.ik import PlanarTarget
+
+    if count < 1:
+        raise ValueError("count must be >= 1")
+    if not cell > 0.0:
+        raise ValueError("cell must be > 0")
+    gen = np.random.default_rng(rng)
+    size = max(2000, 50 * count) if pool is None else max(int(pool), count)
+    y = planar_forward(random_feasible_poses(stack, size, gen, phi, platform_box(stack)))
+    perm = gen.permutation(size)
+    key = np.floor(y[perm, :2] / cell).astype(np.int64)
+    cell_id = np.unique(key, axis=0, return_inverse=True)[1].ravel()
+    cell_rank = gen.permutation(int(cell_id.max()) + 1)[cell_id]  # random order of squares
+    order = np.argsort(cell_id, kind="stable")
+    starts = np.flatnonzero(np.r_[True, np.diff(cell_id[order]) != 0])
+    occurrence = np.empty(size, dtype=np.int64)  # round in which a target is taken
+    occurrence[order] = np.arange(size) - np.repeat(starts, np.diff(np.r_[starts, size]))
+    chosen = perm[np.lexsort((cell_rank, occurrence))[:count]]
+    return [
+        PlanarTarget(rho=float(a), z=float(b), theta=float(c), phi=phi) for a, b, c in y[chosen]
+    ]
 
 
 # =========================================================================================
@@ -320,6 +395,8 @@ def workspace_study(
     executor: Executor | None = None,
     solve_kwargs: dict[str, Any] | None = None,
     checkpoint_dir: str | Path | None = None,
+    sampling: Literal["uniform", "poses"] = "uniform",
+    cell: float = 100.0,
 ) -> WorkspaceStudy:
     """Compare the optimal and the first non-optimal pose on many targets.
 
@@ -327,8 +404,8 @@ def workspace_study(
     ----------
     stack : Stack
     targets : sequence of PlanarTarget or int
-        Targets, or a number of targets drawn with :func:`random_reachable_targets`
-        (seeded with ``seed``, in the plane ``phi``).
+        Targets, or a number of targets drawn (seeded with ``seed``, in the plane ``phi``)
+        as ``sampling`` says.
     n_samples, sigma_t, sigma_theta :
         Monte Carlo settings [-, mm, rad] (default: the paper's Table 1 level).
     seed : int
@@ -347,12 +424,23 @@ def workspace_study(
         Folder for ``optimal.jsonl`` and ``nonoptimal.jsonl``: every finished solve is
         recorded there, and a rerun with the same arguments resumes where it stopped
         (:func:`stackik.batch.checkpointed_map`). The Monte Carlo is recomputed (seeded).
+    sampling : {"uniform", "poses"}
+        How a number of targets is drawn: evenly over the reachable ``(rho, z)`` region
+        (:func:`uniform_reachable_targets` with squares of ``cell`` mm), or as the forward
+        kinematics of random feasible poses (:func:`random_reachable_targets`).
+    cell : float
+        Grid size of the uniform sampling [mm].
     """
     from stackik.ik import IKResult, solve_many, target_to_dict
 
+    if sampling not in ("uniform", "poses"):
+        raise ValueError(f"sampling must be 'uniform' or 'poses', got {sampling!r}")
     kw = dict(solve_kwargs or {})
     if isinstance(targets, int | np.integer):
-        tlist = random_reachable_targets(stack, int(targets), rng=seed, phi=phi)
+        if sampling == "uniform":
+            tlist = uniform_reachable_targets(stack, int(targets), rng=seed, phi=phi, cell=cell)
+        else:
+            tlist = random_reachable_targets(stack, int(targets), rng=seed, phi=phi)
     else:
         tlist = list(targets)
     m, n = len(tlist), stack.n
