@@ -594,7 +594,8 @@ def _report(r: ReproduceResult) -> str:
     )
     L.append(
         "![3D pose](pose3d_target1.png)\n\n*The optimal pose of target 1 drawn in 3D: "
-        "hexagonal plates, the six legs of each platform (one colour per platform), plate "
+        "plates (shaded, outlined through the leg nodes they carry), the six legs of each "
+        "platform (one colour per platform), plate "
         "frames (x red, y green, z blue), end effector (star).*\n"
     )
     L.append(
