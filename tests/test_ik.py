@@ -122,7 +122,7 @@ def test_status_failed(monkeypatch):
 
     monkeypatch.setattr(ik, "_run_sqp", broken)
     t = sk.PlanarTarget(*PAPER_TARGETS[0])
-    r = sk.solve_ik(STACK4, t, x0=paper_initial_guess(STACK4, t))
+    r = sk.solve_ik(STACK4, t, x0=paper_initial_guess(STACK4, t), method="sqp")
     assert not r.success and r.status is IKStatus.FAILED
 
 

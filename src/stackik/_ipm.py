@@ -33,7 +33,13 @@ from numba import njit, objmode
 
 FloatArray = np.ndarray
 
+#: Compiled once per machine and cached; floating-point errors give inf/nan (numpy's
+#: model) rather than exceptions, and the loop treats non-finite values as failures.
+_jit = njit(cache=True, error_model="numpy")
+
 LS_MULTIPLIERS = True
+OBJ_MAX_GRAD = 100.0
+Z_INIT_ONE = True
 
 #: Status codes returned by :func:`ip_solve`.
 IP_SUCCESS, IP_MAX_ITER, IP_STALLED, IP_NONFINITE, IP_MAX_TIME = 0, 1, 2, 3, 4
@@ -49,7 +55,7 @@ IP_STATUS = {
 # =========================================================================================
 # Evaluation (raw kinematics, then scaled)
 # =========================================================================================
-@njit(cache=True)
+@_jit
 def _kinematics(q: FloatArray) -> tuple[Any, ...]:
     """Cumulative cos/sin, end effector y, its Jacobian (3, 3n), lever arms d (n, 2)."""
     n = q.shape[0]
@@ -80,7 +86,7 @@ def _kinematics(q: FloatArray) -> tuple[Any, ...]:
     return c, s, y, J, d
 
 
-@njit(cache=True)
+@_jit
 def _fn_residual_jacobian(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatArray:
     """``dr/dq`` of the FN residuals ``r_i = d_i`` (i < n-1), shape (2(n-1), 3n)."""
     n = c.shape[0]
@@ -98,7 +104,7 @@ def _fn_residual_jacobian(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatA
     return Jr
 
 
-@njit(cache=True)
+@_jit
 def _fn2_hessian(c: FloatArray, s: FloatArray, d: FloatArray, Jr: FloatArray) -> FloatArray:
     """Exact Hessian of ``sum_i |d_i|^2`` (i < n-1) in raw q, shape (3n, 3n)."""
     n = c.shape[0]
@@ -130,7 +136,7 @@ def _fn2_hessian(c: FloatArray, s: FloatArray, d: FloatArray, Jr: FloatArray) ->
     return H
 
 
-@njit(cache=True)
+@_jit
 def _legs(q: FloatArray, tf: FloatArray, tz: FloatArray, bf: FloatArray, bz: FloatArray,
           ls: FloatArray) -> tuple[Any, ...]:  # fmt: skip
     n = q.shape[0]
@@ -151,7 +157,7 @@ def _legs(q: FloatArray, tf: FloatArray, tz: FloatArray, bf: FloatArray, bz: Flo
     return cth, sth, Rtf, Rtz, lf, lz, sq
 
 
-@njit(cache=True)
+@_jit
 def _constraints(q: FloatArray, tf: FloatArray, tz: FloatArray, bf: FloatArray, bz: FloatArray,
                  ls: FloatArray, lmin2: FloatArray, lmax2: FloatArray,
                  sj: FloatArray) -> tuple[FloatArray, FloatArray]:  # fmt: skip
@@ -188,7 +194,7 @@ def _constraints(q: FloatArray, tf: FloatArray, tz: FloatArray, bf: FloatArray, 
     return g, D
 
 
-@njit(cache=True)
+@_jit
 def _constraint_hessian(q: FloatArray, yraw: FloatArray, tf: FloatArray, tz: FloatArray,
                         bf: FloatArray, bz: FloatArray, ls: FloatArray,
                         sj: FloatArray) -> FloatArray:  # fmt: skip
@@ -240,7 +246,7 @@ def _constraint_hessian(q: FloatArray, yraw: FloatArray, tf: FloatArray, tz: Flo
     return H
 
 
-@njit(cache=True)
+@_jit
 def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
     """Scaled f, grad f, c_E, A_E (3, N), c_I (m,), A_I blocks (n, 24, 3) at ``u``."""
     (xs, cs, es, yt, fscale, c0, w, tf, tz, bf, bz, ls, lmin2, lmax2, sj, feasible) = P
@@ -264,7 +270,7 @@ def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
     return f, grad, cE, AE, cI, D
 
 
-@njit(cache=True)
+@_jit
 def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
     """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (N, N)."""
     (xs, cs, es, yt, fscale, c0, w, tf, tz, bf, bz, ls, lmin2, lmax2, sj, feasible) = P
@@ -296,7 +302,7 @@ def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) ->
     return H
 
 
-@njit(cache=True)
+@_jit
 def _AI_dot(D: FloatArray, dx: FloatArray) -> FloatArray:
     n = D.shape[0]
     out = np.empty(24 * n)
@@ -308,7 +314,7 @@ def _AI_dot(D: FloatArray, dx: FloatArray) -> FloatArray:
     return out
 
 
-@njit(cache=True)
+@_jit
 def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
     n = D.shape[0]
     out = np.zeros(3 * n)
@@ -320,10 +326,22 @@ def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
     return out
 
 
-@njit(cache=True)
+@_jit
 def _cholesky(A: FloatArray, shift: float) -> tuple[FloatArray, bool]:
     """Lower Cholesky factor of ``A + shift I``; ``ok`` False when not positive definite."""
     k = A.shape[0]
+    if k >= 24:  # LAPACK pays off beyond small sizes
+        B = A.copy()
+        for i in range(k):
+            B[i, i] += shift
+        try:
+            L = np.linalg.cholesky(B)
+        except Exception:  # noqa: BLE001 - numba raises LinAlgError when not PD
+            return B, False
+        for i in range(k):
+            if not L[i, i] > 1e-7 * math.sqrt(abs(B[i, i]) + 1e-300):
+                return L, False
+        return L, True
     L = np.zeros((k, k))
     dmax = 0.0
     for i in range(k):
@@ -343,7 +361,7 @@ def _cholesky(A: FloatArray, shift: float) -> tuple[FloatArray, bool]:
     return L, True
 
 
-@njit(cache=True)
+@_jit
 def _cho_solve(L: FloatArray, b: FloatArray) -> FloatArray:
     k = L.shape[0]
     y = np.empty(k)
@@ -361,7 +379,7 @@ def _cho_solve(L: FloatArray, b: FloatArray) -> FloatArray:
     return x
 
 
-@njit(cache=True)
+@_jit
 def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
               last_shift: float) -> tuple[FloatArray, FloatArray, float, float]:  # fmt: skip
     """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` by a null-space method.
@@ -397,21 +415,23 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
             ZtZ[i, i] += 1.0
         shift = max(last_shift / 3.0, 1e-4) if last_shift > 0.0 else 1e-4
         grow = 8.0 if last_shift > 0.0 else 100.0
-        while True:
+        for _ in range(60):  # bounded: NaN entries never factor
             L, ok = _cholesky(Hz + shift * ZtZ, 0.0)
-            if ok or shift > 1e20 * (1.0 + scale):
+            if ok or not shift <= 1e20 * (1.0 + scale):
                 break
             shift *= grow
+    if shift > 0.0:  # the particular part sees the shifted Hessian too
+        rz -= shift * (Et @ dxp)
     w = _cho_solve(L, rz)
     dx = np.empty(N)
     dx[:3] = dxp + E @ w
     dx[3:] = w
     Wdx = W @ dx + shift * dx
     dy = np.linalg.solve(B.T, (Wdx - rhs)[:3])
-    return dx, dy, dx @ Wdx, shift
+    return dx, dy, float(dx @ Wdx), shift
 
 
-@njit(cache=True)
+@_jit
 def _now() -> float:
     with objmode(t="float64"):
         t = time.perf_counter()
@@ -421,20 +441,26 @@ def _now() -> float:
 # =========================================================================================
 # The barrier method
 # =========================================================================================
-@njit(cache=True)
-def _ip_loop(u0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: float,
+@_jit
+def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
              max_iter: int, deadline: float,
              trace: FloatArray) -> tuple[FloatArray, int, int]:  # fmt: skip
-    n = P[7].shape[0]
+    n = P0[7].shape[0]
     m = 24 * n
     x = u0.copy()
-    f, g, cE, AE, cI, D = _evaluate(x, P)
+    f, g, cE, AE, cI, D = _evaluate(x, P0)
     if not (np.all(np.isfinite(cI)) and np.all(np.isfinite(cE)) and math.isfinite(f)):
         return x, IP_NONFINITE, 0
+    # objective scaling as IPOPT's gradient-based rule: max |grad f(x0)| <= OBJ_MAX_GRAD
+    gmax = np.abs(g).max()
+    fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
+    P = (P0[0], P0[1], P0[2], P0[3], P0[4] / fs, P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
+         P0[11], P0[12], P0[13], P0[14], P0[15])  # fmt: skip
+    f, g = f * fs, g * fs
     mu = mu0
     mu_min = min(tol, constr_tol) / 10.0
     s = np.maximum(cI, 1e-2)
-    z = np.minimum(np.maximum(mu / s, 1e-3), 1e3)
+    z = np.ones(m) if Z_INIT_ONE else np.minimum(np.maximum(mu / s, 1e-3), 1e3)
     # least-squares equality multipliers
     rhs0 = g - _AIT_dot(D, z)
     yE = np.linalg.solve(AE @ AE.T, AE @ rhs0)
@@ -467,6 +493,9 @@ def _ip_loop(u0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: float,
             nfilt = 0
         # --- Newton step -----------------------------------------------------------
         W = _lagrangian_hessian(x, yE, z, P)
+        if not (np.all(np.isfinite(W)) and np.all(np.isfinite(g)) and np.all(np.isfinite(AE))):
+            status = IP_NONFINITE
+            break
         Sig = z / s
         for i in range(n):
             for a in range(3):
@@ -477,6 +506,9 @@ def _ip_loop(u0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: float,
                     W[3 * i + a, 3 * i + b] += acc
         rhs = -g + AE.T @ yE + _AIT_dot(D, mu / s - Sig * (cI - s))
         dx, dy, curv, shift = _kkt_step(W, AE, cE, rhs, last_shift)
+        if not np.all(np.isfinite(dx)):
+            status = IP_NONFINITE
+            break
         if shift > 0.0:
             last_shift = shift
         AIdx = _AI_dot(D, dx)
@@ -574,7 +606,7 @@ def _ip_loop(u0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: float,
     return x, status, it + 1 if status != IP_SUCCESS else it
 
 
-@njit(cache=True)
+@_jit
 def _polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> FloatArray:
     """Min-norm Newton corrections of the equalities and of limits violated by less than
     ``reach`` (scaled), as :func:`stackik.ik._polish` (tiny moves only)."""
@@ -599,12 +631,14 @@ def _polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> F
                 A[k, 3 * i : 3 * i + 3] = D[i, r % 24]
                 rr[k] = cI[r] - margin
                 k += 1
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(rr))):
+            break
         du = np.linalg.lstsq(A, rr)[0]
         u = u - du
     return u
 
 
-@njit(cache=True)
+@_jit
 def _ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: float,
               max_iter: int, deadline: float, reach: float,
               margin: float) -> tuple[Any, ...]:  # fmt: skip
@@ -742,3 +776,19 @@ def ip_multi(prob: Any, U0: FloatArray, options: dict[str, Any] | None = None) -
         POLISH_MARGIN,
     )
     return X, [IP_STATUS[int(s)] for s in st], nit, obj, viol
+
+
+def warm_up() -> float:
+    """Compile (or load from numba's cache) every kernel of this module; returns seconds.
+
+    The first call on a machine compiles (about 30 s); later processes load the cached
+    machine code (about 0.3 s). :func:`stackik.solve_ik` does this implicitly on its first
+    planar interior-point solve; call this beforehand to keep the compilation out of a
+    timed or ``max_time``-limited solve.
+    """
+    from stackik.geometry import Stack
+    from stackik.ik import PlanarTarget, solve_ik
+
+    t0 = time.perf_counter()
+    solve_ik(Stack.reference(2), PlanarTarget(0.0, 700.0, 0.0), method="ip", starts=1)
+    return time.perf_counter() - t0

@@ -1139,33 +1139,54 @@ def _solve_from(
     return _Run(q=q, nit=nit, status=status, check=chk, obj=prob.objective_value(q))
 
 
-def _auto_method(planar: bool, objective: str, sigma_theta: Any, qp_solver: str | None) -> str:
+def _auto_method(
+    planar: bool,
+    objective: str,
+    sigma_theta: Any,
+    qp_solver: str | None,
+    options: dict[str, Any] | None = None,
+) -> str:
     """``method="auto"``: the compiled interior-point path where it applies, else SQP.
 
     The interior-point path (:mod:`stackik._ipm`) covers planar targets with the
     ``"frobenius"`` objective or ``"weighted"`` with one ``sigma_theta`` for all platforms.
     ``"feasible"`` stays with the SQP engine: its poses are the paper's "first feasible
     pose from the start", which a barrier method (drawn to the centre of the feasible
-    set) does not reproduce. A given ``qp_solver`` also selects the SQP engine.
+    set) does not reproduce. A given ``qp_solver``, or ``options`` that are not all
+    interior-point options, select the SQP engine.
     """
+    from stackik._ipm import IP_DEFAULTS
+
     if not planar or objective == "feasible" or qp_solver is not None:
+        return "sqp"
+    if options and any(key not in IP_DEFAULTS for key in options):
         return "sqp"
     if objective == "weighted" and np.ptp(np.asarray(sigma_theta, dtype=float)) != 0:
         return "sqp"
     return "ip"
 
 
+#: Options that both engines take; what ``method="auto"`` passes on to its SQP fallback.
+_SHARED_OPTIONS = ("tol", "constr_tol", "max_iter", "max_time")
+
+
 def _ip_starts(
     prob: _Problem, starts: list[FloatArray], options: dict[str, Any], max_time: float
-) -> tuple[_Run | None, _Run | None, int]:
+) -> tuple[_Run | None, _Run | None, int, list[str]]:
     """Interior-point runs from every start in one compiled call; the best that passes
     :func:`check_pose` (tried in order of objective among those the solver reports
-    feasible), the least-violation run when none passes, and the total iterations."""
+    feasible), the least-violation run when none passes, the total iterations and the
+    solver's statuses."""
     from stackik._ipm import ip_multi
 
     U0 = np.stack([prob.u_of(q) for q in starts])
     opts = {"max_time": max_time, **options}
-    X, statuses, nits, objs, viols = ip_multi(prob, U0, opts)
+    try:
+        X, statuses, nits, objs, viols = ip_multi(prob, U0, opts)
+    except OptionError:
+        raise
+    except Exception:  # noqa: BLE001 - e.g. a LAPACK failure on absurd input: no run
+        return None, None, 0, []
     order = sorted(range(len(starts)), key=lambda j: (not viols[j] <= 1e-10, objs[j]))
     least: _Run | None = None
     for j in order:
@@ -1174,12 +1195,12 @@ def _ip_starts(
         # the objective at the polished point, unscaled (f = objective / fscale)
         run = _Run(q=q, nit=int(nits[j]), status=statuses[j], check=chk, obj=objs[j] * prob.fscale)
         if chk.ok:
-            return run, least, int(np.sum(nits))
+            return run, least, int(np.sum(nits)), statuses
         if least is None or chk.max_violation_mm < least.check.max_violation_mm:
             least = run
         if viols[j] > 1e-6:  # the rest are farther off: stop checking
             break
-    return None, least, int(np.sum(nits))
+    return None, least, int(np.sum(nits)), statuses
 
 
 def _sigma_weights(
@@ -1327,8 +1348,9 @@ def _solve_ik(
     if start not in ("paper", "convex"):
         raise ValueError(f"start: unknown {start!r}; choose 'paper' or 'convex'")
     planar = isinstance(target, PlanarTarget)
-    if method == "auto":
-        method = _auto_method(planar, objective, sigma_theta, qp_solver)
+    auto = method == "auto"
+    if auto:
+        method = _auto_method(planar, objective, sigma_theta, qp_solver, options)
     if method == "ip" and not planar:
         raise ValueError('method "ip" is planar only (PlanarTarget); use "sqp" or "auto"')
     if method == "sqp" and qp_solver is not None:
@@ -1421,12 +1443,22 @@ def _solve_ik(
         qs_all = queue[:n_planned]
         while len(qs_all) < n_planned:
             qs_all.append(q0 + (gen.standard_normal(n * k) * pert).reshape(n, k))
-        ip_run, ip_least, nit_ip = _ip_starts(prob, qs_all, opts, max_time)
+        left = max(max_time - (time.perf_counter() - t_start), 1e-3)
+        ip_run, ip_least, nit_ip, ip_statuses = _ip_starts(prob, qs_all, opts, left)
         if ip_run is not None:
             return finish(ip_run, IKStatus.SUCCESS, nit_ip, len(qs_all))
-        # no start passed: the SQP engine decides (least violation, infeasibility status)
+        if not auto:
+            if "max_time" in ip_statuses:
+                ip_status = IKStatus.MAX_TIME
+            elif ip_statuses and all(s == "max_iter" for s in ip_statuses):
+                ip_status = IKStatus.MAX_ITER
+            else:
+                ip_status = IKStatus.FAILED
+            return finish(ip_least, ip_status, nit_ip, len(qs_all))
+        # method="auto": no start passed, the SQP engine decides (it reports the least
+        # violation and infeasibility), with the limits the user gave
         method = "sqp"
-        opts = {}
+        opts = {key: v for key, v in opts.items() if key in _SHARED_OPTIONS}
         nit_total = nit_ip
         tried_ip = len(qs_all)
         least = ip_least

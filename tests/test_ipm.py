@@ -1,0 +1,269 @@
+"""Tests of the compiled interior-point path (stackik._ipm) and of method="ip"/"auto"."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import stackik as sk
+from stackik import _ipm
+from stackik.geometry import PlatformGeometry, Stack
+from stackik.ik import IKStatus, OptionError, _Problem, check_pose, paper_initial_guess
+
+PAPER_TARGETS = [(600.0, 1000.0, -1.57), (145.0, 1500.0, -0.207), (-319.0, 1532.0, 0.332)]
+STACK4 = sk.Stack.reference(4)
+
+
+def mixed_stack(n: int, seed: int) -> Stack:
+    """Platforms of different (asymmetric) layouts and limits."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        g = PlatformGeometry.hexagonal(
+            base_radius=150 + 30 * rng.random(),
+            top_radius=120 + 30 * rng.random(),
+            base_half_angle=math.radians(10 + 10 * rng.random()),
+            top_half_angle=math.radians(10 + 10 * rng.random()),
+            leg_min=240 + 20 * rng.random(),
+            leg_max=440 + 30 * rng.random(),
+        )
+        base = g.base_nodes + rng.normal(0, 3, (6, 3)) * [1, 1, 0]
+        out.append(PlatformGeometry(base, g.top_nodes, g.leg_min, g.leg_max, g.joint_min))
+    return Stack(tuple(out))
+
+
+def random_problem(n: int, seed: int, phi: float, objective: str = "frobenius"):
+    rng = np.random.default_rng(seed)
+    st = mixed_stack(n, seed) if seed % 2 else Stack.reference(n)
+    t = sk.PlanarTarget(300 * rng.standard_normal(), 300 * n + 100 * rng.random(), 0.3, phi)
+    prob = _Problem(st, t, objective, None)
+    q = paper_initial_guess(st, t)
+    q[:, :2] += rng.normal(0, 40, (n, 2))
+    q[:, 2] += rng.normal(0, 0.2, n)
+    return prob, prob.u_of(q), _ipm.problem_arrays(prob), rng
+
+
+def blocks_to_dense(D: np.ndarray) -> np.ndarray:
+    n = D.shape[0]
+    full = np.zeros((n, 24, n, 3))
+    full[np.arange(n), :, np.arange(n), :] = D
+    return full.reshape(24 * n, 3 * n)
+
+
+CASES = [(n, seed, phi) for n in (1, 2, 4, 7) for seed in (0, 1) for phi in (0.0, 0.8, -2.1)]
+
+
+@pytest.mark.parametrize(("n", "seed", "phi"), CASES)
+def test_compiled_evaluation_matches_python_problem(n, seed, phi):
+    prob, u, P, _ = random_problem(n, seed, phi)
+    f, g, cE, AE, cI, D = _ipm._evaluate(u, P)
+    f0, g0, cE0, AE0, cI0, AI0 = prob.evaluate(u)
+    np.testing.assert_allclose(f, f0, rtol=1e-12)
+    np.testing.assert_allclose(g, g0, rtol=1e-10, atol=1e-12 * np.abs(g0).max())
+    np.testing.assert_allclose(cE, cE0, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(AE, AE0, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(cI, cI0, rtol=1e-12, atol=1e-13)
+    np.testing.assert_allclose(blocks_to_dense(D), AI0, rtol=1e-12, atol=1e-13)
+
+
+@pytest.mark.parametrize(("n", "seed", "phi"), CASES)
+def test_compiled_derivatives_by_finite_differences(n, seed, phi):
+    prob, u, P, rng = random_problem(n, seed, phi)
+    N = u.size
+    eps = 1e-6
+
+    def parts(v):
+        f, g, cE, AE, cI, D = _ipm._evaluate(v, P)
+        return f, g, cE, AE, cI, blocks_to_dense(D)
+
+    f, g, cE, AE, cI, AI = parts(u)
+    E = np.eye(N)
+    fd_g = np.array([(parts(u + eps * e)[0] - parts(u - eps * e)[0]) / (2 * eps) for e in E])
+    fd_AE = np.array([(parts(u + eps * e)[2] - parts(u - eps * e)[2]) / (2 * eps) for e in E]).T
+    fd_AI = np.array([(parts(u + eps * e)[4] - parts(u - eps * e)[4]) / (2 * eps) for e in E]).T
+    np.testing.assert_allclose(g, fd_g, rtol=1e-5, atol=1e-6 * max(1.0, np.abs(g).max()))
+    np.testing.assert_allclose(AE, fd_AE, rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(AI, fd_AI, rtol=1e-5, atol=1e-7)
+    # Hessian of the Lagrangian f - yE.cE - z.cI against differences of its gradient
+    yE = rng.standard_normal(3)
+    z = rng.random(24 * n)
+
+    def grad_l(v):
+        f, g, cE, AE, cI, AI = parts(v)
+        return g - AE.T @ yE - AI.T @ z
+
+    H = _ipm._lagrangian_hessian(u, yE, z, P)
+    fd_H = np.array([(grad_l(u + eps * e) - grad_l(u - eps * e)) / (2 * eps) for e in E])
+    scale = max(1.0, np.abs(H).max())
+    np.testing.assert_allclose(H, fd_H, rtol=1e-5, atol=1e-6 * scale)
+    np.testing.assert_allclose(H, H.T, atol=1e-12 * scale)
+    np.testing.assert_allclose(H, prob.lagrangian_hessian(u, yE, z), rtol=1e-9, atol=1e-11 * scale)
+
+
+def test_feasible_objective_is_zero_in_compiled_evaluation():
+    prob, u, _, _ = random_problem(3, 0, 0.0, objective="feasible")
+    P = _ipm.problem_arrays(prob)
+    f, g, *_ = _ipm._evaluate(u, P)
+    assert f == 0.0 and not np.any(g)
+
+
+def test_cholesky_and_kkt_step():
+    rng = np.random.default_rng(4)
+    A = rng.standard_normal((6, 6))
+    S = A @ A.T + 0.1 * np.eye(6)
+    L, ok = _ipm._cholesky(S, 0.0)
+    assert ok
+    np.testing.assert_allclose(L @ L.T, S, atol=1e-12)
+    b = rng.standard_normal(6)
+    np.testing.assert_allclose(_ipm._cho_solve(L, b), np.linalg.solve(S, b), rtol=1e-10)
+    assert not _ipm._cholesky(S - 10.0 * np.eye(6), 0.0)[1]
+    big = rng.standard_normal((40, 40))
+    assert _ipm._cholesky(big @ big.T + np.eye(40), 0.0)[1]  # the LAPACK branch
+    assert not _ipm._cholesky(-np.eye(40), 0.0)[1]
+    # KKT: [W -A^T; A 0][dx; dy] = [r; -c] with W positive definite on null(A)
+    N = 9
+    W = rng.standard_normal((N, N))
+    W = W @ W.T + np.eye(N)
+    Aeq = rng.standard_normal((3, N))
+    c = rng.standard_normal(3)
+    r = rng.standard_normal(N)
+    dx, dy, curv, shift = _ipm._kkt_step(W, Aeq, c, r, 0.0)
+    assert shift == 0.0
+    np.testing.assert_allclose(W @ dx - Aeq.T @ dy, r, atol=1e-10)
+    np.testing.assert_allclose(Aeq @ dx, -c, atol=1e-10)
+    np.testing.assert_allclose(curv, dx @ W @ dx, rtol=1e-12)
+    # indefinite: a shift makes the reduced Hessian positive definite
+    dx, dy, curv, shift = _ipm._kkt_step(-W, Aeq, c, r, 0.0)
+    assert shift > 0.0
+    np.testing.assert_allclose(Aeq @ dx, -c, atol=1e-10)
+    np.testing.assert_allclose(-W @ dx + shift * dx - Aeq.T @ dy, r, atol=1e-8 * (1 + shift))
+
+
+def test_ip_solve_reaches_the_paper_optimum():
+    t = sk.PlanarTarget(*PAPER_TARGETS[0])
+    prob = _Problem(STACK4, t, "frobenius", None)
+    u, nit, status = _ipm.ip_solve(prob, prob.u_of(paper_initial_guess(STACK4, t)))
+    assert status == "success" and 5 < nit < 100
+    q = prob.q_of(u)
+    assert check_pose(STACK4, t, q).ok
+    fn = math.sqrt(prob.objective_value(q))
+    assert fn == pytest.approx(884.152, abs=0.01)  # IPOPT's value (issue text: 884.2)
+
+
+@pytest.mark.parametrize("target", PAPER_TARGETS)
+@pytest.mark.parametrize("phi", [0.0, 1.1])
+def test_ip_matches_or_beats_sqp(target, phi):
+    t = sk.PlanarTarget(*target, phi=phi)
+    ip = sk.solve_ik(STACK4, t, method="ip")
+    sqp = sk.solve_ik(STACK4, t, method="sqp")
+    non = sk.solve_ik(STACK4, t, objective="feasible")
+    assert ip.success and ip.method == "ip" and ip.n_starts == 3
+    assert check_pose(STACK4, t, ip.q).ok
+    assert ip.frobenius_norm <= sqp.frobenius_norm * 1.001
+    assert ip.frobenius_norm < non.frobenius_norm
+    assert ip.objective_value == pytest.approx(ip.frobenius_norm**2, rel=1e-9)
+
+
+def test_auto_picks_the_engine():
+    t = sk.PlanarTarget(*PAPER_TARGETS[1])
+    assert sk.solve_ik(STACK4, t).method == "ip"
+    assert sk.solve_ik(STACK4, t, objective="feasible").method == "sqp"
+    assert sk.solve_ik(STACK4, t, qp_solver="daqp").method == "sqp"
+    assert sk.solve_ik(STACK4, t, options={"hessian": "bfgs"}).method == "sqp"
+    assert sk.solve_ik(STACK4, t, options={"mu0": 0.5}).method == "ip"
+    w = sk.solve_ik(STACK4, t, objective="weighted", sigma_t=1.0, sigma_theta=0.005)
+    assert w.method == "ip" and w.success
+    w2 = sk.solve_ik(
+        STACK4, t, objective="weighted", sigma_t=1.0, sigma_theta=[0.005, 0.01, 0.005, 0.005]
+    )
+    assert w2.method == "sqp" and w2.success
+    sp = sk.solve_ik(STACK4, t.to_spatial())
+    assert sp.method == "sqp" and sp.success
+
+
+def test_weighted_uniform_has_the_frobenius_minimiser():
+    t = sk.PlanarTarget(*PAPER_TARGETS[0])
+    fro = sk.solve_ik(STACK4, t)
+    w = sk.solve_ik(STACK4, t, objective="weighted", sigma_t=0.0, sigma_theta=0.01)
+    # sigma_t = 0: trace(J C J^T) = sigma_theta^2 (FN^2 - 2n), same minimiser
+    assert w.frobenius_norm == pytest.approx(fro.frobenius_norm, rel=1e-6)
+
+
+def test_ip_input_errors():
+    t = sk.PlanarTarget(*PAPER_TARGETS[0])
+    with pytest.raises(ValueError, match="planar only"):
+        sk.solve_ik(STACK4, t.to_spatial(), method="ip")
+    with pytest.raises(ValueError, match="one sigma_theta"):
+        sk.solve_ik(
+            STACK4, t, method="ip", objective="weighted", sigma_t=1.0, sigma_theta=[1, 2, 1, 1]
+        )
+    with pytest.raises(OptionError, match="not an interior-point option"):
+        sk.solve_ik(STACK4, t, method="ip", options={"hessian": "bfgs"})
+    for bad in (0, -1.0, math.nan, "x", True):
+        with pytest.raises(OptionError, match="bad value"):
+            sk.solve_ik(STACK4, t, method="ip", options={"tol": bad})
+    with pytest.raises(OptionError):
+        sk.solve_ik(STACK4, t, method="ip", options={"max_iter": math.inf})
+
+
+def test_ip_statuses_without_fallback():
+    t = sk.PlanarTarget(*PAPER_TARGETS[0])
+    x0 = paper_initial_guess(STACK4, t) + 30.0
+    r = sk.solve_ik(STACK4, t, x0=x0, method="ip", options={"max_iter": 1})
+    assert r.status is IKStatus.MAX_ITER and not r.success and r.method == "ip"
+    # method="auto" hands over to SQP with the same iteration limit
+    r = sk.solve_ik(STACK4, t, x0=x0, options={"max_iter": 1})
+    assert r.status is IKStatus.MAX_ITER and not r.success and r.method == "sqp"
+    r = sk.solve_ik(STACK4, t, method="ip", options={"max_time": 1e-9})
+    assert r.success or r.status is IKStatus.MAX_TIME
+
+
+def test_ip_never_claims_a_pose_that_fails_the_check(monkeypatch):
+    t = sk.PlanarTarget(*PAPER_TARGETS[0])
+
+    def lying(prob, U0, options=None):  # reports feasible optima at points off target
+        k = U0.shape[0]
+        return U0 + 1e-3, ["success"] * k, np.ones(k, int), np.zeros(k), np.zeros(k)
+
+    monkeypatch.setattr(_ipm, "ip_multi", lying)
+    r = sk.solve_ik(STACK4, t, method="ip")
+    assert not r.success and r.status is IKStatus.FAILED
+    assert not check_pose(STACK4, t, r.q).ok
+    r = sk.solve_ik(STACK4, t)  # auto: the SQP engine takes over and succeeds
+    assert r.success and r.method == "sqp" and check_pose(STACK4, t, r.q).ok
+
+
+def test_ip_unreachable_target_reports_infeasible():
+    r = sk.solve_ik(STACK4, sk.PlanarTarget(100.0, 300.0, 2.5), max_time=5.0)
+    assert not r.success
+    assert r.status in (IKStatus.INFEASIBLE, IKStatus.MAX_ITER, IKStatus.FAILED)
+    assert r.max_violation > 0
+
+
+@pytest.mark.parametrize("n", [1, 2, 8, 16])
+def test_ip_other_sizes_and_geometries(n):
+    st = mixed_stack(n, n)
+    rng = np.random.default_rng(n)
+    q = paper_initial_guess(st, sk.PlanarTarget(0.0, 350.0 * n, 0.0))
+    q[:, 2] += rng.normal(0, 0.05, n)
+    t = sk.PlanarTarget(*sk.planar_forward(q), phi=0.4)  # reachable by construction?
+    r = sk.solve_ik(st, t, method="ip")
+    if check_pose(st, t, q).ok:  # when the construction is feasible, must succeed
+        assert r.success
+    if r.success:
+        assert check_pose(st, t, r.q).ok
+
+
+def test_ip_reproducible_with_rng():
+    t = sk.PlanarTarget(*PAPER_TARGETS[2])
+    a = sk.solve_ik(STACK4, t, method="ip", starts=6, rng=5)
+    b = sk.solve_ik(STACK4, t, method="ip", starts=6, rng=5)
+    np.testing.assert_array_equal(a.q, b.q)
+    one = sk.solve_ik(STACK4, t, method="ip", starts=1)
+    assert a.frobenius_norm <= one.frobenius_norm * (1 + 1e-9)
+
+
+def test_warm_up_returns_seconds():
+    assert _ipm.warm_up() >= 0.0
