@@ -327,6 +327,23 @@ def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
 
 
 @_jit
+def _inv3(A: FloatArray) -> FloatArray:
+    """Inverse of a 3x3 matrix by its adjugate (no LAPACK call for so small a matrix)."""
+    out = np.empty((3, 3))
+    out[0, 0] = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
+    out[0, 1] = A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]
+    out[0, 2] = A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]
+    out[1, 0] = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
+    out[1, 1] = A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]
+    out[1, 2] = A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]
+    out[2, 0] = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
+    out[2, 1] = A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]
+    out[2, 2] = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+    det = A[0, 0] * out[0, 0] + A[0, 1] * out[1, 0] + A[0, 2] * out[2, 0]
+    return out / det
+
+
+@_jit
 def _cholesky(A: FloatArray, shift: float) -> tuple[FloatArray, bool]:
     """Lower Cholesky factor of ``A + shift I``; ``ok`` False when not positive definite."""
     k = A.shape[0]
@@ -393,7 +410,7 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
     N = W.shape[0]
     B = AE[:, :3].copy()
     C = AE[:, 3:].copy()
-    Binv = np.linalg.inv(B)
+    Binv = _inv3(B)
     E = -(Binv @ C)  # (3, N-3): dependent part of Z
     dxp = -(Binv @ cE)
     W1 = W[:, :3].copy()
@@ -427,7 +444,7 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
     dx[:3] = dxp + E @ w
     dx[3:] = w
     Wdx = W @ dx + shift * dx
-    dy = np.linalg.solve(B.T, (Wdx - rhs)[:3])
+    dy = Binv.T @ (Wdx - rhs)[:3]
     return dx, dy, float(dx @ Wdx), shift
 
 
@@ -463,8 +480,10 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     z = np.ones(m) if Z_INIT_ONE else np.minimum(np.maximum(mu / s, 1e-3), 1e3)
     # least-squares equality multipliers
     rhs0 = g - _AIT_dot(D, z)
-    yE = np.linalg.solve(AE @ AE.T, AE @ rhs0)
+    yE = _inv3(AE @ AE.T) @ (AE @ rhs0)
     last_shift = 0.0
+    logsum = np.log(s).sum()
+    logsum_t = logsum
     theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
     theta_max = 1e4 * max(1.0, theta0)
     theta_min = 1e-4 * max(1.0, theta0)
@@ -531,7 +550,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
                 a_z = min(a_z, -tau * z[r] / dz[r])
         # --- filter line search (Waechter & Biegler 2006, sec. 2.3) -------------------
         theta = np.abs(cE).sum() + np.abs(cI - s).sum()
-        phi = f - mu * np.log(s).sum()
+        phi = f - mu * logsum
         gphi = g @ dx - mu * (ds / s).sum()
         alpha = a_s
         accepted = False
@@ -542,7 +561,8 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             ft, gt, cEt, AEt, cIt, Dt = _evaluate(xt, P)
             if math.isfinite(ft) and np.all(np.isfinite(cIt)) and np.all(np.isfinite(cEt)):
                 theta_t = np.abs(cEt).sum() + np.abs(cIt - st).sum()
-                phi_t = ft - mu * np.log(st).sum()
+                logsum_t = np.log(st).sum()
+                phi_t = ft - mu * logsum_t
                 ok = theta_t <= theta_max
                 for j in range(nfilt):
                     if theta_t >= filt[j, 0] and phi_t >= filt[j, 1]:
@@ -590,8 +610,10 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         x = xt
         # slack reset: a slack below its constraint value only adds violation
         s = st.copy()
+        logsum = logsum_t if accepted else np.log(s).sum()
         for r in range(m):
             if cIt[r] > s[r]:
+                logsum += math.log(cIt[r]) - math.log(s[r])
                 s[r] = cIt[r]
         f, g, cE, AE, cI, D = ft, gt, cEt, AEt, cIt, Dt
         z = z + a_z * dz
@@ -600,7 +622,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             hi = 1e10 * mu / s[r]
             z[r] = min(max(z[r], lo), hi)
         if LS_MULTIPLIERS:
-            yE = np.linalg.solve(AE @ AE.T, AE @ (g - _AIT_dot(D, z)))
+            yE = _inv3(AE @ AE.T) @ (AE @ (g - _AIT_dot(D, z)))
         else:
             yE = yE + alpha * dy
     return x, status, it + 1 if status != IP_SUCCESS else it
@@ -639,12 +661,13 @@ def _polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> F
 
 
 @_jit
-def _ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: float,
+def _ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatArray,
               max_iter: int, deadline: float, reach: float,
               margin: float) -> tuple[Any, ...]:  # fmt: skip
     """:func:`_ip_loop` and :func:`_polish` from each row of ``U0``.
 
-    Returns the points (k, N), statuses, iteration counts, scaled objective values and
+    ``mu0[j]`` is the initial barrier parameter of start j. Returns the points (k, N),
+    statuses, iteration counts, scaled objective values and
     the worst scaled violation of each (equalities and limits), for ranking; the caller
     re-checks the pose it returns.
     """
@@ -659,7 +682,7 @@ def _ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: float,
         X[j] = U0[j]
         if j > 0 and _now() > deadline:
             break
-        x, st, it = _ip_loop(U0[j], P, tol, constr_tol, mu0, max_iter, deadline, trace)
+        x, st, it = _ip_loop(U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline, trace)
         if st == IP_NONFINITE or not np.all(np.isfinite(x)):
             x = U0[j].copy()
         x = _polish(x, P, 3, reach, margin)
@@ -753,8 +776,15 @@ def ip_solve(prob: Any, u0: FloatArray, options: dict[str, Any] | None = None) -
     return x, int(nit), IP_STATUS[int(status)]
 
 
-def ip_multi(prob: Any, U0: FloatArray, options: dict[str, Any] | None = None) -> tuple[Any, ...]:
+def ip_multi(
+    prob: Any,
+    U0: FloatArray,
+    options: dict[str, Any] | None = None,
+    mu0: FloatArray | None = None,
+) -> tuple[Any, ...]:
     """Run the barrier method from each row of ``U0`` (scaled starts) in one compiled call.
+
+    ``mu0``: initial barrier parameter per start (default ``options["mu0"]`` for all).
 
     Returns ``(X, statuses, nits, objective values, violations)`` (see :func:`_ip_multi`);
     statuses as strings.
@@ -764,12 +794,14 @@ def ip_multi(prob: Any, U0: FloatArray, options: dict[str, Any] | None = None) -
     opts = _ip_options(options)
     P = problem_arrays(prob)
     deadline = time.perf_counter() + float(opts["max_time"])
+    U = np.ascontiguousarray(np.atleast_2d(U0), dtype=float)
+    mus = np.full(U.shape[0], float(opts["mu0"])) if mu0 is None else np.asarray(mu0, float)
     X, st, nit, obj, viol = _ip_multi(
-        np.ascontiguousarray(np.atleast_2d(U0), dtype=float),
+        U,
         P,
         float(opts["tol"]),
         float(opts["constr_tol"]),
-        float(opts["mu0"]),
+        np.ascontiguousarray(mus),
         int(opts["max_iter"]),
         deadline if math.isfinite(deadline) else 1e300,
         POLISH_REACH,

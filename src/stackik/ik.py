@@ -1094,6 +1094,40 @@ def _initial_starts(
     return out
 
 
+def fold_depth(n: int) -> int:
+    """Platforms whose sideways folds the default interior-point starts enumerate.
+
+    0 for n <= 4 (the two folded starts of :func:`_initial_starts` suffice), then 3, 4
+    and 5 platforms from n = 5, 8 and 16 on: ``2**depth`` extra starts.
+    """
+    if n <= 4:
+        return 0
+    return 3 + (n >= 8) + (n >= 16)
+
+
+def _fold_patterns(stack: Stack, q0: FloatArray, depth: int) -> list[FloatArray]:
+    """Every pattern of sideways folds of the top ``depth`` platforms, as starts.
+
+    The best poses of taller stacks reach toward the target with the lower platforms and
+    fold the upper ones around it; which way each upper platform folds is a discrete
+    choice that a local solver keeps, so the default interior-point run tries all
+    ``2**depth`` sign patterns of a sideways offset ``0.75 (leg_max - leg_min)`` [mm] on
+    the top ``depth`` platforms (planar mode).
+    """
+    n = stack.n
+    m = min(depth, n)
+    if m <= 0:
+        return []
+    a = 0.75 * float(np.mean(stack.leg_max - stack.leg_min))
+    out = []
+    for code in range(2**m):
+        signs = np.array([1.0 if (code >> j) & 1 else -1.0 for j in range(m)])
+        q = q0.copy()
+        q[n - m :, 0] += a * signs
+        out.append(q)
+    return out
+
+
 def _solve_from(
     prob: _Problem,
     q0: FloatArray,
@@ -1267,10 +1301,13 @@ def solve_ik(
     starts : int, optional
         Number of starts. Default: in planar mode without ``x0``, three structured starts
         (the paper's guess and two "folded" variants whose top two platforms are offset
-        sideways in opposite directions, see :func:`_initial_starts`), which find the best
-        known FN on the benchmark targets; otherwise one. Extra starts perturb the first
-        with Gaussian noise (``rng``). The best pose that passes the check is returned;
-        when none does, up to three more starts (the convex start first) are tried.
+        sideways in opposite directions, see :func:`_initial_starts`) and, for the
+        interior-point path with n >= 5, every sideways-fold pattern of the top 3 (n >= 5),
+        4 (n >= 8) or 5 (n >= 16) platforms (:func:`fold_depth`, :func:`_fold_patterns`):
+        3, 11, 19 and 35 starts; otherwise one. These find the best known FN on the
+        benchmark targets (README). Extra starts perturb the first with Gaussian noise
+        (``rng``). The best pose that passes the check is returned; when none does, up to
+        three more starts (the convex start first) are tried.
     rng : Generator, int or None
         Randomness of the extra starts.
     options : dict, optional
@@ -1441,6 +1478,8 @@ def _solve_ik(
     pert = np.tile([0.15 * span] * (k - (1 if planar else 3)) + [0.1] * (1 if planar else 3), n)
     if method == "ip":
         qs_all = queue[:n_planned]
+        if starts is None and x0 is None and start == "paper":
+            qs_all += _fold_patterns(stack, q0, fold_depth(n))
         while len(qs_all) < n_planned:
             qs_all.append(q0 + (gen.standard_normal(n * k) * pert).reshape(n, k))
         left = max(max_time - (time.perf_counter() - t_start), 1e-3)
