@@ -108,7 +108,7 @@ def _fn_residual_jacobian(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatA
 def _fn2_hessian(c: FloatArray, s: FloatArray, d: FloatArray, Jr: FloatArray) -> FloatArray:
     """Exact Hessian of ``sum_i |d_i|^2`` (i < n-1) in raw q, shape (3n, 3n)."""
     n = c.shape[0]
-    H = 2.0 * (Jr.T @ Jr)
+    H = 2.0 * (np.ascontiguousarray(Jr.T) @ Jr)  # contiguous: numba calls BLAS
     # G[i, k] = r_i . d_k
     G = np.empty((n - 1, n))
     for i in range(n - 1):
@@ -266,7 +266,7 @@ def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
     Jr = _fn_residual_jacobian(c, s, d)
     r = d[: n - 1].ravel()
     f = (c0 + w * (r @ r)) / fscale
-    grad = (2.0 * w / fscale) * (Jr.T @ r) * xs
+    grad = (2.0 * w / fscale) * (r @ Jr) * xs
     return f, grad, cE, AE, cI, D
 
 
@@ -444,7 +444,7 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
     dx[:3] = dxp + E @ w
     dx[3:] = w
     Wdx = W @ dx + shift * dx
-    dy = Binv.T @ (Wdx - rhs)[:3]
+    dy = (Wdx - rhs)[:3] @ Binv
     return dx, dy, float(dx @ Wdx), shift
 
 
@@ -480,7 +480,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     z = np.ones(m) if Z_INIT_ONE else np.minimum(np.maximum(mu / s, 1e-3), 1e3)
     # least-squares equality multipliers
     rhs0 = g - _AIT_dot(D, z)
-    yE = _inv3(AE @ AE.T) @ (AE @ rhs0)
+    yE = _inv3(AE @ np.ascontiguousarray(AE.T)) @ (AE @ rhs0)
     last_shift = 0.0
     logsum = np.log(s).sum()
     logsum_t = logsum
@@ -496,7 +496,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         if it % 8 == 7 and _now() > deadline:
             status = IP_MAX_TIME
             break
-        rd = g - AE.T @ yE - _AIT_dot(D, z)
+        rd = g - yE @ AE - _AIT_dot(D, z)
         sd = max(100.0, (np.abs(yE).sum() + np.abs(z).sum()) / (m + 3)) / 100.0
         e_pr = max(np.abs(cE).max(), np.abs(cI - s).max())
         e_du = np.abs(rd).max() / sd
@@ -523,7 +523,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
                     for r in range(24):
                         acc += D[i, r, a] * Sig[24 * i + r] * D[i, r, b]
                     W[3 * i + a, 3 * i + b] += acc
-        rhs = -g + AE.T @ yE + _AIT_dot(D, mu / s - Sig * (cI - s))
+        rhs = -g + yE @ AE + _AIT_dot(D, mu / s - Sig * (cI - s))
         dx, dy, curv, shift = _kkt_step(W, AE, cE, rhs, last_shift)
         if not np.all(np.isfinite(dx)):
             status = IP_NONFINITE
@@ -622,7 +622,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             hi = 1e10 * mu / s[r]
             z[r] = min(max(z[r], lo), hi)
         if LS_MULTIPLIERS:
-            yE = _inv3(AE @ AE.T) @ (AE @ (g - _AIT_dot(D, z)))
+            yE = _inv3(AE @ np.ascontiguousarray(AE.T)) @ (AE @ (g - _AIT_dot(D, z)))
         else:
             yE = yE + alpha * dy
     return x, status, it + 1 if status != IP_SUCCESS else it

@@ -4,12 +4,15 @@ Sections, all measured in the same run:
 
 1. **planar n = 4**: the paper's three targets plus random reachable targets (forward
    kinematics of random feasible poses, fixed seed, several phi). Methods: stackik's
-   default (SQP, three structured starts), the SQP engine with each QP backend, one-start
-   SQP, SciPy SLSQP and trust-constr (same scaled analytic derivatives) and IPOPT through
-   CasADi (exact AD derivatives) from the paper's initial guess, and a "best global
-   effort": IPOPT from eight starts. FN gap is relative to the best FN any method found.
+   default (compiled interior point, structured starts), the interior point from one
+   start, the SQP engine (three structured starts) with each QP backend and from one
+   start, SciPy SLSQP and trust-constr (same scaled analytic derivatives) and IPOPT
+   through CasADi (exact AD derivatives) from the paper's initial guess, and a "best
+   global effort": IPOPT from eight starts. FN gap is relative to the best FN any method
+   found. Speed-ups (baseline median time / method median time) from the same run.
 2. **scaling** in n (4 ... 64) with the fitted exponent of median time vs n.
-3. **spatial** n = 4 (6 DOF per platform).
+3. **other geometries**: random asymmetric stacks, n = 2 ... 8, default vs IPOPT.
+4. **spatial** n = 4 (6 DOF per platform).
 
 Each solve's success is the independent :func:`stackik.check_pose`. Results are written
 as CSV (one row per solve), JSON (summary) and Markdown (tables with machine and date).
@@ -36,6 +39,11 @@ from stackik.ik import PlanarTarget, SpatialTarget, solve_ik, target_to_dict
 
 __all__ = ["BenchConfig", "machine_info", "main", "run_benchmark"]
 
+DEFAULT = "stackik (default)"
+SLSQP = "slsqp, 1 start"
+IPOPT1 = "ipopt, 1 start"
+IPOPT8 = "ipopt, 8 starts"
+
 PAPER_TARGETS = [(600.0, 1000.0, -1.57), (145.0, 1500.0, -0.207), (-319.0, 1532.0, 0.332)]
 
 
@@ -59,12 +67,24 @@ class BenchConfig:
     n_spatial: int = 30
     rng: int = 0
     trust_constr_targets: int = 20
+    geo_sizes: tuple[int, ...] = (2, 3, 5, 6, 8)
+    geo_stacks: int = 3
+    geo_per_stack: int = 6
     ipopt: bool = True
     extra: dict[str, Any] = field(default_factory=dict)
 
     @classmethod
     def quick(cls) -> BenchConfig:
-        return cls(n_random=6, sizes=(4, 8), per_size=2, n_spatial=2, trust_constr_targets=2)
+        return cls(
+            n_random=6,
+            sizes=(4, 8),
+            per_size=2,
+            n_spatial=2,
+            trust_constr_targets=2,
+            geo_sizes=(3,),
+            geo_stacks=1,
+            geo_per_stack=3,
+        )
 
 
 def machine_info() -> dict[str, Any]:
@@ -102,12 +122,16 @@ def _planar_methods(cfg: BenchConfig) -> list[Method]:
     from stackik.sqp.qp import available_qp_solvers
 
     avail = set(available_qp_solvers())
-    ms = [Method("stackik (default)", {})]
+    ms = [
+        Method(DEFAULT, {}),
+        Method("ip, 1 start", {"method": "ip", "starts": 1}),
+        Method("sqp, 3 starts", {"method": "sqp"}),
+    ]
     for qp in ("osqp", "clarabel"):
         if qp in avail:
-            ms.append(Method(f"sqp/{qp}", {"qp_solver": qp}))
-    ms.append(Method("sqp, 1 start", {"starts": 1}))
-    ms.append(Method("slsqp, 1 start", {"method": "slsqp", "starts": 1}))
+            ms.append(Method(f"sqp/{qp}, 3 starts", {"method": "sqp", "qp_solver": qp}))
+    ms.append(Method("sqp, 1 start", {"method": "sqp", "starts": 1}))
+    ms.append(Method(SLSQP, {"method": "slsqp", "starts": 1}))
     ms.append(
         Method(
             "trust-constr, 1 start",
@@ -116,9 +140,55 @@ def _planar_methods(cfg: BenchConfig) -> list[Method]:
         )
     )
     if cfg.ipopt and _ipopt_ok():
-        ms.append(Method("ipopt, 1 start", {"method": "ipopt", "starts": 1}))
-        ms.append(Method("ipopt, 8 starts", {"method": "ipopt", "starts": 8, "rng": 0}))
+        ms.append(Method(IPOPT1, {"method": "ipopt", "starts": 1}))
+        ms.append(Method(IPOPT8, {"method": "ipopt", "starts": 8, "rng": 0}))
     return ms
+
+
+def _ratios(summary: list[dict]) -> list[dict]:
+    """Median-time ratios measured in this run (planar n = 4): baseline / method."""
+    med = {s["method"]: s["median_ms"] for s in summary if s["section"] == "planar"}
+    pairs = [(DEFAULT, SLSQP), (DEFAULT, IPOPT1), (DEFAULT, IPOPT8)]
+    pairs += [(m, SLSQP) for m in med if m.startswith("sqp/")]
+    out = []
+    for method, base in pairs:
+        if method in med and base in med and med[method] > 0:
+            out.append(
+                {
+                    "method": method,
+                    "baseline": base,
+                    "method_ms": med[method],
+                    "baseline_ms": med[base],
+                    "speedup": med[base] / med[method],
+                }
+            )
+    return out
+
+
+def random_stack(n: int, seed: int) -> Stack:
+    """A stack of ``n`` different asymmetric platforms (benchmark of other geometries).
+
+    Hexagonal layouts with random radii (base 140-190 mm, top 110-160 mm), half-angles
+    (8-22 deg), leg ranges (min 230-270 mm, max 420-480 mm), joint limits (15-25 deg) and
+    base nodes moved by up to ~5 mm in the plane.
+    """
+    from stackik.geometry import PlatformGeometry
+
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        g = PlatformGeometry.hexagonal(
+            base_radius=float(rng.uniform(140, 190)),
+            top_radius=float(rng.uniform(110, 160)),
+            base_half_angle=float(np.radians(rng.uniform(8, 22))),
+            top_half_angle=float(np.radians(rng.uniform(8, 22))),
+            leg_min=float(rng.uniform(230, 270)),
+            leg_max=float(rng.uniform(420, 480)),
+            joint_min=float(np.radians(rng.uniform(15, 25))),
+        )
+        base = g.base_nodes + np.clip(rng.normal(0, 2, (6, 3)), -5, 5) * [1, 1, 0]
+        out.append(PlatformGeometry(base, g.top_nodes, g.leg_min, g.leg_max, g.joint_min))
+    return Stack(tuple(out))
 
 
 def _targets(stack: Stack, cfg: BenchConfig, count: int, seed: int) -> list[PlanarTarget]:
@@ -233,28 +303,43 @@ def run_benchmark(
     targets = [PlanarTarget(*t, phi=0.0) for t in PAPER_TARGETS]
     targets += _targets(stack, cfg, cfg.n_random, cfg.rng)
     methods = _planar_methods(cfg)
-    jobs: list[tuple[Stack, Sequence[Any], Method, str]] = [
-        (stack, targets, m, "planar") for m in methods
+    jobs: list[tuple[Stack, Sequence[Any], Method, str, int]] = [
+        (stack, targets, m, "planar", 0) for m in methods
     ]
     scale_methods = [
-        Method("stackik (default)", {}),
-        Method("slsqp, 1 start", {"method": "slsqp", "starts": 1}),
+        Method(DEFAULT, {}),
+        Method("ip, 1 start", {"method": "ip", "starts": 1}),
+        Method(SLSQP, {"method": "slsqp", "starts": 1}),
     ]
     if cfg.ipopt and _ipopt_ok():
-        scale_methods.append(Method("ipopt, 1 start", {"method": "ipopt", "starts": 1}))
+        scale_methods.append(Method(IPOPT1, {"method": "ipopt", "starts": 1}))
     for n in cfg.sizes:
         st = Stack.reference(n)
         tg = _targets(st, cfg, cfg.per_size, cfg.rng + 100 * n)
         # SLSQP fails and takes seconds per solve beyond n = 32: not worth the minutes
         jobs += [
-            (st, tg, m, "scaling")
+            (st, tg, m, "scaling", 0)
             for m in scale_methods
             if not (m.kwargs.get("method") == "slsqp" and n > 32)
         ]
+    # other geometries: random asymmetric stacks, several n and phi, against IPOPT
+    geo_methods = [Method(DEFAULT, {})]
+    if cfg.ipopt and _ipopt_ok():
+        geo_methods += [
+            Method(IPOPT1, {"method": "ipopt", "starts": 1}),
+            Method(IPOPT8, {"method": "ipopt", "starts": 8, "rng": 0}),
+        ]
+    for n in cfg.geo_sizes:
+        offset = 0
+        for g in range(cfg.geo_stacks):
+            st = random_stack(n, cfg.rng + 1000 * n + g)
+            tg = _targets(st, cfg, cfg.geo_per_stack, cfg.rng + 1000 * n + 10 * g)
+            jobs += [(st, tg, m, "geometries", offset) for m in geo_methods]
+            offset += len(tg)
     sp_targets = _spatial_targets(stack, cfg.n_spatial, cfg.rng + 7)
     jobs += [
-        (stack, sp_targets, Method("stackik (default)", {}), "spatial"),
-        (stack, sp_targets, Method("slsqp, 1 start", {"method": "slsqp", "starts": 1}), "spatial"),
+        (stack, sp_targets, Method(DEFAULT, {}), "spatial", 0),
+        (stack, sp_targets, Method(SLSQP, {"method": "slsqp", "starts": 1}), "spatial", 0),
     ]
     # warm up imports and caches so the first timed solve is not penalised
     solve_ik(stack, targets[0])
@@ -266,19 +351,19 @@ def run_benchmark(
 
     def one(task: tuple[int, int]) -> dict:
         j, i = task
-        st, tg, m, section = jobs[j]
+        st, tg, m, section, offset = jobs[j]
         if m.kwargs.get("method") == "ipopt" and j not in warmed:
             solve_ik(st, tg[0], **m.kwargs)  # build and cache the CasADi solver first
             warmed.add(j)
-        return _solve_row(st, tg[i], i, m, section)
+        return _solve_row(st, tg[i], offset + i, m, section)
 
     def key(task: tuple[int, int]) -> dict:
-        st, tg, m, section = jobs[task[0]]
+        st, tg, m, section, offset = jobs[task[0]]
         return {
             "section": section,
             "n": st.n,
             "method": m.label,
-            "target": task[1],
+            "target": offset + task[1],
             "at": target_to_dict(tg[task[1]]),
         }
 
@@ -308,7 +393,14 @@ def run_benchmark(
             x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
             fits[label] = float(np.polyfit(x, y, 1)[0])
     machine = machine_info()
-    result = {"machine": machine, "config": cfg.__dict__, "summary": summary, "exponents": fits}
+    ratios = _ratios(summary)
+    result = {
+        "machine": machine,
+        "config": cfg.__dict__,
+        "summary": summary,
+        "exponents": fits,
+        "speedups": ratios,
+    }
     write_csv(out / "ik_bench.csv", rows)
     (out / "ik_bench.json").write_text(json.dumps(result, indent=2, default=str))
     cols = [
@@ -338,12 +430,21 @@ def run_benchmark(
         "",
         _md_table([s for s in summary if s["section"] == "planar"], cols),
         "",
+        "Speed-ups measured in this run (median time of the baseline / median time of the method):",
+        "",
+        _md_table(ratios, ["method", "baseline", "method_ms", "baseline_ms", "speedup"]),
+        "",
         "## Scaling in n (planar, random reachable targets)",
         "",
         _md_table([s for s in summary if s["section"] == "scaling"], ["n", *cols]),
         "",
         "Fitted exponent of median time vs n: "
         + ", ".join(f"{k}: {v:.2f}" for k, v in sorted(fits.items())),
+        "",
+        f"## Other geometries ({cfg.geo_stacks} random asymmetric stacks per n, "
+        f"{cfg.geo_per_stack} random reachable targets each, phi in {list(cfg.phis)})",
+        "",
+        _md_table([s for s in summary if s["section"] == "geometries"], ["n", *cols]),
         "",
         f"## Spatial, n = 4 ({len(sp_targets)} random reachable 6-DOF targets)",
         "",
