@@ -1,8 +1,8 @@
-"""Compare stackik's SQP engine with scipy's SLSQP and trust-constr on the paper's targets.
+"""Compare stackik's solvers with scipy's SLSQP and trust-constr on the paper's targets.
 
 Run: ``python examples/compare_solvers.py``. Same problem, scaling and analytic
 derivatives for every method, and the same single start (the paper's initial guess,
-``starts=1``; ``solve_ik`` tries three structured starts by default). ``success`` is the
+``starts=1``; ``solve_ik`` tries several structured starts by default). ``success`` is the
 independent check of every returned pose. Times are single runs on this machine (for
 careful timings use ``stackik bench``).
 """
@@ -12,6 +12,7 @@ from stackik.sqp.qp import default_qp_solver
 
 TARGETS = [(600.0, 1000.0, -1.57), (145.0, 1500.0, -0.207), (-319.0, 1532.0, 0.332)]
 METHODS = [
+    ("ip", {}),  # compiled interior point (the default for planar targets)
     ("sqp", {}),
     ("slsqp", {}),
     ("trust-constr", {"maxiter": 200}),  # capped: trust-constr is slow to converge here

@@ -10,7 +10,7 @@ from stackik import PlanarTarget, Stack, check_pose, solve_ik
 stack = Stack.reference(4)  # r = 150 mm, legs 250-450 mm, joints >= 20 deg (chosen)
 target = PlanarTarget(rho=600.0, z=1000.0, theta=-1.57)  # phi = 0: the x-z plane
 
-result = solve_ik(stack, target)  # objective="frobenius", method="sqp"
+result = solve_ik(stack, target)  # objective="frobenius", method="auto"
 print(f"success: {result.success} ({result.status.value}), {result.time * 1e3:.1f} ms")
 print(f"FN = {result.frobenius_norm:.2f}")
 print(" i   rho[mm]    z[mm]  theta[rad]   leg lengths [mm]")

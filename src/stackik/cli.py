@@ -147,15 +147,15 @@ def _planar_target(args: argparse.Namespace) -> PlanarTarget:
 
 
 def _resolve_qp(method: str, qp_solver: str | None) -> str | None:
-    """The QP backend actually used (validated), or None for the scipy methods."""
-    if method != "sqp":
+    """The QP backend to request (validated), or None (scipy, ip, or auto's own choice)."""
+    if method not in ("sqp", "auto"):
         if qp_solver is not None:
             raise CLIError(f"--qp-solver applies to --method sqp only (got --method {method})")
         return None
     from stackik.sqp.qp import default_qp_solver, make_backend
 
     if qp_solver is None:
-        return default_qp_solver()
+        return None if method == "auto" else default_qp_solver()
     make_backend(qp_solver)  # ValueError listing the available ones
     return qp_solver
 
@@ -268,7 +268,12 @@ def format_result(stack: Stack, result: IKResult) -> str:
         ("max violation", f"{result.max_violation:.3g} (raw: mm^2 leg blocks, mm joint blocks)"),
         ("target error", f"{result.target_error:.3g} mm, {result.angle_error:.3g} rad"),
         ("time", f"{result.time:.3f} s ({result.nit} iterations, {result.n_starts} start(s))"),
-        ("method", f"{result.method} (QP: {result.qp_solver})"),
+        (
+            "method",
+            result.method
+            if result.qp_solver == "-"
+            else f"{result.method} (QP: {result.qp_solver})",
+        ),
     ]
     if result.phi is not None:
         summary.insert(4, ("phi", f"{result.phi:.6g} rad"))
@@ -822,17 +827,18 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_method_args(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--method",
-        choices=("sqp", "slsqp", "trust-constr", "ipopt"),
-        default="sqp",
-        help="stackik's SQP engine (default), a scipy baseline, or IPOPT through CasADi "
-        "(planar; needs the [ipopt] extra)",
+        choices=("auto", "ip", "sqp", "slsqp", "trust-constr", "ipopt"),
+        default="auto",
+        help="auto (default): stackik's compiled interior-point solver for planar targets, "
+        "its SQP engine otherwise; ip or sqp to choose; a scipy baseline; or IPOPT through "
+        "CasADi (planar; needs the [ipopt] extra)",
     )
     p.add_argument(
         "--qp-solver",
         default=None,
         metavar="NAME",
-        help="QP backend of --method sqp: daqp (default when installed), osqp, clarabel "
-        "or any qpsolvers name",
+        help="QP backend of --method sqp (with auto: selects sqp): daqp (default when "
+        "installed), osqp, clarabel or any qpsolvers name",
     )
 
 
