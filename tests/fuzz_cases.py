@@ -308,25 +308,48 @@ def _iter_limit(kwargs: dict[str, Any]) -> int | None:
 def nit_bound(stack: sk.Stack, target: Any, kwargs: dict[str, Any], per_run: int) -> int:
     """Largest ``nit`` solve_ik may report with ``per_run`` iterations per solver run.
 
-    Runs: the screened structured starts (planar, n >= 2, sqp, no x0, default starts), the
-    planned starts, and up to FALLBACK_STARTS more when none passes the check.
+    SQP: the screened structured starts (planar, n >= 2, no x0, default starts), the
+    planned starts, and up to FALLBACK_STARTS more when none passes the check. The
+    interior-point path (``method="ip"``, or ``"auto"`` where it applies): its planned
+    starts (structured ones plus the documented fold patterns, :func:`stackik.ik.fold_depth`)
+    and, for ``"auto"``, the SQP runs above when none passes.
     """
+    from stackik.ik import _auto_method, fold_depth
+
     planar = isinstance(target, PlanarTarget)
     x0 = kwargs.get("x0")
     starts = kwargs.get("starts")
-    method = kwargs.get("method", "sqp")
+    method = kwargs.get("method", "auto")
     structured = planar and stack.n >= 2 and x0 is None and kwargs.get("start", "paper") == "paper"
-    runs = 0
-    if starts is None:
-        if structured and method == "sqp":
-            runs += SCREENED_STARTS + 1
+
+    def sqp_runs() -> int:
+        runs = 0
+        if starts is None:
+            runs += SCREENED_STARTS + 1 if structured else 1
         else:
-            runs += SCREENED_STARTS if structured else 1
+            runs += int(starts)
+        if x0 is None:
+            runs += FALLBACK_STARTS
+        return runs
+
+    resolved = method
+    if method == "auto":
+        resolved = _auto_method(
+            planar,
+            kwargs.get("objective", "frobenius"),
+            kwargs.get("sigma_theta"),
+            kwargs.get("qp_solver"),
+            kwargs.get("options"),
+        )
+    if resolved != "ip":
+        return per_run * sqp_runs()
+    if starts is None:
+        ip_runs = SCREENED_STARTS if structured else 1
+        if structured:
+            ip_runs += 2 ** min(fold_depth(stack.n), stack.n)
     else:
-        runs += int(starts)
-    if x0 is None:
-        runs += FALLBACK_STARTS
-    return per_run * runs
+        ip_runs = int(starts)
+    return per_run * (ip_runs + (sqp_runs() if method == "auto" else 0))
 
 
 def default_max_time(stack: sk.Stack) -> float:

@@ -16,7 +16,7 @@ TIME_LIMIT = 20.0  # [s] per example
 #: Lines every example must print (beyond running without error).
 EXPECTED = {
     "quickstart.py": ["success: True", "check: ok=True"],
-    "compare_solvers.py": ["sqp", "slsqp", "trust-constr"],
+    "compare_solvers.py": ["ip", "sqp", "slsqp", "trust-constr"],
     "sensitivity.py": ["optimal", "non-optimised", "sqrt(trace(J C_x J^T))"],
 }
 
@@ -47,4 +47,4 @@ def test_example_runs(script: Path) -> None:
         assert text in proc.stdout, f"{script.name}: {text!r} missing"
     if script.name == "compare_solvers.py":
         rows = [ln for ln in proc.stdout.splitlines() if ln.startswith("(")]
-        assert len(rows) == 9  # 3 targets x 3 methods
+        assert len(rows) == 12  # 3 targets x 4 methods

@@ -1310,7 +1310,8 @@ def solve_ik(
         (``rng``). The best pose that passes the check is returned; when none does, up to
         three more starts (the convex start first) are tried.
     rng : Generator, int or None
-        Randomness of the extra starts.
+        Randomness of the extra (random) starts, including the fallback ones; None uses a
+        fixed seed, so that the same call always returns the same pose.
     options : dict, optional
         Passed to the solver: ``SQPOptions`` fields for "sqp", ``tol``, ``constr_tol``,
         ``mu0``, ``max_iter``, ``max_time`` for "ip" (:data:`stackik._ipm.IP_DEFAULTS`),
@@ -1397,7 +1398,7 @@ def _solve_ik(
         make_backend(qp_solver)  # raises ValueError listing the available ones
     n, k = stack.n, (3 if planar else 6)
     try:
-        gen = np.random.default_rng(rng)
+        gen = np.random.default_rng(0 if rng is None else rng)  # None: reproducible
     except (TypeError, ValueError) as exc:
         raise ValueError(f"rng: expected None, an int seed or a numpy Generator ({exc})") from None
     weights = _sigma_weights(n, sigma_t, sigma_theta) if objective == "weighted" else None
@@ -1490,7 +1491,9 @@ def _solve_ik(
         if not auto:
             if "max_time" in ip_statuses:
                 ip_status = IKStatus.MAX_TIME
-            elif ip_statuses and all(s == "max_iter" for s in ip_statuses):
+            elif "max_iter" in ip_statuses and all(
+                s in ("max_iter", "skipped") for s in ip_statuses
+            ):
                 ip_status = IKStatus.MAX_ITER
             else:
                 ip_status = IKStatus.FAILED
