@@ -414,17 +414,38 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
     function. Returns ``dx``, ``dy``, the curvature ``dx^T W dx`` and the shift used.
     """
     N = W.shape[0]
-    B = AE[:, :3].copy()
-    C = AE[:, 3:].copy()
-    Binv = _inv3(B)
-    E = -(Binv @ C)  # (3, N-3): dependent part of Z
-    dxp = -(Binv @ cE)
-    W1 = W[:, :3].copy()
-    M = W1 @ E + W[:, 3:]  # W Z
+    K = N - 3
+    Binv = _inv3(AE[:, :3])
+    # E = -B^-1 C (3, K): dependent part of Z; dxp = -B^-1 cE. Explicit loops: the inner
+    # dimension is 3, where BLAS calls cost more than the arithmetic.
+    E = np.empty((3, K))
+    dxp = np.empty(3)
+    for i in range(3):
+        dxp[i] = -(Binv[i, 0] * cE[0] + Binv[i, 1] * cE[1] + Binv[i, 2] * cE[2])
+        for a in range(K):
+            E[i, a] = -(Binv[i, 0] * AE[0, 3 + a] + Binv[i, 1] * AE[1, 3 + a]
+                        + Binv[i, 2] * AE[2, 3 + a])  # fmt: skip
+    # M = W Z (N, K) = W[:, :3] E + W[:, 3:]
+    M = np.empty((N, K))
+    for r in range(N):
+        w0 = W[r, 0]
+        w1 = W[r, 1]
+        w2 = W[r, 2]
+        for a in range(K):
+            M[r, a] = w0 * E[0, a] + w1 * E[1, a] + w2 * E[2, a] + W[r, 3 + a]
+    # Hz = Z^T W Z = E^T M[:3] + M[3:]
+    Hz = np.empty((K, K))
+    for a in range(K):
+        for b in range(K):
+            Hz[a, b] = E[0, a] * M[0, b] + E[1, a] * M[1, b] + E[2, a] * M[2, b] + M[3 + a, b]
+    # rz = Z^T (rhs - W[:, :3] dxp)
+    r = np.empty(N)
+    for i in range(N):
+        r[i] = rhs[i] - (W[i, 0] * dxp[0] + W[i, 1] * dxp[1] + W[i, 2] * dxp[2])
+    rz = np.empty(K)
+    for a in range(K):
+        rz[a] = E[0, a] * r[0] + E[1, a] * r[1] + E[2, a] * r[2] + r[3 + a]
     Et = E.T.copy()
-    Hz = Et @ M[:3] + M[3:]
-    r = rhs - W1 @ dxp
-    rz = Et @ r[:3] + r[3:]
     # inertia correction as in IPOPT: the smallest shift (tried in factors of 8, starting
     # from a third of the last one) that makes the reduced Hessian positive definite
     shift = 0.0
@@ -447,11 +468,56 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
         rz -= shift * (Et @ dxp)
     w = _cho_solve(L, rz)
     dx = np.empty(N)
-    dx[:3] = dxp + E @ w
+    for i in range(3):
+        acc = dxp[i]
+        for a in range(K):
+            acc += E[i, a] * w[a]
+        dx[i] = acc
     dx[3:] = w
-    Wdx = W @ dx + shift * dx
-    dy = (Wdx - rhs)[:3] @ Binv
-    return dx, dy, float(dx @ Wdx), shift
+    Wdx = np.empty(N)
+    curv = 0.0
+    for i in range(N):
+        acc = shift * dx[i]
+        for j in range(N):
+            acc += W[i, j] * dx[j]
+        Wdx[i] = acc
+        curv += dx[i] * acc
+    dy = np.empty(3)
+    for j in range(3):
+        dy[j] = ((Wdx[0] - rhs[0]) * Binv[0, j] + (Wdx[1] - rhs[1]) * Binv[1, j]
+                 + (Wdx[2] - rhs[2]) * Binv[2, j])  # fmt: skip
+    return dx, dy, curv, shift
+
+
+@_jit
+def _AET_dot(AE: FloatArray, y: FloatArray) -> FloatArray:
+    """``AE^T y`` for the (3, N) equality Jacobian."""
+    N = AE.shape[1]
+    out = np.empty(N)
+    for a in range(N):
+        out[a] = AE[0, a] * y[0] + AE[1, a] * y[1] + AE[2, a] * y[2]
+    return out
+
+
+@_jit
+def _ls_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArray:
+    """Least-squares equality multipliers: ``argmin |g - AI^T z - AE^T y|``."""
+    N = AE.shape[1]
+    G = np.zeros((3, 3))
+    b = np.zeros(3)
+    for i in range(3):
+        for a in range(N):
+            b[i] += AE[i, a] * (g[a] - AItz[a])
+        for j in range(3):
+            acc = 0.0
+            for a in range(N):
+                acc += AE[i, a] * AE[j, a]
+            G[i, j] = acc
+    Gi = _inv3(G)
+    y = np.empty(3)
+    for i in range(3):
+        y[i] = Gi[i, 0] * b[0] + Gi[i, 1] * b[1] + Gi[i, 2] * b[2]
+    return y
 
 
 @_jit
@@ -470,6 +536,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
              trace: FloatArray) -> tuple[FloatArray, int, int]:  # fmt: skip
     n = P0[7].shape[0]
     m = 24 * n
+    N = 3 * n
     x = u0.copy()
     f, g, cE, AE, cI, D = _evaluate(x, P0)
     if not (np.all(np.isfinite(cI)) and np.all(np.isfinite(cE)) and math.isfinite(f)):
@@ -485,8 +552,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     s = np.maximum(cI, 1e-2)
     z = np.ones(m) if Z_INIT_ONE else np.minimum(np.maximum(mu / s, 1e-3), 1e3)
     # least-squares equality multipliers
-    rhs0 = g - _AIT_dot(D, z)
-    yE = _inv3(AE @ np.ascontiguousarray(AE.T)) @ (AE @ rhs0)
+    yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
     last_shift = 0.0
     logsum = np.log(s).sum()
     logsum_t = logsum
@@ -502,16 +568,30 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         if it % 8 == 7 and _now() > deadline:
             status = IP_MAX_TIME
             break
-        rd = g - yE @ AE - _AIT_dot(D, z)
-        sd = max(100.0, (np.abs(yE).sum() + np.abs(z).sum()) / (m + 3)) / 100.0
-        e_pr = max(np.abs(cE).max(), np.abs(cI - s).max())
-        e_du = np.abs(rd).max() / sd
-        sz = s * z
-        if max(e_du, np.abs(sz).max() / sd) <= tol and e_pr <= constr_tol:
+        # --- optimality errors (fused loops: these vectors are short) ----------------
+        AEty = _AET_dot(AE, yE)
+        AItz = _AIT_dot(D, z)
+        sd_acc = abs(yE[0]) + abs(yE[1]) + abs(yE[2])
+        for r in range(m):
+            sd_acc += abs(z[r])
+        sd = max(100.0, sd_acc / (m + 3)) / 100.0
+        e_du = 0.0
+        for a in range(N):
+            e_du = max(e_du, abs(g[a] - AEty[a] - AItz[a]))
+        e_du /= sd
+        e_pr = max(abs(cE[0]), max(abs(cE[1]), abs(cE[2])))
+        comp = 0.0
+        for r in range(m):
+            e_pr = max(e_pr, abs(cI[r] - s[r]))
+            comp = max(comp, abs(s[r] * z[r]))
+        if max(e_du, comp / sd) <= tol and e_pr <= constr_tol:
             status = IP_SUCCESS
             break
         while mu > mu_min:
-            e_mu = max(e_du, np.abs(sz - mu).max() / sd, e_pr)
+            comp_mu = 0.0
+            for r in range(m):
+                comp_mu = max(comp_mu, abs(s[r] * z[r] - mu))
+            e_mu = max(e_du, max(comp_mu / sd, e_pr))
             if e_mu > 10.0 * mu:
                 break
             mu = max(mu_min, min(0.2 * mu, mu**1.5))
@@ -529,7 +609,13 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
                     for r in range(24):
                         acc += D[i, r, a] * Sig[24 * i + r] * D[i, r, b]
                     W[3 * i + a, 3 * i + b] += acc
-        rhs = -g + yE @ AE + _AIT_dot(D, mu / s - Sig * (cI - s))
+        v = np.empty(m)
+        for r in range(m):
+            v[r] = mu / s[r] - Sig[r] * (cI[r] - s[r])
+        AIv = _AIT_dot(D, v)
+        rhs = np.empty(N)
+        for a in range(N):
+            rhs[a] = -g[a] + AEty[a] + AIv[a]
         dx, dy, curv, shift = _kkt_step(W, AE, cE, rhs, last_shift)
         if not np.all(np.isfinite(dx)):
             status = IP_NONFINITE
@@ -537,8 +623,11 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         if shift > 0.0:
             last_shift = shift
         AIdx = _AI_dot(D, dx)
-        ds = AIdx + cI - s
-        dz = -z + mu / s - Sig * ds
+        ds = np.empty(m)
+        dz = np.empty(m)
+        for r in range(m):
+            ds[r] = AIdx[r] + cI[r] - s[r]
+            dz[r] = -z[r] + mu / s[r] - Sig[r] * ds[r]
         trace[it, 0] = mu
         trace[it, 1] = e_du
         trace[it, 2] = e_pr
@@ -555,19 +644,31 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             if dz[r] < 0.0:
                 a_z = min(a_z, -tau * z[r] / dz[r])
         # --- filter line search (Waechter & Biegler 2006, sec. 2.3) -------------------
-        theta = np.abs(cE).sum() + np.abs(cI - s).sum()
+        theta = abs(cE[0]) + abs(cE[1]) + abs(cE[2])
+        dsum = 0.0
+        for r in range(m):
+            theta += abs(cI[r] - s[r])
+            dsum += ds[r] / s[r]
+        gdx = 0.0
+        for a in range(N):
+            gdx += g[a] * dx[a]
         phi = f - mu * logsum
-        gphi = g @ dx - mu * (ds / s).sum()
+        gphi = gdx - mu * dsum
         alpha = a_s
         accepted = False
         ftype = False
         for _ in range(40):
             xt = x + alpha * dx
-            st = s + alpha * ds
+            st = np.empty(m)
+            for r in range(m):
+                st[r] = s[r] + alpha * ds[r]
             ft, gt, cEt, AEt, cIt, Dt = _evaluate(xt, P)
-            if math.isfinite(ft) and np.all(np.isfinite(cIt)) and np.all(np.isfinite(cEt)):
-                theta_t = np.abs(cEt).sum() + np.abs(cIt - st).sum()
-                logsum_t = np.log(st).sum()
+            theta_t = abs(cEt[0]) + abs(cEt[1]) + abs(cEt[2])
+            logsum_t = 0.0
+            for r in range(m):
+                theta_t += abs(cIt[r] - st[r])
+                logsum_t += math.log(st[r])
+            if math.isfinite(ft) and math.isfinite(theta_t):  # NaN/inf anywhere shows here
                 phi_t = ft - mu * logsum_t
                 ok = theta_t <= theta_max
                 for j in range(nfilt):
@@ -615,20 +716,17 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         trace[it, 5] = a_z
         x = xt
         # slack reset: a slack below its constraint value only adds violation
-        s = st.copy()
+        s = st
         logsum = logsum_t if accepted else np.log(s).sum()
         for r in range(m):
             if cIt[r] > s[r]:
                 logsum += math.log(cIt[r]) - math.log(s[r])
                 s[r] = cIt[r]
+            zr = z[r] + a_z * dz[r]
+            z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
         f, g, cE, AE, cI, D = ft, gt, cEt, AEt, cIt, Dt
-        z = z + a_z * dz
-        for r in range(m):
-            lo = mu / (1e10 * s[r])
-            hi = 1e10 * mu / s[r]
-            z[r] = min(max(z[r], lo), hi)
         if LS_MULTIPLIERS:
-            yE = _inv3(AE @ np.ascontiguousarray(AE.T)) @ (AE @ (g - _AIT_dot(D, z)))
+            yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
         else:
             yE = yE + alpha * dy
     return x, status, it + 1 if status != IP_SUCCESS else it
