@@ -269,10 +269,22 @@ def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
                 D[i, r, k] *= cs[24 * i + r] * xs[3 * i + k]
     if feasible:
         return 0.0, np.zeros(3 * n), cE, AE, cI, D
-    Jr = _fn_residual_jacobian(c, s, d)
-    r = d[: n - 1].ravel()
-    f = (c0 + w * (r @ r)) / fscale
-    grad = (2.0 * w / fscale) * (r @ Jr) * xs
+    # f = (c0 + w sum_{i<n-1} |d_i|^2) / fscale; its gradient by prefix sums of d (O(n)):
+    # d/d(rho_m, z_m) = R(Theta_m) e . sum_{i<m} d_i, d/dtheta_m = (sum_{i<=m} d_i) . J2 d_m
+    k = 2.0 * w / fscale
+    grad = np.empty(3 * n)
+    acc = 0.0
+    p0 = 0.0
+    p1 = 0.0
+    for m_ in range(n):
+        grad[3 * m_] = k * (c[m_] * p0 + s[m_] * p1) * xs[3 * m_]
+        grad[3 * m_ + 1] = k * (-s[m_] * p0 + c[m_] * p1) * xs[3 * m_ + 1]
+        if m_ < n - 1:
+            p0 += d[m_, 0]
+            p1 += d[m_, 1]
+            acc += d[m_, 0] * d[m_, 0] + d[m_, 1] * d[m_, 1]
+        grad[3 * m_ + 2] = k * (d[m_, 0] * p1 - d[m_, 1] * p0) * xs[3 * m_ + 2]
+    f = (c0 + w * acc) / fscale
     return f, grad, cE, AE, cI, D
 
 
@@ -427,24 +439,24 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
                         + Binv[i, 2] * AE[2, 3 + a])  # fmt: skip
     # M = W Z (N, K) = W[:, :3] E + W[:, 3:]
     M = np.empty((N, K))
-    for r in range(N):
-        w0 = W[r, 0]
-        w1 = W[r, 1]
-        w2 = W[r, 2]
+    for i in range(N):
+        w0 = W[i, 0]
+        w1 = W[i, 1]
+        w2 = W[i, 2]
         for a in range(K):
-            M[r, a] = w0 * E[0, a] + w1 * E[1, a] + w2 * E[2, a] + W[r, 3 + a]
+            M[i, a] = w0 * E[0, a] + w1 * E[1, a] + w2 * E[2, a] + W[i, 3 + a]
     # Hz = Z^T W Z = E^T M[:3] + M[3:]
     Hz = np.empty((K, K))
     for a in range(K):
         for b in range(K):
             Hz[a, b] = E[0, a] * M[0, b] + E[1, a] * M[1, b] + E[2, a] * M[2, b] + M[3 + a, b]
     # rz = Z^T (rhs - W[:, :3] dxp)
-    r = np.empty(N)
+    res = np.empty(N)
     for i in range(N):
-        r[i] = rhs[i] - (W[i, 0] * dxp[0] + W[i, 1] * dxp[1] + W[i, 2] * dxp[2])
+        res[i] = rhs[i] - (W[i, 0] * dxp[0] + W[i, 1] * dxp[1] + W[i, 2] * dxp[2])
     rz = np.empty(K)
     for a in range(K):
-        rz[a] = E[0, a] * r[0] + E[1, a] * r[1] + E[2, a] * r[2] + r[3 + a]
+        rz[a] = E[0, a] * res[0] + E[1, a] * res[1] + E[2, a] * res[2] + res[3 + a]
     Et = E.T.copy()
     # inertia correction as in IPOPT: the smallest shift (tried in factors of 8, starting
     # from a third of the last one) that makes the reduced Hessian positive definite

@@ -30,6 +30,7 @@ from collections.abc import Iterable
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from enum import Enum
+from functools import cached_property
 from pathlib import Path
 from typing import Any, Literal
 
@@ -475,20 +476,43 @@ class _PlanarFast:
         self.c = np.empty((n, 4, 6))
         self.D = np.empty((n, 4, 6, 3))
         self._legs_cache: tuple[FloatArray, tuple[FloatArray, ...]] | None = None
-        idx = np.arange(n)
-        self.later = (idx[None, :] > idx[: n - 1, None]).astype(float)  # k > i
-        self.maxim = np.maximum(idx[: n - 1, None], idx[None, :])  # max(i, m)
-        M = np.maximum(idx[:, None], idx[None, :])
-        self.i3 = idx[: n - 1, None, None]
-        self.top3 = np.maximum(self.i3, M[None])  # max(i, m, l), (n-1, n, n)
-        self.before = (idx[None, :] < idx[:, None]).astype(float)  # [k, m]: m < k
-        self.Hx = np.zeros((n, 3, n, 3))
         # the last few points: the engine alternates between the iterate and trial points
         self._kcache: dict[bytes, tuple[Any, ...]] = {}
         self._kin: tuple[FloatArray, FloatArray, FloatArray]
         self.idx = np.arange(n)
         self._scaling = (np.ones(24 * n), np.ones(3 * n))
         self.jflat: FloatArray | None = None  # index arrays, built on first use
+
+    # index arrays of the Python (SQP) path, built on first use: the compiled
+    # interior-point path never needs them
+    @cached_property
+    def later(self) -> FloatArray:
+        idx = np.arange(self.n)
+        return (idx[None, :] > idx[: self.n - 1, None]).astype(float)  # k > i
+
+    @cached_property
+    def maxim(self) -> Any:
+        idx = np.arange(self.n)
+        return np.maximum(idx[: self.n - 1, None], idx[None, :])  # max(i, m)
+
+    @cached_property
+    def i3(self) -> Any:
+        return np.arange(self.n)[: self.n - 1, None, None]
+
+    @cached_property
+    def top3(self) -> Any:
+        idx = np.arange(self.n)
+        M = np.maximum(idx[:, None], idx[None, :])
+        return np.maximum(self.i3, M[None])  # max(i, m, l), (n-1, n, n)
+
+    @cached_property
+    def before(self) -> FloatArray:
+        idx = np.arange(self.n)
+        return (idx[None, :] < idx[:, None]).astype(float)  # [k, m]: m < k
+
+    @cached_property
+    def Hx(self) -> FloatArray:
+        return np.zeros((self.n, 3, self.n, 3))
 
     def kinematics(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """End effector y (3,), its Jacobian (3, 3n), FN residuals r and dr/dx.
@@ -716,15 +740,27 @@ class _Problem:
         self.fast = _PlanarFast(stack, target.phi) if isinstance(target, PlanarTarget) else None
         if self.fast is not None:
             self.fast.set_scaling(self.cs, self.xs)
-        a = np.arange(n * self.k)
-        self._angle_cols = a[a % 6 >= 3] if self.k == 6 else a[a % 3 == 2]
-        self._hi = np.maximum(a[:, None], a[None, :])
-        self._theta_lo = (np.minimum(a[:, None], a[None, :]) % 3 == 2).astype(float)
         self._cache_u: FloatArray | None = None
         self._gn_cache: tuple[FloatArray, FloatArray, FloatArray] | None = None
         self._fn_cache: tuple[FloatArray, FloatArray] = (np.zeros(0), np.zeros((0, 0)))
         self._cache: tuple[Any, ...] | None = None
         self.nfev = 0
+
+    # --- index arrays (built on first use) ------------------------------------------
+    @cached_property
+    def _angle_cols(self) -> Any:
+        a = np.arange(self.n * self.k)
+        return a[a % 6 >= 3] if self.k == 6 else a[a % 3 == 2]
+
+    @cached_property
+    def _hi(self) -> Any:
+        a = np.arange(self.n * self.k)
+        return np.maximum(a[:, None], a[None, :])
+
+    @cached_property
+    def _theta_lo(self) -> FloatArray:
+        a = np.arange(self.n * self.k)
+        return (np.minimum(a[:, None], a[None, :]) % 3 == 2).astype(float)
 
     # --- conversions ---------------------------------------------------------------
     def q_of(self, u: FloatArray) -> FloatArray:
@@ -1444,7 +1480,9 @@ def _solve_ik(
             success=status is IKStatus.SUCCESS,
             status=status,
             message=_MESSAGES[status],
-            frobenius_norm=_frobenius(q, planar),
+            frobenius_norm=math.sqrt(run.obj)
+            if run is not None and objective == "frobenius"
+            else _frobenius(q, planar),
             objective=objective,
             objective_value=prob.objective_value(q) if run is None else run.obj,
             max_violation=chk.max_violation,
