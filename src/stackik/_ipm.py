@@ -322,6 +322,7 @@ def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) ->
 
 @_jit
 def _AI_dot(D: FloatArray, dx: FloatArray) -> FloatArray:
+    """``A_I dx`` (24n,) from the block-diagonal limit Jacobian's blocks ``D`` (n, 24, 3)."""
     n = D.shape[0]
     out = np.empty(24 * n)
     for i in range(n):
@@ -334,6 +335,7 @@ def _AI_dot(D: FloatArray, dx: FloatArray) -> FloatArray:
 
 @_jit
 def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
+    """``A_I^T v`` (3n,) from the blocks ``D`` (n, 24, 3) of the limit Jacobian."""
     n = D.shape[0]
     out = np.zeros(3 * n)
     for i in range(n):
