@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import math
 import tomllib
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -248,6 +248,7 @@ class Stack(Sequence[PlatformGeometry]):
 
     platforms: tuple[PlatformGeometry, ...]
     _arrays: dict[str, FloatArray] = field(default_factory=dict, repr=False, compare=False)
+    _derived: dict[Any, Any] = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         plats = tuple(self.platforms) if isinstance(self.platforms, Iterable) else None
@@ -289,6 +290,19 @@ class Stack(Sequence[PlatformGeometry]):
         return len(self.platforms)
 
     # --- stacked arrays (cached) ----------------------------------------------------
+    def derived(self, key: Any, make: Callable[[Stack], Any]) -> Any:
+        """``make(self)``, computed once per key and kept (the geometry is immutable).
+
+        For values derived from the geometry alone (e.g. per plane angle phi) that hot
+        paths would otherwise rebuild on every call; they must not be mutated.
+        """
+        try:
+            return self._derived[key]
+        except KeyError:
+            value = make(self)
+            self._derived[key] = value
+            return value
+
     def _arr(self, key: str) -> FloatArray:
         if key not in self._arrays:
             p = self.platforms

@@ -404,9 +404,15 @@ def check_pose(stack: Stack, target: Target, q: ArrayLike) -> PoseCheck:
 # =========================================================================================
 def _nominal_height(stack: Stack, frac: float = 0.35) -> FloatArray:
     """Height of each platform at which its legs are at ``leg_min + frac * range`` [mm]."""
-    L = stack.leg_min + frac * (stack.leg_max - stack.leg_min)
-    chord = np.linalg.norm(stack.top_nodes - stack.base_nodes, axis=-1).max(axis=1)
-    return np.sqrt(np.maximum(L**2 - chord**2, (0.5 * L) ** 2))  # type: ignore[no-any-return]
+
+    def make(st: Stack) -> FloatArray:
+        L = st.leg_min + frac * (st.leg_max - st.leg_min)
+        chord = np.linalg.norm(st.top_nodes - st.base_nodes, axis=-1).max(axis=1)
+        h = np.sqrt(np.maximum(L**2 - chord**2, (0.5 * L) ** 2))
+        h.setflags(write=False)
+        return h  # type: ignore[no-any-return]
+
+    return stack.derived(("nominal_height", frac), make)  # type: ignore[no-any-return]
 
 
 def paper_initial_guess(stack: Stack, target: Target) -> FloatArray:
@@ -460,14 +466,21 @@ class _PlanarFast:
     def __init__(self, stack: Stack, phi: float) -> None:
         from stackik.rotations import plane_axis
 
-        e_phi = np.array([math.cos(phi), math.sin(phi), 0.0])
-        s = plane_axis(phi)
-        B = np.stack([e_phi, s, [0.0, 0.0, 1.0]])  # rows: basis vectors
-        b = stack.base_nodes @ B.T  # (n, 6, 3)
-        t = stack.top_nodes @ B.T
-        self.tf, self.tz = t[..., 0], t[..., 2]
-        self.ls0 = t[..., 1] - b[..., 1]  # s component of l (constant)
-        self.bf, self.bz = b[..., 0], b[..., 2]
+        def basis(st: Stack) -> tuple[FloatArray, ...]:
+            e_phi = np.array([math.cos(phi), math.sin(phi), 0.0])
+            s = plane_axis(phi)
+            B = np.stack([e_phi, s, [0.0, 0.0, 1.0]])  # rows: basis vectors
+            b = st.base_nodes @ B.T  # (n, 6, 3)
+            t = st.top_nodes @ B.T
+            out = (t[..., 0], t[..., 2], t[..., 1] - b[..., 1], b[..., 0], b[..., 2])
+            arrays = tuple(np.ascontiguousarray(a) for a in out)
+            for a in arrays:
+                a.setflags(write=False)
+            return arrays
+
+        # tf, tz: top nodes along e_phi, e_z; ls0: s component of l (constant);
+        # bf, bz: base nodes along e_phi, e_z (cached per stack and phi)
+        self.tf, self.tz, self.ls0, self.bf, self.bz = stack.derived(("plane_basis", phi), basis)
         self.lmin2 = (stack.leg_min**2)[:, None]
         self.lmax2 = (stack.leg_max**2)[:, None]
         self.sj = stack.sin_joint_min[:, None]
@@ -899,10 +912,14 @@ def _frobenius(q: FloatArray, planar: bool) -> float:
 
 
 def _reach_bound(stack: Stack) -> float:
-    """Upper bound on |P_ee| over all poses respecting leg_max [mm]."""
-    rb = np.linalg.norm(stack.base_nodes, axis=-1).max(axis=1)
-    rt = np.linalg.norm(stack.top_nodes, axis=-1).max(axis=1)
-    return float(np.sum(stack.leg_max + rb + rt))
+    """Upper bound on |P_ee| over all poses respecting leg_max [mm] (cached per stack)."""
+
+    def make(st: Stack) -> float:
+        rb = np.linalg.norm(st.base_nodes, axis=-1).max(axis=1)
+        rt = np.linalg.norm(st.top_nodes, axis=-1).max(axis=1)
+        return float(np.sum(st.leg_max + rb + rt))
+
+    return stack.derived("reach_bound", make)  # type: ignore[no-any-return]
 
 
 # =========================================================================================
@@ -1433,10 +1450,24 @@ def _solve_ik(
 
         make_backend(qp_solver)  # raises ValueError listing the available ones
     n, k = stack.n, (3 if planar else 6)
-    try:
-        gen = np.random.default_rng(0 if rng is None else rng)  # None: reproducible
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"rng: expected None, an int seed or a numpy Generator ({exc})") from None
+    gen: Any = None
+    if rng is not None:  # None: a fixed seed, made only when a random start is needed
+        try:
+            gen = np.random.default_rng(rng)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(
+                f"rng: expected None, an int seed or a numpy Generator ({exc})"
+            ) from None
+
+    def random_start() -> FloatArray:
+        nonlocal gen
+        if gen is None:
+            gen = np.random.default_rng(0)
+        span = float(np.mean(stack.leg_max - stack.leg_min))
+        # perturbation scale of random starts: 15% of the leg range [mm], 0.1 rad
+        pert = np.tile([0.15 * span] * (k - (1 if planar else 3)) + [0.1] * (1 if planar else 3), n)
+        return q0 + (gen.standard_normal(n * k) * pert).reshape(n, k)  # type: ignore[no-any-return]
+
     weights = _sigma_weights(n, sigma_t, sigma_theta) if objective == "weighted" else None
     if x0 is not None:
         q0 = np.array(x0, dtype=float)
@@ -1452,7 +1483,7 @@ def _solve_ik(
     else:
         q0 = paper_initial_guess(stack, target)
     prob = _Problem(stack, target, objective, weights)
-    if method == "ip" and np.ptp(prob.w_th) != 0:
+    if method == "ip" and objective == "weighted" and np.ptp(prob.w_th) != 0:
         raise ValueError('method "ip" needs one sigma_theta for all platforms; use "sqp"')
     opts = dict(options or {})
     if method == "sqp":
@@ -1513,15 +1544,12 @@ def _solve_ik(
     nit_total = 0
     queue = _initial_starts(stack, target, q0, structured=x0 is None and start == "paper")
     n_planned = len(queue) if starts is None else int(starts)
-    # perturbation scale of random starts: 15% of the leg range [mm], 0.1 rad
-    span = float(np.mean(stack.leg_max - stack.leg_min))
-    pert = np.tile([0.15 * span] * (k - (1 if planar else 3)) + [0.1] * (1 if planar else 3), n)
     if method == "ip":
         qs_all = queue[:n_planned]
         if starts is None and x0 is None and start == "paper":
             qs_all += _fold_patterns(stack, q0, fold_depth(n))
         while len(qs_all) < n_planned:
-            qs_all.append(q0 + (gen.standard_normal(n * k) * pert).reshape(n, k))
+            qs_all.append(random_start())
         left = max(max_time - (time.perf_counter() - t_start), 1e-3)
         ip_run, ip_least, nit_ip, ip_statuses = _ip_starts(prob, qs_all, opts, left)
         if ip_run is not None:
@@ -1576,9 +1604,9 @@ def _solve_ik(
             try:
                 qs = convex_start(stack, target)
             except ConvexStartError:
-                qs = q0 + (gen.standard_normal(n * k) * pert).reshape(n, k)
+                qs = random_start()
         else:
-            qs = q0 + (gen.standard_normal(n * k) * pert).reshape(n, k)
+            qs = random_start()
         left = max(max_time - (time.perf_counter() - t_start), 1e-3)
         run = _solve_from(prob, qs, method, qp_solver, opts, left)
         tried += 1

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -150,6 +150,23 @@ def leg_lengths(geometry: PlatformGeometry, P: ArrayLike, R: ArrayLike) -> Float
     return np.linalg.norm(leg_vectors(geometry, P, R), axis=-1)
 
 
+def _plane_parts(phi: float) -> Any:
+    """Builder of the phi-dependent, pose-independent parts of :func:`planar_legs`:
+    the plane axis s, e_phi and the top nodes split along / across s (cached per stack)."""
+
+    def make(stack: Stack) -> tuple[FloatArray, ...]:
+        s = plane_axis(phi)
+        e_phi = np.array([np.cos(phi), np.sin(phi), 0.0])
+        t = stack.top_nodes  # (n, 6, 3)
+        t_par = np.einsum("nki,i->nk", t, s)[..., None] * s
+        out = (s, e_phi, t_par, t - t_par, _cross(s, t))
+        for a in out:
+            a.setflags(write=False)
+        return out
+
+    return make
+
+
 def planar_legs(
     stack: Stack, q: FloatArray, phi: float, derivatives: bool = False
 ) -> tuple[FloatArray, FloatArray, FloatArray | None, FloatArray | None]:
@@ -165,12 +182,7 @@ def planar_legs(
     l : (..., n, 6, 3); Rn : (..., n, 3); dl : (..., n, 3, 6, 3) or None;
     dRn : (..., n, 3, 3) or None
     """
-    s = plane_axis(phi)
-    e_phi = np.array([np.cos(phi), np.sin(phi), 0.0])
-    t = stack.top_nodes  # (n, 6, 3)
-    t_par = np.einsum("nki,i->nk", t, s)[..., None] * s
-    t_perp = t - t_par
-    t_cross = _cross(s, t)
+    s, e_phi, t_par, t_perp, t_cross = stack.derived(("planar_legs", phi), _plane_parts(phi))
     th = q[..., 2]
     c = np.cos(th)[..., None, None]
     sn = np.sin(th)[..., None, None]
