@@ -267,3 +267,16 @@ def test_ip_reproducible_with_rng():
 
 def test_warm_up_returns_seconds():
     assert _ipm.warm_up() >= 0.0
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 7, 12])
+def test_gauss_newton_closed_form(n):
+    rng = np.random.default_rng(n)
+    q = np.column_stack([rng.normal(0, 100, n), 300 + rng.normal(0, 50, n), rng.normal(0, 0.4, n)])
+    c, s, _, J, d = _ipm._kinematics(q)
+    Jr = _ipm._fn_residual_jacobian(c, s, d)
+    # the residual Jacobian itself against the Python implementation
+    _, Jr_py = sk.kinematics.planar_fn_residuals(q)
+    np.testing.assert_allclose(Jr, Jr_py, atol=1e-9)
+    GN = _ipm._gauss_newton(c, s, d)
+    np.testing.assert_allclose(GN, Jr.T @ Jr, rtol=1e-12, atol=1e-9 * max(1.0, np.abs(GN).max()))

@@ -111,21 +111,72 @@ def _fn_residual_jacobian(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatA
 
 
 @_jit
-def _fn2_hessian(c: FloatArray, s: FloatArray, d: FloatArray, Jr: FloatArray) -> FloatArray:
+def _gauss_newton(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatArray:
+    """``Jr^T Jr`` of the FN residuals ``r_i = d_i`` (i < n-1) in O(n^2), shape (3n, 3n).
+
+    With ``u_m0 = (c_m, s_m)``, ``u_m1 = (-s_m, c_m)`` (the translation columns, present in
+    the rows i < m), the angle columns ``J2 d_max(i,m)`` and prefix sums ``P_k`` of the
+    lever arms d and ``Q_k`` of their squared norms (``d_(n-1) = 0``):
+    trans.trans = min(m, l) u.u'; trans_m.angle_l = u . J2 (min(m, l+1) d_l + P_m - P_(l+1));
+    angle.angle = (a+1) d_m.d_l + d_b.(P_(b+1) - P_(a+1)) + Q_n - Q_(b+1), a/b = min/max.
+    """
+    n = c.shape[0]
+    N = 3 * n
+    P = np.zeros((n + 1, 2))
+    Q = np.zeros(n + 1)
+    for i in range(n):
+        P[i + 1, 0] = P[i, 0] + d[i, 0]
+        P[i + 1, 1] = P[i, 1] + d[i, 1]
+        Q[i + 1] = Q[i] + d[i, 0] * d[i, 0] + d[i, 1] * d[i, 1]
+    H = np.empty((N, N))
+    for m in range(n):
+        um = ((c[m], s[m]), (-s[m], c[m]))
+        for l in range(n):
+            ul = ((c[l], s[l]), (-s[l], c[l]))
+            k = min(m, l)
+            for t in range(2):
+                for t2 in range(2):
+                    H[3 * m + t, 3 * l + t2] = k * (um[t][0] * ul[t2][0] + um[t][1] * ul[t2][1])
+            # translation of m against the angle of l
+            k2 = min(m, l + 1)
+            Sx = k2 * d[l, 0]
+            Sy = k2 * d[l, 1]
+            if m > l + 1:
+                Sx += P[m, 0] - P[l + 1, 0]
+                Sy += P[m, 1] - P[l + 1, 1]
+            for t in range(2):
+                val = um[t][0] * (-Sy) + um[t][1] * Sx  # u . J2 S, J2 S = (-S_y, S_x)
+                H[3 * m + t, 3 * l + 2] = val
+                H[3 * l + 2, 3 * m + t] = val
+            a = min(m, l)
+            b = max(m, l)
+            val = (a + 1) * (d[m, 0] * d[l, 0] + d[m, 1] * d[l, 1])
+            val += d[b, 0] * (P[b + 1, 0] - P[a + 1, 0]) + d[b, 1] * (P[b + 1, 1] - P[a + 1, 1])
+            val += Q[n] - Q[b + 1]
+            H[3 * m + 2, 3 * l + 2] = val
+    return H
+
+
+@_jit
+def _fn2_hessian(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatArray:
     """Exact Hessian of ``sum_i |d_i|^2`` (i < n-1) in raw q, shape (3n, 3n)."""
     n = c.shape[0]
-    H = 2.0 * (np.ascontiguousarray(Jr.T) @ Jr)  # contiguous: numba calls BLAS
-    # G[i, k] = r_i . d_k
-    G = np.empty((n - 1, n))
-    for i in range(n - 1):
-        for k in range(n):
-            G[i, k] = d[i, 0] * d[k, 0] + d[i, 1] * d[k, 1]
+    H = 2.0 * _gauss_newton(c, s, d)
+    # angle-angle part: -sum_{i<n-1} r_i . d_max(i, m, l) depends on b = max(m, l) only:
+    # sum_{i<b} d_i . d_b + sum_{b<=i<n-1} |d_i|^2 (O(n^2) with prefix sums)
+    Pb0 = 0.0
+    Pb1 = 0.0
+    tail = np.zeros(n + 1)
+    for i in range(n - 2, -1, -1):
+        tail[i] = tail[i + 1] + d[i, 0] * d[i, 0] + d[i, 1] * d[i, 1]
+    Hb = np.empty(n)
+    for b in range(n):
+        Hb[b] = Pb0 * d[b, 0] + Pb1 * d[b, 1] + tail[b]
+        Pb0 += d[b, 0]
+        Pb1 += d[b, 1]
     for m in range(n):
         for l in range(n):
-            acc = 0.0
-            for i in range(n - 1):
-                acc += G[i, max(i, max(m, l))]
-            H[3 * m + 2, 3 * l + 2] -= 2.0 * acc
+            H[3 * m + 2, 3 * l + 2] -= 2.0 * Hb[max(m, l)]
     c0 = 0.0
     c1 = 0.0  # sum_{i<k} r_i
     for k in range(n):
@@ -299,8 +350,7 @@ def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) ->
     if feasible:
         H = np.zeros((N, N))
     else:
-        Jr = _fn_residual_jacobian(c, s, d)
-        H = _fn2_hessian(c, s, d, Jr) * (w / fscale)
+        H = _fn2_hessian(c, s, d) * (w / fscale)
     # end-effector equalities: sum_r yE_r d2 y_r = [min(a,b) is an angle] * v[max(a,b)]
     yp0 = yE[0] * es[0]
     yp1 = yE[1] * es[1]
