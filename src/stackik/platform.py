@@ -152,14 +152,15 @@ def leg_lengths(geometry: PlatformGeometry, P: ArrayLike, R: ArrayLike) -> Float
 
 def _plane_parts(phi: float) -> Any:
     """Builder of the phi-dependent, pose-independent parts of :func:`planar_legs`:
-    the plane axis s, e_phi and the top nodes split along / across s (cached per stack)."""
+    the plane axis s, e_phi, the top nodes split along / across s, s x e_z (cached per
+    stack)."""
 
     def make(stack: Stack) -> tuple[FloatArray, ...]:
         s = plane_axis(phi)
         e_phi = np.array([np.cos(phi), np.sin(phi), 0.0])
         t = stack.top_nodes  # (n, 6, 3)
         t_par = np.einsum("nki,i->nk", t, s)[..., None] * s
-        out = (s, e_phi, t_par, t - t_par, _cross(s, t))
+        out = (s, e_phi, t_par, t - t_par, _cross(s, t), _cross(s, _EZ))
         for a in out:
             a.setflags(write=False)
         return out
@@ -182,7 +183,8 @@ def planar_legs(
     l : (..., n, 6, 3); Rn : (..., n, 3); dl : (..., n, 3, 6, 3) or None;
     dRn : (..., n, 3, 3) or None
     """
-    s, e_phi, t_par, t_perp, t_cross = stack.derived(("planar_legs", phi), _plane_parts(phi))
+    parts = stack.derived(("planar_legs", phi), _plane_parts(phi))
+    s, e_phi, t_par, t_perp, t_cross, s_x_ez = parts
     th = q[..., 2]
     c = np.cos(th)[..., None, None]
     sn = np.sin(th)[..., None, None]
@@ -190,7 +192,6 @@ def planar_legs(
     P = q[..., 0, None] * e_phi + q[..., 1, None] * _EZ  # (..., n, 3)
     l = Rt + P[..., None, :] - stack.base_nodes
     # R e_z: e_z has no component along s (s is horizontal), so R e_z = c e_z + s (s x e_z).
-    s_x_ez = _cross(s, _EZ)
     Rn = np.cos(th)[..., None] * _EZ + np.sin(th)[..., None] * s_x_ez
     if not derivatives:
         return l, Rn, None, None
