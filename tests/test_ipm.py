@@ -280,3 +280,15 @@ def test_gauss_newton_closed_form(n):
     np.testing.assert_allclose(Jr, Jr_py, atol=1e-9)
     GN = _ipm._gauss_newton(c, s, d)
     np.testing.assert_allclose(GN, Jr.T @ Jr, rtol=1e-12, atol=1e-9 * max(1.0, np.abs(GN).max()))
+
+
+def test_threads_give_the_serial_results():
+    from concurrent.futures import ThreadPoolExecutor
+
+    targets = [sk.PlanarTarget(*t, phi=phi) for t in PAPER_TARGETS for phi in (0.0, 0.9)]
+    serial = sk.solve_many(STACK4, targets)
+    with ThreadPoolExecutor(2) as ex:
+        threaded = sk.solve_many(STACK4, targets, executor=ex)
+    for a, b in zip(serial, threaded, strict=True):
+        assert a.success and b.success and a.method == "ip"
+        np.testing.assert_array_equal(a.q, b.q)

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from typing import Any
 
 import numpy as np
@@ -35,7 +36,13 @@ FloatArray = np.ndarray
 
 #: Compiled once per machine and cached; floating-point errors give inf/nan (numpy's
 #: model) rather than exceptions, and the loop treats non-finite values as failures.
-_jit = njit(cache=True, error_model="numpy")
+#: nogil: solves in threads (``solve_many(executor=ThreadPoolExecutor(...))``) run in
+#: parallel; only the occasional clock read (:func:`_now`, object mode) takes the GIL,
+#: which numba warns about at compile time.
+_jit = njit(cache=True, error_model="numpy", nogil=True)
+warnings.filterwarnings(
+    "ignore", message="Code running in object mode won't allow parallel execution"
+)
 
 LS_MULTIPLIERS = True
 #: :func:`_ip_multi` stops when its first GIVE_UP_AFTER starts all end farther than
