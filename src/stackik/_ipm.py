@@ -362,10 +362,11 @@ def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) ->
     yp0 = yE[0] * es[0]
     yp1 = yE[1] * es[1]
     v = yp1 * J[0] - yp0 * J[1]
-    for a in range(N):
-        for b in range(N):
-            if min(a, b) % 3 == 2:
-                H[a, b] -= v[max(a, b)]
+    for a in range(2, N, 3):  # angle columns a: every (a, b) with b >= a
+        H[a, a] -= v[a]
+        for b in range(a + 1, N):
+            H[a, b] -= v[b]
+            H[b, a] -= v[b]
     Hb = _constraint_hessian(q, z * cs, tf, tz, bf, bz, ls, sj)
     for i in range(n):
         for a in range(3):
@@ -636,7 +637,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     fails = 0
     it = 0
     for it in range(max_iter):
-        if it % 8 == 7 and _now() > deadline:
+        if it % 16 == 15 and _now() > deadline:
             status = IP_MAX_TIME
             break
         # --- optimality errors (fused loops: these vectors are short) ----------------
