@@ -932,6 +932,7 @@ class _Run:
     status: str
     check: PoseCheck
     obj: float
+    lifted: tuple[FloatArray, FloatArray, FloatArray] | None = None  # P, R, leg lengths
 
 
 POLISH_MARGIN = 1e-12  # scaled margin the polish puts violated limits at (>= 0 raw)
@@ -1265,6 +1266,7 @@ def _ip_starts(
     :func:`check_pose` (tried in order of objective among those the solver reports
     feasible), the least-violation run when none passes, the total iterations and the
     solver's statuses."""
+    from stackik._check import planar_check
     from stackik._ipm import ip_multi
 
     U0 = np.stack([prob.u_of(q) for q in starts])
@@ -1279,9 +1281,11 @@ def _ip_starts(
     least: _Run | None = None
     for j in order:
         q = prob.q_of(X[j])
-        chk = check_pose(prob.stack, prob.target, q)
+        # the independent re-check (compiled; same values as check_pose, tested)
+        chk, P, R, legs = planar_check(prob.stack, prob.target, q)
         # the objective at the polished point, unscaled (f = objective / fscale)
-        run = _Run(q=q, nit=int(nits[j]), status=statuses[j], check=chk, obj=objs[j] * prob.fscale)
+        obj = objs[j] * prob.fscale
+        run = _Run(q, int(nits[j]), statuses[j], chk, obj, lifted=(P, R, legs))
         if chk.ok:
             return run, least, int(np.sum(nits)), statuses
         if least is None or chk.max_violation_mm < least.check.max_violation_mm:
@@ -1497,15 +1501,18 @@ def _solve_ik(
     def finish(run: _Run | None, status: IKStatus, nit: int, n_starts: int) -> IKResult:
         q = q0 if run is None else run.q
         chk = check_pose(stack, target, q) if run is None else run.check
-        if planar:
-            assert isinstance(target, PlanarTarget)
-            P, R = lift_planar(q, target.phi)
+        if run is not None and run.lifted is not None:
+            P, R, legs = run.lifted
         else:
-            P, R = q[:, :3].copy(), euler_zyx(q[:, 3:])
-        legs = np.linalg.norm(
-            np.einsum("nij,nkj->nki", R, stack.top_nodes) + P[:, None, :] - stack.base_nodes,
-            axis=-1,
-        )
+            if planar:
+                assert isinstance(target, PlanarTarget)
+                P, R = lift_planar(q, target.phi)
+            else:
+                P, R = q[:, :3].copy(), euler_zyx(q[:, 3:])
+            legs = np.linalg.norm(
+                np.einsum("nij,nkj->nki", R, stack.top_nodes) + P[:, None, :] - stack.base_nodes,
+                axis=-1,
+            )
         return IKResult(
             q=q,
             success=status is IKStatus.SUCCESS,

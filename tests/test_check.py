@@ -1,0 +1,59 @@
+"""The compiled planar re-check (stackik._check) agrees with check_pose and lift_planar."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_ipm import mixed_stack
+
+import stackik as sk
+from stackik._check import planar_check
+from stackik.ik import check_pose, paper_initial_guess
+
+CASES = [(n, seed, phi) for n in (1, 2, 4, 7) for seed in range(4) for phi in (0.0, 0.8, -2.1, 3.0)]
+
+
+@pytest.mark.parametrize(("n", "seed", "phi"), CASES)
+def test_compiled_check_equals_check_pose(n, seed, phi):
+    rng = np.random.default_rng(seed)
+    st = mixed_stack(n, seed) if seed % 2 else sk.Stack.reference(n)
+    t = sk.PlanarTarget(200 * rng.standard_normal(), 350.0 * n, 0.4 * rng.standard_normal(), phi)
+    q0 = paper_initial_guess(st, t)
+    poses = [q0 + rng.normal(0, s, (n, 3)) * [1, 1, 0.01] for s in (0.0, 5.0, 60.0, 150.0)]
+    r = sk.solve_ik(st, t)
+    if r.success:
+        poses.append(r.q)  # on the limits: the borderline case that matters
+        t_exact = sk.PlanarTarget(*sk.planar_forward(r.q), phi=phi)
+        poses.append(r.q)
+    else:
+        t_exact = t
+    for k, q in enumerate(poses):
+        tt = t_exact if k >= len(poses) - 1 else t
+        ref = check_pose(st, tt, q)
+        chk, P, R, legs = planar_check(st, tt, q)
+        assert chk.ok == ref.ok
+        np.testing.assert_allclose(chk.constraints, ref.constraints, rtol=1e-12, atol=1e-9)
+        for name in ("position_error", "angle_error", "max_violation", "max_violation_mm"):
+            assert getattr(chk, name) == pytest.approx(getattr(ref, name), rel=1e-9, abs=1e-9)
+        P_ref, R_ref = sk.lift_planar(q, phi)
+        np.testing.assert_allclose(P, P_ref, atol=1e-12)
+        np.testing.assert_allclose(R, R_ref, atol=1e-14)
+        legs_ref = np.linalg.norm(
+            np.einsum("nij,nkj->nki", R_ref, st.top_nodes) + P_ref[:, None, :] - st.base_nodes,
+            axis=-1,
+        )
+        np.testing.assert_allclose(legs, legs_ref, rtol=1e-13)
+
+
+def test_compiled_check_flags_non_finite_and_misses():
+    st = sk.Stack.reference(3)
+    t = sk.PlanarTarget(0.0, 1100.0, 0.0)
+    q = paper_initial_guess(st, t)
+    chk, *_ = planar_check(st, t, q)
+    ref = check_pose(st, t, q)
+    assert chk.ok == ref.ok
+    far = sk.PlanarTarget(0.0, 1100.0 + 1e-3, 0.0)
+    assert not planar_check(st, far, q)[0].ok
+    bad = q.copy()
+    bad[0, 0] = 1e200
+    assert not planar_check(st, t, bad)[0].ok
