@@ -421,3 +421,20 @@ def test_file_missing_field_and_unknown_field(tmp_path):
     path.write_text(json.dumps(d))
     with pytest.raises(GeometryError, match=r"platforms\[1\].*leg_mx"):
         Stack.from_file(path)
+
+
+def test_derived_cache_is_kept_and_bounded():
+    from stackik.geometry import _DERIVED_MAX
+
+    st = Stack.reference(2)
+    calls = []
+
+    def make(s):
+        calls.append(1)
+        return len(calls)
+
+    assert st.derived("k", make) == 1 and st.derived("k", make) == 1
+    for i in range(3 * _DERIVED_MAX):  # e.g. many phi values
+        st.derived(("phi", i), lambda s: 0)
+    assert len(st._derived) <= _DERIVED_MAX
+    assert st == Stack.reference(2)  # the cache does not take part in equality

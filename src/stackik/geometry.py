@@ -236,6 +236,10 @@ class PlatformGeometry:
         )
 
 
+#: Entries :meth:`Stack.derived` keeps per stack before it starts over.
+_DERIVED_MAX = 256
+
+
 @dataclass(frozen=True)
 class Stack(Sequence[PlatformGeometry]):
     """An ordered stack of n >= 1 Stewart platforms, bottom (platform 1) first.
@@ -300,6 +304,8 @@ class Stack(Sequence[PlatformGeometry]):
             return self._derived[key]
         except KeyError:
             value = make(self)
+            if len(self._derived) >= _DERIVED_MAX:  # e.g. a sweep over many phi: stay bounded
+                self._derived.clear()
             self._derived[key] = value
             return value
 
