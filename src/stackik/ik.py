@@ -1383,7 +1383,9 @@ def solve_ik(
     Returns
     -------
     IKResult
-        ``success`` only when :func:`check_pose` passes.
+        ``success`` only when :func:`check_pose` passes (for interior-point poses its
+        compiled twin :func:`stackik._check.planar_check`, tested to agree, does the
+        check).
     """
     args = {k: v for k, v in locals().items() if k != "blas_threads"}
     if blas_threads is None:
