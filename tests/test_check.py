@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_ipm import mixed_stack
 
 import stackik as sk
 from stackik._check import planar_check
+from stackik.bench import random_stack
 from stackik.ik import check_pose, paper_initial_guess
 
 CASES = [(n, seed, phi) for n in (1, 2, 4, 7) for seed in range(4) for phi in (0.0, 0.8, -2.1, 3.0)]
@@ -16,7 +16,7 @@ CASES = [(n, seed, phi) for n in (1, 2, 4, 7) for seed in range(4) for phi in (0
 @pytest.mark.parametrize(("n", "seed", "phi"), CASES)
 def test_compiled_check_equals_check_pose(n, seed, phi):
     rng = np.random.default_rng(seed)
-    st = mixed_stack(n, seed) if seed % 2 else sk.Stack.reference(n)
+    st = random_stack(n, seed) if seed % 2 else sk.Stack.reference(n)
     t = sk.PlanarTarget(200 * rng.standard_normal(), 350.0 * n, 0.4 * rng.standard_normal(), phi)
     q0 = paper_initial_guess(st, t)
     poses = [q0 + rng.normal(0, s, (n, 3)) * [1, 1, 0.01] for s in (0.0, 5.0, 60.0, 150.0)]

@@ -44,14 +44,14 @@ warnings.filterwarnings(
     "ignore", message="Code running in object mode won't allow parallel execution"
 )
 
-LS_MULTIPLIERS = True
 #: :func:`_ip_multi` stops when its first GIVE_UP_AFTER starts all end farther than
 #: GIVE_UP_VIOLATION (scaled) from feasibility: an unreachable target is then reported by
 #: the SQP fallback in a fraction of the time the remaining starts would take.
 GIVE_UP_AFTER = 3
 GIVE_UP_VIOLATION = 1e-4
+#: The objective is scaled so that its gradient at the start is at most this (IPOPT's
+#: nlp_scaling_max_gradient).
 OBJ_MAX_GRAD = 100.0
-Z_INIT_ONE = True
 
 #: Status codes returned by :func:`ip_solve`.
 IP_SUCCESS, IP_MAX_ITER, IP_STALLED, IP_NONFINITE, IP_MAX_TIME, IP_SKIPPED = 0, 1, 2, 3, 4, 5
@@ -97,24 +97,6 @@ def _kinematics(q: FloatArray) -> tuple[Any, ...]:
         J[1, 3 * i + 2] = d[i, 0]
         J[2, 3 * i + 2] = 1.0
     return c, s, y, J, d
-
-
-@_jit
-def _fn_residual_jacobian(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatArray:
-    """``dr/dq`` of the FN residuals ``r_i = d_i`` (i < n-1), shape (2(n-1), 3n)."""
-    n = c.shape[0]
-    Jr = np.zeros((2 * (n - 1), 3 * n))
-    for i in range(n - 1):
-        for m in range(n):
-            if m > i:
-                Jr[2 * i, 3 * m] = c[m]
-                Jr[2 * i + 1, 3 * m] = s[m]
-                Jr[2 * i, 3 * m + 1] = -s[m]
-                Jr[2 * i + 1, 3 * m + 1] = c[m]
-            k = max(i, m)
-            Jr[2 * i, 3 * m + 2] = -d[k, 1]
-            Jr[2 * i + 1, 3 * m + 2] = d[k, 0]
-    return Jr
 
 
 @_jit
@@ -604,8 +586,7 @@ def _now() -> float:
 # =========================================================================================
 @_jit
 def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
-             max_iter: int, deadline: float,
-             trace: FloatArray) -> tuple[FloatArray, int, int]:  # fmt: skip
+             max_iter: int, deadline: float) -> tuple[FloatArray, int, int]:  # fmt: skip
     n = P0[7].shape[0]
     m = 24 * n
     N = 3 * n
@@ -622,7 +603,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     mu = mu0
     mu_min = min(tol, constr_tol) / 10.0
     s = np.maximum(cI, 1e-2)
-    z = np.ones(m) if Z_INIT_ONE else np.minimum(np.maximum(mu / s, 1e-3), 1e3)
+    z = np.ones(m)  # bound multipliers start at 1, as IPOPT's
     # least-squares equality multipliers
     yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
     last_shift = 0.0
@@ -688,7 +669,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         rhs = np.empty(N)
         for a in range(N):
             rhs[a] = -g[a] + AEty[a] + AIv[a]
-        dx, dy, curv, shift = _kkt_step(W, AE, cE, rhs, last_shift)
+        dx, _, _, shift = _kkt_step(W, AE, cE, rhs, last_shift)
         if not np.all(np.isfinite(dx)):
             status = IP_NONFINITE
             break
@@ -700,12 +681,6 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         for r in range(m):
             ds[r] = AIdx[r] + cI[r] - s[r]
             dz[r] = -z[r] + mu / s[r] - Sig[r] * ds[r]
-        trace[it, 0] = mu
-        trace[it, 1] = e_du
-        trace[it, 2] = e_pr
-        trace[it, 3] = f
-        trace[it, 6] = shift
-        trace[it, 7] = nfilt
         # --- fraction to the boundary -------------------------------------------------
         tau = max(0.99, 1.0 - mu)
         a_s = 1.0
@@ -783,9 +758,6 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
                 break
         else:
             fails = 0
-        trace[it, 3] = a_s
-        trace[it, 4] = alpha
-        trace[it, 5] = a_z
         x = xt
         # slack reset: a slack below its constraint value only adds violation
         s = st
@@ -797,10 +769,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             zr = z[r] + a_z * dz[r]
             z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
         f, g, cE, AE, cI, D = ft, gt, cEt, AEt, cIt, Dt
-        if LS_MULTIPLIERS:
-            yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
-        else:
-            yE = yE + alpha * dy
+        yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
     return x, status, it + 1 if status != IP_SUCCESS else it
 
 
@@ -853,12 +822,11 @@ def _ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatA
     nit = np.zeros(k, dtype=np.int64)
     obj = np.full(k, np.inf)
     viol = np.full(k, np.inf)
-    trace = np.zeros((max_iter, 8))
     for j in range(k):
         X[j] = U0[j]
         if j > 0 and _now() > deadline:
             break
-        x, st, it = _ip_loop(U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline, trace)
+        x, st, it = _ip_loop(U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline)
         if st == IP_NONFINITE or not np.all(np.isfinite(x)):
             x = U0[j].copy()
         x = _polish(x, P, 3, reach, margin)
@@ -933,27 +901,14 @@ def _ip_options(options: dict[str, Any] | None) -> dict[str, Any]:
 def ip_solve(prob: Any, u0: FloatArray, options: dict[str, Any] | None = None) -> tuple[
     FloatArray, int, str
 ]:  # fmt: skip
-    """Run the barrier method on a planar :class:`stackik.ik._Problem` from ``u0``.
+    """Run the barrier method (and the polish) on a planar :class:`stackik.ik._Problem`
+    from one scaled start ``u0``: :func:`ip_multi` with one row.
 
     Returns the scaled point, the iteration count and a status string
     (``"success"``, ``"max_iter"``, ``"stalled"``, ``"nonfinite"``, ``"max_time"``).
     """
-    opts = _ip_options(options)
-    P = problem_arrays(prob)
-    deadline = time.perf_counter() + float(opts["max_time"])
-    trace = np.zeros((int(opts["max_iter"]), 8))
-    ip_solve.last_trace = trace  # type: ignore[attr-defined]
-    x, status, nit = _ip_loop(
-        np.ascontiguousarray(u0, dtype=float),
-        P,
-        float(opts["tol"]),
-        float(opts["constr_tol"]),
-        float(opts["mu0"]),
-        int(opts["max_iter"]),
-        deadline if math.isfinite(deadline) else 1e300,
-        trace,
-    )
-    return x, int(nit), IP_STATUS[int(status)]
+    X, statuses, nits, _, _ = ip_multi(prob, np.atleast_2d(u0), options)
+    return X[0], int(nits[0]), statuses[0]
 
 
 def ip_multi(

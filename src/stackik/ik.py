@@ -1203,13 +1203,6 @@ def _solve_from(
             if "max_time" not in opts and math.isfinite(time_left):
                 opts["max_time"] = max(time_left, 1e-3)
             u, nit, status = _run_sqp(prob, u0, qp_solver, opts)
-        elif method == "ip":
-            from stackik._ipm import ip_solve
-
-            opts = dict(options)
-            if "max_time" not in opts and math.isfinite(time_left):
-                opts["max_time"] = max(time_left, 1e-3)
-            u, nit, status = ip_solve(prob, u0, opts)
         elif method == "ipopt":
             from stackik.ipopt_ import run_ipopt
 
@@ -1583,14 +1576,13 @@ def _solve_ik(
     else:
         tried_ip = 0
     screened: list[_Run] = []
-    if starts is None and len(queue) > 1 and method in ("sqp", "ip"):
+    if starts is None and len(queue) > 1 and method == "sqp":
         # Screen the structured starts with a loose KKT tolerance and keep the best that
         # passes the check (its FN is within ~1e-8 of the fully converged value); when none
         # passes, the others are solved in full, best first.
         for qs in queue:
             left = max(max_time - (time.perf_counter() - t_start), 1e-3)
-            sopts = {**SCREEN_OPTIONS, **opts} if method == "sqp" else opts
-            run = _solve_from(prob, qs, method, qp_solver, sopts, left)
+            run = _solve_from(prob, qs, method, qp_solver, {**SCREEN_OPTIONS, **opts}, left)
             nit_total += run.nit
             screened.append(run)
             if not run.check.ok and (
