@@ -101,6 +101,17 @@ def test_status_infeasible_is_quick():
     assert r2.status in (IKStatus.INFEASIBLE, IKStatus.MAX_ITER, IKStatus.FAILED)
 
 
+@pytest.mark.parametrize("target", [(1500.0, 100.0, 0.0), (100.0, 300.0, 2.5), (900, 900, 2.5)])
+def test_unreachable_within_reach_bound_gets_a_quick_verdict(target):
+    # every interior-point start stalls far from feasibility; the SQP engine then runs the
+    # structured starts one at a time until it certifies local infeasibility (no
+    # screening, no fallback starts): at most 3 interior-point + 3 SQP starts
+    r = sk.solve_ik(STACK4, sk.PlanarTarget(*target))
+    assert r.status is IKStatus.INFEASIBLE and not r.success
+    assert r.method == "sqp" and r.n_starts <= 6
+    assert r.max_violation > 1.0 and r.q.shape == (4, 3)
+
+
 def test_status_max_iter():
     t = sk.PlanarTarget(*PAPER_TARGETS[0])
     x0 = paper_initial_guess(STACK4, t) + 30.0

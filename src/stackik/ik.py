@@ -1546,6 +1546,7 @@ def _solve_ik(
     nit_total = 0
     queue = _initial_starts(stack, target, q0, structured=x0 is None and start == "paper")
     n_planned = len(queue) if starts is None else int(starts)
+    quick_verdict = False
     if method == "ip":
         qs_all = queue[:n_planned]
         if starts is None and x0 is None and start == "paper":
@@ -1573,10 +1574,16 @@ def _solve_ik(
         nit_total = nit_ip
         tried_ip = len(qs_all)
         least = ip_least
+        if all(s in ("stalled", "skipped") for s in ip_statuses):
+            # Every interior-point start stalled far from feasibility (the target is
+            # almost certainly unreachable): the structured starts run one at a time
+            # until the SQP engine certifies local infeasibility, which gives the
+            # least-violation pose, without the screening and fallback starts.
+            quick_verdict = True
     else:
         tried_ip = 0
     screened: list[_Run] = []
-    if starts is None and len(queue) > 1 and method == "sqp":
+    if starts is None and len(queue) > 1 and method == "sqp" and not quick_verdict:
         # Screen the structured starts with a loose KKT tolerance and keep the best that
         # passes the check (its FN is within ~1e-8 of the fully converged value); when none
         # passes, the others are solved in full, best first.
@@ -1592,7 +1599,7 @@ def _solve_ik(
         screened.sort(key=lambda r: (r.check.max_violation_mm > SCREEN_FEAS_MM, r.obj))
         queue = [r.q for r in screened]
         n_planned = 0 if screened[0].check.ok else 1
-    fallback = 3 if x0 is None else 0  # more starts when none passes the check
+    fallback = 3 if x0 is None and not quick_verdict else 0  # more starts if none passes
     while tried < n_planned:
         if tried > 0 and time.perf_counter() - t_start > max_time:
             status_out = IKStatus.MAX_TIME
@@ -1618,6 +1625,8 @@ def _solve_ik(
                 best = run
         elif least is None or run.check.max_violation_mm < least.check.max_violation_mm:
             least = run
+        if quick_verdict and (run.check.ok or run.status == "infeasible"):
+            break
         if tried == n_planned and best is None and fallback > 0:
             n_planned += fallback
             fallback = 0
