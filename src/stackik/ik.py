@@ -698,6 +698,35 @@ class _PlanarFast:
         return out.ravel() * self.cscale, J.reshape(24 * n, 3 * n)
 
 
+def _scalings(stack: Stack, planar: bool, wt: FloatArray, wth: FloatArray) -> tuple[Any, ...]:
+    """Scalings of :class:`_Problem` (geometry and weights only; arrays read-only).
+
+    Variables ``u = x / xs`` (xs = L = max leg_max for translations [mm], 1 for angles);
+    constraint rows: leg blocks / leg_max^2, joint blocks / leg_max; equalities ``es``;
+    objective ``f = (c0 + sum_i w_i |r_i|^2) / fscale`` with per-residual weights ``rw``
+    (sqrt, residuals indexed by the platform of the angle column).
+    """
+    n = stack.n
+    L = float(stack.leg_max.max())
+    per = [L, L, 1.0] if planar else [L] * 3 + [1.0] * 3
+    xs = np.tile(per, n)
+    cs = np.empty((n, 24))
+    cs[:, :12] = 1.0 / stack.leg_max[:, None] ** 2
+    cs[:, 12:] = 1.0 / stack.leg_max[:, None]
+    es = np.array([1 / L, 1 / L, 1.0]) if planar else np.array([1 / L] * 3 + [1.0] * 3)
+    n_rot = 1 if planar else 3
+    n_tr = 2 if planar else 3
+    rot_const = 1.0 if planar else 2.0  # |d R_ee / d angle|_F^2 (+ theta row)
+    c0 = float(np.sum(wt) * n_tr + np.sum(wth) * n_rot * rot_const)
+    fscale = L**2 * float(np.max(wth))
+    rw = np.repeat(np.sqrt(wth[: n - 1]), 2) if planar else np.repeat(np.sqrt(wth), 9)
+    arrays = (xs, cs.ravel(), es, np.array(wt, float), np.array(wth, float), rw)
+    for a in arrays:
+        a.setflags(write=False)
+    xs, cs_flat, es, wt, wth, rw = arrays
+    return L, xs, cs_flat, es, wt, wth, c0, fscale, rw
+
+
 class _Problem:
     """Scaled IK problem: evaluation of objective, equalities and limits with derivatives.
 
@@ -718,38 +747,18 @@ class _Problem:
         n = stack.n
         self.n = n
         self.k = 3 if self.planar else 6
-        self.L = float(stack.leg_max.max())
-        per = [self.L, self.L, 1.0] if self.planar else [self.L] * 3 + [1.0] * 3
-        self.xs = np.tile(per, n)
         self.objective = objective
-        # constraint scaling: leg blocks / leg_max^2, joint blocks / leg_max
-        cs = np.empty((n, 24))
-        cs[:, :12] = 1.0 / stack.leg_max[:, None] ** 2
-        cs[:, 12:] = 1.0 / stack.leg_max[:, None]
-        self.cs = cs.ravel()
-        self.es = (
-            np.array([1 / self.L, 1 / self.L, 1.0])
-            if self.planar
-            else np.array([1 / self.L] * 3 + [1.0] * 3)
-        )
-        # objective: f = (c0 + sum_i w_i |r_i|^2) / fscale ; residual weights per platform
+        self.x_ref = x_ref
         if objective == "weighted":
             assert weights is not None
-            wt, wth = weights
-        else:
-            wt, wth = np.ones(n), np.ones(n)
-        self.w_t, self.w_th = wt, wth
-        n_rot = 1 if self.planar else 3
-        n_tr = 2 if self.planar else 3
-        rot_const = 1.0 if self.planar else 2.0  # |d R_ee / d angle|_F^2 (+ theta row)
-        self.c0 = float(np.sum(wt) * n_tr + np.sum(wth) * n_rot * rot_const)
-        self.fscale = self.L**2 * float(np.max(wth))
-        self.x_ref = x_ref
-        # per-residual weights (sqrt), residuals indexed by platform j of the angle column
-        if self.planar:
-            self.rw = np.repeat(np.sqrt(wth[: n - 1]), 2)
-        else:
-            self.rw = np.repeat(np.sqrt(wth), 9)
+            scal = _scalings(stack, self.planar, *weights)
+        else:  # unit weights: the same arrays for every target (read-only, cached)
+            scal = stack.derived(
+                ("problem_scalings", self.planar),
+                lambda st: _scalings(st, self.planar, np.ones(n), np.ones(n)),
+            )
+        (self.L, self.xs, self.cs, self.es, self.w_t, self.w_th, self.c0, self.fscale,
+         self.rw) = scal  # fmt: skip
         self.fast = _PlanarFast(stack, target.phi) if isinstance(target, PlanarTarget) else None
         if self.fast is not None:
             self.fast.set_scaling(self.cs, self.xs)
@@ -1380,14 +1389,35 @@ def solve_ik(
         compiled twin :func:`stackik._check.planar_check`, tested to agree, does the
         check).
     """
-    args = {k: v for k, v in locals().items() if k != "blas_threads"}
-    if blas_threads is None:
-        return _solve_ik(**args)
-    with _blas_controller().limit(limits=blas_threads, user_api="blas"):
-        return _solve_ik(**args)
+    args = dict(locals())
+    blas = _BlasLimit(blas_threads)
+    try:
+        return _solve_ik(**{**args, "blas_threads": blas})
+    finally:
+        blas.restore()
 
 
 _BLAS: list[Any] = []
+
+
+class _BlasLimit:
+    """The BLAS thread limit of one solve, applied on first need: the compiled
+    interior-point path does not call BLAS on its small matrices, so it skips the
+    threadpoolctl round trip (about 20 us, 5 % of an n = 4 solve); every other path
+    (SQP, scipy, IPOPT, the spatial chain) calls :meth:`apply` before it runs."""
+
+    def __init__(self, threads: int | None) -> None:
+        self.threads = threads
+        self._limiter: Any = None
+
+    def apply(self) -> None:
+        if self.threads is not None and self._limiter is None:
+            self._limiter = _blas_controller().limit(limits=self.threads, user_api="blas")
+
+    def restore(self) -> None:
+        if self._limiter is not None:
+            self._limiter.restore_original_limits()
+            self._limiter = None
 
 
 def _blas_controller() -> Any:
@@ -1414,6 +1444,7 @@ def _solve_ik(
     sigma_theta: ArrayLike | None,
     start: str,
     max_time: float | None,
+    blas_threads: _BlasLimit,
 ) -> IKResult:
     t_start = time.perf_counter()
     if not isinstance(stack, Stack):
@@ -1444,6 +1475,8 @@ def _solve_ik(
         method = _auto_method(planar, objective, sigma_theta, qp_solver, options)
     if method == "ip" and not planar:
         raise ValueError('method "ip" is planar only (PlanarTarget); use "sqp" or "auto"')
+    if method != "ip":
+        blas_threads.apply()
     if method == "sqp" and qp_solver is not None:
         from stackik.sqp.qp import make_backend
 
@@ -1570,6 +1603,7 @@ def _solve_ik(
         # method="auto": no start passed, the SQP engine decides (it reports the least
         # violation and infeasibility), with the limits the user gave
         method = "sqp"
+        blas_threads.apply()
         opts = {key: v for key, v in opts.items() if key in _SHARED_OPTIONS}
         nit_total = nit_ip
         tried_ip = len(qs_all)
