@@ -57,7 +57,8 @@ ANG_TOL = 1e-8  # [rad]
 LIMIT_TOL = 1e-6  # [mm]
 TIME_SLACK = 2.0  # [s] allowed lateness of a solve with max_time (sanity bound, not speed)
 FALLBACK_STARTS = 3  # extra starts solve_ik adds when no start passes the check
-SCREENED_STARTS = 3  # structured starts screened by default (planar, n >= 2, sqp, no x0)
+SCREENED_STARTS = 3  # structured starts by default (n >= 2, no x0): 3 planar, 5 spatial
+SCREENED_STARTS_SPATIAL = 5
 
 PHIS = (0.0, 0.3, math.pi / 4, -1.2, 2.5, math.pi)
 NATIVE_QP = tuple(b for b in ("daqp", "osqp", "clarabel") if b in available_qp_solvers())
@@ -308,7 +309,7 @@ def _iter_limit(kwargs: dict[str, Any]) -> int | None:
 def nit_bound(stack: sk.Stack, target: Any, kwargs: dict[str, Any], per_run: int) -> int:
     """Largest ``nit`` solve_ik may report with ``per_run`` iterations per solver run.
 
-    SQP: the screened structured starts (planar, n >= 2, no x0, default starts), the
+    SQP: the screened structured starts (n >= 2, no x0, default starts), the
     planned starts, and up to FALLBACK_STARTS more when none passes the check. The
     interior-point path (``method="ip"``, or ``"auto"`` where it applies): its planned
     starts (structured ones plus the documented fold patterns, :func:`stackik.ik.fold_depth`)
@@ -320,12 +321,13 @@ def nit_bound(stack: sk.Stack, target: Any, kwargs: dict[str, Any], per_run: int
     x0 = kwargs.get("x0")
     starts = kwargs.get("starts")
     method = kwargs.get("method", "auto")
-    structured = planar and stack.n >= 2 and x0 is None and kwargs.get("start", "paper") == "paper"
+    structured = stack.n >= 2 and x0 is None and kwargs.get("start", "paper") == "paper"
+    screened = SCREENED_STARTS if planar else SCREENED_STARTS_SPATIAL
 
     def sqp_runs() -> int:
         runs = 0
         if starts is None:
-            runs += SCREENED_STARTS + 1 if structured else 1
+            runs += screened + 1 if structured else 1
         else:
             runs += int(starts)
         if x0 is None:

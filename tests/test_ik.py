@@ -214,6 +214,37 @@ def test_problem_derivatives_planar(phi):
     np.testing.assert_allclose(H, _fd_jac(lag_grad, u), rtol=1e-5, atol=1e-6)
 
 
+def test_spatial_default_tries_the_folded_starts():
+    # the paper's start and four folds of the top two platforms (x and y, both signs);
+    # the best of them is at least as good as the paper's start alone
+    from stackik.bench import _spatial_targets
+
+    t = _spatial_targets(STACK4, 1, 7)[0]
+    r = sk.solve_ik(STACK4, t)
+    one = sk.solve_ik(STACK4, t, x0=paper_initial_guess(STACK4, t))
+    assert r.success and one.success and r.n_starts >= 5
+    assert r.frobenius_norm <= one.frobenius_norm * (1 + 1e-9)
+    assert check_pose(STACK4, t, r.q).ok
+
+
+def test_so3_log_fast_matches_scipy():
+    from scipy.spatial.transform import Rotation
+
+    from stackik.ik import _so3_log, _so3_log_fast
+
+    rng = np.random.default_rng(3)
+    mats = list(Rotation.random(200, random_state=4).as_matrix())
+    for angle in (0.0, 1e-12, 1e-6, 1e-3, 0.7, np.pi - 1e-3, np.pi - 1e-9):
+        axis = rng.normal(size=3)
+        mats.append(Rotation.from_rotvec(angle * axis / np.linalg.norm(axis)).as_matrix())
+    for R in mats:
+        a, b = _so3_log_fast(R), _so3_log(R)
+        if np.linalg.norm(b) > np.pi - 1e-6:  # +-axis at pi are the same rotation
+            assert min(np.abs(a - b).max(), np.abs(a + b).max()) < 1e-7
+        else:
+            np.testing.assert_allclose(a, b, atol=1e-12)
+
+
 def test_problem_derivatives_spatial():
     t = sk.PlanarTarget(*PAPER_TARGETS[0], phi=0.2).to_spatial()
     st = sk.Stack.reference(3)

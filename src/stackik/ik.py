@@ -363,6 +363,37 @@ def _so3_log(R: FloatArray) -> FloatArray:
     return Rotation.from_matrix(R).as_rotvec()  # type: ignore[no-any-return]
 
 
+def _so3_log_fast(R: FloatArray) -> FloatArray:
+    """Rotation vector of one rotation matrix, as :func:`_so3_log` (angle in [0, pi]),
+    without scipy's per-call overhead (~80 us): the solver's spatial equalities call it at
+    every evaluation; the independent check keeps scipy's. Quaternion by Shepperd's
+    method (largest of ``1 + trace`` and the diagonal terms), then ``2 atan2(|v|, w)``."""
+    r00, r11, r22 = R[0, 0], R[1, 1], R[2, 2]
+    tr = r00 + r11 + r22
+    k = int(np.argmax((tr, r00, r11, r22)))
+    if k == 0:
+        w = 0.5 * math.sqrt(max(1.0 + tr, 0.0))
+        f = 0.25 / w
+        v = np.array([(R[2, 1] - R[1, 2]) * f, (R[0, 2] - R[2, 0]) * f, (R[1, 0] - R[0, 1]) * f])
+    else:
+        i = k - 1
+        j, m = (i + 1) % 3, (i + 2) % 3
+        a = 0.5 * math.sqrt(max(1.0 + R[i, i] - R[j, j] - R[m, m], 0.0))
+        f = 0.25 / a
+        w = (R[m, j] - R[j, m]) * f
+        v = np.empty(3)
+        v[i], v[j], v[m] = a, (R[j, i] + R[i, j]) * f, (R[m, i] + R[i, m]) * f
+    if w < 0.0:
+        w, v = -w, -v
+    s = math.sqrt(float(v @ v))
+    angle = 2.0 * math.atan2(s, w)
+    if angle < 1e-3:  # angle / sin(angle / 2) by its series (w ~ 1)
+        scale = 2.0 + angle**2 / 12.0 + 7.0 * angle**4 / 2880.0
+    else:
+        scale = angle / s
+    return v * scale
+
+
 def check_pose(stack: Stack, target: Target, q: ArrayLike) -> PoseCheck:
     """Check a pose against a target and every limit, independently of any solver.
 
@@ -843,7 +874,7 @@ class _Problem:
             ch = spatial_ch = spatial_chain(q)
             Pee, Ree = ch.O[-1], ch.A[-1]
             E = tgs.rotation.T @ Ree
-            phi_v = _so3_log(E)
+            phi_v = _so3_log_fast(E)
             Jp = ch.J[:3]
             # dphi = Jr^{-1}(phi) v with v = R_ee^T w (body-frame axis)
             v = Ree.T @ ch.w.T  # (3, N)
@@ -1138,22 +1169,27 @@ def _run_scipy(
 def _initial_starts(
     stack: Stack, target: Target, q0: FloatArray, structured: bool
 ) -> list[FloatArray]:
-    """Deterministic starts: ``q0`` and, in planar mode, two folded variants.
+    """Deterministic starts: ``q0`` and two folded variants per horizontal axis.
 
     FN^2 sums the squared distances from each plate to the end effector, so good poses
     often fold the top of the stack: the two upper platforms offset sideways in opposite
     directions bring the lower plates closer to the end effector. Which way they fold is a
     discrete choice that a local solver cannot change, hence one start per direction
-    (offset ``0.75 (leg_max - leg_min)`` [mm] in the platforms' own frames).
+    (offset ``0.75 (leg_max - leg_min)`` [mm] in the platforms' own frames): along the
+    plane's axis in planar mode (3 starts), along x and along y in spatial mode (5 starts;
+    on 30 spatial n = 4 targets the paper's start alone found the best FN on 27 %, the
+    five together on all).
     """
     out = [q0]
-    if structured and isinstance(target, PlanarTarget) and stack.n >= 2:
+    if structured and stack.n >= 2:
         a = 0.75 * float(np.mean(stack.leg_max - stack.leg_min))
-        for sign in (1.0, -1.0):
-            q = q0.copy()
-            q[-2, 0] += sign * a
-            q[-1, 0] -= sign * a
-            out.append(q)
+        # planar: the in-plane axis; spatial: both horizontal axes (4 folded starts)
+        for axis in (0,) if isinstance(target, PlanarTarget) else (0, 1):
+            for sign in (1.0, -1.0):
+                q = q0.copy()
+                q[-2, axis] += sign * a
+                q[-1, axis] -= sign * a
+                out.append(q)
     return out
 
 

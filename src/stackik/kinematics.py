@@ -336,16 +336,11 @@ def spatial_chain(q: ArrayLike) -> SpatialChain:
     yaw = qa[:, 3]
     pitch = qa[:, 4]
     cy, sy, cp, sp = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch)
-    z = np.zeros(n)
-    # local rotation axes: yaw e_z, pitch Rz e_y, roll Rz Ry e_x
-    local = np.stack(
-        [
-            np.stack([z, z, np.ones(n)], -1),
-            np.stack([-sy, cy, z], -1),
-            np.stack([cy * cp, sy * cp, -sp], -1),
-        ],
-        axis=1,
-    )  # (n, 3, 3)
+    # local rotation axes: yaw e_z, pitch Rz e_y, roll Rz Ry e_x; (n, 3, 3)
+    local = np.zeros((n, 3, 3))
+    local[:, 0, 2] = 1.0
+    local[:, 1, 0], local[:, 1, 1] = -sy, cy
+    local[:, 2, 0], local[:, 2, 1], local[:, 2, 2] = cy * cp, sy * cp, -sp
     w_rot = np.einsum("nij,nkj->nki", A[:-1], local)  # (n, 3, 3)
     u = np.swapaxes(A[:-1], -1, -2)  # u[i, j] = A_{i-1} e_j, (n, 3, 3)
     w = np.concatenate([np.zeros((n, 3, 3)), w_rot], axis=1).reshape(6 * n, 3)

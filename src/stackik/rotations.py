@@ -91,28 +91,32 @@ def rotation_2d(theta: ArrayLike) -> FloatArray:
     return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
 
 
-def _rz(a: FloatArray) -> FloatArray:
+def _axis_rotation(a: FloatArray, i: int, j: int) -> FloatArray:
+    """Rotation by ``a`` [rad] about the axis normal to coordinates ``i``, ``j`` (i before
+    j in the right-handed cycle): ``R[i, i] = R[j, j] = cos a``, ``R[i, j] = -sin a``,
+    ``R[j, i] = sin a``, the axis entry 1; shape ``a.shape + (3, 3)``. Filled in place
+    (numpy's ``stack`` costs more than the arithmetic on these tiny arrays)."""
     c, s = np.cos(a), np.sin(a)
-    o, z = np.ones_like(a), np.zeros_like(a)
-    return np.stack(
-        [np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2
-    )
+    R = np.zeros(np.shape(a) + (3, 3))
+    k = 3 - i - j
+    R[..., k, k] = 1.0
+    R[..., i, i] = c
+    R[..., j, j] = c
+    R[..., i, j] = -s
+    R[..., j, i] = s
+    return R
+
+
+def _rz(a: FloatArray) -> FloatArray:
+    return _axis_rotation(a, 0, 1)
 
 
 def _ry(a: FloatArray) -> FloatArray:
-    c, s = np.cos(a), np.sin(a)
-    o, z = np.ones_like(a), np.zeros_like(a)
-    return np.stack(
-        [np.stack([c, z, s], -1), np.stack([z, o, z], -1), np.stack([-s, z, c], -1)], -2
-    )
+    return _axis_rotation(a, 2, 0)
 
 
 def _rx(a: FloatArray) -> FloatArray:
-    c, s = np.cos(a), np.sin(a)
-    o, z = np.ones_like(a), np.zeros_like(a)
-    return np.stack(
-        [np.stack([o, z, z], -1), np.stack([z, c, -s], -1), np.stack([z, s, c], -1)], -2
-    )
+    return _axis_rotation(a, 1, 2)
 
 
 _EZ = cross_matrix([0.0, 0.0, 1.0])
