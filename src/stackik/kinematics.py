@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from stackik.platform import _check_phi, check_pose
+from stackik.platform import _check_phi, _cross, check_pose
 from stackik.rotations import euler_zyx, plane_axis, rodrigues
 
 __all__ = [
@@ -249,9 +249,9 @@ class SpatialChain:
         """Apply ``Omega_w`` (rotation generator) to Jacobian columns X (12, ...)."""
         Xp = np.moveaxis(X[:3], 0, -1)
         XR = np.moveaxis(X[3:].reshape((3, 3) + X.shape[1:]), (0, 1), (-2, -1))
-        hp = np.cross(w, Xp)
+        hp = _cross(w, Xp)
         # [w]x M for M (..., 3, 3): cross of w with each column of M
-        hR = np.cross(w[..., None, :], np.swapaxes(XR, -1, -2))
+        hR = _cross(w[..., None, :], np.swapaxes(XR, -1, -2))
         hR = np.swapaxes(hR, -1, -2)
         out = np.concatenate(
             [
@@ -279,7 +279,7 @@ class SpatialChain:
         lo = np.minimum(cols[:, None], b[None, :])
         hi = np.maximum(cols[:, None], b[None, :])
         Jp = self.J[:3].T  # (N, 3)
-        return np.moveaxis(np.cross(self.w[lo], Jp[hi]), -1, 0)  # type: ignore[no-any-return]
+        return np.moveaxis(_cross(self.w[lo], Jp[hi]), -1, 0)  # type: ignore[no-any-return]
 
     def third(self) -> FloatArray:
         """Third derivatives ``T[r, a, b, c]``, shape (12, 6n, 6n, 6n): memory O((6n)^3)."""
@@ -291,7 +291,7 @@ class SpatialChain:
         # d/dx_c [Omega_{w_lo} J_hi] = [c < lo] Omega_{w_c x w_lo} J_hi + Omega_{w_lo} H[:, hi, c]
         term2 = self._omega(H[:, hi, :], self.w[lo][:, :, None, :])
         wlo = self.w[lo]  # (N, N, 3)
-        dw = np.cross(self.w[None, None, :, :], wlo[:, :, None, :])  # (N, N, N [c], 3)
+        dw = _cross(self.w[None, None, :, :], wlo[:, :, None, :])  # (N, N, N [c], 3)
         dw *= (idx[None, None, :] < lo[:, :, None])[..., None]
         Jhi = np.broadcast_to(self.J[:, hi][..., None], (12, N, N, N))
         term1 = self._omega(Jhi, dw)
@@ -346,7 +346,7 @@ def spatial_chain(q: ArrayLike) -> SpatialChain:
     w = np.concatenate([np.zeros((n, 3, 3)), w_rot], axis=1).reshape(6 * n, 3)
     Pee, Ree = O[-1], A[-1]
     d = Pee - O[1:]  # (n, 3)
-    Jp = np.concatenate([u, np.cross(w_rot, d[:, None, :])], axis=1).reshape(6 * n, 3)
+    Jp = np.concatenate([u, _cross(w_rot, d[:, None, :])], axis=1).reshape(6 * n, 3)
     JR = np.einsum("aij,jk->aik", _skew(w), Ree).reshape(6 * n, 9)
     J = np.concatenate([Jp.T, JR.T], axis=0)
     return SpatialChain(A=A, O=O, w=w, J=J)
