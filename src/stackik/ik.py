@@ -1177,8 +1177,8 @@ def _initial_starts(
     discrete choice that a local solver cannot change, hence one start per direction
     (offset ``0.75 (leg_max - leg_min)`` [mm] in the platforms' own frames): along the
     plane's axis in planar mode (3 starts), along x and along y in spatial mode (5 starts;
-    on 30 spatial n = 4 targets the paper's start alone found the best FN on 27 %, the
-    five together on all).
+    on the benchmark's 30 spatial n = 4 targets the SQP engine from the paper's start
+    alone came within 0.1 % of the best FN found on 23 %, from the five on 93 %).
     """
     out = [q0]
     if structured and stack.n >= 2:
