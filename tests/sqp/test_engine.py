@@ -40,6 +40,31 @@ def test_infeasible_status(solver: str) -> None:
     assert res.x.sum() > 1.3
 
 
+def test_osqp_elastic_backend_is_capped(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the engine calls for_elastic() on the backend of the elastic subproblems only; OSQP
+    # then caps its ADMM iterations unless the user set max_iter
+    from stackik.sqp.qp import osqp_
+
+    made: list[osqp_.OSQPBackend] = []
+    orig = osqp_.OSQPBackend.setup
+
+    def spy(self: osqp_.OSQPBackend, n: int, m_eq: int, m_ineq: int) -> None:
+        made.append(self)
+        orig(self, n, m_eq, m_ineq)
+
+    monkeypatch.setattr(osqp_.OSQPBackend, "setup", spy)
+    res = solve(_infeasible(), [0.3, -0.2], qp_solver="osqp")
+    assert res.status is SQPStatus.INFEASIBLE
+    caps = {be.n: be.settings["max_iter"] for be in made}
+    assert caps[2] == osqp_.DEFAULT_SETTINGS["max_iter"]  # the plain QP: full budget
+    assert any(c == osqp_.ELASTIC_MAX_ITER for n, c in caps.items() if n > 2)
+    user = make_backend("osqp", {"max_iter": 50000})
+    user.for_elastic()
+    assert user.settings["max_iter"] == 50000
+    plain = make_backend("daqp")
+    plain.for_elastic()  # the default is a no-op
+
+
 def test_infeasible_equality() -> None:
     nlp = NonlinearProgram(
         lambda x: float(x[0]),

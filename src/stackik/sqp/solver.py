@@ -275,6 +275,8 @@ class _Engine:
         if be is None:
             opts = self.opts.qp_options if name == self.qp_name else None
             be = make_backend(name, opts)
+            if n != self.n:  # the elastic subproblems (extra slack variables)
+                be.for_elastic()
             be.setup(n, me, mi)
             be.deadline = self.t0 + self.opts.max_time
             self.backends[key] = be

@@ -94,6 +94,12 @@ class QPBackend:
         """Prepare for QPs with ``n`` variables, ``m_eq`` equalities, ``m_ineq`` inequalities."""
         self.n, self.m_eq, self.m_ineq = n, m_eq, m_ineq
 
+    def for_elastic(self) -> None:
+        """Adjust settings for the engine's elastic subproblems (called once, before
+        ``setup``, on the backend instance that solves them). Those QPs carry l1 slack
+        variables with only a tiny quadratic term, close to LPs; the default keeps the
+        settings."""
+
     def solve(
         self,
         P: FloatArray,

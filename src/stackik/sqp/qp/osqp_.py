@@ -39,6 +39,9 @@ DEFAULT_SETTINGS: dict[str, Any] = {
 }
 
 
+#: ADMM iteration cap of the elastic subproblems (:meth:`OSQPBackend.for_elastic`).
+ELASTIC_MAX_ITER = 2000
+
 _SOLVED = (
     osqp.SolverStatus.OSQP_SOLVED.value,
     # Accepted: the SQP ratio test guards against a poor step.
@@ -87,6 +90,14 @@ class OSQPBackend(QPBackend):
         super().__init__(options)
         self.settings = {**DEFAULT_SETTINGS, **self.options}
         self._solver: Any = None
+
+    def for_elastic(self) -> None:
+        """ADMM converges slowly on the nearly linear elastic QPs (10000 iterations, ~30 ms
+        each on an n = 4 IK problem): cap them at ELASTIC_MAX_ITER and let polishing
+        decide, unless the user set ``max_iter``. Regular subproblems keep the full
+        budget (some, e.g. HS19's, need it)."""
+        if "max_iter" not in self.options:
+            self.settings["max_iter"] = min(int(self.settings["max_iter"]), ELASTIC_MAX_ITER)
 
     def setup(self, n: int, m_eq: int, m_ineq: int) -> None:
         super().setup(n, m_eq, m_ineq)
