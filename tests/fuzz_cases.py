@@ -313,7 +313,8 @@ def nit_bound(stack: sk.Stack, target: Any, kwargs: dict[str, Any], per_run: int
     planned starts, and up to FALLBACK_STARTS more when none passes the check. The
     interior-point path (``method="ip"``, or ``"auto"`` where it applies): its planned
     starts (structured ones plus the documented fold patterns, :func:`stackik.ik.fold_depth`)
-    and, for ``"auto"``, the SQP runs above when none passes.
+    and, for ``"auto"``, the bisection toward an unreachable target and the SQP runs
+    above when none passes.
     """
     from stackik.ik import _auto_method, fold_depth
 
@@ -351,7 +352,13 @@ def nit_bound(stack: sk.Stack, target: Any, kwargs: dict[str, Any], per_run: int
             ip_runs += 2 ** min(fold_depth(stack.n), stack.n)
     else:
         ip_runs = int(starts)
-    return per_run * (ip_runs + (sqp_runs() if method == "auto" else 0))
+    if method == "auto":
+        from stackik.ik import NEAREST_STEPS
+
+        # every start stalled: the bisection toward the target (two starts per step),
+        # then possibly the SQP runs
+        return per_run * (ip_runs + 2 * NEAREST_STEPS + sqp_runs())
+    return per_run * ip_runs
 
 
 def default_max_time(stack: sk.Stack) -> float:

@@ -222,7 +222,7 @@ def test_ip_unreachable_target_reports_infeasible():
     r = sk.solve_ik(STACK4, sk.PlanarTarget(100.0, 300.0, 2.5), max_time=5.0)
     assert not r.success
     assert r.status in (IKStatus.INFEASIBLE, IKStatus.MAX_ITER, IKStatus.FAILED)
-    assert r.max_violation > 0
+    assert r.max_violation > 0 or r.target_error > 0
 
 
 @pytest.mark.parametrize("n", [1, 2, 8, 16])

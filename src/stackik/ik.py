@@ -1297,6 +1297,75 @@ def _auto_method(
 _SHARED_OPTIONS = ("tol", "constr_tol", "max_iter", "max_time")
 
 
+def _planar_target(y: FloatArray, phi: float) -> PlanarTarget:
+    return PlanarTarget(float(y[0]), float(y[1]), float(y[2]), phi)
+
+
+#: Bisection steps of :func:`_nearest_reachable` (the segment is halved each time).
+NEAREST_STEPS = 24
+#: Beyond this fraction of the segment the target may still be reachable: the SQP engine
+#: decides (starting from the pose reached).
+NEAREST_MAX_T = 0.999
+NEAREST_MESSAGE = (
+    "No feasible pose found: the target looks unreachable (every interior-point start "
+    "stalled); q respects every limit and reaches the point y0 + t (y_target - y0) for "
+    "the largest t a bisection from the upright pose y0 found; target_error is what is "
+    "left [mm]."
+)
+
+
+def _nearest_reachable(
+    stack: Stack,
+    target: PlanarTarget,
+    objective: str,
+    weights: tuple[FloatArray, FloatArray] | None,
+    options: dict[str, Any],
+    deadline: float,
+) -> tuple[_Run | None, float, int, int]:
+    """A pose within every limit that gets as near ``target`` as the segment allows.
+
+    For a target the interior point cannot reach from any start: bisection on ``t`` in
+    ``[0, 1]`` over the planar targets ``y(t) = y0 + t (y_target - y0)`` (same phi), from
+    the upright pose at nominal height (``y0``, checked feasible) toward the target. Each
+    step runs the interior point from the last reached pose and from the paper's guess of
+    ``y(t)``; a step succeeds when its pose passes the independent check for ``y(t)``.
+    Returns the last reached pose as a :class:`_Run` checked against ``target`` itself
+    (so its violation is the remaining target error), the ``t`` it reaches, the
+    iterations and the solves used; ``None`` when the upright pose is not feasible. The
+    reachable set need not be convex along the segment: this is a nearby pose within
+    limits, not the nearest one.
+    """
+    from stackik._check import planar_check
+
+    n = stack.n
+    q_lo = np.column_stack([np.zeros(n), _nominal_height(stack), np.zeros(n)])
+    y0 = planar_forward(q_lo)
+    y1 = target.y
+    chk, P, R, legs = planar_check(stack, _planar_target(y0, target.phi), q_lo)
+    if not chk.ok:
+        return None, 0.0, 0, 0
+    t_lo, t_hi = 0.0, 1.0
+    nit = solves = 0
+    for _ in range(NEAREST_STEPS):
+        left = deadline - time.perf_counter()
+        if left <= 0:
+            break
+        t = 0.5 * (t_lo + t_hi)
+        tgt = _planar_target(y0 + t * (y1 - y0), target.phi)
+        prob = _Problem(stack, tgt, objective, weights)
+        starts = [q_lo, paper_initial_guess(stack, tgt)]
+        run, _, it, _ = _ip_starts(prob, starts, options, left)
+        nit += it
+        solves += len(starts)
+        if run is not None:
+            t_lo, q_lo = t, run.q
+        else:
+            t_hi = t
+    chk, P, R, legs = planar_check(stack, target, q_lo)
+    obj = _Problem(stack, target, objective, weights).objective_value(q_lo)
+    return _Run(q_lo, nit, "nearest", chk, obj, lifted=(P, R, legs)), t_lo, nit, solves
+
+
 def _ip_starts(
     prob: _Problem, starts: list[FloatArray], options: dict[str, Any], max_time: float
 ) -> tuple[_Run | None, _Run | None, int, list[str]]:
@@ -1381,8 +1450,11 @@ def solve_ik(
         :mod:`stackik._ipm`); ``"sqp"``: stackik's SQP engine (:mod:`stackik.sqp`, any QP
         backend, planar and spatial); ``"auto"`` (default) picks ``"ip"`` for planar
         targets with the ``"frobenius"`` objective (or ``"weighted"`` with one
-        ``sigma_theta``) and ``"sqp"`` otherwise (see :func:`_auto_method`). When no
-        interior-point start passes the check, the SQP engine takes over (it reports
+        ``sigma_theta``) and ``"sqp"`` otherwise (see :func:`_auto_method`). When every
+        interior-point start stalls far from feasibility (an unreachable target), the
+        result is "infeasible" with a pose within every limit part of the way to the
+        target (bisection from the upright pose; ``target_error`` is what is left); when
+        no start passes the check otherwise, the SQP engine takes over (it reports
         infeasibility and the least-violation pose); the result's ``method`` says which
         produced the pose. ``"slsqp"``/``"trust-constr"``: scipy baselines given the same
         scaled derivatives; ``"ipopt"``: IPOPT through CasADi (planar only; optional extra
@@ -1562,7 +1634,9 @@ def _solve_ik(
         _ip_options(opts)
     qp_name = qp_solver or ("default" if method == "sqp" else "-")
 
-    def finish(run: _Run | None, status: IKStatus, nit: int, n_starts: int) -> IKResult:
+    def finish(
+        run: _Run | None, status: IKStatus, nit: int, n_starts: int, message: str = ""
+    ) -> IKResult:
         q = q0 if run is None else run.q
         chk = check_pose(stack, target, q) if run is None else run.check
         if run is not None and run.lifted is not None:
@@ -1581,7 +1655,7 @@ def _solve_ik(
             q=q,
             success=status is IKStatus.SUCCESS,
             status=status,
-            message=_MESSAGES[status],
+            message=message or _MESSAGES[status],
             frobenius_norm=math.sqrt(run.obj)
             if run is not None and objective == "frobenius"
             else _frobenius(q, planar),
@@ -1636,6 +1710,25 @@ def _solve_ik(
             else:
                 ip_status = IKStatus.FAILED
             return finish(ip_least, ip_status, nit_ip, len(qs_all))
+        stalled = all(s in ("stalled", "skipped") for s in ip_statuses)
+        if stalled:
+            # Every interior-point start stalled far from feasibility: the target is
+            # almost certainly unreachable. Report the pose within every limit nearest
+            # the target along the segment from the upright pose (a bisection of
+            # interior-point solves, milliseconds); when that cannot run, the structured
+            # starts go to the SQP engine below, one at a time until it certifies local
+            # infeasibility (its least-violation pose), without screening or fallbacks.
+            assert isinstance(target, PlanarTarget)
+            near, t_near, nit_near, n_near = _nearest_reachable(
+                stack, target, objective, weights, opts, t_start + max_time
+            )
+            if near is not None and t_near <= NEAREST_MAX_T:
+                n_tried = len(qs_all) + n_near
+                return finish(
+                    near, IKStatus.INFEASIBLE, nit_ip + nit_near, n_tried, NEAREST_MESSAGE
+                )
+            if near is not None:  # nearly there: the SQP engine starts from that pose
+                queue.insert(0, near.q)
         # method="auto": no start passed, the SQP engine decides (it reports the least
         # violation and infeasibility), with the limits the user gave
         method = "sqp"
@@ -1644,12 +1737,7 @@ def _solve_ik(
         nit_total = nit_ip
         tried_ip = len(qs_all)
         least = ip_least
-        if all(s in ("stalled", "skipped") for s in ip_statuses):
-            # Every interior-point start stalled far from feasibility (the target is
-            # almost certainly unreachable): the structured starts run one at a time
-            # until the SQP engine certifies local infeasibility, which gives the
-            # least-violation pose, without the screening and fallback starts.
-            quick_verdict = True
+        quick_verdict = stalled
     else:
         tried_ip = 0
     screened: list[_Run] = []
