@@ -48,10 +48,6 @@ from stackik.kinematics import (
     spatial_chain,
     spatial_forward,
 )
-from stackik.platform import (
-    constraints_from_legs,
-    spatial_legs,
-)
 from stackik.rotations import euler_zyx, rodrigues
 
 __all__ = [
@@ -869,23 +865,23 @@ class _Problem:
             Jeq = Jy * self.es[:, None] * self.xs
             cin, Jin = self.fast(q)  # scaled (set_scaling in __init__)
         else:
+            from stackik._spatial import spatial_parts
+
             tgs = self.target
             assert isinstance(tgs, SpatialTarget)
-            ch = spatial_ch = spatial_chain(q)
-            Pee, Ree = ch.O[-1], ch.A[-1]
+            # compiled: the values of spatial_chain, spatial_legs, constraints_from_legs
+            # and residuals (tested equal)
+            Pee, Ree, Jp, w_ax, c, Jc, r_sp, Jr_sp = spatial_parts(
+                q, st.top_nodes, st.base_nodes, st.leg_min, st.leg_max, st.sin_joint_min
+            )
+            spatial_ch = (r_sp * self.rw, Jr_sp * self.rw[:, None])
             E = tgs.rotation.T @ Ree
             phi_v = _so3_log_fast(E)
-            Jp = ch.J[:3]
             # dphi = Jr^{-1}(phi) v with v = R_ee^T w (body-frame axis)
-            v = Ree.T @ ch.w.T  # (3, N)
+            v = Ree.T @ w_ax.T  # (3, N)
             Jphi = _so3_right_jac_inv(phi_v) @ v
             ceq = np.concatenate([Pee - tgs.position, phi_v]) * self.es
             Jeq = np.vstack([Jp, Jphi]) * self.es[:, None] * self.xs
-            l, Rn, dl, dRn = spatial_legs(st, q, derivatives=True)
-            c, Jc = constraints_from_legs(
-                l, Rn, st.leg_min, st.leg_max, st.sin_joint_min, dl=dl, dRn=dRn
-            )
-            assert Jc is not None
             cin = c.ravel() * self.cs
             Jin = np.zeros((n, 24, n, k))
             idx = np.arange(n)
@@ -901,7 +897,7 @@ class _Problem:
                 self._gn_cache = (u.copy(), r, Jr)
             else:
                 sc = 1.0 / math.sqrt(self.fscale)
-                r, Jr = self.residuals(q, spatial_ch)
+                r, Jr = spatial_ch
                 r, Jr = r * sc, Jr * self.xs * sc
                 self._gn_cache = (u.copy(), r, Jr)
             f = float(r @ r) + self.c0 / self.fscale
