@@ -327,7 +327,11 @@ def nit_bound(stack: sk.Stack, target: Any, kwargs: dict[str, Any], per_run: int
 
     def sqp_runs() -> int:
         runs = 0
-        if starts is None:
+        if starts is None and structured and not planar:
+            from stackik.ik import SPATIAL_STARTS
+
+            runs += SPATIAL_STARTS
+        elif starts is None:
             runs += screened + 1 if structured else 1
         else:
             runs += int(starts)

@@ -344,11 +344,18 @@ def run_benchmark(
         (stack, sp_targets, Method(DEFAULT, {}), "spatial", 0),
         (stack, sp_targets, Method(SLSQP, {"method": "slsqp", "starts": 1}), "spatial", 0),
         (stack, sp_targets, Method("sqp, 1 start", {"method": "sqp", "starts": 1}), "spatial", 0),
+        (
+            stack,
+            sp_targets,
+            Method("sqp, 5 structured starts", {"method": "sqp", "starts": 5}),
+            "spatial",
+            0,
+        ),
         # a stronger reference for "within 0.1 %" (IPOPT is planar only here)
         (
             stack,
             sp_targets,
-            Method("sqp, 12 starts", {"method": "sqp", "starts": 12, "rng": 0}),
+            Method("sqp, 24 starts", {"method": "sqp", "starts": 24, "rng": 1}),
             "spatial",
             0,
         ),
