@@ -1192,11 +1192,15 @@ def fold_depth(n: int) -> int:
     """Platforms whose sideways folds the default interior-point starts enumerate.
 
     0 for n <= 4 (the two folded starts of :func:`_initial_starts` suffice), 3 at n = 5,
-    4 from n = 6 and 5 from n = 16 on: ``2**depth`` extra starts. Chosen on random
-    geometries against IPOPT from eight starts (README, benchmark "other geometries").
+    4 for n = 6-15, 5 for n = 16-31 and 3 again from n = 32: ``2**depth`` extra starts.
+    Chosen on random geometries against IPOPT from eight starts and many random starts
+    (README, ``benchmarks/bench_quality.py``); from n = 32 on, 4, 5 and 6 found nothing
+    better than 3 (12 targets at n = 32, 6 at n = 64, three geometries) at 1.6-5x the time.
     """
     if n <= 4:
         return 0
+    if n >= 32:  # each start costs more there, and more patterns found nothing better
+        return 3
     return 3 + (n >= 6) + (n >= 16)
 
 
