@@ -1691,7 +1691,7 @@ def _solve_ik(
     status_out = IKStatus.SUCCESS
     nit_total = 0
     queue = _initial_starts(stack, target, q0, structured=x0 is None and start == "paper")
-    if starts is None and not planar and x0 is None and start == "paper":
+    if starts is None and not planar and n >= 2 and x0 is None and start == "paper":
         # spatial: the five structured starts and seven random ones, each solved in full
         # (benchmark: within 0.1 % of the best FN found on 30 of 30 targets, vs 28 from
         # the structured five alone, at twice their time)
