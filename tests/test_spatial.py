@@ -76,3 +76,16 @@ def test_spatial_solve_uses_the_compiled_parts_and_checks():
     P, R = sk.spatial_forward(q)
     r = sk.solve_ik(st, sk.SpatialTarget(P, R))
     assert r.success and sk.check_pose(st, sk.SpatialTarget(P, R), r.q).ok
+
+
+def test_block_jacobian_matches_dense_assembly():
+    from stackik._spatial import block_jacobian
+
+    rng = np.random.default_rng(5)
+    n = 3
+    Jc = rng.normal(size=(n, 24, 6))
+    cs, xs = rng.random(24 * n) + 0.5, rng.random(6 * n) + 0.5
+    dense = np.zeros((n, 24, n, 6))
+    dense[np.arange(n), :, np.arange(n), :] = Jc
+    expected = dense.reshape(24 * n, 6 * n) * cs[:, None] * xs
+    np.testing.assert_allclose(block_jacobian(Jc, cs, xs), expected, rtol=1e-15)

@@ -173,3 +173,18 @@ def spatial_parts(
                 Jr[3 * m + 1, b] = w2 * j0 - w0 * j2
                 Jr[3 * m + 2, b] = w0 * j1 - w1 * j0
     return Pee, Ree, Jp, w, c, Jc, r, Jr
+
+
+@_jit
+def block_jacobian(Jc: FloatArray, cs: FloatArray, xs: FloatArray) -> FloatArray:
+    """The dense limit Jacobian (24n, 6n) from its diagonal blocks ``Jc`` (n, 24, 6), rows
+    scaled by ``cs`` (24n,) and columns by ``xs`` (6n,)."""
+    n = Jc.shape[0]
+    out = np.zeros((24 * n, 6 * n))
+    for i in range(n):
+        for r_ in range(24):
+            row = 24 * i + r_
+            for j in range(6):
+                col = 6 * i + j
+                out[row, col] = Jc[i, r_, j] * cs[row] * xs[col]
+    return out

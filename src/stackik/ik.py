@@ -865,7 +865,7 @@ class _Problem:
             Jeq = Jy * self.es[:, None] * self.xs
             cin, Jin = self.fast(q)  # scaled (set_scaling in __init__)
         else:
-            from stackik._spatial import spatial_parts
+            from stackik._spatial import block_jacobian, spatial_parts
 
             tgs = self.target
             assert isinstance(tgs, SpatialTarget)
@@ -883,10 +883,7 @@ class _Problem:
             ceq = np.concatenate([Pee - tgs.position, phi_v]) * self.es
             Jeq = np.vstack([Jp, Jphi]) * self.es[:, None] * self.xs
             cin = c.ravel() * self.cs
-            Jin = np.zeros((n, 24, n, k))
-            idx = np.arange(n)
-            Jin[idx, :, idx, :] = Jc
-            Jin = Jin.reshape(24 * n, n * k) * self.cs[:, None] * self.xs
+            Jin = block_jacobian(Jc, self.cs, self.xs)
         if self.objective == "feasible":
             f, g = 0.0, np.zeros(n * k)
         else:
