@@ -112,7 +112,7 @@ def test_unreachable_within_reach_bound_gets_a_quick_verdict(target):
     t = sk.PlanarTarget(*target, phi=0.4)
     r = sk.solve_ik(STACK4, t)
     assert r.status is IKStatus.INFEASIBLE and not r.success and r.method == "ip"
-    assert r.max_violation <= 1e-6 and r.target_error > 1.0
+    assert r.max_violation <= 1e-3 and r.target_error > 1.0  # raw: mm^2 for legs
     y = sk.planar_forward(r.q)
     assert check_pose(STACK4, sk.PlanarTarget(*y, phi=0.4), r.q).ok  # within every limit
     from stackik.ik import _nominal_height
