@@ -248,6 +248,15 @@ def test_spatial_default_tries_the_folded_starts():
     assert check_pose(STACK4, t, r.q).ok
 
 
+def test_spatial_unreachable_stops_after_three_far_off_starts():
+    from scipy.spatial.transform import Rotation
+
+    t = sk.SpatialTarget([1500.0, 0.0, 200.0], Rotation.from_rotvec([0.5, -0.6, 0.4]).as_matrix())
+    r = sk.solve_ik(STACK4, t)
+    assert r.status is IKStatus.INFEASIBLE and not r.success
+    assert r.n_starts == 3 and r.max_violation > 1.0
+
+
 def test_so3_log_fast_matches_scipy():
     from scipy.spatial.transform import Rotation
 
