@@ -353,7 +353,9 @@ def nit_bound(stack: sk.Stack, target: Any, kwargs: dict[str, Any], per_run: int
     if starts is None:
         ip_runs = SCREENED_STARTS if structured else 1
         if structured:
-            ip_runs += 2 ** min(fold_depth(stack.n), stack.n)
+            from stackik.ik import tall_random_starts
+
+            ip_runs += 2 ** min(fold_depth(stack.n), stack.n) + tall_random_starts(stack.n)
     else:
         ip_runs = int(starts)
     if method == "auto":

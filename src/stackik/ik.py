@@ -1201,6 +1201,14 @@ def fold_depth(n: int) -> int:
     return 3 + (n >= 6) + (n >= 16)
 
 
+def tall_random_starts(n: int) -> int:
+    """Random perturbation starts the default interior-point run adds to the fold
+    patterns: 5 from n = 32 (``rng``; fixed seed by default), none below. On 12 targets
+    at n = 64 (three geometries) the fold patterns alone came within 0.1 % of the best
+    FN found on 11, with five random starts added on all 12 (about 0.35 s more)."""
+    return 5 if n >= 32 else 0
+
+
 def _fold_patterns(stack: Stack, q0: FloatArray, depth: int) -> list[FloatArray]:
     """Every pattern of sideways folds of the top ``depth`` platforms, as starts.
 
@@ -1705,6 +1713,7 @@ def _solve_ik(
         qs_all = queue[:n_planned]
         if starts is None and x0 is None and start == "paper":
             qs_all += _fold_patterns(stack, q0, fold_depth(n))
+            qs_all += [random_start() for _ in range(tall_random_starts(n))]
         while len(qs_all) < n_planned:
             qs_all.append(random_start())
         left = max(max_time - (time.perf_counter() - t_start), 1e-3)
