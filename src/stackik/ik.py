@@ -1353,8 +1353,7 @@ def _nearest_reachable(
     q_lo = np.column_stack([np.zeros(n), _nominal_height(stack), np.zeros(n)])
     y0 = planar_forward(q_lo)
     y1 = target.y
-    chk, P, R, legs = planar_check(stack, _planar_target(y0, target.phi), q_lo)
-    if not chk.ok:
+    if not planar_check(stack, _planar_target(y0, target.phi), q_lo)[0].ok:
         return None, 0.0, 0, 0
     t_lo, t_hi = 0.0, 1.0
     nit = solves = 0
