@@ -360,8 +360,11 @@ def run_benchmark(
             0,
         ),
     ]
-    # warm up imports and caches so the first timed solve is not penalised
+    # warm up imports and caches (and compile or load the numba kernels, planar and
+    # spatial) so the first timed solve is not penalised
     solve_ik(stack, targets[0])
+    if sp_targets:
+        solve_ik(stack, sp_targets[0])
     tasks: list[tuple[int, int]] = []
     for j, job in enumerate(jobs):
         n_t, limit = len(job[1]), job[2].max_targets
