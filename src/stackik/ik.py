@@ -1810,7 +1810,6 @@ def _solve_ik(
             # the first structured starts all ended far from feasibility: an unreachable
             # target (reachable spatial targets pass from the first start in the
             # benchmark and the soak); the other starts would only repeat that
-            fallback = 0
             break
         if tried == n_planned and best is None and fallback > 0:
             n_planned += fallback
