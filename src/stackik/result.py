@@ -1,0 +1,175 @@
+"""Results of a solve: statuses with their messages, :class:`IKResult`, option errors."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["STATUS_MESSAGES", "IKResult", "IKStatus", "OptionError"]
+
+FloatArray = NDArray[np.float64]
+
+
+class OptionError(ValueError):
+    """Solver options that the chosen method does not accept (a ``ValueError``)."""
+
+
+class IKStatus(Enum):
+    """Outcome of :func:`solve_ik`."""
+
+    SUCCESS = "success"
+    INFEASIBLE = "infeasible"
+    MAX_ITER = "max_iter"
+    MAX_TIME = "max_time"
+    FAILED = "failed"
+
+
+#: The message of each status (one table; a result may carry a more specific one).
+STATUS_MESSAGES = {
+    IKStatus.SUCCESS: "Target reached with every leg and joint limit respected (checked).",
+    IKStatus.INFEASIBLE: "No feasible pose found: the target looks unreachable; q is the "
+    "least-violation pose found.",
+    IKStatus.MAX_ITER: "Iteration limit reached before a checked feasible pose was found.",
+    IKStatus.MAX_TIME: "Time limit reached before a checked feasible pose was found.",
+    IKStatus.FAILED: "The solver stopped without a pose that passes the independent check.",
+}
+
+
+@dataclass(frozen=True)
+class IKResult:
+    """Result of :func:`solve_ik`.
+
+    Attributes
+    ----------
+    q : ndarray
+        Pose, (n, 3) rows ``[rho, z, theta]`` (planar) or (n, 6) rows
+        ``[x, y, z, yaw, pitch, roll]`` (spatial) [mm, rad].
+    success : bool
+        True only if the independent check passed (target error <= 1e-6 mm and 1e-8 rad,
+        every limit within 1e-6 mm).
+    status : IKStatus
+    message : str
+    frobenius_norm : float
+        FN of the end-effector Jacobian at ``q``.
+    objective : str
+        Objective name.
+    objective_value : float
+        Value of the objective at ``q`` (FN^2 for "frobenius", 0 for "feasible").
+    max_violation : float
+        Worst raw constraint violation (mm^2 for leg blocks, mm for joint blocks).
+    target_error : float
+        End-effector position error [mm].
+    angle_error : float
+        End-effector orientation error [rad].
+    nit : int
+        Solver iterations, summed over starts.
+    time : float
+        Wall time [s].
+    method, qp_solver : str
+    n_starts : int
+        Starts tried.
+    P, R : ndarray, shapes (n, 3) and (n, 3, 3)
+        Per-platform translation and rotation (top plate in bottom frame) for hardware.
+    leg_lengths : ndarray, shape (n, 6)
+        Actuator lengths [mm].
+    phi : float or None
+        Plane azimuth of a planar solve.
+    """
+
+    q: FloatArray
+    success: bool
+    status: IKStatus
+    message: str
+    frobenius_norm: float
+    objective: str
+    objective_value: float
+    max_violation: float
+    target_error: float
+    angle_error: float
+    nit: int
+    time: float
+    method: str
+    qp_solver: str
+    n_starts: int
+    P: FloatArray
+    R: FloatArray
+    leg_lengths: FloatArray
+    phi: float | None = None
+    mode: str = "planar"
+    info: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    def to_record(self) -> dict[str, Any]:
+        """Lossless JSON-ready form (floats round-trip exactly); see :meth:`from_record`."""
+        d = self.to_dict()
+        d.update(
+            {
+                "P": self.P.tolist(),
+                "R": self.R.tolist(),
+                "time": self.time,
+                "info": {k: v for k, v in self.info.items() if _jsonable(v)},
+            }
+        )
+        return d
+
+    @classmethod
+    def from_record(cls, d: dict[str, Any]) -> IKResult:
+        """Rebuild a result from :meth:`to_record` output."""
+        return cls(
+            q=np.array(d["q"], dtype=float),
+            success=bool(d["success"]),
+            status=IKStatus(d["status"]),
+            message=str(d["message"]),
+            frobenius_norm=float(d["frobenius_norm"]),
+            objective=str(d["objective"]),
+            objective_value=float(d["objective_value"]),
+            max_violation=float(d["max_violation"]),
+            target_error=float(d["target_error"]),
+            angle_error=float(d["angle_error"]),
+            nit=int(d["nit"]),
+            time=float(d["time"]),
+            method=str(d["method"]),
+            qp_solver=str(d["qp_solver"]),
+            n_starts=int(d["n_starts"]),
+            P=np.array(d["P"], dtype=float),
+            R=np.array(d["R"], dtype=float),
+            leg_lengths=np.array(d["leg_lengths"], dtype=float),
+            phi=None if d.get("phi") is None else float(d["phi"]),
+            mode=str(d.get("mode", "planar")),
+            info=dict(d.get("info", {})),
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary."""
+        return {
+            "success": self.success,
+            "status": self.status.value,
+            "message": self.message,
+            "mode": self.mode,
+            "q": self.q.tolist(),
+            "phi": self.phi,
+            "frobenius_norm": self.frobenius_norm,
+            "objective": self.objective,
+            "objective_value": self.objective_value,
+            "max_violation": self.max_violation,
+            "target_error": self.target_error,
+            "angle_error": self.angle_error,
+            "nit": self.nit,
+            "time_s": self.time,
+            "method": self.method,
+            "qp_solver": self.qp_solver,
+            "n_starts": self.n_starts,
+            "leg_lengths": self.leg_lengths.tolist(),
+        }
+
+
+def _jsonable(v: Any) -> bool:
+    try:
+        json.dumps(v)
+    except (TypeError, ValueError):
+        return False
+    return True
