@@ -23,13 +23,11 @@ of what the solver claims; ``success`` is True only when that check passes.
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from collections.abc import Iterable
 from concurrent.futures import Executor
-from dataclasses import dataclass, field
-from enum import Enum
+from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
 from typing import Any, Literal
@@ -37,7 +35,14 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from stackik.geometry import Stack, finite_number
+from stackik.check import (
+    FEAS_TOL,
+    TARGET_ANGLE_TOL,
+    TARGET_POS_TOL,
+    PoseCheck,
+    check_pose,
+)
+from stackik.geometry import Stack
 from stackik.kinematics import (
     _J2,
     _planar_parts,
@@ -46,9 +51,16 @@ from stackik.kinematics import (
     planar_forward,
     planar_jacobian,
     spatial_chain,
-    spatial_forward,
 )
-from stackik.rotations import euler_zyx, rodrigues
+from stackik.result import STATUS_MESSAGES as _MESSAGES
+from stackik.result import IKResult, IKStatus, OptionError
+from stackik.rotations import euler_zyx
+from stackik.targets import (
+    PlanarTarget,
+    SpatialTarget,
+    Target,
+    target_to_dict,
+)
 
 __all__ = [
     "FEAS_TOL",
@@ -68,295 +80,11 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-TARGET_POS_TOL = 1e-6  # [mm] largest accepted end-effector position error
-TARGET_ANGLE_TOL = 1e-8  # [rad] largest accepted end-effector orientation error
-FEAS_TOL = 1e-6  # [mm] accepted violation of a limit, as a length (see check_pose)
-
 OBJECTIVES = ("frobenius", "feasible", "weighted")
 # Loose SQP settings used to rank the default structured starts before refining the best.
 SCREEN_OPTIONS = {"tol": 1e-4, "constr_tol": 1e-7}
 SCREEN_FEAS_MM = 1e-3  # [mm] screened runs farther from feasibility rank last
 METHODS = ("auto", "sqp", "ip", "slsqp", "trust-constr", "ipopt")
-
-
-# =========================================================================================
-# Targets
-# =========================================================================================
-def _finite(value: Any, name: str) -> float:
-    """A finite float, or a ``ValueError`` naming ``name``."""
-    return finite_number(value, name, ValueError)
-
-
-@dataclass(frozen=True)
-class PlanarTarget:
-    """End-effector target of planar mode (DESIGN §3).
-
-    Parameters
-    ----------
-    rho, z : float
-        End-effector position in cylindrical coordinates [mm]; ``rho`` may be negative.
-    theta : float
-        End-effector rotation about ``s(phi) = (sin phi, -cos phi, 0)`` [rad].
-    phi : float
-        Azimuth of the working plane [rad].
-    """
-
-    rho: float
-    z: float
-    theta: float
-    phi: float = 0.0
-
-    def __post_init__(self) -> None:
-        for name in ("rho", "z", "theta", "phi"):
-            object.__setattr__(self, name, _finite(getattr(self, name), name))
-
-    @property
-    def y(self) -> FloatArray:
-        """``(rho, z, theta)``, the planar output vector."""
-        return np.array([self.rho, self.z, self.theta])
-
-    def to_spatial(self) -> SpatialTarget:
-        """The same target as a :class:`SpatialTarget`."""
-        from stackik.rotations import plane_axis
-
-        P = np.array([self.rho * math.cos(self.phi), self.rho * math.sin(self.phi), self.z])
-        return SpatialTarget(P, rodrigues(plane_axis(self.phi), self.theta))
-
-
-@dataclass(frozen=True, eq=False)
-class SpatialTarget:
-    """End-effector target of spatial mode.
-
-    Parameters
-    ----------
-    position : array_like, shape (3,)
-        ``P_ee`` in the base frame [mm].
-    rotation : array_like, shape (3, 3)
-        ``R_ee``, a rotation matrix (orthonormal to 1e-6, det +1).
-    """
-
-    position: FloatArray
-    rotation: FloatArray
-
-    def __post_init__(self) -> None:
-        try:
-            P = np.array(self.position, dtype=float)
-            R = np.array(self.rotation, dtype=float)
-        except (TypeError, ValueError):
-            raise ValueError("position/rotation: expected arrays of numbers") from None
-        if P.shape != (3,) or not np.all(np.isfinite(P)):
-            raise ValueError(f"position: expected 3 finite values, got shape {P.shape}")
-        if R.shape != (3, 3) or not np.all(np.isfinite(R)):
-            raise ValueError(f"rotation: expected a finite (3, 3) matrix, got shape {R.shape}")
-        if np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0:
-            raise ValueError("rotation: not a rotation matrix (R^T R != I or det < 0)")
-        P.setflags(write=False)
-        R.setflags(write=False)
-        object.__setattr__(self, "position", P)
-        object.__setattr__(self, "rotation", R)
-
-
-Target = PlanarTarget | SpatialTarget
-
-
-# =========================================================================================
-# Results
-# =========================================================================================
-class OptionError(ValueError):
-    """Solver options that the chosen method does not accept (a ``ValueError``)."""
-
-
-class IKStatus(Enum):
-    """Outcome of :func:`solve_ik`."""
-
-    SUCCESS = "success"
-    INFEASIBLE = "infeasible"
-    MAX_ITER = "max_iter"
-    MAX_TIME = "max_time"
-    FAILED = "failed"
-
-
-_MESSAGES = {
-    IKStatus.SUCCESS: "Target reached with every leg and joint limit respected (checked).",
-    IKStatus.INFEASIBLE: "No feasible pose found: the target looks unreachable; q is the "
-    "least-violation pose found.",
-    IKStatus.MAX_ITER: "Iteration limit reached before a checked feasible pose was found.",
-    IKStatus.MAX_TIME: "Time limit reached before a checked feasible pose was found.",
-    IKStatus.FAILED: "The solver stopped without a pose that passes the independent check.",
-}
-
-
-@dataclass(frozen=True)
-class PoseCheck:
-    """Independent check of a pose against a target (see :func:`check_pose`).
-
-    Attributes
-    ----------
-    ok : bool
-        True iff every error is within tolerance.
-    position_error : float
-        ``|P_ee - P_target|`` [mm].
-    angle_error : float
-        Orientation error [rad] (planar: ``|theta_ee - theta|``; spatial: rotation angle).
-    max_violation : float
-        Worst raw violation ``max(0, -c)`` over all 24n constraints (mm^2 or mm).
-    max_violation_mm : float
-        The same as a length [mm]: leg-length blocks converted by ``|l| - limit``.
-    constraints : ndarray, shape (n, 24)
-        Raw constraint values.
-    """
-
-    ok: bool
-    position_error: float
-    angle_error: float
-    max_violation: float
-    max_violation_mm: float
-    constraints: FloatArray
-
-
-@dataclass(frozen=True)
-class IKResult:
-    """Result of :func:`solve_ik`.
-
-    Attributes
-    ----------
-    q : ndarray
-        Pose, (n, 3) rows ``[rho, z, theta]`` (planar) or (n, 6) rows
-        ``[x, y, z, yaw, pitch, roll]`` (spatial) [mm, rad].
-    success : bool
-        True only if the independent check passed (target error <= 1e-6 mm and 1e-8 rad,
-        every limit within 1e-6 mm).
-    status : IKStatus
-    message : str
-    frobenius_norm : float
-        FN of the end-effector Jacobian at ``q``.
-    objective : str
-        Objective name.
-    objective_value : float
-        Value of the objective at ``q`` (FN^2 for "frobenius", 0 for "feasible").
-    max_violation : float
-        Worst raw constraint violation (mm^2 for leg blocks, mm for joint blocks).
-    target_error : float
-        End-effector position error [mm].
-    angle_error : float
-        End-effector orientation error [rad].
-    nit : int
-        Solver iterations, summed over starts.
-    time : float
-        Wall time [s].
-    method, qp_solver : str
-    n_starts : int
-        Starts tried.
-    P, R : ndarray, shapes (n, 3) and (n, 3, 3)
-        Per-platform translation and rotation (top plate in bottom frame) for hardware.
-    leg_lengths : ndarray, shape (n, 6)
-        Actuator lengths [mm].
-    phi : float or None
-        Plane azimuth of a planar solve.
-    """
-
-    q: FloatArray
-    success: bool
-    status: IKStatus
-    message: str
-    frobenius_norm: float
-    objective: str
-    objective_value: float
-    max_violation: float
-    target_error: float
-    angle_error: float
-    nit: int
-    time: float
-    method: str
-    qp_solver: str
-    n_starts: int
-    P: FloatArray
-    R: FloatArray
-    leg_lengths: FloatArray
-    phi: float | None = None
-    mode: str = "planar"
-    info: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
-
-    def to_record(self) -> dict[str, Any]:
-        """Lossless JSON-ready form (floats round-trip exactly); see :meth:`from_record`."""
-        d = self.to_dict()
-        d.update(
-            {
-                "P": self.P.tolist(),
-                "R": self.R.tolist(),
-                "time": self.time,
-                "info": {k: v for k, v in self.info.items() if _jsonable(v)},
-            }
-        )
-        return d
-
-    @classmethod
-    def from_record(cls, d: dict[str, Any]) -> IKResult:
-        """Rebuild a result from :meth:`to_record` output."""
-        return cls(
-            q=np.array(d["q"], dtype=float),
-            success=bool(d["success"]),
-            status=IKStatus(d["status"]),
-            message=str(d["message"]),
-            frobenius_norm=float(d["frobenius_norm"]),
-            objective=str(d["objective"]),
-            objective_value=float(d["objective_value"]),
-            max_violation=float(d["max_violation"]),
-            target_error=float(d["target_error"]),
-            angle_error=float(d["angle_error"]),
-            nit=int(d["nit"]),
-            time=float(d["time"]),
-            method=str(d["method"]),
-            qp_solver=str(d["qp_solver"]),
-            n_starts=int(d["n_starts"]),
-            P=np.array(d["P"], dtype=float),
-            R=np.array(d["R"], dtype=float),
-            leg_lengths=np.array(d["leg_lengths"], dtype=float),
-            phi=None if d.get("phi") is None else float(d["phi"]),
-            mode=str(d.get("mode", "planar")),
-            info=dict(d.get("info", {})),
-        )
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary."""
-        return {
-            "success": self.success,
-            "status": self.status.value,
-            "message": self.message,
-            "mode": self.mode,
-            "q": self.q.tolist(),
-            "phi": self.phi,
-            "frobenius_norm": self.frobenius_norm,
-            "objective": self.objective,
-            "objective_value": self.objective_value,
-            "max_violation": self.max_violation,
-            "target_error": self.target_error,
-            "angle_error": self.angle_error,
-            "nit": self.nit,
-            "time_s": self.time,
-            "method": self.method,
-            "qp_solver": self.qp_solver,
-            "n_starts": self.n_starts,
-            "leg_lengths": self.leg_lengths.tolist(),
-        }
-
-
-def _jsonable(v: Any) -> bool:
-    try:
-        json.dumps(v)
-    except (TypeError, ValueError):
-        return False
-    return True
-
-
-# =========================================================================================
-# Independent check
-# =========================================================================================
-def _so3_log(R: FloatArray) -> FloatArray:
-    """Rotation vector of R (angle in [0, pi])."""
-    from scipy.spatial.transform import Rotation
-
-    return Rotation.from_matrix(R).as_rotvec()  # type: ignore[no-any-return]
 
 
 def _so3_log_fast(R: FloatArray) -> FloatArray:
@@ -389,41 +117,6 @@ def _so3_log_fast(R: FloatArray) -> FloatArray:
         scale = angle / s
     return v * scale
 
-
-def check_pose(stack: Stack, target: Target, q: ArrayLike) -> PoseCheck:
-    """Check a pose against a target and every limit, independently of any solver.
-
-    Uses only :func:`stackik.planar_forward` / :func:`stackik.spatial_forward` and
-    :meth:`Stack.planar_constraints` / :meth:`Stack.spatial_constraints`. Tolerances:
-    ``TARGET_POS_TOL`` = 1e-6 mm, ``TARGET_ANGLE_TOL`` = 1e-8 rad, ``FEAS_TOL`` = 1e-6 mm
-    (leg-length blocks are compared as lengths: ``|l| >= leg_min - FEAS_TOL``).
-    """
-    qa = np.asarray(q, dtype=float)
-    if isinstance(target, PlanarTarget):
-        y = planar_forward(qa)
-        pos_err = float(np.hypot(y[0] - target.rho, y[1] - target.z))
-        ang_err = float(abs(y[2] - target.theta))
-        c = stack.planar_constraints(qa, target.phi)
-    else:
-        P, R = spatial_forward(qa)
-        pos_err = float(np.linalg.norm(P - target.position))
-        ang_err = float(np.linalg.norm(_so3_log(target.rotation.T @ R)))
-        c = stack.spatial_constraints(qa)
-    viol = np.maximum(-c, 0.0)
-    max_v = float(viol.max())
-    # as lengths: |l|^2 - lmin^2 = -v  ->  lmin - |l| = lmin - sqrt(lmin^2 - v)
-    lmin = stack.leg_min[:, None]
-    lmax = stack.leg_max[:, None]
-    v_min = lmin - np.sqrt(np.maximum(lmin**2 - viol[:, 0:6], 0.0))
-    v_max = np.sqrt(lmax**2 + viol[:, 6:12]) - lmax
-    v_mm = float(max(v_min.max(), v_max.max(), viol[:, 12:].max()))
-    ok = (
-        pos_err <= TARGET_POS_TOL
-        and ang_err <= TARGET_ANGLE_TOL
-        and v_mm <= FEAS_TOL
-        and bool(np.all(np.isfinite(c)))
-    )
-    return PoseCheck(ok, pos_err, ang_err, max_v, v_mm, c)
 
 
 # =========================================================================================
@@ -1831,20 +1524,6 @@ def _solve_ik(
         else:
             status_out = IKStatus.FAILED
     return finish(least, status_out, nit_total, tried)
-
-
-def target_to_dict(target: Target) -> dict[str, Any]:
-    """Plain-data form of a target (for checkpoints and JSON)."""
-    if isinstance(target, PlanarTarget):
-        return {"rho": target.rho, "z": target.z, "theta": target.theta, "phi": target.phi}
-    return {"position": target.position.tolist(), "rotation": target.rotation.tolist()}
-
-
-def target_from_dict(data: dict[str, Any]) -> Target:
-    """Inverse of :func:`target_to_dict`."""
-    if "position" in data:
-        return SpatialTarget(data["position"], data["rotation"])
-    return PlanarTarget(data["rho"], data["z"], data["theta"], data.get("phi", 0.0))
 
 
 def solve_many(
