@@ -59,6 +59,7 @@ from stackik.targets import (
     PlanarTarget,
     SpatialTarget,
     Target,
+    target_from_dict,
     target_to_dict,
 )
 
@@ -76,6 +77,8 @@ __all__ = [
     "paper_initial_guess",
     "solve_ik",
     "solve_many",
+    "target_from_dict",
+    "target_to_dict",
 ]
 
 FloatArray = NDArray[np.float64]
