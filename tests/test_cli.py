@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import ast
 import json
 import math
@@ -15,8 +16,10 @@ import pytest
 import stackik
 import stackik.cli
 from stackik import Stack, planar_forward
-from stackik.cli import PAPER_TARGETS, main
+from stackik.cli import COMMANDS, build_parser, main
+from stackik.cli._common import METHOD_NAMES, call_entry
 from stackik.sqp.qp import available_qp_solvers
+from stackik.targets import PAPER_TARGETS
 
 TARGET = ["600", "1000", "-1.57"]
 
@@ -354,9 +357,7 @@ def test_reproduce_quick(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> 
 
 
 def test_missing_entry_point_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
-    from stackik.cli import _call_entry
-
-    rc = _call_entry("stackik.no_such_module", ("main",), [], "demo")
+    rc = call_entry("stackik.no_such_module", ("main",), [], "demo")
     _, err = capsys.readouterr()
     _assert_one_line_error(rc, err)
     assert "not available yet" in err
@@ -374,10 +375,28 @@ def test_paper_targets_constant() -> None:
 
 
 def test_cli_module_has_no_heavy_top_level_imports() -> None:
-    src = Path(stackik.cli.__file__).read_text()
+    # every module of the package; its own modules are imported relatively (``from . import``)
+    files = sorted(Path(stackik.cli.__file__).parent.glob("*.py"))
+    assert len(files) == len(COMMANDS) + 2  # __init__, _common and one per subcommand
     heavy = {"numpy", "scipy", "cvxpy", "tqdm", "matplotlib", "stackik"}
-    for node in ast.parse(src).body:
-        if isinstance(node, ast.Import):
-            assert not {a.name.split(".")[0] for a in node.names} & heavy
-        elif isinstance(node, ast.ImportFrom) and node.module:
-            assert node.module.split(".")[0] not in heavy - {"__future__"}
+    for path in files:
+        for node in ast.parse(path.read_text()).body:
+            if isinstance(node, ast.Import):
+                assert not {a.name.split(".")[0] for a in node.names} & heavy, path
+            elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+                assert node.module.split(".")[0] not in heavy - {"__future__"}, path
+
+
+def test_commands_follow_the_module_convention() -> None:
+    names = [m.NAME for m in COMMANDS]
+    assert names == ["solve", "mc", "map", "reproduce", "bench", "geometry"]
+    for m in COMMANDS:
+        assert isinstance(m.HELP, str) and m.HELP
+        assert callable(m.add_parser) and callable(m.run)
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    assert list(sub.choices) == names
+
+
+def test_method_choices_from_one_place(capsys: pytest.CaptureFixture[str]) -> None:
+    rc, out, _ = _run(capsys, "solve", "--help")
+    assert rc == 0 and "{" + ",".join(METHOD_NAMES) + "}" in out

@@ -7,6 +7,7 @@ Conventions are those of ``docs/conventions.md``: millimetres and radians; plana
 
 from typing import Any
 
+from stackik._version import __version__
 from stackik.convex import ConvexStartError, convex_start
 from stackik.geometry import GeometryError, PlatformGeometry, Stack
 from stackik.ik import (
@@ -35,8 +36,6 @@ from stackik.kinematics import (
     spatial_plate_origins,
 )
 from stackik.platform import leg_lengths, leg_vectors, platform_forward_kinematics
-
-__version__ = "0.1.0"
 
 __all__ = [
     "__version__",

@@ -1,0 +1,283 @@
+"""Shared pieces of the command line: exit codes, the parser class, argument helpers
+(stack, geometry, target and method options), output writing and lazy entry points.
+
+Nothing heavy is imported at module level: numpy, scipy and the solvers are imported
+inside the helpers, when a subcommand runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, NoReturn
+
+if TYPE_CHECKING:
+    from stackik.geometry import Stack
+    from stackik.targets import PlanarTarget
+
+__all__ = [
+    "DEFAULT_SEED",
+    "EXIT_INFEASIBLE",
+    "EXIT_OK",
+    "EXIT_USAGE",
+    "METHOD_NAMES",
+    "PROG",
+    "CLIError",
+    "NotAvailableError",
+    "Parser",
+    "add_method_args",
+    "add_phi_args",
+    "add_planar_target_args",
+    "add_stack_args",
+    "call_entry",
+    "draw_figures",
+    "dump_json",
+    "finite_float",
+    "json_default",
+    "load_stack",
+    "lookup",
+    "not_available",
+    "one_line",
+    "phi_of",
+    "planar_target",
+    "positive_int",
+    "progress",
+    "resolve_qp",
+]
+
+PROG = "stackik"
+EXIT_OK = 0
+EXIT_INFEASIBLE = 1
+EXIT_USAGE = 2
+#: Base seed of the analysis commands (same as ``stackik.analysis.reproduce.DEFAULT_SEED``,
+#: so ``stackik mc`` on a paper target repeats the numbers of ``stackik reproduce``).
+DEFAULT_SEED = 2024
+# TODO(registry): derive from the method registry (``stackik.solve.METHOD_NAMES``) once it
+# exists; importing it here must stay cheap (no numpy at ``stackik --help``).
+#: The ``--method`` choices, in the order ``--help`` lists them.
+METHOD_NAMES: tuple[str, ...] = ("auto", "ip", "sqp", "slsqp", "trust-constr", "ipopt")
+
+
+class CLIError(Exception):
+    """Bad input detected by the command line itself (reported as exit code 2)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """ArgumentParser that reports a usage error as one line: ``stackik: error: ...``.
+
+    Subparsers inherit the class, so every subcommand reports errors the same way.
+    """
+
+    def error(self, message: str) -> NoReturn:
+        sub = self.prog.removeprefix(PROG).strip()
+        hint = f" (see `{PROG} {sub + ' ' if sub else ''}--help`)"
+        self.exit(EXIT_USAGE, f"{PROG}: error: {message}{hint}\n")
+
+
+def one_line(exc: BaseException) -> str:
+    """The message of ``exc`` on one line (its type name if it has none)."""
+    text = str(exc).strip() or type(exc).__name__
+    return " ".join(text.split())
+
+
+# =========================================================================================
+# Argument types and option groups
+# =========================================================================================
+def finite_float(text: str) -> float:
+    """argparse type: a float (NaN/inf are accepted here and rejected with a clear message
+    by the target constructors, which name the offending field)."""
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {value}")
+    return value
+
+
+def add_stack_args(p: argparse.ArgumentParser, n_help: str = "number of platforms") -> None:
+    """``--n N`` and ``--geometry FILE`` (read back with :func:`load_stack`)."""
+    p.add_argument(
+        "--n",
+        type=int,
+        default=None,
+        metavar="N",
+        help=f"{n_help} (default 4, or the number in --geometry)",
+    )
+    p.add_argument(
+        "--geometry",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="stack geometry file (.toml or .json; default: the reference geometry, "
+        "r = 150 mm, legs 250-450 mm, joints >= 20 deg)",
+    )
+
+
+def load_stack(n: int | None, geometry: Path | None) -> Stack:
+    """The stack of ``--n`` / ``--geometry``: the file's, or the reference geometry."""
+    from stackik.geometry import Stack
+
+    if geometry is None:
+        if n is not None and n < 1:
+            raise CLIError(f"--n: the number of platforms must be >= 1, got {n}")
+        return Stack.reference(4 if n is None else n)
+    stack = Stack.from_file(geometry)
+    if n is not None and n != stack.n:
+        raise CLIError(f"--n {n} disagrees with {geometry} ({stack.n} platforms)")
+    return stack
+
+
+def add_phi_args(p: argparse.ArgumentParser) -> None:
+    """``--phi RAD`` or ``--phi-deg DEG`` (mutually exclusive; read with :func:`phi_of`)."""
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--phi", type=finite_float, default=None, help="plane azimuth [rad] (0)")
+    g.add_argument("--phi-deg", type=finite_float, default=None, help="plane azimuth [deg]")
+
+
+def add_planar_target_args(p: argparse.ArgumentParser, required: bool = True) -> None:
+    """``--target RHO Z THETA`` and the plane azimuth (read with :func:`planar_target`)."""
+    p.add_argument(
+        "--target",
+        nargs=3,
+        type=finite_float,
+        metavar=("RHO", "Z", "THETA"),
+        required=required,
+        help="end-effector target: rho [mm], z [mm], theta [rad] (rho may be negative)",
+    )
+    add_phi_args(p)
+
+
+def phi_of(args: argparse.Namespace) -> float:
+    """The plane azimuth [rad] of ``--phi`` / ``--phi-deg`` (default 0)."""
+    if args.phi_deg is not None:
+        return math.radians(args.phi_deg)
+    return 0.0 if args.phi is None else float(args.phi)
+
+
+def planar_target(args: argparse.Namespace) -> PlanarTarget:
+    """The :class:`~stackik.targets.PlanarTarget` of ``--target`` and ``--phi``."""
+    from stackik.targets import PlanarTarget
+
+    rho, z, theta = args.target
+    return PlanarTarget(rho, z, theta, phi_of(args))
+
+
+def add_method_args(p: argparse.ArgumentParser) -> None:
+    """``--method`` (choices :data:`METHOD_NAMES`) and ``--qp-solver``."""
+    p.add_argument(
+        "--method",
+        choices=METHOD_NAMES,
+        default="auto",
+        help="auto (default): stackik's compiled interior-point solver for planar targets, "
+        "its SQP engine otherwise; ip or sqp to choose; a scipy baseline; or IPOPT through "
+        "CasADi (planar; needs the [ipopt] extra)",
+    )
+    p.add_argument(
+        "--qp-solver",
+        default=None,
+        metavar="NAME",
+        help="QP backend of --method sqp (with auto: selects sqp): daqp (default when "
+        "installed), osqp, clarabel or any qpsolvers name",
+    )
+
+
+def resolve_qp(method: str, qp_solver: str | None) -> str | None:
+    """The QP backend to request (validated), or None (scipy, ip, or auto's own choice)."""
+    if method not in ("sqp", "auto"):
+        if qp_solver is not None:
+            raise CLIError(f"--qp-solver applies to --method sqp only (got --method {method})")
+        return None
+    from stackik.sqp.qp import default_qp_solver, make_backend
+
+    if qp_solver is None:
+        return None if method == "auto" else default_qp_solver()
+    make_backend(qp_solver)  # ValueError listing the available ones
+    return qp_solver
+
+
+# =========================================================================================
+# Output
+# =========================================================================================
+def progress(iterable: Any, total: int | None, desc: str, quiet: bool) -> Any:
+    """tqdm progress bar on stderr (shown only on a terminal and unless ``--quiet``)."""
+    from tqdm.auto import tqdm
+
+    return tqdm(iterable, total=total, desc=desc, disable=True if quiet else None, leave=False)
+
+
+def draw_figures(draw: Callable[[Any], Any]) -> bool:
+    """Draw figures with :mod:`stackik.analysis.figures`; False (with a note) without
+    matplotlib (the ``[plot]`` extra)."""
+    try:
+        from stackik.analysis import figures
+
+        draw(figures)
+    except ImportError as exc:
+        print(f"{PROG}: note: figures skipped ({exc}); install stackik[plot]", file=sys.stderr)
+        return False
+    return True
+
+
+def json_default(obj: Any) -> Any:
+    """``json.dumps(default=...)`` for numpy values and arrays (:mod:`stackik._io`)."""
+    from stackik._io import json_default as default
+
+    return default(obj)
+
+
+def dump_json(data: Any) -> None:
+    """Print ``data`` as indented JSON on stdout."""
+    print(json.dumps(data, indent=2, default=json_default, allow_nan=True))
+
+
+# =========================================================================================
+# Entry points provided by other modules (imported lazily)
+# =========================================================================================
+class NotAvailableError(Exception):
+    """The module or entry point a subcommand delegates to does not exist (yet)."""
+
+
+def lookup(module: str, names: Sequence[str]) -> Callable[..., Any]:
+    """First attribute of ``module`` among ``names``; NotAvailableError if none or no module."""
+    import importlib
+
+    try:
+        mod = importlib.import_module(module)
+    except ModuleNotFoundError as exc:
+        if exc.name is not None and (module == exc.name or module.startswith(exc.name + ".")):
+            raise NotAvailableError(f"{module} is not available yet") from None
+        raise
+    for name in names:
+        fn = getattr(mod, name, None)
+        if callable(fn):
+            return fn  # type: ignore[no-any-return]
+    raise NotAvailableError(f"{module} has no {' / '.join(names)} entry point yet")
+
+
+def not_available(what: str, exc: NotAvailableError) -> int:
+    """Report that ``stackik WHAT`` cannot run; returns the usage exit code."""
+    print(f"{PROG}: error: `{PROG} {what}` is not available yet ({exc})", file=sys.stderr)
+    return EXIT_USAGE
+
+
+def call_entry(module: str, names: Sequence[str], argv: list[str], what: str) -> int:
+    """Call ``module.<first of names>(argv)`` and return its exit code (None means 0)."""
+    try:
+        fn = lookup(module, names)
+    except NotAvailableError as exc:
+        return not_available(what, exc)
+    rc = fn(argv)
+    return int(rc) if rc is not None else EXIT_OK
