@@ -32,7 +32,9 @@ N, M_EQ, M_INEQ = 12, 3, 96
 def ik_problem() -> tuple[NonlinearProgram, np.ndarray, SQPOptions]:
     """The real IK problem (4-element reference stack, paper initial guess)."""
     import stackik as sk
-    from stackik.ik import PlanarTarget, _Problem, paper_initial_guess
+    from stackik.formulation import Problem as _Problem
+    from stackik.starts import paper_initial_guess
+    from stackik.targets import PlanarTarget
 
     st = sk.Stack.reference(4)
     target = PlanarTarget(600, 1000, -1.57, 0)

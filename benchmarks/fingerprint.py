@@ -87,7 +87,11 @@ def _cases() -> list[tuple[str, Any, Any, dict[str, Any]]]:
     sp = []
     while len(sp) < 3:
         q = np.column_stack(
-            [gen.uniform(-60, 60, (3, 2)), gen.uniform(260, 420, 3), gen.uniform(-0.25, 0.25, (3, 3))]
+            [
+                gen.uniform(-60, 60, (3, 2)),
+                gen.uniform(260, 420, 3),
+                gen.uniform(-0.25, 0.25, (3, 3)),
+            ]
         )
         if st3.spatial_constraints(q).min() >= 0:
             sp.append(SpatialTarget(*spatial_forward(q)))
@@ -96,9 +100,7 @@ def _cases() -> list[tuple[str, Any, Any, dict[str, Any]]]:
         out.append((f"spatial3/{i}/sqp1", st3, t, {"method": "sqp", "starts": 1}))
         if i == 0:
             out.append((f"spatial3/{i}/slsqp1", st3, t, {"method": "slsqp", "starts": 1}))
-    out.append(
-        ("spatial3/unreach", st3, SpatialTarget([2000.0, 0.0, 500.0], np.eye(3)), {})
-    )
+    out.append(("spatial3/unreach", st3, SpatialTarget([2000.0, 0.0, 500.0], np.eye(3)), {}))
     return out
 
 
@@ -139,8 +141,10 @@ def compare(a: Path, b: Path, rtol: float = 1e-9) -> int:
             why.append("q")
         if why:
             bad += 1
-            print(f"{key}: " + ", ".join(f"{w} ({x.get(w)} vs {y.get(w)})" if w in x else w
-                                         for w in why))
+            print(
+                f"{key}: "
+                + ", ".join(f"{w} ({x.get(w)} vs {y.get(w)})" if w in x else w for w in why)
+            )
     print(f"{len(A)} vs {len(B)} cases; {bad} differ")
     return 1 if bad else 0
 

@@ -46,8 +46,9 @@ import numpy as np
 
 import stackik as sk
 from stackik.analysis.workspace import random_feasible_poses
-from stackik.ik import IKStatus, PlanarTarget, SpatialTarget
+from stackik.result import IKStatus
 from stackik.sqp.qp import available_qp_solvers
+from stackik.targets import PlanarTarget, SpatialTarget
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import reference_impl as ref  # noqa: E402
@@ -312,11 +313,12 @@ def nit_bound(stack: sk.Stack, target: Any, kwargs: dict[str, Any], per_run: int
     SQP: the screened structured starts (n >= 2, no x0, default starts), the
     planned starts, and up to FALLBACK_STARTS more when none passes the check. The
     interior-point path (``method="ip"``, or ``"auto"`` where it applies): its planned
-    starts (structured ones plus the documented fold patterns, :func:`stackik.ik.fold_depth`)
+    starts (structured ones plus the documented fold patterns, :func:`stackik.starts.fold_depth`)
     and, for ``"auto"``, the bisection toward an unreachable target and the SQP runs
     above when none passes.
     """
-    from stackik.ik import _auto_method, fold_depth
+    from stackik.solve.policy import auto_method as _auto_method
+    from stackik.starts import fold_depth
 
     planar = isinstance(target, PlanarTarget)
     x0 = kwargs.get("x0")
@@ -328,7 +330,7 @@ def nit_bound(stack: sk.Stack, target: Any, kwargs: dict[str, Any], per_run: int
     def sqp_runs() -> int:
         runs = 0
         if starts is None and structured and not planar:
-            from stackik.ik import SPATIAL_STARTS
+            from stackik.starts import SPATIAL_STARTS
 
             runs += SPATIAL_STARTS
         elif starts is None:
@@ -353,13 +355,13 @@ def nit_bound(stack: sk.Stack, target: Any, kwargs: dict[str, Any], per_run: int
     if starts is None:
         ip_runs = SCREENED_STARTS if structured else 1
         if structured:
-            from stackik.ik import tall_random_starts
+            from stackik.starts import tall_random_starts
 
             ip_runs += 2 ** min(fold_depth(stack.n), stack.n) + tall_random_starts(stack.n)
     else:
         ip_runs = int(starts)
     if method == "auto":
-        from stackik.ik import NEAREST_STEPS
+        from stackik.solve.nearest import NEAREST_STEPS
 
         # every start stalled: the bisection toward the target (two starts per step),
         # then possibly the SQP runs

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import stackik as sk
-import stackik.ik as ik
+import stackik.solve.many as ik  # solve_many calls solve_ik through this module
 
 STACK = sk.Stack.reference(4)
 TARGETS = [
@@ -104,7 +104,7 @@ def test_killed_process_resumes(tmp_path):
         textwrap.dedent(
             f"""
             import stackik as sk, time
-            import stackik.ik as ik
+            import stackik.solve.many as ik
             real = ik.solve_ik
             def slow(*a, **k):
                 r = real(*a, **k)
@@ -172,6 +172,9 @@ def test_workspace_study_resumes_from_checkpoint(tmp_path, monkeypatch):
         raise AssertionError("a finished solve was repeated")
 
     monkeypatch.setattr(ik, "solve_ik", no_solving)
+    import stackik.solve
+
+    monkeypatch.setattr(stackik.solve, "solve_ik", no_solving)
     again = workspace_study(STACK, 4, checkpoint_dir=tmp_path, **kw)
     np.testing.assert_array_equal(first.fn_opt, again.fn_opt)
     np.testing.assert_array_equal(first.median_non, again.median_non)

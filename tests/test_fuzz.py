@@ -34,7 +34,8 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import stackik as sk
-from stackik.ik import IKStatus, PlanarTarget, SpatialTarget
+from stackik.result import IKStatus
+from stackik.targets import PlanarTarget, SpatialTarget
 
 pytestmark = pytest.mark.filterwarnings("ignore")
 

@@ -9,7 +9,10 @@ import numpy as np
 import pytest
 
 import stackik as sk
-from stackik.ik import IKStatus, _Problem, check_pose, paper_initial_guess
+from stackik.check import check_pose
+from stackik.formulation import Problem
+from stackik.result import IKStatus
+from stackik.starts import paper_initial_guess
 
 PAPER_TARGETS = [(600.0, 1000.0, -1.57), (145.0, 1500.0, -0.207), (-319.0, 1532.0, 0.332)]
 STACK4 = sk.Stack.reference(4)
@@ -115,9 +118,9 @@ def test_unreachable_within_reach_bound_gets_a_quick_verdict(target):
     assert r.max_violation <= 1e-3 and r.target_error > 1.0  # raw: mm^2 for legs
     y = sk.planar_forward(r.q)
     assert check_pose(STACK4, sk.PlanarTarget(*y, phi=0.4), r.q).ok  # within every limit
-    from stackik.ik import _nominal_height
+    from stackik.starts import nominal_height
 
-    y0 = sk.planar_forward(np.column_stack([np.zeros(4), _nominal_height(STACK4), np.zeros(4)]))
+    y0 = sk.planar_forward(np.column_stack([np.zeros(4), nominal_height(STACK4), np.zeros(4)]))
     d, e = y - y0, t.y - y0
     tt = float(d @ e / (e @ e))
     assert 0.0 < tt < 1.0 and np.allclose(d, tt * e, atol=1e-6 * np.abs(e).max())
@@ -126,9 +129,9 @@ def test_unreachable_within_reach_bound_gets_a_quick_verdict(target):
 def test_unreachable_near_the_end_of_the_segment_goes_to_sqp(monkeypatch):
     # when the bisection gets (almost) all the way, the SQP engine decides, starting from
     # the pose reached, and certifies local infeasibility (forced here)
-    import stackik.ik as ik
+    import stackik.solve.stages as stages
 
-    monkeypatch.setattr(ik, "NEAREST_MAX_T", -1.0)
+    monkeypatch.setattr(stages, "NEAREST_MAX_T", -1.0)
     r = sk.solve_ik(STACK4, sk.PlanarTarget(*UNREACHABLE[1]))
     assert r.status is IKStatus.INFEASIBLE and r.method == "sqp" and r.max_violation > 1.0
 
@@ -146,16 +149,29 @@ def test_status_max_time():
     assert r.status is IKStatus.MAX_TIME or r.success  # first start always runs
 
 
-def test_status_failed(monkeypatch):
-    import stackik.ik as ik
+def test_status_failed():
+    # a method that claims success at a point that misses the target, registered like any
+    # other: the independent check rejects its pose
+    from stackik.methods import register, unregister
+    from stackik.methods.sqp import SQPMethod
 
-    def broken(prob, u0, qp_solver, options):
-        return u0 + 1e-3, 5, "success"  # claims success at a point that misses the target
+    class Lying(SQPMethod):
+        name = "lying-sqp"
 
-    monkeypatch.setattr(ik, "_run_sqp", broken)
-    t = sk.PlanarTarget(*PAPER_TARGETS[0])
-    r = sk.solve_ik(STACK4, t, x0=paper_initial_guess(STACK4, t), method="sqp")
-    assert not r.success and r.status is IKStatus.FAILED
+        def solve_with(self, prob, u0, options, time_left, qp_solver):
+            return u0 + 1e-3, 5, "success"
+
+    register(Lying())
+    try:
+        t = sk.PlanarTarget(*PAPER_TARGETS[0])
+        r = sk.solve_ik(STACK4, t, x0=paper_initial_guess(STACK4, t), method="lying-sqp")
+        assert not r.success and r.status is IKStatus.FAILED and r.method == "lying-sqp"
+        with pytest.raises(ValueError, match="already registered"):
+            register(Lying())
+    finally:
+        unregister("lying-sqp")
+    with pytest.raises(ValueError, match="unknown 'lying-sqp'"):
+        sk.solve_ik(STACK4, t, method="lying-sqp")
 
 
 def test_multistart_never_worse_and_reproducible():
@@ -220,7 +236,7 @@ def _check_problem_first_derivatives(p, u):
 @pytest.mark.parametrize("phi", [0.0, 1.1])
 def test_problem_derivatives_planar(phi):
     t = sk.PlanarTarget(*PAPER_TARGETS[2], phi=phi)
-    p = _Problem(STACK4, t, "frobenius", None)
+    p = Problem(STACK4, t, "frobenius", None)
     rng = np.random.default_rng(7)
     u = p.u_of(paper_initial_guess(STACK4, t)) + 0.02 * rng.standard_normal(12)
     _check_problem_first_derivatives(p, u)
@@ -260,7 +276,8 @@ def test_spatial_unreachable_stops_after_three_far_off_starts():
 def test_so3_log_fast_matches_scipy():
     from scipy.spatial.transform import Rotation
 
-    from stackik.ik import _so3_log, _so3_log_fast
+    from stackik.check import so3_log as _so3_log
+    from stackik.formulation.spatial import so3_log_fast as _so3_log_fast
 
     rng = np.random.default_rng(3)
     mats = list(Rotation.random(200, random_state=4).as_matrix())
@@ -278,7 +295,7 @@ def test_so3_log_fast_matches_scipy():
 def test_problem_derivatives_spatial():
     t = sk.PlanarTarget(*PAPER_TARGETS[0], phi=0.2).to_spatial()
     st = sk.Stack.reference(3)
-    p = _Problem(st, t, "frobenius", None)
+    p = Problem(st, t, "frobenius", None)
     rng = np.random.default_rng(11)
     u = p.u_of(paper_initial_guess(st, t)) + 0.02 * rng.standard_normal(18)
     _check_problem_first_derivatives(p, u)

@@ -10,8 +10,12 @@ import pytest
 import stackik as sk
 from stackik import _ipm
 from stackik.bench import random_stack
+from stackik.check import check_pose
+from stackik.formulation import Problem
 from stackik.geometry import Stack
-from stackik.ik import IKStatus, OptionError, _Problem, check_pose, paper_initial_guess
+from stackik.methods import ip as ip_method
+from stackik.result import IKStatus, OptionError
+from stackik.starts import paper_initial_guess
 
 PAPER_TARGETS = [(600.0, 1000.0, -1.57), (145.0, 1500.0, -0.207), (-319.0, 1532.0, 0.332)]
 STACK4 = sk.Stack.reference(4)
@@ -21,11 +25,11 @@ def random_problem(n: int, seed: int, phi: float, objective: str = "frobenius"):
     rng = np.random.default_rng(seed)
     st = random_stack(n, seed) if seed % 2 else Stack.reference(n)
     t = sk.PlanarTarget(300 * rng.standard_normal(), 300 * n + 100 * rng.random(), 0.3, phi)
-    prob = _Problem(st, t, objective, None)
+    prob = Problem(st, t, objective, None)
     q = paper_initial_guess(st, t)
     q[:, :2] += rng.normal(0, 40, (n, 2))
     q[:, 2] += rng.normal(0, 0.2, n)
-    return prob, prob.u_of(q), _ipm.problem_arrays(prob), rng
+    return prob, prob.u_of(q), ip_method.problem_arrays(prob), rng
 
 
 def blocks_to_dense(D: np.ndarray) -> np.ndarray:
@@ -87,7 +91,7 @@ def test_compiled_derivatives_by_finite_differences(n, seed, phi):
 
 def test_feasible_objective_is_zero_in_compiled_evaluation():
     prob, u, _, _ = random_problem(3, 0, 0.0, objective="feasible")
-    P = _ipm.problem_arrays(prob)
+    P = ip_method.problem_arrays(prob)
     f, g, *_ = _ipm._evaluate(u, P)
     assert f == 0.0 and not np.any(g)
 
@@ -126,8 +130,8 @@ def test_cholesky_and_kkt_step():
 
 def test_ip_solve_reaches_the_paper_optimum():
     t = sk.PlanarTarget(*PAPER_TARGETS[0])
-    prob = _Problem(STACK4, t, "frobenius", None)
-    u, nit, status = _ipm.ip_solve(prob, prob.u_of(paper_initial_guess(STACK4, t)))
+    prob = Problem(STACK4, t, "frobenius", None)
+    u, nit, status = ip_method.ip_solve(prob, prob.u_of(paper_initial_guess(STACK4, t)))
     assert status == "success" and 5 < nit < 100
     q = prob.q_of(u)
     assert check_pose(STACK4, t, q).ok
@@ -210,7 +214,7 @@ def test_ip_never_claims_a_pose_that_fails_the_check(monkeypatch):
         k = U0.shape[0]
         return U0 + 1e-3, ["success"] * k, np.ones(k, int), np.zeros(k), np.zeros(k)
 
-    monkeypatch.setattr(_ipm, "ip_multi", lying)
+    monkeypatch.setattr(ip_method, "ip_multi", lying)
     r = sk.solve_ik(STACK4, t, method="ip")
     assert not r.success and r.status is IKStatus.FAILED
     assert not check_pose(STACK4, t, r.q).ok
@@ -249,7 +253,7 @@ def test_ip_reproducible_with_rng():
 
 
 def test_warm_up_returns_seconds():
-    assert _ipm.warm_up() >= 0.0
+    assert ip_method.warm_up() >= 0.0
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 4, 7, 12])

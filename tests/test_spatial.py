@@ -9,7 +9,7 @@ import pytest
 import stackik as sk
 from stackik._spatial import spatial_parts
 from stackik.bench import random_stack
-from stackik.ik import _Problem
+from stackik.formulation import Problem
 from stackik.kinematics import spatial_chain
 from stackik.platform import constraints_from_legs, spatial_legs
 
@@ -41,7 +41,7 @@ def test_spatial_parts_match_numpy(n, seed):
     c0, Jc0 = constraints_from_legs(l, Rn, st.leg_min, st.leg_max, st.sin_joint_min, dl=dl, dRn=dRn)
     np.testing.assert_allclose(c, c0, rtol=1e-12, atol=1e-9)
     np.testing.assert_allclose(Jc, Jc0, rtol=1e-12, atol=1e-9)
-    prob = _Problem(st, sk.SpatialTarget(ch.O[-1], ch.A[-1]), "frobenius", None)
+    prob = Problem(st, sk.SpatialTarget(ch.O[-1], ch.A[-1]), "frobenius", None)
     r0, Jr0 = prob.residuals(q, ch)
     np.testing.assert_allclose(r * prob.rw, r0, rtol=1e-12, atol=1e-10)
     np.testing.assert_allclose(Jr * prob.rw[:, None], Jr0, rtol=1e-12, atol=1e-10)

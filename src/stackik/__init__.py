@@ -8,21 +8,9 @@ Conventions are those of ``docs/conventions.md``: millimetres and radians; plana
 from typing import Any
 
 from stackik._version import __version__
+from stackik.check import PoseCheck, check_pose
 from stackik.convex import ConvexStartError, convex_start
 from stackik.geometry import GeometryError, PlatformGeometry, Stack
-from stackik.ik import (
-    IKResult,
-    IKStatus,
-    PlanarTarget,
-    PoseCheck,
-    SpatialTarget,
-    check_pose,
-    paper_initial_guess,
-    solve_ik,
-    solve_many,
-    target_from_dict,
-    target_to_dict,
-)
 from stackik.kinematics import (
     frobenius_norm,
     lift_planar,
@@ -36,6 +24,10 @@ from stackik.kinematics import (
     spatial_plate_origins,
 )
 from stackik.platform import leg_lengths, leg_vectors, platform_forward_kinematics
+from stackik.result import IKResult, IKStatus, OptionError
+from stackik.solve import solve_ik, solve_many
+from stackik.starts import paper_initial_guess
+from stackik.targets import PlanarTarget, SpatialTarget, target_from_dict, target_to_dict
 
 __all__ = [
     "__version__",
@@ -57,6 +49,7 @@ __all__ = [
     "monte_carlo",
     "MonteCarloResult",
     "nonoptimal_poses",
+    "OptionError",
     "paper_initial_guess",
     "planar_fn2",
     "planar_forward",

@@ -3,9 +3,9 @@
 A second implementation of DESIGN §1-2 for planar poses, written from the 3D leg vectors
 (Rodrigues rotation about ``s(phi)``, leg ``l_k = R t_k + P - b_k``) and sharing no code
 with the solver it checks (:mod:`stackik._ipm` works in the plane's basis). It returns
-the same numbers as :func:`stackik.ik.check_pose` (tested on random poses, feasible and
+the same numbers as :func:`stackik.check.check_pose` (tested on random poses, feasible and
 not, mixed geometries and several phi) in a few microseconds instead of ~50, plus the
-per-platform ``P``, ``R`` and leg lengths that :class:`stackik.ik.IKResult` reports.
+per-platform ``P``, ``R`` and leg lengths that :class:`stackik.result.IKResult` reports.
 """
 
 from __future__ import annotations
@@ -98,10 +98,10 @@ def _planar_check(q: FloatArray, phi: float, base: FloatArray, top: FloatArray,
 def planar_check(stack: Any, target: Any, q: FloatArray) -> tuple[Any, ...]:
     """``(PoseCheck, P, R, leg_lengths)`` of a planar pose ``q`` (n, 3), finite.
 
-    The :class:`stackik.ik.PoseCheck` has the same values and tolerances as
-    :func:`stackik.ik.check_pose`.
+    The :class:`stackik.check.PoseCheck` has the same values and the same acceptance
+    rule (:func:`stackik.check.pose_ok`) as :func:`stackik.check.check_pose`.
     """
-    from stackik.ik import FEAS_TOL, TARGET_ANGLE_TOL, TARGET_POS_TOL, PoseCheck
+    from stackik.check import PoseCheck, pose_ok
 
     pos_err, ang_err, max_v, v_mm, finite, C, P, R, legs = _planar_check(
         np.ascontiguousarray(q, dtype=float),
@@ -113,11 +113,6 @@ def planar_check(stack: Any, target: Any, q: FloatArray) -> tuple[Any, ...]:
         stack.sin_joint_min,
         np.array([target.rho, target.z, target.theta]),
     )
-    ok = (
-        pos_err <= TARGET_POS_TOL
-        and ang_err <= TARGET_ANGLE_TOL
-        and v_mm <= FEAS_TOL
-        and bool(finite)
-    )
+    ok = pose_ok(float(pos_err), float(ang_err), float(v_mm), bool(finite))
     chk = PoseCheck(bool(ok), float(pos_err), float(ang_err), float(max_v), float(v_mm), C)
     return chk, P, R, legs

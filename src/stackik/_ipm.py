@@ -1,6 +1,6 @@
 """Compiled primal-dual interior-point solver for the planar IK problem (the fast path).
 
-The planar problem of :class:`stackik.ik._Problem` (scaled variables ``u = q / xs``):
+The planar problem of :class:`stackik.formulation.Problem` (scaled variables ``u = q / xs``):
 
     min f(u) = (c0 + w |r(u)|^2) / fscale
     s.t. c_E(u) = 0   (3 end-effector equalities, scaled by ``es``)
@@ -19,7 +19,7 @@ meets first.
 
 Everything that runs per iteration is compiled with numba (``cache=True``: compiled once
 per machine, then loaded from ``__pycache__``). The caller re-checks every returned pose
-(:func:`stackik.ik.check_pose`); this module makes no claim of its own.
+(:func:`stackik.check.check_pose`); this module makes no claim of its own.
 """
 
 from __future__ import annotations
@@ -776,7 +776,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
 @_jit
 def _polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> FloatArray:
     """Min-norm Newton corrections of the equalities and of limits violated by less than
-    ``reach`` (scaled), as :func:`stackik.ik._polish` (tiny moves only)."""
+    ``reach`` (scaled), as :func:`stackik.formulation.polish` (tiny moves only)."""
     n = P[7].shape[0]
     N = 3 * n
     for _ in range(iters):
@@ -839,123 +839,3 @@ def _ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatA
         if j + 1 == GIVE_UP_AFTER and viol[: j + 1].min() > GIVE_UP_VIOLATION:
             break  # likely unreachable: the caller's SQP fallback decides, quickly
     return X, status, nit, obj, viol
-
-
-def problem_arrays(prob: Any) -> tuple[Any, ...]:
-    """The tuple of arrays :func:`_ip_loop` needs, from a planar :class:`_Problem`."""
-    fast = prob.fast
-    assert fast is not None
-    n = prob.n
-    tgt = prob.target
-    feasible = prob.objective == "feasible"
-    w = float(prob.w_th[0])
-    return (
-        np.ascontiguousarray(prob.xs, dtype=float),
-        np.ascontiguousarray(prob.cs, dtype=float),
-        np.ascontiguousarray(prob.es, dtype=float),
-        np.array([tgt.rho, tgt.z, tgt.theta], dtype=float),
-        float(prob.fscale),
-        float(prob.c0),
-        w,
-        np.ascontiguousarray(fast.tf, dtype=float),
-        np.ascontiguousarray(fast.tz, dtype=float),
-        np.ascontiguousarray(fast.bf, dtype=float),
-        np.ascontiguousarray(fast.bz, dtype=float),
-        np.ascontiguousarray(fast.ls0, dtype=float),
-        np.ascontiguousarray(fast.lmin2.reshape(n), dtype=float),
-        np.ascontiguousarray(fast.lmax2.reshape(n), dtype=float),
-        np.ascontiguousarray(fast.sj.reshape(n), dtype=float),
-        feasible,
-    )
-
-
-#: Default options of :func:`ip_solve`.
-IP_DEFAULTS: dict[str, float] = {
-    "tol": 1e-7,
-    "constr_tol": 1e-9,
-    "mu0": 0.1,
-    "max_iter": 300,
-    "max_time": math.inf,
-}
-
-
-def _ip_options(options: dict[str, Any] | None) -> dict[str, Any]:
-    """The defaults updated by ``options``; unknown keys or bad values raise OptionError."""
-    from stackik.ik import OptionError
-
-    opts: dict[str, Any] = dict(IP_DEFAULTS)
-    for key, value in (options or {}).items():
-        if key not in IP_DEFAULTS:
-            raise OptionError(
-                f"options: {key!r} is not an interior-point option; use {sorted(IP_DEFAULTS)}"
-            )
-        bad = isinstance(value, bool) or not isinstance(value, int | float | np.integer)
-        if key == "max_iter":  # a positive integer, as SQPOptions.max_iter
-            bad = bad or not isinstance(value, int | np.integer)
-        if bad or not (value > 0):
-            raise OptionError(f"options: bad value {value!r} for interior-point option {key!r}")
-        opts[key] = value
-    return opts
-
-
-def ip_solve(prob: Any, u0: FloatArray, options: dict[str, Any] | None = None) -> tuple[
-    FloatArray, int, str
-]:  # fmt: skip
-    """Run the barrier method (and the polish) on a planar :class:`stackik.ik._Problem`
-    from one scaled start ``u0``: :func:`ip_multi` with one row.
-
-    Returns the scaled point, the iteration count and a status string
-    (``"success"``, ``"max_iter"``, ``"stalled"``, ``"nonfinite"``, ``"max_time"``).
-    """
-    X, statuses, nits, _, _ = ip_multi(prob, np.atleast_2d(u0), options)
-    return X[0], int(nits[0]), statuses[0]
-
-
-def ip_multi(
-    prob: Any,
-    U0: FloatArray,
-    options: dict[str, Any] | None = None,
-    mu0: FloatArray | None = None,
-) -> tuple[Any, ...]:
-    """Run the barrier method from each row of ``U0`` (scaled starts) in one compiled call.
-
-    ``mu0``: initial barrier parameter per start (default ``options["mu0"]`` for all).
-
-    Returns ``(X, statuses, nits, objective values, violations)`` (see :func:`_ip_multi`);
-    statuses as strings.
-    """
-    from stackik.ik import POLISH_MARGIN, POLISH_REACH
-
-    opts = _ip_options(options)
-    P = problem_arrays(prob)
-    deadline = time.perf_counter() + float(opts["max_time"])
-    U = np.ascontiguousarray(np.atleast_2d(U0), dtype=float)
-    mus = np.full(U.shape[0], float(opts["mu0"])) if mu0 is None else np.asarray(mu0, float)
-    X, st, nit, obj, viol = _ip_multi(
-        U,
-        P,
-        float(opts["tol"]),
-        float(opts["constr_tol"]),
-        np.ascontiguousarray(mus),
-        int(opts["max_iter"]),
-        deadline if math.isfinite(deadline) else 1e300,
-        POLISH_REACH,
-        POLISH_MARGIN,
-    )
-    return X, [IP_STATUS[int(s)] for s in st], nit, obj, viol
-
-
-def warm_up() -> float:
-    """Compile (or load from numba's cache) every kernel of this module; returns seconds.
-
-    The first call on a machine compiles (about 30 s); later processes load the cached
-    machine code (about 0.3 s). :func:`stackik.solve_ik` does this implicitly on its first
-    planar interior-point solve; call this beforehand to keep the compilation out of a
-    timed or ``max_time``-limited solve.
-    """
-    from stackik.geometry import Stack
-    from stackik.ik import PlanarTarget, solve_ik
-
-    t0 = time.perf_counter()
-    solve_ik(Stack.reference(2), PlanarTarget(0.0, 700.0, 0.0), method="ip", starts=1)
-    return time.perf_counter() - t0

@@ -1,9 +1,9 @@
 """Compiled (numba) evaluation of the spatial IK problem's parts, for the SQP engine.
 
-:func:`spatial_parts` computes, in one call, what :meth:`stackik.ik._Problem.evaluate`
+:func:`spatial_parts` computes, in one call, what :meth:`stackik.formulation.Problem.evaluate`
 needs in spatial mode and otherwise builds from :func:`stackik.kinematics.spatial_chain`,
 :func:`stackik.platform.spatial_legs`, :func:`stackik.platform.constraints_from_legs` and
-the FN^2 residuals (:meth:`stackik.ik._Problem.residuals`): the same formulas as explicit
+the FN^2 residuals (:meth:`stackik.formulation.Problem.residuals`): the same formulas as explicit
 loops (numpy's per-call overhead dominated those small arrays: ~180 us per evaluation at
 n = 4, ~15 us here). Tested equal to the numpy implementations (``tests/test_spatial.py``).
 

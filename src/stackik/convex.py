@@ -10,16 +10,13 @@ Solved with cvxpy + Clarabel.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from stackik.geometry import Stack
 from stackik.rotations import euler_zyx, plane_axis, rodrigues
-
-if TYPE_CHECKING:
-    from stackik.ik import PlanarTarget, SpatialTarget  # noqa: F401
+from stackik.starts import paper_initial_guess
+from stackik.targets import PlanarTarget, SpatialTarget
 
 __all__ = ["ConvexStartError", "convex_start"]
 
@@ -60,8 +57,6 @@ def convex_start(
         If the SOCP is infeasible or the solver fails.
     """
     import cvxpy as cp
-
-    from stackik.ik import PlanarTarget, SpatialTarget, paper_initial_guess
 
     n = stack.n
     guess = paper_initial_guess(stack, target)

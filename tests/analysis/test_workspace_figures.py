@@ -66,7 +66,7 @@ def test_platform_box_contains_the_feasible_set():
 
 
 def test_uniform_reachable_targets_even_and_reachable():
-    pytest.importorskip("stackik.ik")
+    pytest.importorskip("stackik.solve")
     s = Stack.reference(4)
     t = uniform_reachable_targets(s, 200, rng=7, phi=0.3)
     assert len(t) == 200 and all(x.phi == 0.3 for x in t)
@@ -81,7 +81,7 @@ def test_uniform_reachable_targets_even_and_reachable():
     assert per_cell.max() <= 2 < per_cell_poses.max()
     assert per_cell.size > per_cell_poses.size
     # every target is reached by the optimal solve
-    from stackik.ik import solve_ik
+    from stackik.solve import solve_ik
 
     assert all(solve_ik(s, x, objective="frobenius").success for x in t[:5])
     with pytest.raises(ValueError):
@@ -124,7 +124,7 @@ def test_figures_written(tmp_path):
 
 
 def test_workspace_study_and_map(tmp_path):
-    pytest.importorskip("stackik.ik")
+    pytest.importorskip("stackik.solve")
     s = Stack.reference(4)
     st = workspace_study(s, 6, n_samples=1000, seed=1)
     assert len(st.targets) == 6 and st.valid.sum() >= 3
@@ -142,7 +142,7 @@ def test_workspace_study_and_map(tmp_path):
 
 def test_reproduce_quick(tmp_path):
     """Smoke test of ``stackik reproduce --quick`` (well under 30 s)."""
-    pytest.importorskip("stackik.ik")
+    pytest.importorskip("stackik.solve")
     from stackik.analysis.reproduce import reproduce
 
     res = reproduce(tmp_path, quick=True, rng=5, progress=False)

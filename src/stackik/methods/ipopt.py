@@ -1,6 +1,6 @@
-"""IPOPT baseline through CasADi (optional extra ``stackik[ipopt]``), planar mode.
+"""``method="ipopt"``: IPOPT through CasADi (optional extra ``stackik[ipopt]``), planar mode.
 
-The same scaled problem as :class:`stackik.ik._Problem` is written symbolically so that
+The same scaled problem as :class:`stackik.formulation.Problem` is written symbolically so that
 IPOPT gets exact first and second derivatives from CasADi's automatic differentiation.
 Solvers are built once per (stack, phi, objective) and cached; the target is a parameter,
 so timing a solve excludes the symbolic set-up.
@@ -10,17 +10,21 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
+from stackik.formulation import Problem
 from stackik.geometry import Stack
+from stackik.methods.base import Method
+from stackik.result import OptionError
 from stackik.rotations import plane_axis
+from stackik.targets import PlanarTarget
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["ipopt_available", "run_ipopt"]
+__all__ = ["IpoptMethod", "ipopt_available", "run_ipopt"]
 
 
 def ipopt_available() -> bool:
@@ -105,8 +109,6 @@ def _solver(
     try:
         solver = ca.nlpsol("stackik_ipopt", "ipopt", nlp, opts)  # type: ignore[arg-type]
     except RuntimeError as exc:  # e.g. "No such IPOPT option"
-        from stackik.ik import OptionError
-
         msg = str(exc).strip().splitlines()[-1]
         raise OptionError(f"options: IPOPT rejected them ({msg})") from None
     lbg = np.concatenate([np.zeros(3), np.zeros(24 * n)])
@@ -115,16 +117,15 @@ def _solver(
 
 
 def run_ipopt(
-    prob: Any, u0: FloatArray, options: dict[str, Any], time_left: float = math.inf
+    prob: Problem, u0: FloatArray, options: dict[str, Any], time_left: float = math.inf
 ) -> tuple[FloatArray, int, str]:
-    """Solve the scaled planar problem ``prob`` (an ``ik._Problem``) with IPOPT from ``u0``.
+    """Solve the scaled planar problem ``prob`` (:class:`~stackik.formulation.Problem`)
+    with IPOPT from ``u0``.
 
     ``options`` are IPOPT options (``max_iter``, ``tol``, ...). ``time_left`` [s] becomes
     IPOPT's ``max_wall_time``, rounded down to a power of two so that cached solvers are
     reused.
     """
-    from stackik.ik import OptionError, PlanarTarget
-
     target = prob.target
     if not isinstance(target, PlanarTarget):
         raise OptionError('method "ipopt" supports planar targets only')
@@ -137,8 +138,6 @@ def run_ipopt(
         key = tuple(sorted(user.items()))
         hash(key)
     except TypeError:
-        from stackik.ik import OptionError
-
         raise OptionError("options: IPOPT option values must be numbers or strings") from None
     solver, lbg, ubg = _solver(prob.stack, target.phi, prob.objective, tuple(prob.xs), key)
     sol = solver(x0=u0, p=target.y, lbg=lbg, ubg=ubg)
@@ -146,3 +145,21 @@ def run_ipopt(
     u = np.asarray(sol["x"], dtype=float).ravel()
     status = "success" if stats.get("success") else str(stats.get("return_status"))
     return u, int(stats.get("iter_count", 0)), status
+
+
+class IpoptMethod(Method):
+    """IPOPT with exact derivatives by automatic differentiation (CasADi), planar only."""
+
+    name: ClassVar[str] = "ipopt"
+    modes: ClassVar[frozenset[str]] = frozenset({"planar"})
+
+    def supports(self, prob: Problem) -> str | None:
+        return None  # run_ipopt reports a spatial target as a failed run (as before)
+
+    def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
+        return dict(options)  # IPOPT itself judges them (OptionError on the first run)
+
+    def solve(
+        self, prob: Problem, u0: FloatArray, options: dict[str, Any], time_left: float
+    ) -> tuple[FloatArray, int, str]:
+        return run_ipopt(prob, u0, options, time_left)

@@ -1,0 +1,262 @@
+"""The scaled NLP of one IK request: objective, end-effector equalities, limits.
+
+.. math::
+
+    \\min_u\\; f(u) \\quad \\text{s.t.}\\quad c_E(u) = 0,\\quad c_I(u) \\ge 0
+
+with ``u = x / xs`` (translations scaled by ``L = max leg_max`` [mm], angles by 1), the
+leg-length limits (mm^2) by ``leg_max^2``, the joint limits (mm) by ``leg_max``, position
+errors by ``L``. Results are reported raw. The target's :class:`~stackik.formulation.modes.Mode`
+says which evaluation applies (planar: :class:`PlanarEvaluator`; spatial: the compiled
+:mod:`stackik._spatial`).
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from stackik.formulation.modes import mode_of
+from stackik.formulation.planar import PlanarEvaluator
+from stackik.formulation.spatial import so3_log_fast, so3_right_jac_inv
+from stackik.geometry import Stack
+from stackik.kinematics import _J2, planar_fn_residuals, spatial_chain
+from stackik.targets import PlanarTarget, SpatialTarget, Target
+
+__all__ = ["POLISH_MARGIN", "POLISH_REACH", "Problem", "polish", "problem_scalings"]
+
+FloatArray = NDArray[np.float64]
+
+
+def problem_scalings(
+    stack: Stack, planar: bool, wt: FloatArray, wth: FloatArray
+) -> tuple[Any, ...]:
+    """Scalings of :class:`Problem` (geometry and weights only; arrays read-only).
+
+    Variables ``u = x / xs`` (xs = L = max leg_max for translations [mm], 1 for angles);
+    constraint rows: leg blocks / leg_max^2, joint blocks / leg_max; equalities ``es``;
+    objective ``f = (c0 + sum_i w_i |r_i|^2) / fscale`` with per-residual weights ``rw``
+    (sqrt, residuals indexed by the platform of the angle column).
+    """
+    n = stack.n
+    L = float(stack.leg_max.max())
+    per = [L, L, 1.0] if planar else [L] * 3 + [1.0] * 3
+    xs = np.tile(per, n)
+    cs = np.empty((n, 24))
+    cs[:, :12] = 1.0 / stack.leg_max[:, None] ** 2
+    cs[:, 12:] = 1.0 / stack.leg_max[:, None]
+    es = np.array([1 / L, 1 / L, 1.0]) if planar else np.array([1 / L] * 3 + [1.0] * 3)
+    n_rot = 1 if planar else 3
+    n_tr = 2 if planar else 3
+    rot_const = 1.0 if planar else 2.0  # |d R_ee / d angle|_F^2 (+ theta row)
+    c0 = float(np.sum(wt) * n_tr + np.sum(wth) * n_rot * rot_const)
+    fscale = L**2 * float(np.max(wth))
+    rw = np.repeat(np.sqrt(wth[: n - 1]), 2) if planar else np.repeat(np.sqrt(wth), 9)
+    arrays = (xs, cs.ravel(), es, np.array(wt, float), np.array(wth, float), rw)
+    for a in arrays:
+        a.setflags(write=False)
+    xs, cs_flat, es, wt, wth, rw = arrays
+    return L, xs, cs_flat, es, wt, wth, c0, fscale, rw
+
+
+class Problem:
+    """Scaled IK problem: evaluation of objective, equalities and limits with derivatives.
+
+    Variables ``u = x / xs`` with ``xs`` = L for translations, 1 for angles.
+    """
+
+    def __init__(
+        self,
+        stack: Stack,
+        target: Target,
+        objective: str,
+        weights: tuple[FloatArray, FloatArray] | None,
+        x_ref: FloatArray | None = None,
+    ) -> None:
+        self.stack = stack
+        self.target = target
+        self.mode = mode_of(target)
+        self.planar = self.mode.planar
+        n = stack.n
+        self.n = n
+        self.k = self.mode.k
+        self.objective = objective
+        self.x_ref = x_ref
+        if objective == "weighted":
+            assert weights is not None
+            scal = problem_scalings(stack, self.planar, *weights)
+        else:  # unit weights: the same arrays for every target (read-only, cached)
+            scal = stack.derived(
+                ("problem_scalings", self.planar),
+                lambda st: problem_scalings(st, self.planar, np.ones(n), np.ones(n)),
+            )
+        (self.L, self.xs, self.cs, self.es, self.w_t, self.w_th, self.c0, self.fscale,
+         self.rw) = scal  # fmt: skip
+        self.fast = PlanarEvaluator(stack, target.phi) if isinstance(target, PlanarTarget) else None
+        if self.fast is not None:
+            self.fast.set_scaling(self.cs, self.xs)
+        self._cache_u: FloatArray | None = None
+        self._gn_cache: tuple[FloatArray, FloatArray, FloatArray] | None = None
+        self._fn_cache: tuple[FloatArray, FloatArray] = (np.zeros(0), np.zeros((0, 0)))
+        self._cache: tuple[Any, ...] | None = None
+        self.nfev = 0
+
+    # --- index arrays (built on first use) ------------------------------------------
+    @cached_property
+    def _angle_cols(self) -> Any:
+        a = np.arange(self.n * self.k)
+        return a[a % 6 >= 3] if self.k == 6 else a[a % 3 == 2]
+
+    @cached_property
+    def _hi(self) -> Any:
+        a = np.arange(self.n * self.k)
+        return np.maximum(a[:, None], a[None, :])
+
+    @cached_property
+    def _theta_lo(self) -> FloatArray:
+        a = np.arange(self.n * self.k)
+        return (np.minimum(a[:, None], a[None, :]) % 3 == 2).astype(float)
+
+    # --- conversions ---------------------------------------------------------------
+    def q_of(self, u: FloatArray) -> FloatArray:
+        return (u * self.xs).reshape(self.n, self.k)
+
+    def u_of(self, q: FloatArray) -> FloatArray:
+        return np.asarray(q, dtype=float).ravel() / self.xs
+
+    # --- residuals of the objective -------------------------------------------------
+    def residuals(self, q: FloatArray, ch: Any = None) -> tuple[FloatArray, FloatArray]:
+        """Objective residuals (unscaled x) ``r``, ``dr/dx`` with obj = c0 + |r|^2.
+
+        ``ch``: the :class:`~stackik.kinematics.SpatialChain` of ``q`` if already built.
+        """
+        if self.planar:
+            r, Jr = planar_fn_residuals(q)
+        else:  # spatial
+            ch = spatial_chain(q) if ch is None else ch
+            N = 6 * self.n
+            ang = self._angle_cols
+            r = ch.J[:3, ang].T.ravel()  # (3n*3,)
+            H = ch.position_hessian(ang)  # (3, 3n, N)
+            Jr = np.moveaxis(H, 0, 1).reshape(-1, N)
+            # rows are platform-major (3 angles x 3 coordinates = 9 per platform): rw matches
+        return r * self.rw, Jr * self.rw[:, None]
+
+    def gauss_newton(self, u: FloatArray) -> tuple[FloatArray, FloatArray]:
+        if self.objective == "feasible":
+            return np.zeros(1), np.zeros((1, u.size))
+        gc = self._gn_cache
+        if gc is not None and np.array_equal(gc[0], u):
+            return gc[1], gc[2]
+        r, Jr = self.residuals(self.q_of(u))
+        s = 1.0 / math.sqrt(self.fscale)
+        return r * s, Jr * self.xs * s
+
+    # --- all functions at once ------------------------------------------------------
+    def evaluate(self, u: FloatArray) -> tuple[Any, ...]:
+        if self._cache_u is not None and np.array_equal(u, self._cache_u):
+            assert self._cache is not None
+            return self._cache
+        self.nfev += 1
+        q = self.q_of(u)
+        n, k = self.n, self.k
+        st = self.stack
+        spatial_ch: Any = None
+        if self.fast is not None:
+            tgt = self.target
+            assert isinstance(tgt, PlanarTarget)
+            y, Jy, r_fn, Jr_fn = self.fast.kinematics(q)
+            self._fn_cache = (r_fn, Jr_fn)
+            ceq = (y - tgt.y) * self.es
+            Jeq = Jy * self.es[:, None] * self.xs
+            cin, Jin = self.fast(q)  # scaled (set_scaling in __init__)
+        else:
+            from stackik._spatial import block_jacobian, spatial_parts
+
+            tgs = self.target
+            assert isinstance(tgs, SpatialTarget)
+            # compiled: the values of spatial_chain, spatial_legs, constraints_from_legs
+            # and residuals (tested equal)
+            Pee, Ree, Jp, w_ax, c, Jc, r_sp, Jr_sp = spatial_parts(
+                q, st.top_nodes, st.base_nodes, st.leg_min, st.leg_max, st.sin_joint_min
+            )
+            spatial_ch = (r_sp * self.rw, Jr_sp * self.rw[:, None])
+            E = tgs.rotation.T @ Ree
+            phi_v = so3_log_fast(E)
+            # dphi = Jr^{-1}(phi) v with v = R_ee^T w (body-frame axis)
+            v = Ree.T @ w_ax.T  # (3, N)
+            Jphi = so3_right_jac_inv(phi_v) @ v
+            ceq = np.concatenate([Pee - tgs.position, phi_v]) * self.es
+            Jeq = np.vstack([Jp, Jphi]) * self.es[:, None] * self.xs
+            cin = c.ravel() * self.cs
+            Jin = block_jacobian(Jc, self.cs, self.xs)
+        if self.objective == "feasible":
+            f, g = 0.0, np.zeros(n * k)
+        else:
+            if self.fast is not None:
+                sc = 1.0 / math.sqrt(self.fscale)
+                r = self._fn_cache[0] * self.rw * sc
+                Jr = self._fn_cache[1] * (self.rw * sc)[:, None] * self.xs
+                self._gn_cache = (u.copy(), r, Jr)
+            else:
+                sc = 1.0 / math.sqrt(self.fscale)
+                r, Jr = spatial_ch
+                r, Jr = r * sc, Jr * self.xs * sc
+                self._gn_cache = (u.copy(), r, Jr)
+            f = float(r @ r) + self.c0 / self.fscale
+            g = 2.0 * Jr.T @ r
+        out = (f, g, ceq, Jeq, cin, Jin)
+        self._cache_u = u.copy()
+        self._cache = out
+        return out
+
+    def lagrangian_hessian(self, u: FloatArray, y_eq: FloatArray, y_in: FloatArray) -> FloatArray:
+        """Exact Hessian of ``f - y_eq.c_E - y_in.c_I`` in scaled variables (planar only)."""
+        assert self.fast is not None
+        q = self.q_of(u)
+        Hx: Any = 0.0
+        if self.objective != "feasible":
+            Hx = self.fast.fn2_hessian(q) * (float(self.w_th[0]) / self.fscale)
+        # end-effector equalities: sum_r y_r d2 y_r = isTheta[min(a,b)] * v[max(a,b)]
+        Jy = self.fast.kinematics(q)[1]  # (fn2_hessian above computed it already: cheap)
+        yp = y_eq[:2] * self.es[:2]
+        v = (yp @ _J2) @ Jy[:2]  # (3n,)
+        H_eq = self._theta_lo * v[self._hi]
+        H_in = self.fast.constraint_hessian(q, y_in * self.cs)
+        H = Hx - H_eq - H_in
+        return H * np.outer(self.xs, self.xs)  # type: ignore[no-any-return]
+
+    def objective_value(self, q: FloatArray) -> float:
+        """Unscaled objective value at q."""
+        if self.objective == "feasible":
+            return 0.0
+        r, _ = self.residuals(q)
+        return float(self.c0 + r @ r)
+
+
+POLISH_MARGIN = 1e-12  # scaled margin the polish puts violated limits at (>= 0 raw)
+POLISH_REACH = 1e-6  # only limits violated by less than this (scaled) are polished
+
+
+def polish(prob: Problem, u: FloatArray, iters: int = 3) -> FloatArray:
+    """Min-norm Newton corrections of the end-effector equalities and of limits that a
+    solver left violated by roundoff (tiny moves; a far-off point is left as it is).
+
+    Each step solves ``[J_E; J_V] du = -[c_E; c_V - margin]`` in the least-norm sense,
+    where V are the limits with ``-POLISH_REACH < c < 0``, so that the returned pose meets
+    the target to rounding and its limits with ``c >= 0`` raw, not only within the
+    solver's tolerance.
+    """
+    for _ in range(iters):
+        _, _, ceq, Jeq, cin, Jin = prob.evaluate(u)
+        viol = (cin < 0) & (cin > -POLISH_REACH)
+        if np.abs(ceq).max() < 1e-13 and not viol.any():
+            break
+        A = np.vstack([Jeq, Jin[viol]])
+        r = np.concatenate([ceq, cin[viol] - POLISH_MARGIN])
+        u = u - np.linalg.lstsq(A, r, rcond=None)[0]
+    return u

@@ -1,0 +1,224 @@
+"""``method="ip"``: the compiled primal-dual interior point (:mod:`stackik._ipm`), planar.
+
+This module turns a :class:`~stackik.formulation.Problem` into the arrays the compiled
+kernels take, parses the method's options, runs every start in one compiled call and
+checks the poses with the compiled twin of the independent check.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
+from stackik.methods.base import FloatArray, Method, Run, RunStatus, run_status
+from stackik.result import OptionError
+
+__all__ = ["IP_DEFAULTS", "IPMethod", "ip_multi", "ip_solve", "problem_arrays", "warm_up"]
+
+
+def problem_arrays(prob: Any) -> tuple[Any, ...]:
+    """The tuple of arrays :func:`stackik._ipm._ip_loop` needs, from a planar
+    :class:`~stackik.formulation.Problem`."""
+    fast = prob.fast
+    assert fast is not None
+    n = prob.n
+    tgt = prob.target
+    feasible = prob.objective == "feasible"
+    w = float(prob.w_th[0])
+    return (
+        np.ascontiguousarray(prob.xs, dtype=float),
+        np.ascontiguousarray(prob.cs, dtype=float),
+        np.ascontiguousarray(prob.es, dtype=float),
+        np.array([tgt.rho, tgt.z, tgt.theta], dtype=float),
+        float(prob.fscale),
+        float(prob.c0),
+        w,
+        np.ascontiguousarray(fast.tf, dtype=float),
+        np.ascontiguousarray(fast.tz, dtype=float),
+        np.ascontiguousarray(fast.bf, dtype=float),
+        np.ascontiguousarray(fast.bz, dtype=float),
+        np.ascontiguousarray(fast.ls0, dtype=float),
+        np.ascontiguousarray(fast.lmin2.reshape(n), dtype=float),
+        np.ascontiguousarray(fast.lmax2.reshape(n), dtype=float),
+        np.ascontiguousarray(fast.sj.reshape(n), dtype=float),
+        feasible,
+    )
+
+
+#: Default options of :func:`ip_solve`.
+IP_DEFAULTS: dict[str, float] = {
+    "tol": 1e-7,
+    "constr_tol": 1e-9,
+    "mu0": 0.1,
+    "max_iter": 300,
+    "max_time": math.inf,
+}
+
+
+def _ip_options(options: dict[str, Any] | None) -> dict[str, Any]:
+    """The defaults updated by ``options``; unknown keys or bad values raise OptionError."""
+    opts: dict[str, Any] = dict(IP_DEFAULTS)
+    for key, value in (options or {}).items():
+        if key not in IP_DEFAULTS:
+            raise OptionError(
+                f"options: {key!r} is not an interior-point option; use {sorted(IP_DEFAULTS)}"
+            )
+        bad = isinstance(value, bool) or not isinstance(value, int | float | np.integer)
+        if key == "max_iter":  # a positive integer, as SQPOptions.max_iter
+            bad = bad or not isinstance(value, int | np.integer)
+        if bad or not (value > 0):
+            raise OptionError(f"options: bad value {value!r} for interior-point option {key!r}")
+        opts[key] = value
+    return opts
+
+
+def ip_solve(prob: Any, u0: FloatArray, options: dict[str, Any] | None = None) -> tuple[
+    FloatArray, int, str
+]:  # fmt: skip
+    """Run the barrier method (and the polish) on a planar :class:`stackik.formulation.Problem`
+    from one scaled start ``u0``: :func:`ip_multi` with one row.
+
+    Returns the scaled point, the iteration count and a status string
+    (``"success"``, ``"max_iter"``, ``"stalled"``, ``"nonfinite"``, ``"max_time"``).
+    """
+    X, statuses, nits, _, _ = ip_multi(prob, np.atleast_2d(u0), options)
+    return X[0], int(nits[0]), statuses[0]
+
+
+def ip_multi(
+    prob: Any,
+    U0: FloatArray,
+    options: dict[str, Any] | None = None,
+    mu0: FloatArray | None = None,
+) -> tuple[Any, ...]:
+    """Run the barrier method from each row of ``U0`` (scaled starts) in one compiled call.
+
+    ``mu0``: initial barrier parameter per start (default ``options["mu0"]`` for all).
+
+    Returns ``(X, statuses, nits, objective values, violations)`` (see :func:`_ip_multi`);
+    statuses as strings.
+    """
+    opts = _ip_options(options)
+    P = problem_arrays(prob)
+    deadline = time.perf_counter() + float(opts["max_time"])
+    U = np.ascontiguousarray(np.atleast_2d(U0), dtype=float)
+    mus = np.full(U.shape[0], float(opts["mu0"])) if mu0 is None else np.asarray(mu0, float)
+    from stackik import _ipm  # numba: imported when first needed
+
+    X, st, nit, obj, viol = _ipm._ip_multi(
+        U,
+        P,
+        float(opts["tol"]),
+        float(opts["constr_tol"]),
+        np.ascontiguousarray(mus),
+        int(opts["max_iter"]),
+        deadline if math.isfinite(deadline) else 1e300,
+        POLISH_REACH,
+        POLISH_MARGIN,
+    )
+    return X, [_ipm.IP_STATUS[int(s)] for s in st], nit, obj, viol
+
+
+@dataclass
+class IPBatch:
+    """The runs of one compiled call over many starts.
+
+    ``best``: the best run that passes the check (None when none does); ``least``: the
+    least-violation run among those checked otherwise; ``nit``: iterations over all
+    starts; ``statuses``: the solver's status per start.
+    """
+
+    best: Run | None
+    least: Run | None
+    nit: int
+    statuses: list[RunStatus]
+
+
+def ip_starts(
+    prob: Problem, starts: list[FloatArray], options: dict[str, Any], max_time: float
+) -> IPBatch:
+    """Interior-point runs from every start in one compiled call; the best that passes
+    the independent check (tried in order of objective among those the solver reports
+    feasible), or the least-violation run when none passes."""
+    from stackik._check import planar_check
+
+    U0 = np.stack([prob.u_of(q) for q in starts])
+    opts = {"max_time": max_time, **options}
+    try:
+        X, texts, nits, objs, viols = ip_multi(prob, U0, opts)
+    except OptionError:
+        raise
+    except Exception:  # noqa: BLE001 - e.g. a LAPACK failure on absurd input: no run
+        return IPBatch(None, None, 0, [])
+    statuses = [run_status(t) for t in texts]
+    order = sorted(range(len(starts)), key=lambda j: (not viols[j] <= 1e-10, objs[j]))
+    least: Run | None = None
+    total = int(np.sum(nits))
+    for j in order:
+        q = prob.q_of(X[j])
+        # the independent re-check (compiled; same values as check_pose, tested)
+        chk, P, R, legs = planar_check(prob.stack, prob.target, q)
+        # the objective at the polished point, unscaled (f = objective / fscale)
+        obj = objs[j] * prob.fscale
+        run = Run(q, int(nits[j]), statuses[j], chk, obj, (P, R, legs), texts[j])
+        if chk.ok:
+            return IPBatch(run, least, total, statuses)
+        if least is None or chk.max_violation_mm < least.check.max_violation_mm:
+            least = run
+        if viols[j] > 1e-6:  # the rest are farther off: stop checking
+            break
+    return IPBatch(None, least, total, statuses)
+
+
+class IPMethod(Method):
+    """The compiled primal-dual interior point (planar; all starts in one call)."""
+
+    name: ClassVar[str] = "ip"
+    modes: ClassVar[frozenset[str]] = frozenset({"planar"})
+    uses_blas: ClassVar[bool] = False
+
+    def supports(self, prob: Problem) -> str | None:
+        if prob.mode.name != "planar":
+            return 'method "ip" is planar only (PlanarTarget); use "sqp" or "auto"'
+        if prob.objective == "weighted" and np.ptp(prob.w_th) != 0:
+            return 'method "ip" needs one sigma_theta for all platforms; use "sqp"'
+        return None
+
+    def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
+        _ip_options(options)
+        return dict(options)
+
+    def solve(
+        self, prob: Problem, u0: FloatArray, options: dict[str, Any], time_left: float
+    ) -> tuple[FloatArray, int, str]:
+        return ip_solve(prob, u0, {"max_time": time_left, **options})
+
+    def run_many(
+        self, prob: Problem, starts: list[FloatArray], options: dict[str, Any], max_time: float
+    ) -> IPBatch:
+        """Every start in one compiled call (:func:`ip_starts`)."""
+        return ip_starts(prob, starts, options, max_time)
+
+
+def warm_up() -> float:
+    """Compile (or load from numba's cache) the planar kernels; returns seconds.
+
+    The first call on a machine compiles (about 30-60 s); later processes load the cached
+    machine code (about 0.3 s). :func:`stackik.solve_ik` does this before its clock
+    starts on its first planar interior-point solve.
+    """
+    from stackik.geometry import Stack
+    from stackik.starts import paper_initial_guess
+    from stackik.targets import PlanarTarget
+
+    t0 = time.perf_counter()
+    stack = Stack.reference(2)
+    target = PlanarTarget(0.0, 700.0, 0.0)
+    prob = Problem(stack, target, "frobenius", None)
+    ip_starts(prob, [paper_initial_guess(stack, target)], {}, math.inf)
+    return time.perf_counter() - t0

@@ -1,0 +1,179 @@
+"""solve_ik: one IK request as a pipeline.
+
+validate the request -> formulate (its :class:`~stackik.formulation.Problem`) -> plan the
+starts -> run the stages (the interior-point batch, then local runs) -> each run checked
+independently -> select -> :class:`~stackik.result.IKResult`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from stackik.check import check_pose
+from stackik.formulation import reach_bound
+from stackik.geometry import Stack
+from stackik.result import STATUS_MESSAGES, IKResult, IKStatus
+from stackik.solve.blas import BlasLimit
+from stackik.solve.policy import plan_starts
+from stackik.solve.request import Request, build_request
+from stackik.solve.stages import Handover, Verdict, ip_stage, local_stage
+from stackik.targets import Target
+
+__all__ = ["MethodName", "solve_ik"]
+
+#: The built-in method names (:data:`stackik.methods.METHOD_NAMES`).
+MethodName = Literal["auto", "sqp", "ip", "slsqp", "trust-constr", "ipopt"]
+
+
+def solve_ik(
+    stack: Stack,
+    target: Target,
+    *,
+    objective: Literal["frobenius", "feasible", "weighted"] = "frobenius",
+    method: MethodName = "auto",
+    qp_solver: str | None = None,
+    x0: ArrayLike | None = None,
+    starts: int | None = None,
+    rng: np.random.Generator | int | None = None,
+    options: dict[str, Any] | None = None,
+    sigma_t: ArrayLike | None = None,
+    sigma_theta: ArrayLike | None = None,
+    start: Literal["paper", "convex"] = "paper",
+    max_time: float | None = None,
+    blas_threads: int | None = 1,
+) -> IKResult:
+    """Solve the inverse kinematics of a stack for one target.
+
+    Parameters
+    ----------
+    stack : Stack
+    target : PlanarTarget or SpatialTarget
+        Planar mode (3 variables per platform) or spatial mode (6).
+    objective : {"frobenius", "feasible", "weighted"}
+        ``"frobenius"`` minimises ``FN^2`` (the paper); ``"feasible"`` only reaches the
+        target within the limits (the paper's non-optimised pose: the first feasible pose
+        the solver reaches from its start); ``"weighted"`` minimises ``trace(J C_x J^T)``
+        with ``C_x = diag(sigma_t^2, ..., sigma_theta^2)`` (per platform if arrays).
+    method : {"auto", "sqp", "ip", "slsqp", "trust-constr", "ipopt"}
+        ``"ip"``: stackik's compiled primal-dual interior-point solver (planar; see
+        :mod:`stackik._ipm`); ``"sqp"``: stackik's SQP engine (:mod:`stackik.sqp`, any QP
+        backend, planar and spatial); ``"auto"`` (default) picks ``"ip"`` for planar targets
+        with the ``"frobenius"`` objective (or ``"weighted"`` with one ``sigma_theta``) and
+        ``"sqp"`` otherwise (see :func:`stackik.solve.policy.auto_method`). When every
+        interior-point start stalls far from feasibility (an unreachable target), the result
+        is "infeasible" with a pose within every limit part of the way to the target
+        (bisection from the upright pose; ``target_error`` is what is left); when no start
+        passes the check otherwise, the SQP engine takes over (it reports infeasibility and
+        the least-violation pose); the result's ``method`` says which produced the pose.
+        ``"slsqp"``/``"trust-constr"``: scipy baselines given the same scaled derivatives;
+        ``"ipopt"``: IPOPT through CasADi (planar only; optional extra ``stackik[ipopt]``)
+        with exact derivatives by automatic differentiation.
+    qp_solver : str, optional
+        QP backend of the SQP engine (default: its fastest installed one).
+    x0 : array_like, optional
+        Warm start, shape (n, 3) or (n, 6); default the paper's initial guess
+        (:func:`stackik.starts.paper_initial_guess`) or, with ``start="convex"``, the convex
+        restriction (:func:`stackik.convex.convex_start`; the paper's guess when that SOCP
+        is infeasible).
+    starts : int, optional
+        Number of starts. Default: in planar mode without ``x0``, three structured starts
+        (the paper's guess and two "folded" variants whose top two platforms are offset
+        sideways in opposite directions, see :func:`stackik.starts.initial_starts`) and, for
+        the interior-point path with n >= 5, every sideways-fold pattern of the top 3 (n =
+        5), 4 (n = 6-15), 5 (n = 16-31) or 3 (n >= 32) platforms
+        (:func:`stackik.starts.fold_depth`, :func:`stackik.starts.fold_patterns`), plus five
+        random ones from n = 32 (:func:`stackik.starts.tall_random_starts`); in spatial mode
+        the five structured starts and seven random ones; otherwise one. These find the best
+        known FN on the benchmark targets (README). Extra starts perturb the first with
+        Gaussian noise (``rng``). The best pose that passes the check is returned; when none
+        does, up to three more starts (the convex start first) are tried.
+    rng : Generator, int or None
+        Randomness of the extra (random) starts, including the fallback ones; None uses a
+        fixed seed, so that the same call always returns the same pose.
+    options : dict, optional
+        Passed to the solver: ``SQPOptions`` fields for "sqp", ``tol``, ``constr_tol``,
+        ``mu0``, ``max_iter``, ``max_time`` for "ip"
+        (:data:`stackik.methods.ip.IP_DEFAULTS`), scipy or IPOPT options otherwise.
+    max_time : float, optional
+        Wall-time budget over all starts [s]; default ``10 + 2 n``.
+    blas_threads : int or None
+        BLAS threads during the solve (default 1: the matrices are small and threads only
+        contend, 5x slower at n = 32 on a loaded 2-core machine); None leaves the process
+        setting alone.
+
+    Returns
+    -------
+    IKResult
+        ``success`` only when :func:`check_pose` passes (for interior-point poses its
+        compiled twin :func:`stackik._check.planar_check`, tested to agree, does the
+        check).
+    """
+    t_start = time.perf_counter()
+    blas = BlasLimit(blas_threads)
+    try:
+        req = build_request(
+            stack, target, objective=objective, method=method, qp_solver=qp_solver, x0=x0,
+            starts=starts, rng=rng, options=options, sigma_t=sigma_t,
+            sigma_theta=sigma_theta, start=start, max_time=max_time, t_start=t_start,
+            blas=blas,
+        )  # fmt: skip
+        return _result(req, _run(req))
+    finally:
+        blas.restore()
+
+
+def _run(req: Request) -> Verdict:
+    """The stages of a validated request, up to its verdict."""
+    if float(np.linalg.norm(req.mode.position(req.target))) > reach_bound(req.stack):
+        # beyond the triangle-inequality bound of every platform: unreachable
+        return Verdict(None, IKStatus.INFEASIBLE, 0, 0, req.method.name)
+    plan = plan_starts(req)
+    handover: Handover | None = None
+    if req.method.name == "ip":
+        out = ip_stage(req, plan)
+        if isinstance(out, Verdict):
+            return out
+        handover = out
+    return local_stage(req, plan, handover)
+
+
+def _result(req: Request, verdict: Verdict) -> IKResult:
+    """The :class:`IKResult` of a verdict (the first start when it has no run)."""
+    run = verdict.run
+    q = req.q0 if run is None else run.q
+    chk = check_pose(req.stack, req.target, q) if run is None else run.check
+    lifted = run.lifted if run is not None and run.lifted is not None else None
+    P, R, legs = lifted if lifted is not None else req.mode.lift(req.stack, req.target, q)
+    frobenius = (
+        math.sqrt(run.obj)
+        if run is not None and req.objective == "frobenius"
+        else req.mode.frobenius(q)
+    )
+    start_method = req.method.name
+    return IKResult(
+        q=q,
+        success=verdict.status is IKStatus.SUCCESS,
+        status=verdict.status,
+        message=verdict.message or STATUS_MESSAGES[verdict.status],
+        frobenius_norm=frobenius,
+        objective=req.objective,
+        objective_value=req.problem.objective_value(q) if run is None else run.obj,
+        max_violation=chk.max_violation,
+        target_error=chk.position_error,
+        angle_error=chk.angle_error,
+        nit=verdict.nit,
+        time=time.perf_counter() - req.t_start,
+        method=verdict.method,
+        qp_solver=req.qp_solver or ("default" if start_method == "sqp" else "-"),
+        n_starts=verdict.n_starts,
+        P=P,
+        R=R,
+        leg_lengths=legs,
+        phi=req.mode.phi(req.target),
+        mode=req.mode.name,
+    )

@@ -1,0 +1,179 @@
+"""A validated IK request: every argument of :func:`stackik.solve_ik` checked once.
+
+Bad input gets a ``ValueError`` that names the argument (or an
+:class:`~stackik.result.OptionError` for solver options) before any solver runs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from stackik.formulation import Mode, Problem, mode_of
+from stackik.geometry import Stack
+from stackik.methods import AUTO, Method, get_method
+from stackik.solve.blas import BlasLimit
+from stackik.solve.policy import auto_method
+from stackik.starts import StartSampler, paper_initial_guess
+from stackik.targets import Target
+
+__all__ = ["OBJECTIVES", "Request", "build_request", "sigma_weights"]
+
+FloatArray = NDArray[np.float64]
+
+OBJECTIVES = ("frobenius", "feasible", "weighted")
+
+
+@dataclass
+class Request:
+    """Everything one solve needs, validated.
+
+    ``method`` is the method the request starts with (``"auto"`` resolved); ``auto`` says
+    whether the policy chose it (and may hand over to the SQP engine). ``q0`` is the first
+    start (the user's ``x0``, the convex start or the paper's guess); ``structured`` is
+    True when the default structured starts apply (no ``x0``, ``start="paper"``).
+    """
+
+    stack: Stack
+    target: Target
+    mode: Mode
+    objective: str
+    method: Method
+    auto: bool
+    qp_solver: str | None
+    q0: FloatArray
+    structured: bool
+    x0_given: bool
+    start: str
+    starts: int | None
+    sampler: StartSampler
+    options: dict[str, Any]
+    weights: tuple[FloatArray, FloatArray] | None
+    problem: Problem
+    max_time: float
+    t_start: float
+    blas: BlasLimit
+
+    def time_left(self, now: float) -> float:
+        """Seconds left of the budget at ``now`` (at least 1 ms)."""
+        return max(self.max_time - (now - self.t_start), 1e-3)
+
+
+def sigma_weights(
+    n: int, sigma_t: ArrayLike | None, sigma_theta: ArrayLike | None
+) -> tuple[FloatArray, FloatArray]:
+    """Variances ``(sigma_t^2, sigma_theta^2)`` per platform, shape (n,) each."""
+    if sigma_t is None or sigma_theta is None:
+        raise ValueError('objective="weighted" needs sigma_t [mm] and sigma_theta [rad]')
+    st = np.broadcast_to(np.asarray(sigma_t, dtype=float), (n,)).copy()
+    sth = np.broadcast_to(np.asarray(sigma_theta, dtype=float), (n,)).copy()
+    if not (np.all(np.isfinite(st)) and np.all(np.isfinite(sth))):
+        raise ValueError("sigma_t, sigma_theta: must be finite")
+    if np.any(st < 0) or np.any(sth <= 0):
+        raise ValueError("sigma_t must be >= 0 and sigma_theta > 0")
+    return st**2, sth**2
+
+
+def _first_start(stack: Stack, target: Target, mode: Mode, x0: Any, start: str) -> FloatArray:
+    n, k = stack.n, mode.k
+    if x0 is not None:
+        q0 = np.array(x0, dtype=float)
+        if q0.shape != (n, k) or not np.all(np.isfinite(q0)):
+            raise ValueError(f"x0: expected finite values of shape ({n}, {k}), got {q0.shape}")
+        return q0
+    if start == "convex":
+        from stackik.convex import ConvexStartError, convex_start
+
+        try:
+            return convex_start(stack, target)
+        except ConvexStartError:  # no convex start for these rotations: the paper's guess
+            pass
+    return paper_initial_guess(stack, target)
+
+
+def _check_scalars(stack: Any, max_time: Any, objective: Any, starts: Any, start: Any) -> float:
+    if not isinstance(stack, Stack):
+        raise ValueError(f"stack: expected a Stack, got {type(stack).__name__}")
+    if max_time is None:
+        max_time = 10.0 + 2.0 * stack.n
+    if not (isinstance(max_time, int | float) and max_time > 0):
+        raise ValueError(f"max_time: expected a positive number of seconds, got {max_time!r}")
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective: unknown {objective!r}; choose one of {OBJECTIVES}")
+    if starts is not None and (
+        isinstance(starts, bool) or not isinstance(starts, int | np.integer) or starts < 1
+    ):
+        raise ValueError(f"starts: expected an integer >= 1, got {starts!r}")
+    if start not in ("paper", "convex"):
+        raise ValueError(f"start: unknown {start!r}; choose 'paper' or 'convex'")
+    return float(max_time)
+
+
+def build_request(
+    stack: Stack,
+    target: Target,
+    *,
+    objective: str,
+    method: str,
+    qp_solver: str | None,
+    x0: ArrayLike | None,
+    starts: int | None,
+    rng: Any,
+    options: dict[str, Any] | None,
+    sigma_t: ArrayLike | None,
+    sigma_theta: ArrayLike | None,
+    start: str,
+    max_time: float | None,
+    t_start: float,
+    blas: BlasLimit,
+) -> Request:
+    """Validate the arguments of :func:`stackik.solve_ik` and formulate the problem."""
+    budget = _check_scalars(stack, max_time, objective, starts, start)
+    mode = mode_of(target)
+    if method != AUTO:
+        get_method(method)  # unknown names: ValueError listing the choices
+    auto = method == AUTO
+    chosen = get_method(
+        auto_method(mode.planar, objective, sigma_theta, qp_solver, options) if auto else method
+    )
+    if chosen.uses_blas:
+        blas.apply()
+    if chosen.name == "sqp" and qp_solver is not None:
+        from stackik.sqp.qp import make_backend
+
+        make_backend(qp_solver)  # raises ValueError listing the available ones
+    sampler = StartSampler(stack, mode, rng)  # a bad rng: ValueError before any work
+    weights = sigma_weights(stack.n, sigma_t, sigma_theta) if objective == "weighted" else None
+    q0 = _first_start(stack, target, mode, x0, start)
+    sampler.q0 = q0
+    prob = Problem(stack, target, objective, weights)
+    reason = chosen.supports(prob)
+    if reason is not None:
+        raise ValueError(reason)
+    opts = dict(options or {})
+    if chosen.name in ("sqp", "ip"):
+        chosen.check_options(opts)  # bad options are reported before any solve
+    return Request(
+        stack=stack,
+        target=target,
+        mode=mode,
+        objective=objective,
+        method=chosen,
+        auto=auto,
+        qp_solver=qp_solver,
+        q0=q0,
+        structured=x0 is None and start == "paper",
+        x0_given=x0 is not None,
+        start=start,
+        starts=None if starts is None else int(starts),
+        sampler=sampler,
+        options=opts,
+        weights=weights,
+        problem=prob,
+        max_time=budget,
+        t_start=t_start,
+        blas=blas,
+    )

@@ -1,0 +1,228 @@
+"""The stages of a solve: the one-call interior-point batch, then local runs one by one.
+
+Each stage returns a :class:`Verdict` (the pose and status the result reports) or, for the
+``"auto"`` policy's interior-point batch, a :class:`Handover` to the SQP engine. Selection
+is one rule (:meth:`Tally.offer`): the lowest objective among runs that pass the
+independent check, else the run with the least violation (as a length).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from stackik.check import FEAS_TOL
+from stackik.methods import Method, Run, RunStatus, get_method
+from stackik.result import IKStatus
+from stackik.solve.nearest import NEAREST_MAX_T, NEAREST_MESSAGE, nearest_reachable
+from stackik.solve.policy import (
+    SCREEN_FEAS_MM,
+    SCREEN_OPTIONS,
+    SHARED_OPTIONS,
+    SPATIAL_GIVE_UP,
+    SPATIAL_GIVE_UP_MM,
+    StartPlan,
+)
+from stackik.solve.request import Request
+from stackik.targets import PlanarTarget
+
+__all__ = ["Handover", "Tally", "Verdict", "ip_stage", "local_stage"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """What a solve reports: the pose's run (None: the first start), status, counts."""
+
+    run: Run | None
+    status: IKStatus
+    nit: int
+    n_starts: int
+    method: str
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class Handover:
+    """The interior-point batch found no pose that passes: the SQP engine decides.
+
+    ``quick``: every start stalled (an unreachable target): the SQP engine runs the
+    structured starts one at a time until it certifies infeasibility, without screening
+    or fallbacks.
+    """
+
+    queue: list[FloatArray]
+    least: Run | None
+    nit: int
+    tried: int
+    quick: bool
+    options: dict[str, object]
+
+
+@dataclass
+class Tally:
+    """The runs of a stage so far: best passing, least violating, counts."""
+
+    best: Run | None = None
+    least: Run | None = None
+    nit: int = 0
+    tried: int = 0
+    last: RunStatus | None = None
+    timed_out: bool = False
+    far_off: bool = True
+    screened: list[Run] = field(default_factory=list)
+
+    def offer(self, run: Run) -> None:
+        """Count ``run`` and keep it if it is the best passing or least violating one."""
+        self.nit += run.nit
+        self.last = run.status
+        self.far_off = self.far_off and run.check.max_violation_mm > SPATIAL_GIVE_UP_MM
+        if run.check.ok:
+            if self.best is None or run.obj < self.best.obj - 1e-12 * abs(self.best.obj):
+                self.best = run
+        else:
+            self.offer_least(run)
+
+    def offer_least(self, run: Run) -> None:
+        if self.least is None or run.check.max_violation_mm < self.least.check.max_violation_mm:
+            self.least = run
+
+    def failure_status(self) -> IKStatus:
+        """The status when no run passed: the last run's word, else infeasible when the
+        least violation is above tolerance, else failed."""
+        if self.timed_out:
+            return IKStatus.MAX_TIME
+        if self.last is RunStatus.MAX_ITER:
+            return IKStatus.MAX_ITER
+        if self.last is RunStatus.MAX_TIME:
+            return IKStatus.MAX_TIME
+        if self.last is RunStatus.SUCCESS:  # the solver claimed success; the check disagreed
+            return IKStatus.FAILED
+        if self.least is not None and self.least.check.max_violation_mm > FEAS_TOL:
+            return IKStatus.INFEASIBLE
+        return IKStatus.FAILED
+
+
+def _ip_status(statuses: list[RunStatus]) -> IKStatus:
+    if RunStatus.MAX_TIME in statuses:
+        return IKStatus.MAX_TIME
+    if RunStatus.MAX_ITER in statuses and all(
+        s in (RunStatus.MAX_ITER, RunStatus.SKIPPED) for s in statuses
+    ):
+        return IKStatus.MAX_ITER
+    return IKStatus.FAILED
+
+
+def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
+    """Every interior-point start in one compiled call.
+
+    A passing pose ends the solve. Otherwise an explicit ``method="ip"`` reports the
+    least-violation pose; ``"auto"`` answers an unreachable target (every start stalled)
+    with the bisection's limit-respecting pose (:func:`nearest_reachable`), or hands over
+    to the SQP engine with the options both engines take.
+    """
+    from stackik.methods.ip import IPMethod
+
+    method = req.method
+    assert isinstance(method, IPMethod)
+    starts = plan.batch(req.sampler, req.structured, req.stack.n)
+    left = req.time_left(time.perf_counter())
+    batch = method.run_many(req.problem, starts, req.options, left)
+    if batch.best is not None:
+        return Verdict(batch.best, IKStatus.SUCCESS, batch.nit, len(starts), "ip")
+    if not req.auto:
+        return Verdict(batch.least, _ip_status(batch.statuses), batch.nit, len(starts), "ip")
+    stalled = all(s in (RunStatus.STALLED, RunStatus.SKIPPED) for s in batch.statuses)
+    queue = plan.queue
+    if stalled:
+        target = req.target
+        assert isinstance(target, PlanarTarget)
+        deadline = req.t_start + req.max_time
+        near, t_near, nit_near, n_near = nearest_reachable(
+            req.stack, target, req.objective, req.weights, req.options, deadline
+        )
+        if near is not None and t_near <= NEAREST_MAX_T:
+            n = len(starts) + n_near
+            nit = batch.nit + nit_near
+            return Verdict(near, IKStatus.INFEASIBLE, nit, n, "ip", NEAREST_MESSAGE)
+        if near is not None:  # nearly there: the SQP engine starts from that pose
+            queue.insert(0, near.q)
+    shared = {key: v for key, v in req.options.items() if key in SHARED_OPTIONS}
+    return Handover(queue, batch.least, batch.nit, len(starts), stalled, shared)
+
+
+def _screen(req: Request, method: Method, queue: list[FloatArray], tally: Tally) -> None:
+    """Screen the structured starts with a loose KKT tolerance, best passing first (its FN
+    is within ~1e-8 of the fully converged value); when none passes, the others are
+    solved in full, best first."""
+    for qs in queue:
+        left = req.time_left(time.perf_counter())
+        opts = {**SCREEN_OPTIONS, **req.options}
+        run = method.run(req.problem, qs, opts, left, req.qp_solver)
+        tally.nit += run.nit
+        tally.screened.append(run)
+        if not run.check.ok:
+            tally.offer_least(run)
+    tally.screened.sort(key=lambda r: (r.check.max_violation_mm > SCREEN_FEAS_MM, r.obj))
+
+
+def _next_start(
+    req: Request, queue: list[FloatArray], tally: Tally, fallback_at: int
+) -> FloatArray:
+    if tally.tried < len(queue):
+        return queue[tally.tried]
+    if tally.best is None and tally.tried == fallback_at and req.start == "paper":
+        from stackik.convex import ConvexStartError, convex_start
+
+        try:
+            return convex_start(req.stack, req.target)
+        except ConvexStartError:
+            pass
+    return req.sampler.draw()
+
+
+def local_stage(req: Request, plan: StartPlan, handover: Handover | None) -> Verdict:
+    """Local runs one start at a time (SQP, scipy, IPOPT; the SQP engine after a handover),
+    with screening of the structured starts, fallback starts when none passes, the
+    spatial early stop on unreachable targets and the time budget."""
+    method = req.method if handover is None else get_method("sqp")
+    options = req.options if handover is None else dict(handover.options)
+    queue = plan.queue if handover is None else handover.queue
+    quick = handover is not None and handover.quick
+    tally = Tally()
+    if handover is not None:
+        req.blas.apply()
+        tally.nit, tally.least = handover.nit, handover.least
+    n_planned = plan.n_planned
+    if plan.starts is None and len(queue) > 1 and method.name == "sqp" and not quick:
+        _screen(req, method, queue, tally)
+        queue = [r.q for r in tally.screened]
+        n_planned = 0 if tally.screened[0].check.ok else 1
+    fallback = 3 if not req.x0_given and not quick else 0  # more starts if none passes
+    while tally.tried < n_planned:
+        if tally.tried > 0 and time.perf_counter() - req.t_start > req.max_time:
+            tally.timed_out = True
+            break
+        qs = _next_start(req, queue, tally, n_planned - fallback)
+        left = req.time_left(time.perf_counter())
+        tally.offer(method.run(req.problem, qs, options, left, req.qp_solver))
+        tally.tried += 1
+        if quick and (tally.last is RunStatus.INFEASIBLE or tally.best is not None):
+            break
+        if plan.spatial_default and tally.tried == SPATIAL_GIVE_UP and tally.far_off:
+            # the first structured starts all ended far from feasibility: an unreachable
+            # target; the other starts would only repeat that
+            break
+        if tally.tried == n_planned and tally.best is None and fallback > 0:
+            n_planned += fallback
+            fallback = 0
+    if tally.best is None and tally.screened and tally.screened[0].check.ok:
+        tally.best = tally.screened[0]
+    n_starts = tally.tried + len(tally.screened) + (handover.tried if handover else 0)
+    if tally.best is not None:
+        return Verdict(tally.best, IKStatus.SUCCESS, tally.nit, n_starts, method.name)
+    return Verdict(tally.least, tally.failure_status(), tally.nit, n_starts, method.name)

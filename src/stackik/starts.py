@@ -1,0 +1,186 @@
+"""Starts of the local solvers: the paper's guess, sideways folds, random perturbations.
+
+FN^2 sums the squared distances from each plate to the end effector, so good poses often
+fold the top of the stack sideways; which way each upper platform folds is a discrete
+choice that a local solver keeps. The structured starts enumerate those choices; random
+starts (``rng``) perturb the first start.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from stackik.formulation.modes import Mode, mode_of
+from stackik.geometry import Stack
+from stackik.targets import PlanarTarget, Target
+
+__all__ = [
+    "SPATIAL_STARTS",
+    "StartSampler",
+    "fold_depth",
+    "fold_patterns",
+    "initial_starts",
+    "nominal_height",
+    "paper_initial_guess",
+    "tall_random_starts",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: Default number of starts in spatial mode (5 structured, the rest random; ``rng``).
+SPATIAL_STARTS = 12
+
+
+def nominal_height(stack: Stack, frac: float = 0.35) -> FloatArray:
+    """Height of each platform at which its legs are at ``leg_min + frac * range`` [mm]."""
+
+    def make(st: Stack) -> FloatArray:
+        L = st.leg_min + frac * (st.leg_max - st.leg_min)
+        chord = np.linalg.norm(st.top_nodes - st.base_nodes, axis=-1).max(axis=1)
+        h = np.sqrt(np.maximum(L**2 - chord**2, (0.5 * L) ** 2))
+        h.setflags(write=False)
+        return h  # type: ignore[no-any-return]
+
+    return stack.derived(("nominal_height", frac), make)  # type: ignore[no-any-return]
+
+
+def paper_initial_guess(stack: Stack, target: Target) -> FloatArray:
+    """The paper's initial guess: share the target among the platforms, ignoring limits.
+
+    Planar: each platform turns by ``theta / n`` and moves by ``P_target / n`` in the base
+    frame (expressed in its own frame), with its local height ``z_i`` raised to at least the
+    height where its legs sit at 35% of their range ("a minimum translation in each
+    platform's normal direction"). Spatial: the same with the rotation vector of
+    ``R_target`` divided evenly. Returns (n, 3) or (n, 6).
+    """
+    n = stack.n
+    hmin = nominal_height(stack)
+    if isinstance(target, PlanarTarget):
+        th = np.full(n, target.theta / n)
+        Theta = np.cumsum(th) - th
+        P = np.array([target.rho, target.z]) / n
+        c, s = np.cos(Theta), np.sin(Theta)
+        rho = c * P[0] + s * P[1]  # Rot(-Theta) P
+        z = -s * P[0] + c * P[1]
+        z = np.maximum(z, hmin)
+        return np.column_stack([rho, z, th])
+    from scipy.spatial.transform import Rotation
+
+    rv = Rotation.from_matrix(target.rotation).as_rotvec() / n
+    Ri = Rotation.from_rotvec(rv).as_matrix()
+    eul = Rotation.from_rotvec(rv).as_euler("ZYX")
+    q = np.zeros((n, 6))
+    A = np.eye(3)
+    for i in range(n):
+        p = A.T @ (target.position / n)
+        p[2] = max(p[2], hmin[i])
+        q[i, :3] = p
+        q[i, 3:] = eul
+        A = A @ Ri
+    return q
+
+
+def initial_starts(
+    stack: Stack, target: Target, q0: FloatArray, structured: bool
+) -> list[FloatArray]:
+    """Deterministic starts: ``q0`` and two folded variants per horizontal axis.
+
+    FN^2 sums the squared distances from each plate to the end effector, so good poses
+    often fold the top of the stack: the two upper platforms offset sideways in opposite
+    directions bring the lower plates closer to the end effector. Which way they fold is a
+    discrete choice that a local solver cannot change, hence one start per direction
+    (offset ``0.75 (leg_max - leg_min)`` [mm] in the platforms' own frames): along the
+    plane's axis in planar mode (3 starts), along x and along y in spatial mode (5 starts,
+    followed there by random ones, :data:`SPATIAL_STARTS` in all).
+    """
+    out = [q0]
+    if structured and stack.n >= 2:
+        a = 0.75 * float(np.mean(stack.leg_max - stack.leg_min))
+        # planar: the in-plane axis; spatial: both horizontal axes (4 folded starts)
+        for axis in mode_of(target).fold_axes:
+            for sign in (1.0, -1.0):
+                q = q0.copy()
+                q[-2, axis] += sign * a
+                q[-1, axis] -= sign * a
+                out.append(q)
+    return out
+
+
+def fold_depth(n: int) -> int:
+    """Platforms whose sideways folds the default interior-point starts enumerate.
+
+    0 for n <= 4 (the two folded starts of :func:`initial_starts` suffice), 3 at n = 5,
+    4 for n = 6-15, 5 for n = 16-31 and 3 again from n = 32: ``2**depth`` extra starts.
+    Chosen on random geometries against IPOPT from eight starts and many random starts
+    (README, ``benchmarks/bench_quality.py``); from n = 32 on, 4, 5 and 6 found nothing
+    better than 3 (12 targets at n = 32, 6 at n = 64, three geometries) at 1.6-5x the time.
+    """
+    if n <= 4:
+        return 0
+    if n >= 32:  # each start costs more there, and more patterns found nothing better
+        return 3
+    return 3 + (n >= 6) + (n >= 16)
+
+
+def tall_random_starts(n: int) -> int:
+    """Random perturbation starts the default interior-point run adds to the fold
+    patterns: 5 from n = 32 (``rng``; fixed seed by default), none below. On 12 targets
+    at n = 64 (three geometries) the fold patterns alone came within 0.1 % of the best
+    FN found on 11, with five random starts added on all 12 (about 0.35 s more)."""
+    return 5 if n >= 32 else 0
+
+
+def fold_patterns(stack: Stack, q0: FloatArray, depth: int) -> list[FloatArray]:
+    """Every pattern of sideways folds of the top ``depth`` platforms, as starts.
+
+    The best poses of taller stacks reach toward the target with the lower platforms and
+    fold the upper ones around it; which way each upper platform folds is a discrete
+    choice that a local solver keeps, so the default interior-point run tries all
+    ``2**depth`` sign patterns of a sideways offset ``0.75 (leg_max - leg_min)`` [mm] on
+    the top ``depth`` platforms (planar mode).
+    """
+    n = stack.n
+    m = min(depth, n)
+    if m <= 0:
+        return []
+    a = 0.75 * float(np.mean(stack.leg_max - stack.leg_min))
+    out = []
+    for code in range(2**m):
+        signs = np.array([1.0 if (code >> j) & 1 else -1.0 for j in range(m)])
+        q = q0.copy()
+        q[n - m :, 0] += a * signs
+        out.append(q)
+    return out
+
+
+class StartSampler:
+    """Random starts around a base pose ``q0`` (Gaussian, :meth:`Mode.perturbation`).
+
+    The generator is made on the first draw: ``rng=None`` means a fixed seed (0), so the
+    same call always returns the same pose, and calls that need no random start pay
+    nothing. Draws come in call order, whichever stage asks. ``q0`` (shape (n, k)) may be
+    set after construction (the request validates ``rng`` before it builds the start).
+    """
+
+    def __init__(
+        self, stack: Stack, mode: Mode, rng: object = None, q0: FloatArray | None = None
+    ) -> None:
+        self.stack, self.mode = stack, mode
+        self.q0 = np.zeros((stack.n, mode.k)) if q0 is None else q0
+        self._gen: np.random.Generator | None = None
+        if rng is not None:
+            try:
+                self._gen = np.random.default_rng(rng)  # type: ignore[arg-type]
+            except (TypeError, ValueError) as exc:
+                raise ValueError(
+                    f"rng: expected None, an int seed or a numpy Generator ({exc})"
+                ) from None
+
+    def draw(self) -> FloatArray:
+        """One random start, shape (n, k)."""
+        if self._gen is None:
+            self._gen = np.random.default_rng(0)
+        n, k = self.stack.n, self.mode.k
+        pert = self.mode.perturbation(self.stack)
+        return self.q0 + (self._gen.standard_normal(n * k) * pert).reshape(n, k)  # type: ignore[no-any-return]
