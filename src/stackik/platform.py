@@ -12,17 +12,48 @@ coordinates. Conventions follow DESIGN §2:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from stackik.rotations import euler_zyx, euler_zyx_derivatives, plane_axis
 
-if TYPE_CHECKING:
-    from stackik.geometry import PlatformGeometry, Stack
+
+class PlatformGeometry(Protocol):
+    """What this module reads of a :class:`stackik.geometry.PlatformGeometry` (arrays only:
+    the module depends on no class of :mod:`stackik.geometry`)."""
+
+    @property
+    def base_nodes(self) -> NDArray[np.float64]: ...  # (6, 3) [mm]
+    @property
+    def top_nodes(self) -> NDArray[np.float64]: ...  # (6, 3) [mm]
+    @property
+    def leg_min(self) -> float: ...  # [mm]
+    @property
+    def leg_max(self) -> float: ...  # [mm]
+
+
+class Stack(Protocol):
+    """What this module reads of a :class:`stackik.geometry.Stack`: per-platform arrays."""
+
+    @property
+    def n(self) -> int: ...
+    @property
+    def base_nodes(self) -> NDArray[np.float64]: ...  # (n, 6, 3) [mm]
+    @property
+    def top_nodes(self) -> NDArray[np.float64]: ...  # (n, 6, 3) [mm]
+    @property
+    def leg_min(self) -> NDArray[np.float64]: ...  # (n,) [mm]
+    @property
+    def leg_max(self) -> NDArray[np.float64]: ...  # (n,) [mm]
+    @property
+    def sin_joint_min(self) -> NDArray[np.float64]: ...  # (n,)
+    def derived(self, key: Any, make: Callable[[Any], Any]) -> Any: ...
+
 
 __all__ = [
     "CONSTRAINT_BLOCKS",
