@@ -36,7 +36,8 @@ from typing import Any
 import numpy as np
 
 import stackik as sk
-from stackik.bench import BenchConfig, _targets, machine_info
+from stackik.bench import BenchConfig, machine_info
+from stackik.sampling import random_planar_targets
 from stackik.sqp.qp import make_backend
 from stackik.sqp.qp.clarabel_ import ClarabelBackend
 
@@ -89,7 +90,7 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results"))
     args = ap.parse_args()
     stack = sk.Stack.reference(4)
-    targets = _targets(stack, BenchConfig(), args.targets, 7)
+    targets = random_planar_targets(stack, args.targets, 7, phis=BenchConfig().phis)
     for t in targets[:2]:  # warm-up (imports, JIT of the default path)
         sk.solve_ik(stack, t, method="slsqp", starts=1)
 

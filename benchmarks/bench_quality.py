@@ -4,7 +4,7 @@ Run: ``python benchmarks/bench_quality.py [--sizes 5 6 7 8 9 10 11 12 16] [--per
 [--out benchmarks/results]``.
 
 For each n: the reference stack and two random asymmetric stacks
-(:func:`stackik.bench.random_stack`, seeds ``100 n + 1``, ``100 n + 2``), two plane angles
+(:func:`stackik.sampling.random_stack`, seeds ``100 n + 1``, ``100 n + 2``), two plane angles
 (phi = 0.3 and -1.7), ``per`` random reachable targets each (``6 per`` targets per n).
 The reference value of a target is the best objective found by any of: IPOPT from eight
 starts, the SQP engine (three structured starts), the interior point from 48 random
@@ -27,8 +27,8 @@ from pathlib import Path
 from typing import Any
 
 import stackik as sk
-from stackik.analysis.workspace import random_reachable_targets
-from stackik.bench import machine_info, random_stack
+from stackik.bench import machine_info
+from stackik.sampling import random_reachable_targets, random_stack
 
 REFERENCES: list[tuple[str, dict[str, Any]]] = [
     ("ipopt, 8 starts", {"method": "ipopt", "starts": 8, "rng": 0}),

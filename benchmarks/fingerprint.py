@@ -26,7 +26,7 @@ import numpy as np
 
 def _cases() -> list[tuple[str, Any, Any, dict[str, Any]]]:
     from stackik import PlanarTarget, PlatformGeometry, SpatialTarget, Stack, spatial_forward
-    from stackik.analysis.workspace import random_reachable_targets
+    from stackik.sampling import random_reachable_targets
 
     out: list[tuple[str, Any, Any, dict[str, Any]]] = []
     st4 = Stack.reference(4)

@@ -45,8 +45,8 @@ from typing import Any
 import numpy as np
 
 import stackik as sk
-from stackik.analysis.workspace import random_feasible_poses
 from stackik.result import IKStatus
+from stackik.sampling import random_feasible_poses
 from stackik.sqp.qp import available_qp_solvers
 from stackik.targets import PlanarTarget, SpatialTarget
 

@@ -7,8 +7,8 @@ import pytest
 
 import stackik as sk
 from stackik._check import planar_check
-from stackik.bench import random_stack
 from stackik.check import check_pose
+from stackik.sampling import random_stack
 from stackik.starts import paper_initial_guess
 
 CASES = [(n, seed, phi) for n in (1, 2, 4, 7) for seed in range(4) for phi in (0.0, 0.8, -2.1, 3.0)]

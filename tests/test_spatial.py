@@ -8,10 +8,10 @@ import pytest
 
 import stackik as sk
 from stackik._spatial import spatial_parts
-from stackik.bench import random_stack
 from stackik.formulation import Problem
 from stackik.kinematics import spatial_chain
 from stackik.platform import constraints_from_legs, spatial_legs
+from stackik.sampling import random_stack
 
 
 def case(n: int, seed: int):

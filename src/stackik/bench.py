@@ -35,17 +35,21 @@ import numpy as np
 from stackik._io import write_csv
 from stackik.batch import checkpointed_map
 from stackik.geometry import Stack
-from stackik.ik import PlanarTarget, SpatialTarget, solve_ik, target_to_dict
+from stackik.sampling import random_planar_targets, random_spatial_targets, random_stack
+from stackik.solve import solve_ik
+from stackik.targets import PAPER_TARGETS, PlanarTarget, target_to_dict
 
 __all__ = ["BenchConfig", "machine_info", "main", "run_benchmark"]
+
+# Random stacks and targets come from stackik.sampling; the old names stay importable
+# from here (random_stack, _spatial_targets) for tests that predate it.
+_spatial_targets = random_spatial_targets
 
 DEFAULT = "stackik (default)"
 SLSQP = "slsqp, 1 start"
 SLSQP8 = "slsqp, 8 starts"
 IPOPT1 = "ipopt, 1 start"
 IPOPT8 = "ipopt, 8 starts"
-
-PAPER_TARGETS = [(600.0, 1000.0, -1.57), (145.0, 1500.0, -0.207), (-319.0, 1532.0, 0.332)]
 
 
 @dataclass(frozen=True)
@@ -92,6 +96,8 @@ def machine_info() -> dict[str, Any]:
     """Machine, versions and date stamped on every benchmark result."""
     import scipy
 
+    from stackik._version import __version__
+
     info = {
         "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
         "platform": platform.platform(),
@@ -100,7 +106,7 @@ def machine_info() -> dict[str, Any]:
         "python": platform.python_version(),
         "numpy": np.__version__,
         "scipy": scipy.__version__,
-        "stackik": __import__("stackik").__version__,
+        "stackik": __version__,
     }
     try:
         with open("/proc/cpuinfo") as fh:
@@ -165,63 +171,6 @@ def _ratios(summary: list[dict]) -> list[dict]:
                     "speedup": med[base] / med[method],
                 }
             )
-    return out
-
-
-def random_stack(n: int, seed: int) -> Stack:
-    """A stack of ``n`` different asymmetric platforms (benchmark of other geometries).
-
-    Hexagonal layouts with random radii (base 140-190 mm, top 110-160 mm), half-angles
-    (8-22 deg), leg ranges (min 230-270 mm, max 420-480 mm), joint limits (15-25 deg) and
-    base nodes moved by up to ~5 mm in the plane.
-    """
-    from stackik.geometry import PlatformGeometry
-
-    rng = np.random.default_rng(seed)
-    out = []
-    for _ in range(n):
-        g = PlatformGeometry.hexagonal(
-            base_radius=float(rng.uniform(140, 190)),
-            top_radius=float(rng.uniform(110, 160)),
-            base_half_angle=float(np.radians(rng.uniform(8, 22))),
-            top_half_angle=float(np.radians(rng.uniform(8, 22))),
-            leg_min=float(rng.uniform(230, 270)),
-            leg_max=float(rng.uniform(420, 480)),
-            joint_min=float(np.radians(rng.uniform(15, 25))),
-        )
-        base = g.base_nodes + np.clip(rng.normal(0, 2, (6, 3)), -5, 5) * [1, 1, 0]
-        out.append(PlatformGeometry(base, g.top_nodes, g.leg_min, g.leg_max, g.joint_min))
-    return Stack(tuple(out))
-
-
-def _targets(stack: Stack, cfg: BenchConfig, count: int, seed: int) -> list[PlanarTarget]:
-    from stackik.analysis.workspace import random_reachable_targets
-
-    out: list[PlanarTarget] = []
-    per = [count // len(cfg.phis) + (i < count % len(cfg.phis)) for i in range(len(cfg.phis))]
-    for i, (phi, k) in enumerate(zip(cfg.phis, per, strict=True)):
-        if k:
-            out += list(random_reachable_targets(stack, k, rng=seed + i, phi=phi))
-    return out
-
-
-def _spatial_targets(stack: Stack, count: int, seed: int) -> list[SpatialTarget]:
-    from stackik.kinematics import spatial_forward
-
-    gen = np.random.default_rng(seed)
-    out: list[SpatialTarget] = []
-    n = stack.n
-    while len(out) < count:
-        q = np.column_stack(
-            [
-                gen.uniform(-60, 60, (n, 2)),
-                gen.uniform(260, 420, n),
-                gen.uniform(-0.25, 0.25, (n, 3)),
-            ]
-        )
-        if stack.spatial_constraints(q).min() >= 0:
-            P, R = spatial_forward(q)
-            out.append(SpatialTarget(P, R))
     return out
 
 
@@ -304,7 +253,7 @@ def run_benchmark(
     out.mkdir(parents=True, exist_ok=True)
     stack = Stack.reference(4)
     targets = [PlanarTarget(*t, phi=0.0) for t in PAPER_TARGETS]
-    targets += _targets(stack, cfg, cfg.n_random, cfg.rng)
+    targets += random_planar_targets(stack, cfg.n_random, cfg.rng, phis=cfg.phis)
     methods = _planar_methods(cfg)
     jobs: list[tuple[Stack, Sequence[Any], Method, str, int]] = [
         (stack, targets, m, "planar", 0) for m in methods
@@ -318,7 +267,7 @@ def run_benchmark(
         scale_methods.append(Method(IPOPT1, {"method": "ipopt", "starts": 1}))
     for n in cfg.sizes:
         st = Stack.reference(n)
-        tg = _targets(st, cfg, cfg.per_size, cfg.rng + 100 * n)
+        tg = random_planar_targets(st, cfg.per_size, cfg.rng + 100 * n, phis=cfg.phis)
         # SLSQP fails and takes seconds per solve beyond n = 32: not worth the minutes
         jobs += [
             (st, tg, m, "scaling", 0)
@@ -336,10 +285,12 @@ def run_benchmark(
         offset = 0
         for g in range(cfg.geo_stacks):
             st = random_stack(n, cfg.rng + 1000 * n + g)
-            tg = _targets(st, cfg, cfg.geo_per_stack, cfg.rng + 1000 * n + 10 * g)
+            tg = random_planar_targets(
+                st, cfg.geo_per_stack, cfg.rng + 1000 * n + 10 * g, phis=cfg.phis
+            )
             jobs += [(st, tg, m, "geometries", offset) for m in geo_methods]
             offset += len(tg)
-    sp_targets = _spatial_targets(stack, cfg.n_spatial, cfg.rng + 7)
+    sp_targets = random_spatial_targets(stack, cfg.n_spatial, cfg.rng + 7)
     jobs += [
         (stack, sp_targets, Method(DEFAULT, {}), "spatial", 0),
         (stack, sp_targets, Method(SLSQP, {"method": "slsqp", "starts": 1}), "spatial", 0),

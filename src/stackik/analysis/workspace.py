@@ -8,14 +8,15 @@ Choices (documented, not given by the paper):
   and the edge of the workspace, where the optimisation has least freedom, weighs as
   much as the interior. A pool of random *feasible poses* is drawn (every platform's
   ``(rho_i, z_i, theta_i)`` uniformly in a box that contains its whole feasible set,
-  :func:`platform_box`, kept when its 24 limits hold; the limits of one platform depend on
-  its own variables only, so platforms are drawn independently), their forward
-  kinematics in the plane ``phi`` give reachable targets, and these are thinned to an
-  even density on a grid of ``cell`` x ``cell`` mm squares: cells are visited in a random
-  order, one target each, round after round (:func:`uniform_reachable_targets`). Every
-  target is therefore reachable; theta keeps its distribution among the pool's targets
-  of the same cell. ``sampling="poses"`` keeps the forward kinematics of random feasible
-  poses unthinned (:func:`random_reachable_targets`): they cluster where the stack
+  :func:`~stackik.sampling.platform_box`, kept when its 24 limits hold; the limits of
+  one platform depend on its own variables only, so platforms are drawn independently),
+  their forward kinematics in the plane ``phi`` give reachable targets, and these are
+  thinned to an even density on a grid of ``cell`` x ``cell`` mm squares: cells are
+  visited in a random order, one target each, round after round
+  (:func:`~stackik.sampling.uniform_reachable_targets`). Every target is therefore
+  reachable; theta keeps its distribution among the pool's targets of the same cell.
+  ``sampling="poses"`` keeps the forward kinematics of random feasible poses unthinned
+  (:func:`~stackik.sampling.random_reachable_targets`): they cluster where the stack
   reaches most easily and under-represent the edge of the workspace, where the FN ratio
   is close to 1; with the reference geometry this narrows the range of FN ratios and
   lowers the regression's r^2 markedly (README, "Reproducing the paper").
@@ -44,7 +45,12 @@ from numpy.typing import ArrayLike, NDArray
 from stackik.analysis.montecarlo import monte_carlo
 from stackik.batch import checkpointed_map
 from stackik.geometry import Stack
-from stackik.kinematics import planar_forward
+from stackik.sampling import (  # re-exported: the workspace study's targets
+    platform_box,
+    random_feasible_poses,
+    random_reachable_targets,
+    uniform_reachable_targets,
+)
 
 if TYPE_CHECKING:
     from stackik.ik import IKResult, PlanarTarget
@@ -122,135 +128,6 @@ def regress(x: ArrayLike, y: ArrayLike) -> Regression:
         float(r.slope), float(r.intercept), float(r.rvalue), float(r.pvalue), float(r.stderr),
         int(xa.size),
     )  # fmt: skip
-
-
-# =========================================================================================
-# Targets
-# =========================================================================================
-def random_feasible_poses(
-    stack: Stack,
-    count: int,
-    rng: np.random.Generator | int | None = None,
-    phi: float = 0.0,
-    box: Sequence[tuple[float, float]] | None = None,
-    batch: int = 4096,
-) -> FloatArray:
-    """Random feasible planar poses by per-platform rejection sampling.
-
-    Parameters
-    ----------
-    stack : Stack
-    count : int
-        Number of poses.
-    rng : Generator, int or None
-    phi : float
-        Plane azimuth [rad] (the 3D limits depend on it).
-    box : sequence of 3 (low, high) pairs, optional
-        Sampling box of ``(rho_i, z_i, theta_i)`` [mm, mm, rad]; default
-        ``(+-0.6 leg_max, (0.3 leg_min, leg_max), +-0.8 rad)`` of the largest platform.
-
-    Returns
-    -------
-    q : ndarray, shape (count, n, 3)
-    """
-    gen = np.random.default_rng(rng)
-    n = stack.n
-    if box is None:
-        lmax, lmin = float(np.max(stack.leg_max)), float(np.min(stack.leg_min))
-        box = [(-0.6 * lmax, 0.6 * lmax), (0.3 * lmin, lmax), (-0.8, 0.8)]
-    lo = np.array([b[0] for b in box], dtype=float)
-    hi = np.array([b[1] for b in box], dtype=float)
-    pools: list[list[FloatArray]] = [[] for _ in range(n)]
-    have = np.zeros(n, dtype=int)
-    for _ in range(10_000):
-        if np.all(have >= count):
-            break
-        cand = lo + (hi - lo) * gen.random((batch, n, 3))
-        ok = np.all(stack.planar_constraints(cand, phi) >= 0.0, axis=-1)  # (batch, n)
-        for i in range(n):
-            if have[i] < count:
-                good = cand[ok[:, i], i]
-                pools[i].append(good)
-                have[i] += good.shape[0]
-    else:  # pragma: no cover - only for a box that misses the feasible set
-        raise RuntimeError("random_feasible_poses: too few feasible samples in the box")
-    return np.stack([np.concatenate(p)[:count] for p in pools], axis=1)
-
-
-def random_reachable_targets(
-    stack: Stack,
-    count: int,
-    rng: np.random.Generator | int | None = None,
-    phi: float = 0.0,
-    box: Sequence[tuple[float, float]] | None = None,
-) -> list[PlanarTarget]:
-    """Reachable planar targets: forward kinematics of :func:`random_feasible_poses`."""
-    from stackik.ik import PlanarTarget
-
-    y = planar_forward(random_feasible_poses(stack, count, rng, phi, box))
-    return [PlanarTarget(rho=float(a), z=float(b), theta=float(c), phi=phi) for a, b, c in y]
-
-
-def platform_box(stack: Stack) -> list[tuple[float, float]]:
-    """A ``(rho_i, z_i, theta_i)`` box containing every feasible pose of every platform.
-
-    From the limits alone: a leg is at most ``leg_max`` long and joins nodes at most
-    ``r_b`` and ``r_t`` from their plate centres, so ``|P| <= r_b + leg_max + r_t`` and
-    ``z >= -r_t``; both joint-angle limits keep every leg within ``90 deg - joint_min``
-    of each plate normal, so the plates tilt by at most ``180 deg - 2 joint_min``.
-    Returns ``[(rho_lo, rho_hi), (z_lo, z_hi), (theta_lo, theta_hi)]`` [mm, mm, rad].
-    """
-    r_b = float(np.max(np.linalg.norm(stack.base_nodes, axis=-1)))
-    r_t = float(np.max(np.linalg.norm(stack.top_nodes, axis=-1)))
-    lmax = float(np.max(stack.leg_max))
-    tilt = float(np.pi - 2.0 * np.min(np.arcsin(stack.sin_joint_min)))
-    reach = r_b + lmax + r_t
-    return [(-reach, reach), (-r_t, lmax + r_t), (-tilt, tilt)]
-
-
-def uniform_reachable_targets(
-    stack: Stack,
-    count: int,
-    rng: np.random.Generator | int | None = None,
-    phi: float = 0.0,
-    cell: float = 100.0,
-    pool: int | None = None,
-) -> list[PlanarTarget]:
-    """Reachable planar targets spread evenly over the reachable ``(rho, z)`` region.
-
-    ``pool`` random feasible poses (:func:`random_feasible_poses` in
-    :func:`platform_box`, default ``max(2000, 50 count)``) give reachable targets by
-    forward kinematics; the ``(rho, z)`` plane is cut into ``cell`` x ``cell`` mm squares
-    and targets are taken one per occupied square, the squares in a random order, round
-    after round, until ``count`` are chosen. The result is close to uniform over the
-    reachable region (at the resolution of ``cell``) instead of piling up where random
-    poses land most often; theta keeps its distribution within a square.
-
-    Returns
-    -------
-    list of PlanarTarget (``count`` of them, in the plane ``phi``)
-    """
-    from stackik.ik import PlanarTarget
-
-    if count < 1:
-        raise ValueError("count must be >= 1")
-    if not cell > 0.0:
-        raise ValueError("cell must be > 0")
-    gen = np.random.default_rng(rng)
-    size = max(2000, 50 * count) if pool is None else max(int(pool), count)
-    y = planar_forward(random_feasible_poses(stack, size, gen, phi, platform_box(stack)))
-    perm = gen.permutation(size)
-    key = np.floor(y[perm, :2] / cell).astype(np.int64)
-    cell_id = np.unique(key, axis=0, return_inverse=True)[1].ravel()
-    cell_rank = gen.permutation(int(cell_id.max()) + 1)[cell_id]  # random order of squares
-    order = np.argsort(cell_id, kind="stable")
-    starts = np.flatnonzero(np.r_[True, np.diff(cell_id[order]) != 0])
-    occurrence = np.empty(size, dtype=np.int64)  # round in which a target is taken
-    occurrence[order] = np.arange(size) - np.repeat(starts, np.diff(np.r_[starts, size]))
-    chosen = perm[np.lexsort((cell_rank, occurrence))[:count]]
-    return [
-        PlanarTarget(rho=float(a), z=float(b), theta=float(c), phi=phi) for a, b, c in y[chosen]
-    ]
 
 
 # =========================================================================================
@@ -426,8 +303,9 @@ def workspace_study(
         (:func:`stackik.batch.checkpointed_map`). The Monte Carlo is recomputed (seeded).
     sampling : {"uniform", "poses"}
         How a number of targets is drawn: evenly over the reachable ``(rho, z)`` region
-        (:func:`uniform_reachable_targets` with squares of ``cell`` mm), or as the forward
-        kinematics of random feasible poses (:func:`random_reachable_targets`).
+        (:func:`~stackik.sampling.uniform_reachable_targets` with squares of ``cell``
+        mm), or as the forward kinematics of random feasible poses
+        (:func:`~stackik.sampling.random_reachable_targets`).
     cell : float
         Grid size of the uniform sampling [mm].
     """
