@@ -48,6 +48,7 @@ from stackik.analysis.workspace import (
     workspace_study,
 )
 from stackik.geometry import Stack
+from stackik.targets import PAPER_TARGETS  # re-exported (the paper's targets)
 
 if TYPE_CHECKING:
     from stackik.ik import IKResult, PlanarTarget
@@ -70,12 +71,6 @@ __all__ = [
 
 DEFAULT_SEED = 2024
 
-#: The paper's three targets ``(rho [mm], z [mm], theta [rad])`` (n = 4, phi = 0).
-PAPER_TARGETS: tuple[tuple[float, float, float], ...] = (
-    (600.0, 1000.0, -1.57),
-    (145.0, 1500.0, -0.207),
-    (-319.0, 1532.0, 0.332),
-)
 #: Table 1: ``(median, 2.5 %, 97.5 %)`` [mm] for optimal, non-opt 1, non-opt 2 per target.
 PAPER_TABLE1: tuple[tuple[tuple[float, float, float], ...], ...] = (
     ((4.67, 0.9, 11.2), (5.47, 1.0, 14.7), (5.31, 1.0, 15.1)),
