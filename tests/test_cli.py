@@ -17,7 +17,8 @@ import stackik
 import stackik.cli
 from stackik import Stack, planar_forward
 from stackik.cli import COMMANDS, build_parser, main
-from stackik.cli._common import METHOD_NAMES, call_entry
+from stackik.cli._common import call_entry
+from stackik.solve import METHOD_NAMES
 from stackik.sqp.qp import available_qp_solvers
 from stackik.targets import PAPER_TARGETS
 

@@ -24,7 +24,6 @@ __all__ = [
     "EXIT_INFEASIBLE",
     "EXIT_OK",
     "EXIT_USAGE",
-    "METHOD_NAMES",
     "PROG",
     "CLIError",
     "NotAvailableError",
@@ -56,10 +55,6 @@ EXIT_USAGE = 2
 #: Base seed of the analysis commands (same as ``stackik.analysis.reproduce.DEFAULT_SEED``,
 #: so ``stackik mc`` on a paper target repeats the numbers of ``stackik reproduce``).
 DEFAULT_SEED = 2024
-# TODO(registry): derive from the method registry (``stackik.solve.METHOD_NAMES``) once it
-# exists; importing it here must stay cheap (no numpy at ``stackik --help``).
-#: The ``--method`` choices, in the order ``--help`` lists them.
-METHOD_NAMES: tuple[str, ...] = ("auto", "ip", "sqp", "slsqp", "trust-constr", "ipopt")
 
 
 class CLIError(Exception):
@@ -176,7 +171,10 @@ def planar_target(args: argparse.Namespace) -> PlanarTarget:
 
 
 def add_method_args(p: argparse.ArgumentParser) -> None:
-    """``--method`` (choices :data:`METHOD_NAMES`) and ``--qp-solver``."""
+    """``--method`` (choices: the method registry, ``stackik.solve.METHOD_NAMES``) and
+    ``--qp-solver``."""
+    from stackik.solve import METHOD_NAMES
+
     p.add_argument(
         "--method",
         choices=METHOD_NAMES,
