@@ -1,0 +1,102 @@
+"""The bounded step: least FN among the poses within ``max_jump`` of the previous pose.
+
+When the local FN minimum that a path follows ends (it merges with a saddle and
+disappears, or runs into a limit wall), a warm-started solve falls into another basin far
+away. Continuity then means leaving the optimum: the step solves
+
+.. math::
+
+    \\min_q\\; FN^2(q) \\quad\\text{s.t.}\\quad y(q) = y^*,\\quad c(q) \\ge 0,\\quad
+    |q - q_{prev}| \\le \\Delta \\;\\text{(per variable)}
+
+with ``Delta`` the jump limit (mm for translations, rad for angles): the scaled IK problem
+of the solvers (:class:`stackik.formulation.Problem`) with variable bounds, on stackik's
+generic SQP engine (:mod:`stackik.sqp`, whose iterates always satisfy variable bounds),
+with the exact Lagrangian Hessian in planar mode and damped BFGS in spatial mode, as
+``method="sqp"``. The caller accepts the pose only through
+:func:`stackik.check.check_pose` and its own jump test.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from stackik.formulation import Problem
+from stackik.geometry import Stack
+from stackik.sqp import NonlinearProgram, SQPOptions
+from stackik.sqp import solve as sqp_solve
+from stackik.targets import Target
+
+__all__ = ["BOUNDED_OPTIONS", "BOX_SHRINK", "bounded_step"]
+
+FloatArray = NDArray[np.float64]
+
+#: SQP settings of the bounded step (tolerances on the scaled problem, as method="sqp").
+BOUNDED_OPTIONS = {"tol": 1e-7, "constr_tol": 1e-10, "max_iter": 200, "initial_tr_radius": 0.5}
+#: The box is ``max_jump * (1 - BOX_SHRINK)``, so that rounding never reports a jump.
+BOX_SHRINK = 1e-9
+
+
+def bounded_step(
+    stack: Stack,
+    target: Target,
+    q_prev: FloatArray,
+    max_jump: FloatArray,
+    *,
+    x0: FloatArray | None = None,
+    max_time: float = math.inf,
+) -> FloatArray | None:
+    """Least-FN pose of ``target`` within ``max_jump`` of ``q_prev``, or None.
+
+    Parameters
+    ----------
+    stack : Stack
+    target : PlanarTarget or SpatialTarget
+    q_prev : ndarray, shape (n, 3) or (n, 6)
+        The previous waypoint's pose (within every limit) [mm, rad].
+    max_jump : ndarray, shape (3,) or (6,)
+        Largest change of each variable of a platform [mm, rad].
+    x0 : ndarray, shape (n, 3) or (n, 6), optional
+        Start (projected onto the box); default ``q_prev``.
+    max_time : float
+        Wall-time budget [s].
+
+    Returns
+    -------
+    ndarray or None
+        The pose the SQP engine ends at (the caller checks it), or None when the engine
+        stopped on bad numbers.
+    """
+    n = q_prev.shape[0]
+    prob = Problem(stack, target, "frobenius", None)
+    exact = prob.fast is not None
+    box = np.tile(max_jump * (1.0 - BOX_SHRINK), n)
+    x_prev = q_prev.ravel()
+    lower, upper = (x_prev - box) / prob.xs, (x_prev + box) / prob.xs
+    nlp = NonlinearProgram(
+        objective=None,
+        evaluate=prob.evaluate,
+        hessian=prob.lagrangian_hessian if exact else None,
+        gauss_newton=prob.gauss_newton,
+        gn_scale=2.0,
+        eq_scale=np.ones(prob.es.size),
+        ineq_scale=np.ones(prob.cs.size),
+        lower=lower,
+        upper=upper,
+        name="bounded path step",
+    )
+    opts: dict[str, Any] = dict(BOUNDED_OPTIONS, max_time=max_time)
+    if not exact:
+        opts["hessian"] = "bfgs"
+    u0 = np.clip(prob.u_of(q_prev if x0 is None else x0), lower, upper)
+    try:
+        res = sqp_solve(nlp, u0, options=SQPOptions(**opts))
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    if not np.all(np.isfinite(res.x)):
+        return None
+    return prob.q_of(res.x)
