@@ -66,7 +66,7 @@ NATIVE_QP = tuple(b for b in ("daqp", "osqp", "clarabel") if b in available_qp_s
 
 
 def ipopt_available() -> bool:
-    from stackik.ipopt_ import ipopt_available as avail
+    from stackik.methods.ipopt import ipopt_available as avail
 
     return avail()
 

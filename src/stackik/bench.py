@@ -120,7 +120,7 @@ def machine_info() -> dict[str, Any]:
 
 
 def _ipopt_ok() -> bool:
-    from stackik.ipopt_ import ipopt_available
+    from stackik.methods.ipopt import ipopt_available
 
     return ipopt_available()
 

@@ -51,7 +51,8 @@ from stackik.geometry import Stack
 from stackik.targets import PAPER_TARGETS  # re-exported (the paper's targets)
 
 if TYPE_CHECKING:
-    from stackik.ik import IKResult, PlanarTarget
+    from stackik.result import IKResult
+    from stackik.targets import PlanarTarget
 
 __all__ = [
     "DEFAULT_SEED",
@@ -179,7 +180,7 @@ def target_poses(
     RuntimeError
         If the optimal solve fails or fewer than ``count`` non-optimal poses are found.
     """
-    from stackik.ik import solve_ik
+    from stackik.solve import solve_ik
 
     opt = solve_ik(stack, target, objective="frobenius")
     if not opt.success:
@@ -231,7 +232,7 @@ def reproduce(
     ReproduceResult
     """
     from stackik.analysis import figures
-    from stackik.ik import PlanarTarget
+    from stackik.targets import PlanarTarget
 
     t_start = time.perf_counter()
     if settings is None:
@@ -659,7 +660,7 @@ def main_mc(
     the poses cannot be found.
     """
     from stackik.analysis import figures
-    from stackik.ik import PlanarTarget
+    from stackik.targets import PlanarTarget
 
     stack = Stack.from_file(stack_file) if stack_file else Stack.reference(n)
     target = PlanarTarget(rho=rho, z=z, theta=theta, phi=phi)

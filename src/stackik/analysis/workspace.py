@@ -53,7 +53,8 @@ from stackik.sampling import (  # re-exported: the workspace study's targets
 )
 
 if TYPE_CHECKING:
-    from stackik.ik import IKResult, PlanarTarget
+    from stackik.result import IKResult
+    from stackik.targets import PlanarTarget
 
 __all__ = [
     "DEFAULT_PERTURBATION",
@@ -152,7 +153,8 @@ class NonOptimalSearch:
     solve_kwargs: dict[str, Any] = field(default_factory=dict)
 
     def __call__(self, target: PlanarTarget) -> list[IKResult]:
-        from stackik.ik import paper_initial_guess, solve_ik
+        from stackik.solve import solve_ik
+        from stackik.starts import paper_initial_guess
 
         gen = np.random.default_rng(self.seed)
         g = paper_initial_guess(self.stack, target)
@@ -178,7 +180,7 @@ def nonoptimal_poses(
 ) -> list[IKResult]:
     """The paper's non-optimised poses of one target (see :class:`NonOptimalSearch`).
 
-    Returns up to ``count`` successful :class:`~stackik.ik.IKResult` (fewer if
+    Returns up to ``count`` successful :class:`~stackik.result.IKResult` (fewer if
     ``max_attempts`` starts did not give enough).
     """
     return NonOptimalSearch(stack, count, seed, _triple(perturbation), max_attempts, solve_kwargs)(
@@ -309,7 +311,9 @@ def workspace_study(
     cell : float
         Grid size of the uniform sampling [mm].
     """
-    from stackik.ik import IKResult, solve_many, target_to_dict
+    from stackik.result import IKResult
+    from stackik.solve import solve_many
+    from stackik.targets import target_to_dict
 
     if sampling not in ("uniform", "poses"):
         raise ValueError(f"sampling must be 'uniform' or 'poses', got {sampling!r}")
