@@ -5,7 +5,7 @@ import pytest
 
 @pytest.fixture(scope="session", autouse=True)
 def _compiled_kernels():
-    """Compile stackik's numba kernels once, before any test measures a time limit."""
-    from stackik.methods.ip import warm_up
+    """Load or compile stackik's numba kernels once, before any test measures a time."""
+    from stackik.solve.kernels import warm_up
 
     warm_up()

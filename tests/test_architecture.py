@@ -37,7 +37,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
         "stackik.batch",
         "stackik._io",
         "stackik._version",
-        "stackik._compile",
+        "stackik._arrays",
     ),
 )
 
@@ -46,7 +46,7 @@ ENGINE_RULES: dict[str, tuple[str, ...]] = {
     "stackik.sqp": ("stackik.sqp",),
     "stackik._ipm": (),
     "stackik._spatial": (),
-    "stackik._check": ("stackik.check",),  # the acceptance rule, nothing else
+    "stackik._check": ("stackik.check", "stackik._arrays"),  # the acceptance rule
     "stackik.batch": (),
 }
 

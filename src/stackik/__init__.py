@@ -26,6 +26,7 @@ from stackik.kinematics import (
 from stackik.platform import leg_lengths, leg_vectors, platform_forward_kinematics
 from stackik.result import IKResult, IKStatus, OptionError
 from stackik.solve import solve_ik, solve_many
+from stackik.solve.kernels import warm_up
 from stackik.starts import paper_initial_guess
 from stackik.targets import PlanarTarget, SpatialTarget, target_from_dict, target_to_dict
 
@@ -73,6 +74,7 @@ __all__ = [
     "Stack",
     "target_from_dict",
     "target_to_dict",
+    "warm_up",
     "workspace_study",
 ]
 

@@ -101,17 +101,18 @@ def planar_check(stack: Any, target: Any, q: FloatArray) -> tuple[Any, ...]:
     The :class:`stackik.check.PoseCheck` has the same values and the same acceptance
     rule (:func:`stackik.check.pose_ok`) as :func:`stackik.check.check_pose`.
     """
+    from stackik._arrays import readonly  # one compiled specialisation for every caller
     from stackik.check import PoseCheck, pose_ok
 
     pos_err, ang_err, max_v, v_mm, finite, C, P, R, legs = _planar_check(
-        np.ascontiguousarray(q, dtype=float),
+        readonly(q),
         float(target.phi),
-        stack.base_nodes,
-        stack.top_nodes,
-        stack.leg_min,
-        stack.leg_max,
-        stack.sin_joint_min,
-        np.array([target.rho, target.z, target.theta]),
+        readonly(stack.base_nodes),
+        readonly(stack.top_nodes),
+        readonly(stack.leg_min),
+        readonly(stack.leg_max),
+        readonly(stack.sin_joint_min),
+        readonly([target.rho, target.z, target.theta]),
     )
     ok = pose_ok(float(pos_err), float(ang_err), float(v_mm), bool(finite))
     chk = PoseCheck(bool(ok), float(pos_err), float(ang_err), float(max_v), float(v_mm), C)

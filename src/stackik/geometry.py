@@ -122,6 +122,12 @@ class PlatformGeometry:
         object.__setattr__(self, "leg_max", leg_max)
         object.__setattr__(self, "joint_min", joint_min)
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle through the constructor: the node arrays come back validated and
+        read-only (numpy's own pickling would make them writable)."""
+        args = (self.base_nodes, self.top_nodes, self.leg_min, self.leg_max, self.joint_min)
+        return (PlatformGeometry, args)
+
     @classmethod
     def hexagonal(
         cls,
@@ -292,6 +298,13 @@ class Stack(Sequence[PlatformGeometry]):
     def n(self) -> int:
         """Number of platforms."""
         return len(self.platforms)
+
+    # --- pickling -------------------------------------------------------------------
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle the platforms only: the caches (:meth:`derived`, the stacked arrays) are
+        rebuilt on first use in the receiving process, read-only as here, so a worker
+        solves with exactly the arrays (and compiled kernels) the parent uses."""
+        return (Stack, (self.platforms,))
 
     # --- stacked arrays (cached) ----------------------------------------------------
     def derived(self, key: Any, make: Callable[[Stack], Any]) -> Any:

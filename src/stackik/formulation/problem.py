@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from stackik._arrays import readonly
 from stackik.formulation.modes import mode_of
 from stackik.formulation.planar import PlanarEvaluator
 from stackik.formulation.spatial import so3_log_fast, so3_right_jac_inv
@@ -181,8 +182,14 @@ class Problem:
             assert isinstance(tgs, SpatialTarget)
             # compiled: the values of spatial_chain, spatial_legs, constraints_from_legs
             # and residuals (tested equal)
+            # geometry arrays read-only, whatever their source: one compiled specialisation
             Pee, Ree, Jp, w_ax, c, Jc, r_sp, Jr_sp = spatial_parts(
-                q, st.top_nodes, st.base_nodes, st.leg_min, st.leg_max, st.sin_joint_min
+                q,
+                readonly(st.top_nodes),
+                readonly(st.base_nodes),
+                readonly(st.leg_min),
+                readonly(st.leg_max),
+                readonly(st.sin_joint_min),
             )
             spatial_ch = (r_sp * self.rw, Jr_sp * self.rw[:, None])
             E = tgs.rotation.T @ Ree
@@ -193,7 +200,7 @@ class Problem:
             ceq = np.concatenate([Pee - tgs.position, phi_v]) * self.es
             Jeq = np.vstack([Jp, Jphi]) * self.es[:, None] * self.xs
             cin = c.ravel() * self.cs
-            Jin = block_jacobian(Jc, self.cs, self.xs)
+            Jin = block_jacobian(Jc, readonly(self.cs), readonly(self.xs))
         if self.objective == "feasible":
             f, g = 0.0, np.zeros(n * k)
         else:

@@ -14,6 +14,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from stackik._arrays import readonly
 from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
 from stackik.methods.base import FloatArray, Method, Run, RunStatus, run_status
 from stackik.result import OptionError
@@ -23,7 +24,8 @@ __all__ = ["IP_DEFAULTS", "IPMethod", "ip_multi", "ip_solve", "problem_arrays", 
 
 def problem_arrays(prob: Any) -> tuple[Any, ...]:
     """The tuple of arrays :func:`stackik._ipm._ip_loop` needs, from a planar
-    :class:`~stackik.formulation.Problem`."""
+    :class:`~stackik.formulation.Problem`; every array read-only
+    (:func:`stackik._arrays.readonly`: one compiled specialisation, whatever the source)."""
     fast = prob.fast
     assert fast is not None
     n = prob.n
@@ -31,21 +33,21 @@ def problem_arrays(prob: Any) -> tuple[Any, ...]:
     feasible = prob.objective == "feasible"
     w = float(prob.w_th[0])
     return (
-        np.ascontiguousarray(prob.xs, dtype=float),
-        np.ascontiguousarray(prob.cs, dtype=float),
-        np.ascontiguousarray(prob.es, dtype=float),
-        np.array([tgt.rho, tgt.z, tgt.theta], dtype=float),
+        readonly(prob.xs),
+        readonly(prob.cs),
+        readonly(prob.es),
+        readonly([tgt.rho, tgt.z, tgt.theta]),
         float(prob.fscale),
         float(prob.c0),
         w,
-        np.ascontiguousarray(fast.tf, dtype=float),
-        np.ascontiguousarray(fast.tz, dtype=float),
-        np.ascontiguousarray(fast.bf, dtype=float),
-        np.ascontiguousarray(fast.bz, dtype=float),
-        np.ascontiguousarray(fast.ls0, dtype=float),
-        np.ascontiguousarray(fast.lmin2.reshape(n), dtype=float),
-        np.ascontiguousarray(fast.lmax2.reshape(n), dtype=float),
-        np.ascontiguousarray(fast.sj.reshape(n), dtype=float),
+        readonly(fast.tf),
+        readonly(fast.tz),
+        readonly(fast.bf),
+        readonly(fast.bz),
+        readonly(fast.ls0),
+        readonly(fast.lmin2.reshape(n)),
+        readonly(fast.lmax2.reshape(n)),
+        readonly(fast.sj.reshape(n)),
         feasible,
     )
 

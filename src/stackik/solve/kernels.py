@@ -1,0 +1,93 @@
+"""The compiled kernels: loaded (or compiled) once per process, before any clock starts.
+
+The planar interior point and its re-check (:mod:`stackik._ipm`, :mod:`stackik._check`)
+and the spatial evaluation (:mod:`stackik._spatial`) are compiled by numba with
+``cache=True``: the first use on a machine compiles them (tens of seconds) and writes
+machine code beside the sources (or to ``NUMBA_CACHE_DIR``); later processes load it
+(a fraction of a second). :func:`solve_ik` calls :func:`ensure_kernels` for what the
+request needs *before* its clock starts, so compilation never eats a solve's time budget
+nor shows in :attr:`IKResult.time`. A compilation says so on stderr once.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from typing import Any
+
+__all__ = ["KERNEL_KINDS", "ensure_kernels", "kernels_cached", "warm_up"]
+
+#: The kernel sets, and the rough first-compile time of each on a 2-core machine [s].
+KERNEL_KINDS: dict[str, float] = {"planar": 30.0, "spatial": 15.0}
+
+_READY: set[str] = set()
+_LOCK = threading.Lock()
+
+
+def _dispatchers(kind: str) -> list[Any]:
+    if kind == "planar":
+        from stackik import _check, _ipm
+
+        return [_ipm._ip_multi, _check._planar_check]
+    from stackik import _spatial
+
+    return [_spatial.spatial_parts, _spatial.block_jacobian]
+
+
+def kernels_cached(kind: str) -> bool | None:
+    """True when numba's on-disk cache holds current machine code for every entry point
+    of ``kind``, False when some must be compiled, None when that cannot be told."""
+    try:
+        return all(bool(d._cache._cache_file._load_index()) for d in _dispatchers(kind))
+    except Exception:  # noqa: BLE001 - numba internals: unknown, not an error
+        return None
+
+
+def _warm(kind: str) -> None:
+    if kind == "planar":
+        from stackik.methods.ip import warm_up as planar_warm_up
+
+        planar_warm_up()
+        return
+    import numpy as np
+
+    from stackik.formulation import Problem
+    from stackik.geometry import Stack
+    from stackik.starts import paper_initial_guess
+    from stackik.targets import SpatialTarget
+
+    stack = Stack.reference(2)
+    target = SpatialTarget(np.array([0.0, 0.0, 700.0]), np.eye(3))
+    prob = Problem(stack, target, "frobenius", None)
+    prob.evaluate(prob.u_of(paper_initial_guess(stack, target)))
+
+
+def ensure_kernels(kind: str, *, notice: bool = True) -> float:
+    """Load or compile the kernels of ``kind`` (``"planar"`` or ``"spatial"``) once per
+    process; returns the seconds spent (0 when already done). A compilation prints one
+    line on stderr first (``notice=False`` silences it)."""
+    if kind not in KERNEL_KINDS:
+        raise ValueError(f"kind: unknown {kind!r}; choose one of {tuple(KERNEL_KINDS)}")
+    if kind in _READY:
+        return 0.0
+    with _LOCK:
+        if kind in _READY:
+            return 0.0
+        t0 = time.perf_counter()
+        if notice and kernels_cached(kind) is False:
+            print(
+                f"stackik: compiling the {kind} solver kernels (first run on this machine "
+                f"only, about {KERNEL_KINDS[kind]:.0f} s; cached afterwards)",
+                file=sys.stderr,
+                flush=True,
+            )
+        _warm(kind)
+        _READY.add(kind)
+        return time.perf_counter() - t0
+
+
+def warm_up(kinds: tuple[str, ...] = ("planar", "spatial"), *, notice: bool = True) -> float:
+    """Load or compile every kernel set in ``kinds`` now (e.g. in a worker process before
+    it takes work); returns the seconds spent."""
+    return sum(ensure_kernels(k, notice=notice) for k in kinds)

@@ -1,0 +1,78 @@
+"""The same answer in every process: pickled stacks, spawned workers, process pools.
+
+A used :class:`Stack` carries caches; pickled (as ``ProcessPoolExecutor`` does) it must
+come back without them, with read-only arrays, so that a worker solves with the arrays
+and compiled kernels of the parent and returns the parent's pose, without compiling again.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import pickle
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+import pytest
+
+import stackik as sk
+
+STACK = sk.Stack.reference(6)
+PLANAR = [sk.PlanarTarget(400.0, 1500.0, -0.8), sk.PlanarTarget(-200.0, 1700.0, 0.4, 0.7)]
+
+
+def _spatial_target() -> sk.SpatialTarget:
+    q = np.array([[10.0, -5.0, 330.0, 0.05, 0.02, -0.03]] * 3)
+    return sk.SpatialTarget(*sk.spatial_forward(q))
+
+
+def _solve_in_worker(payload: bytes) -> dict:
+    """Runs in a fresh (spawned) process: unpickle a used stack, solve, report."""
+    from stackik import _check, _ipm
+
+    stack, target = pickle.loads(payload)
+    r = sk.solve_ik(stack, target)
+    out = {"q": r.q, "status": r.status.value, "time": r.time}
+    if isinstance(target, sk.PlanarTarget):
+        out["signatures"] = (len(_ipm._ip_multi.signatures), len(_check._planar_check.signatures))
+    else:
+        from stackik import _spatial
+
+        out["signatures"] = (
+            len(_spatial.spatial_parts.signatures),
+            len(_spatial.block_jacobian.signatures),
+        )
+    return out
+
+
+def test_a_pickled_used_stack_comes_back_without_caches():
+    stack = sk.Stack.reference(3)
+    sk.solve_ik(stack, sk.PlanarTarget(0.0, 900.0, 0.0))
+    assert stack._derived and stack._arrays  # used: caches filled
+    for protocol in (2, 4, pickle.HIGHEST_PROTOCOL):
+        back = pickle.loads(pickle.dumps(stack, protocol=protocol))
+        assert back == stack and not back._derived and not back._arrays
+        assert not back[0].base_nodes.flags.writeable
+        assert not back.base_nodes.flags.writeable
+
+
+@pytest.mark.parametrize("kind", ["planar", "spatial"])
+def test_spawned_worker_returns_the_parents_pose_without_recompiling(kind):
+    target = PLANAR[0] if kind == "planar" else _spatial_target()
+    stack = STACK if kind == "planar" else sk.Stack.reference(3)
+    parent = sk.solve_ik(stack, target)  # also fills the stack's caches
+    payload = pickle.dumps((stack, target), protocol=4)
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
+        child = pool.submit(_solve_in_worker, payload).result(timeout=600)
+    assert child["status"] == parent.status.value
+    np.testing.assert_array_equal(child["q"], parent.q)
+    assert child["signatures"] == (1, 1)  # one compiled specialisation, loaded from cache
+    assert child["time"] < 5.0  # the solve's own time: no compilation inside it
+
+
+def test_solve_many_in_a_process_pool_gives_the_serial_poses():
+    serial = sk.solve_many(STACK, PLANAR)
+    with ProcessPoolExecutor(2, mp_context=mp.get_context("spawn")) as pool:
+        pooled = sk.solve_many(STACK, PLANAR, executor=pool)
+    for a, b in zip(serial, pooled, strict=True):
+        assert a.status is b.status
+        np.testing.assert_array_equal(a.q, b.q)
