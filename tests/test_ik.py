@@ -95,10 +95,39 @@ def test_baselines_return_same_type(method):
         assert check_pose(STACK4, t, r.q).ok
 
 
-def test_status_infeasible_is_quick():
-    r = sk.solve_ik(STACK4, sk.PlanarTarget(5000.0, 5000.0, 0.0))
-    assert r.status is IKStatus.INFEASIBLE and not r.success
-    assert r.nit == 0  # rejected by the reach bound before any solve
+BEYOND = [
+    sk.PlanarTarget(5000.0, 5000.0, 0.0),
+    sk.PlanarTarget(6000.0, 1000.0, 0.0, 0.4),
+    sk.SpatialTarget([4000.0, 2000.0, 3000.0], np.eye(3)),
+]
+
+
+@pytest.mark.parametrize("target", BEYOND)
+@pytest.mark.parametrize("method", ["auto", "sqp", "slsqp"])
+def test_beyond_the_reach_bound_answers_a_stretched_pose_within_limits(target, method):
+    # never the raw first start (legs metres past their limits): a pose within every
+    # limit stretched toward the target, with what is left as target_error
+    if isinstance(target, sk.SpatialTarget) and method == "slsqp":
+        method = "auto"
+    r = sk.solve_ik(STACK4, target, method=method)
+    assert r.status is IKStatus.INFEASIBLE and not r.success and "reach bound" in r.message
+    assert r.max_violation <= 1e-6 and r.target_error > 1000.0
+    assert np.all(r.leg_lengths >= 250.0 - 1e-6) and np.all(r.leg_lengths <= 450.0 + 1e-6)
+    if isinstance(target, sk.PlanarTarget):
+        reached = sk.PlanarTarget(*sk.planar_forward(r.q), phi=target.phi)
+    else:
+        reached = sk.SpatialTarget(*sk.spatial_forward(r.q))
+    assert check_pose(STACK4, reached, r.q).ok  # within every limit
+    # stretched: nearer the target than the upright pose
+    upright = np.column_stack([np.zeros((4, 2)), np.full(4, 330.0), np.zeros((4, 3))])
+    if isinstance(target, sk.PlanarTarget):
+        upright_err = check_pose(STACK4, target, upright[:, [0, 2, 3]]).position_error
+    else:
+        upright_err = check_pose(STACK4, target, upright).position_error
+    assert r.target_error < upright_err
+
+
+def test_status_infeasible_inside_the_bound():
     r2 = sk.solve_ik(STACK4, sk.PlanarTarget(100.0, 300.0, 2.5), max_time=5.0)
     assert not r2.success
     assert r2.status in (IKStatus.INFEASIBLE, IKStatus.MAX_ITER, IKStatus.FAILED)

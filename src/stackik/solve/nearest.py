@@ -8,15 +8,23 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from stackik.check import check_pose
 from stackik.formulation import Problem
 from stackik.geometry import Stack
-from stackik.kinematics import planar_forward
+from stackik.kinematics import lift_planar, planar_forward
 from stackik.methods import Run, RunStatus
 from stackik.methods.ip import ip_starts
 from stackik.starts import nominal_height, paper_initial_guess
-from stackik.targets import PlanarTarget
+from stackik.targets import PlanarTarget, SpatialTarget, Target
 
-__all__ = ["NEAREST_MAX_T", "NEAREST_MESSAGE", "NEAREST_STEPS", "nearest_reachable"]
+__all__ = [
+    "BEYOND_MESSAGE",
+    "NEAREST_MAX_T",
+    "NEAREST_MESSAGE",
+    "NEAREST_STEPS",
+    "nearest_reachable",
+    "stretch_toward",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -55,8 +63,8 @@ def nearest_reachable(
     step runs the interior point from the last reached pose and from the paper's guess of
     ``y(t)``; a step succeeds when its pose passes the independent check for ``y(t)``.
     Returns the last reached pose as a :class:`~stackik.methods.Run` checked against
-    ``target`` itself (so its violation is the remaining target error), the ``t`` it reaches, the
-    iterations and the solves used; ``None`` when the upright pose is not feasible. The
+    ``target`` itself (so its violation is the remaining target error), the ``t`` it
+    reaches, the iterations and the solves used; ``None`` when the upright pose is not feasible. The
     reachable set need not be convex along the segment: this is a nearby pose within
     limits, not the nearest one.
     """
@@ -89,3 +97,51 @@ def nearest_reachable(
     obj = Problem(stack, target, objective, weights).objective_value(q_lo)
     run = Run(q_lo, nit, RunStatus.NEAREST, chk, obj, (P, R, legs), "nearest")
     return run, t_lo, nit, solves
+
+
+BEYOND_MESSAGE = (
+    "Unreachable: the target lies beyond the reach bound of the stack (the sum over "
+    "platforms of leg_max and the node radii); q respects every limit and is stretched "
+    "toward the target along the segment from the upright pose (a bisection of "
+    "interior-point solves; spatial targets: in the vertical plane through the target "
+    "position); target_error is what is left [mm]."
+)
+
+
+def stretch_toward(
+    stack: Stack,
+    target: Target,
+    objective: str,
+    weights: tuple[FloatArray, FloatArray] | None,
+    options: dict[str, Any],
+    deadline: float,
+) -> tuple[Run | None, int, int]:
+    """A pose within every limit stretched toward a target beyond the reach bound.
+
+    Planar targets: :func:`nearest_reachable`. Spatial targets: the same bisection in the
+    vertical plane through the target position (``phi = atan2(y, x)``, ``theta = 0``), the
+    planar pose lifted to 6 variables per platform and checked against the spatial target.
+    Returns the run (None when the upright pose itself is infeasible), the iterations and
+    the solves used.
+    """
+    from stackik.methods.ip import IP_DEFAULTS
+    from stackik.rotations import euler_zyx_from_matrix
+
+    ip_opts = {k: v for k, v in options.items() if k in IP_DEFAULTS}
+    uniform = weights is None or float(np.ptp(weights[1])) == 0.0
+    obj, w = (objective, weights) if uniform else ("frobenius", None)
+    if isinstance(target, PlanarTarget):
+        run, _, nit, solves = nearest_reachable(stack, target, obj, w, ip_opts, deadline)
+        return run, nit, solves
+    assert isinstance(target, SpatialTarget)
+    P = target.position
+    phi = float(np.arctan2(P[1], P[0])) if np.hypot(P[0], P[1]) > 0 else 0.0
+    plane = PlanarTarget(float(np.hypot(P[0], P[1])), float(P[2]), 0.0, phi)
+    run, _, nit, solves = nearest_reachable(stack, plane, obj, w, ip_opts, deadline)
+    if run is None:
+        return None, nit, solves
+    Pi, Ri = lift_planar(run.q, phi)
+    q = np.column_stack([Pi, euler_zyx_from_matrix(Ri)])
+    chk = check_pose(stack, target, q)
+    value = Problem(stack, target, objective, weights).objective_value(q)
+    return Run(q, nit, RunStatus.NEAREST, chk, value, None, "nearest"), nit, solves

@@ -15,14 +15,16 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from stackik.check import check_pose
-from stackik.formulation import reach_bound
+from stackik.formulation import mode_of, reach_bound
 from stackik.geometry import Stack
 from stackik.result import STATUS_MESSAGES, IKResult, IKStatus
 from stackik.solve.blas import BlasLimit
+from stackik.solve.kernels import ensure_kernels
+from stackik.solve.nearest import BEYOND_MESSAGE, stretch_toward
 from stackik.solve.policy import plan_starts
 from stackik.solve.request import Request, build_request
 from stackik.solve.stages import Handover, Verdict, ip_stage, local_stage
-from stackik.targets import Target
+from stackik.targets import PlanarTarget, SpatialTarget, Target
 
 __all__ = ["MethodName", "solve_ik"]
 
@@ -113,6 +115,8 @@ def solve_ik(
         compiled twin :func:`stackik._check.planar_check`, tested to agree, does the
         check).
     """
+    for kind in _kernels_needed(stack, target, method):
+        ensure_kernels(kind)  # load or compile before the clock starts
     t_start = time.perf_counter()
     blas = BlasLimit(blas_threads)
     try:
@@ -127,11 +131,36 @@ def solve_ik(
         blas.restore()
 
 
+def _beyond_reach(stack: Stack, target: Target) -> bool:
+    """True when ``|P_target|`` exceeds :func:`stackik.formulation.reach_bound`."""
+    position = mode_of(target).position(target)
+    return float(np.linalg.norm(position)) > reach_bound(stack)
+
+
+def _kernels_needed(stack: object, target: object, method: object) -> tuple[str, ...]:
+    """The compiled kernels a request will call: the planar interior point for planar
+    targets with ``"auto"`` or ``"ip"`` and for any target beyond the reach bound (the
+    stretched pose), the spatial evaluation for spatial targets."""
+    if not isinstance(stack, Stack) or not isinstance(target, PlanarTarget | SpatialTarget):
+        return ()  # the request's validation reports it
+    out: tuple[str, ...] = ("spatial",) if isinstance(target, SpatialTarget) else ()
+    if method in ("auto", "ip") or _beyond_reach(stack, target):
+        out += ("planar",)
+    return out
+
+
 def _run(req: Request) -> Verdict:
     """The stages of a validated request, up to its verdict."""
-    if float(np.linalg.norm(req.mode.position(req.target))) > reach_bound(req.stack):
-        # beyond the triangle-inequality bound of every platform: unreachable
-        return Verdict(None, IKStatus.INFEASIBLE, 0, 0, req.method.name)
+    if _beyond_reach(req.stack, req.target):
+        # beyond the triangle-inequality bound of every platform: unreachable; answer with
+        # a pose within every limit stretched toward it (never the raw first start)
+        run, nit, solves = stretch_toward(
+            req.stack, req.target, req.objective, req.weights, req.options,
+            req.t_start + req.max_time,
+        )  # fmt: skip
+        if run is None:
+            return Verdict(None, IKStatus.INFEASIBLE, 0, 0, req.method.name)
+        return Verdict(run, IKStatus.INFEASIBLE, nit, solves, "ip", BEYOND_MESSAGE)
     plan = plan_starts(req)
     handover: Handover | None = None
     if req.method.name == "ip":
