@@ -50,13 +50,15 @@ from stackik.platform import planar_legs, spatial_legs
 from stackik.solve import solve_ik
 from stackik.targets import PlanarTarget, Target, target_from_dict, target_to_dict
 
-__all__ = ["DEDUPE", "MODES", "path_arrays", "solve_path"]
+__all__ = ["DEDUPE", "MODES", "REFINE_DEPTH", "path_arrays", "solve_path"]
 
 FloatArray = NDArray[np.float64]
 
 MODES = ("fast", "global")
 #: Candidates closer than this (in units of max_jump, per variable) are one candidate.
 DEDUPE = 1e-3
+#: Bisection levels of ``refine=True``: up to 16 inserted steps per input step.
+REFINE_DEPTH = 4
 
 
 # =========================================================================================
@@ -400,7 +402,7 @@ def _fast(
                 },
             )
             continue
-        if req.refine and depth < req.max_depth:
+        if req.refine and depth < REFINE_DEPTH:
             sa = sl[-1]
             pending[-1] = (tb, sb, depth + 1)
             pending.append((lerp_target(tl[-1], tb, 0.5), 0.5 * (sa + sb), depth + 1))
@@ -417,7 +419,7 @@ def _fast(
 # =========================================================================================
 # Global mode
 # =========================================================================================
-@dataclass
+@dataclass(eq=False)  # identity: candidates hold arrays
 class _Cand:
     q: FloatArray
     fn2: float
@@ -596,12 +598,13 @@ def solve_path(
         against ``sum FN^2``; 0 (default) minimises FN only, within the jump limit.
     refine : bool
         When a step cannot be made within ``max_jump``, bisect it and insert the
-        intermediate waypoints into the result (to ``max_depth`` levels) instead of
-        breaking. The result then has more waypoints than ``targets``; ``source`` maps
-        them back. Global mode takes the waypoints of a fast refining pass.
+        intermediate waypoints into the result (to ``REFINE_DEPTH`` = 4 levels: up to 16
+        steps in place of one) instead of breaking. The result then has more waypoints
+        than ``targets``; ``source`` maps them back. Global mode takes the waypoints of a
+        fast refining pass.
     max_depth : int
-        Bisection depth of a continuation step (and of ``refine``): up to ``2**max_depth``
-        sub-steps.
+        Bisection depth of a continuation step's subdivided rung (up to ``2**max_depth``
+        warm-started sub-steps, not kept in the result).
     start : array_like, shape (n, 3) or (n, 6), optional
         Pose at the first waypoint (e.g. the robot's current pose; must pass
         :func:`stackik.check.check_pose` for ``targets[0]``). Default: the default solve's
