@@ -1,0 +1,294 @@
+"""Figures of a path: leg lengths and FN along it, and an animation of the stack.
+
+matplotlib is imported inside the functions (the optional ``plot`` extra). The animation
+is a GIF (matplotlib's Pillow writer) or, when ffmpeg is installed, also an MP4.
+
+Planar paths are drawn in their plane (horizontal axis: the in-plane coordinate ``rho``
+along ``(cos phi, sin phi, 0)``; vertical: ``z``), spatial paths in 3D. Plates are drawn
+through their nodes, legs from base node to top node, coloured by length (blue at
+``leg_min``, red at ``leg_max``); the dashed line is the target path, the red cross the
+current waypoint's target and the blue line the end effector's trail.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import textwrap
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from stackik.geometry import Stack
+from stackik.kinematics import lift_planar
+from stackik.paths.result import PathResult
+from stackik.rotations import euler_zyx
+from stackik.targets import PlanarTarget
+
+__all__ = ["animate_path", "default_caption", "plot_path", "stack_nodes"]
+
+FloatArray = NDArray[np.float64]
+
+
+def stack_nodes(stack: Stack, result: PathResult, k: int) -> dict[str, FloatArray]:
+    """World coordinates of the stack at waypoint ``k`` [mm].
+
+    Returns
+    -------
+    dict
+        ``O`` (n+1, 3) plate origins, ``A`` (n+1, 3, 3) plate orientations, ``base`` and
+        ``top`` (n, 6, 3): both ends of every leg.
+    """
+    q = result.q[k]
+    t0 = result.targets[0]
+    if isinstance(t0, PlanarTarget):
+        P, R = lift_planar(q, t0.phi)
+    else:
+        P, R = q[:, :3], euler_zyx(q[:, 3:])
+    n = stack.n
+    O = np.zeros((n + 1, 3))
+    A = np.empty((n + 1, 3, 3))
+    A[0] = np.eye(3)
+    for i in range(n):
+        O[i + 1] = O[i] + A[i] @ P[i]
+        A[i + 1] = A[i] @ R[i]
+    base = O[:-1, None, :] + np.einsum("nij,nkj->nki", A[:-1], stack.base_nodes)
+    top = O[1:, None, :] + np.einsum("nij,nkj->nki", A[1:], stack.top_nodes)
+    return {"O": O, "A": A, "base": base, "top": top}
+
+
+def _target_points(result: PathResult) -> FloatArray:
+    """End-effector target positions (m, 3) [mm]."""
+    pts = []
+    for t in result.targets:
+        if isinstance(t, PlanarTarget):
+            pts.append([t.rho * math.cos(t.phi), t.rho * math.sin(t.phi), t.z])
+        else:
+            pts.append(t.position.tolist())
+    return np.array(pts)
+
+
+def default_caption(result: PathResult) -> str:
+    """What the animation shows, in words (its caption)."""
+    kind = "planar" if result.planar else "spatial"
+    end = (
+        "every waypoint reached"
+        if result.success
+        else f"path breaks at waypoint {result.completed} ({result.status.value})"
+    )
+    return (
+        f"{result.n}-platform stack following a {kind} path of {result.m} waypoints "
+        f"({result.mode} mode, max jump {result.max_jump[0]:g} mm / {result.max_jump[1]:g} rad; "
+        f"{end}). Dashed: target path; red x: current target; blue: end-effector trail; "
+        "legs coloured by length (blue = leg_min, red = leg_max)."
+    )
+
+
+def plot_path(result: PathResult, stack: Stack, path: str | Path | None = None) -> Any:
+    """Leg lengths and FN along a path (and the break, if any).
+
+    Parameters
+    ----------
+    result : PathResult
+    stack : Stack
+        The stack solved (for the leg limits).
+    path : path, optional
+        Save the figure there (format from the suffix, e.g. ``.png``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib
+
+    if path is not None:
+        matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    x = result.times if result.times is not None else np.arange(result.m, dtype=float)
+    xlabel = "time [s]" if result.times is not None else "waypoint"
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    cmap = plt.get_cmap("viridis")
+    c = result.completed
+    for i in range(result.n):
+        color = cmap(i / max(result.n - 1, 1))
+        for k in range(6):
+            ax1.plot(x[:c], result.leg_lengths[:c, i, k], color=color, lw=0.8,
+                     label=f"platform {i + 1}" if k == 0 else None)  # fmt: skip
+    ax1.axhline(float(stack.leg_min.min()), color="k", ls="--", lw=0.8)
+    ax1.axhline(float(stack.leg_max.max()), color="k", ls="--", lw=0.8)
+    ax1.set_ylabel("leg length [mm]")
+    ax1.set_title(
+        f"{result.mode} mode, {result.completed}/{result.m} waypoints, {result.status.value}"
+    )
+    if result.n <= 8:
+        ax1.legend(fontsize=7, ncol=4, loc="upper right")
+    ax2.plot(x[:c], result.frobenius_norm[:c], "b.-", lw=1)
+    ax2.set_ylabel("FN")
+    ax2.set_xlabel(xlabel)
+    if not result.success and c < result.m:
+        for ax in (ax1, ax2):
+            ax.axvline(float(x[c]) if result.times is None else float(x[c - 1]), color="r")
+        ax2.text(0.01, 0.9, f"break at waypoint {c}", color="r", transform=ax2.transAxes)
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(path, dpi=120)
+    return fig
+
+
+def _frames(result: PathResult, max_frames: int) -> list[int]:
+    last = max(result.completed - 1, 0)
+    ks = list(range(result.completed))
+    if len(ks) > max_frames:
+        ks = sorted({int(round(v)) for v in np.linspace(0, last, max_frames)})
+    return ks if ks else [0]
+
+
+def animate_path(
+    result: PathResult,
+    stack: Stack,
+    path: str | Path,
+    *,
+    fps: int = 10,
+    max_frames: int = 120,
+    dpi: int = 90,
+    caption: str | None = None,
+    mp4: bool = True,
+) -> list[Path]:
+    """Animate the stack along a solved path.
+
+    Parameters
+    ----------
+    result : PathResult
+    stack : Stack
+    path : path
+        Output file; its suffix is replaced by ``.gif`` (and ``.mp4``).
+    fps : int
+        Frames per second.
+    max_frames : int
+        At most this many frames (waypoints evenly subsampled; the last one included).
+    dpi : int
+    caption : str, optional
+        Text under the drawing (default :func:`default_caption`).
+    mp4 : bool
+        Also write an MP4 when ffmpeg is installed.
+
+    Returns
+    -------
+    list of Path
+        The files written (the GIF, then the MP4 if any).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+    from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter
+
+    if result.completed == 0:
+        raise ValueError("animate_path: the path has no reached waypoint to draw")
+    planar = result.planar
+    frames = _frames(result, max_frames)
+    nodes = [stack_nodes(stack, result, k) for k in range(result.completed)]
+    tp = _target_points(result)
+    if planar:
+        t0 = result.targets[0]
+        assert isinstance(t0, PlanarTarget)
+        e_phi = np.array([math.cos(t0.phi), math.sin(t0.phi), 0.0])
+
+        def proj(p: FloatArray) -> FloatArray:
+            return np.stack([p @ e_phi, p[..., 2]], axis=-1)  # type: ignore[no-any-return]
+
+    else:
+
+        def proj(p: FloatArray) -> FloatArray:
+            return p
+
+    allpts = np.concatenate(
+        [proj(nd["base"]).reshape(-1, 2 if planar else 3) for nd in nodes]
+        + [proj(nd["top"]).reshape(-1, 2 if planar else 3) for nd in nodes]
+        + [proj(tp)]
+    )
+    lo, hi = allpts.min(axis=0), allpts.max(axis=0)
+    pad = 0.05 * float(np.max(hi - lo)) + 50.0
+    if planar:  # a figure shaped like the drawing, so that the stack fills it
+        aspect = float((hi[0] - lo[0] + 2 * pad) / (hi[1] - min(lo[1], 0.0) + 2 * pad))
+        size = (float(np.clip(1.5 + 7.0 * aspect, 6.0, 11.0)), 9.0)
+    else:
+        size = (8.0, 8.5)
+    fig = plt.figure(figsize=size)
+    ax: Any = fig.add_axes((0.1, 0.2, 0.85, 0.73), projection=None if planar else "3d")
+    cap = default_caption(result) if caption is None else caption
+    fig.text(0.03, 0.015, textwrap.fill(cap, int(14 * size[0])), fontsize=8, va="bottom")
+    cmap = plt.get_cmap("coolwarm")
+    lmin, lmax = float(stack.leg_min.min()), float(stack.leg_max.max())
+    ee = np.array([proj(nd["O"][-1]) for nd in nodes])
+    # plate outlines: nodes in the order of their angle about the plate centre
+    bn, tn = stack.base_nodes, stack.top_nodes
+    order_base = np.argsort(np.arctan2(bn[..., 1], bn[..., 0]), axis=-1)
+    order_top = np.argsort(np.arctan2(tn[-1, :, 1], tn[-1, :, 0]))
+
+    def draw(k: int) -> None:
+        ax.cla()
+        nd = nodes[k]
+        if planar:
+            ax.set_xlim(lo[0] - pad, hi[0] + pad)
+            ax.set_ylim(min(lo[1], 0.0) - pad, hi[1] + pad)
+            ax.set_aspect("equal")
+            ax.set_xlabel("rho [mm]")
+            ax.set_ylabel("z [mm]")
+        else:
+            span = float(np.max(hi - lo)) / 2 + pad
+            mid = (hi + lo) / 2
+            ax.set_xlim(mid[0] - span, mid[0] + span)
+            ax.set_ylim(mid[1] - span, mid[1] + span)
+            ax.set_zlim(max(mid[2] - span, -pad), mid[2] + span)
+            ax.set_xlabel("x [mm]")
+            ax.set_ylabel("y [mm]")
+            ax.set_zlabel("z [mm]")
+        tpp = proj(tp)
+        ax.plot(*tpp.T, "k--", lw=1, label="target path")
+        trail = ee[: k + 1]
+        ax.plot(*trail.T, "b-", lw=2, label="end-effector trail")
+        ax.plot(*tpp[k], "rx", ms=14, mew=1.5, label="target (waypoint)", zorder=5)
+        ax.plot(*ee[k], "o", color="b", ms=4, label="end effector", zorder=6)
+        # plates: closed polygons through their nodes (base plate of each platform, top
+        # plate of the last)
+        for i in range(stack.n + 1):
+            if i < stack.n:
+                pts = nd["base"][i][order_base[i]]
+            else:
+                pts = nd["top"][stack.n - 1][order_top]
+            poly = proj(np.vstack([pts, pts[:1]]))
+            ax.plot(*poly.T, color="0.3", lw=1.5)
+        lengths = result.leg_lengths[k]
+        for i in range(stack.n):
+            for j in range(6):
+                seg = proj(np.stack([nd["base"][i, j], nd["top"][i, j]]))
+                c = cmap((lengths[i, j] - lmin) / (lmax - lmin))
+                ax.plot(*seg.T, color=c, lw=1.2)
+        ax.set_title(
+            f"waypoint {k}/{result.m - 1}   FN = {result.frobenius_norm[k]:.0f}"
+            + (f"   t = {result.times[k]:.2f} s" if result.times is not None else "")
+            + (
+                f"\nbreak at waypoint {result.completed}: {result.status.value}"
+                if (not result.success and k == result.completed - 1)
+                else ""
+            ),
+            fontsize=10,
+        )
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=4, fontsize=7)
+
+    anim = FuncAnimation(fig, lambda i: draw(frames[i]), frames=len(frames), blit=False)
+    out = Path(path)
+    written = []
+    gif = out.with_suffix(".gif")
+    anim.save(str(gif), writer=PillowWriter(fps=int(round(fps))), dpi=dpi)
+    written.append(gif)
+    if mp4 and shutil.which("ffmpeg") is not None and FFMpegWriter.isAvailable():
+        mp4_path = out.with_suffix(".mp4")
+        anim.save(str(mp4_path), writer=FFMpegWriter(fps=int(round(fps))), dpi=dpi)
+        written.append(mp4_path)
+    plt.close(fig)
+    return written
