@@ -42,14 +42,14 @@ import sys
 from collections.abc import Sequence
 from types import ModuleType
 
-from . import bench, geometry, mc, reproduce, solve
+from . import bench, geometry, mc, path, reproduce, solve
 from . import map as map_  # the module, not the builtin
 from ._common import EXIT_USAGE, PROG, CLIError, Parser, one_line
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 
 #: The subcommand modules, in the order ``stackik --help`` lists them.
-COMMANDS: tuple[ModuleType, ...] = (solve, mc, map_, reproduce, bench, geometry)
+COMMANDS: tuple[ModuleType, ...] = (solve, mc, map_, reproduce, bench, geometry, path)
 
 
 def _command(name: str) -> ModuleType:
