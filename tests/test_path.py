@@ -1,0 +1,463 @@
+"""Paths (stackik.paths): continuity, breaks, modes, interpolation, timing, files, CLI.
+
+Small stacks and few waypoints: the whole file runs in well under a minute.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from stackik.check import check_pose
+from stackik.geometry import Stack
+from stackik.kinematics import frobenius_norm, planar_jacobian, spatial_forward
+from stackik.paths import (
+    PathResult,
+    PathStatus,
+    interpolate_targets,
+    leg_rates,
+    lerp_target,
+    path_arrays,
+    read_path_csv,
+    rotation_angle,
+    slerp,
+    solve_path,
+    target_step,
+    time_parameterize,
+)
+from stackik.rotations import euler_zyx
+from stackik.solve import solve_ik
+from stackik.targets import PlanarTarget, SpatialTarget
+
+MAX_JUMP = (60.0, 0.3)
+A = PlanarTarget(600.0, 1000.0, -1.57)  # the paper's first and second targets
+B = PlanarTarget(145.0, 1500.0, -0.207)
+OUT = PlanarTarget(2500.0, 1000.0, 0.0)  # outside the workspace of 4 platforms
+
+
+@pytest.fixture(scope="module")
+def stack4() -> Stack:
+    return Stack.reference(4)
+
+
+@pytest.fixture(scope="module")
+def planar_path() -> list[PlanarTarget]:
+    return interpolate_targets([A, B], steps=8)  # type: ignore[return-value]
+
+
+@pytest.fixture(scope="module")
+def fast_result(stack4, planar_path) -> PathResult:
+    return solve_path(stack4, planar_path, max_jump=MAX_JUMP, leg_speed=150.0, leg_accel=300.0)
+
+
+def assert_valid_path(stack: Stack, result: PathResult) -> None:
+    """Every reached pose passes the independent check; no step above max_jump."""
+    c = result.completed
+    for t, q in zip(result.targets[:c], result.q[:c]):
+        assert check_pose(stack, t, q).ok
+    k = result.q.shape[2]
+    nt = 2 if k == 3 else 3
+    lim = np.array([result.max_jump[0]] * nt + [result.max_jump[1]] * (k - nt))
+    d = np.abs(np.diff(result.q[:c], axis=0))
+    assert np.all(d <= lim), f"largest step / max_jump = {np.max(d / lim):.6f}"
+    assert np.all(np.isnan(result.q[c:]))
+    assert np.all(np.isnan(result.frobenius_norm[c:]))
+
+
+# =========================================================================================
+# Interpolation
+# =========================================================================================
+def test_interpolate_planar_is_linear_and_keeps_the_keys():
+    C = PlanarTarget(-300.0, 1400.0, 0.3)
+    pts = interpolate_targets([A, B, C], steps=[4, 2])
+    assert len(pts) == 7
+    assert pts[0] is A and pts[4] is B and pts[6] is C
+    for j in range(5):
+        np.testing.assert_allclose(pts[j].y, A.y + j / 4 * (B.y - A.y), atol=1e-12)
+    assert all(p.phi == 0.0 for p in pts)
+
+
+def test_interpolate_by_max_step():
+    pts = interpolate_targets([A, B], max_step=(50.0, 0.1))
+    d, ang = target_step(A, B)
+    assert len(pts) - 1 == max(math.ceil(d / 50.0), math.ceil(ang / 0.1))
+    for a, b in zip(pts[:-1], pts[1:]):
+        s, r = target_step(a, b)
+        assert s <= 50.0 + 1e-9 and r <= 0.1 + 1e-12
+
+
+def test_slerp_is_uniform_along_the_shortest_arc():
+    from scipy.spatial.transform import Rotation, Slerp
+
+    Ra = euler_zyx([0.3, -0.2, 0.1])
+    Rb = euler_zyx([-1.0, 0.4, 0.9])
+    ref = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([Ra, Rb])))
+    total = rotation_angle(Ra, Rb)
+    for s in (0.0, 0.1, 0.5, 0.73, 1.0):
+        R = slerp(Ra, Rb, s)
+        np.testing.assert_allclose(R, ref([s]).as_matrix()[0], atol=1e-12)
+        np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-14)
+        assert rotation_angle(Ra, R) == pytest.approx(s * total, abs=1e-9)
+        assert rotation_angle(R, Rb) == pytest.approx((1 - s) * total, abs=1e-9)
+
+
+def test_spatial_interpolation():
+    ta = SpatialTarget([0.0, 0.0, 700.0], euler_zyx([0.0, 0.0, 0.0]))
+    tb = SpatialTarget([100.0, -50.0, 760.0], euler_zyx([0.6, -0.3, 0.2]))
+    pts = interpolate_targets([ta, tb], max_step=(20.0, 0.05))
+    n = len(pts) - 1
+    d, ang = target_step(ta, tb)
+    assert n == max(math.ceil(d / 20.0), math.ceil(ang / 0.05))
+    for j, p in enumerate(pts):
+        np.testing.assert_allclose(p.position, ta.position + j / n * (tb.position - ta.position))
+        assert rotation_angle(ta.rotation, p.rotation) == pytest.approx(j / n * ang, abs=1e-9)
+    mid = lerp_target(ta, tb, 0.5)
+    assert rotation_angle(mid.rotation, tb.rotation) == pytest.approx(ang / 2, abs=1e-9)
+
+
+def test_interpolate_bad_input():
+    with pytest.raises(ValueError, match="exactly one"):
+        interpolate_targets([A, B])
+    with pytest.raises(ValueError, match="exactly one"):
+        interpolate_targets([A, B], steps=2, max_step=(1.0, 1.0))
+    with pytest.raises(ValueError, match="integers >= 1"):
+        interpolate_targets([A, B], steps=0)
+    with pytest.raises(ValueError, match="> 0"):
+        interpolate_targets([A, B], max_step=(0.0, 0.1))
+    with pytest.raises(ValueError, match="empty"):
+        interpolate_targets([], steps=2)
+
+
+# =========================================================================================
+# Bad input
+# =========================================================================================
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"max_jump": (0.0, 0.3)}, "max_jump"),
+        ({"max_jump": (60.0, -1.0)}, "max_jump"),
+        ({"max_jump": 60.0}, "max_jump"),
+        ({"max_jump": (float("nan"), 0.3)}, "max_jump"),
+        ({"mode": "greedy"}, "mode"),
+        ({"motion_weight": -1.0}, "motion_weight"),
+        ({"leg_speed": 100.0}, "leg_speed and leg_accel"),
+        ({"leg_speed": 100.0, "leg_accel": 0.0}, "leg_accel"),
+        ({"start": np.zeros((3, 3))}, "start"),
+        ({"start": np.full((4, 3), np.nan)}, "start"),
+        ({"start": np.zeros((4, 3))}, "does not reach"),
+        ({"max_candidates": 0}, "max_candidates"),
+        ({"refine": "yes"}, "refine"),
+    ],
+)
+def test_solve_path_bad_options(stack4, kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        solve_path(stack4, [A, B], **kwargs)
+
+
+def test_solve_path_bad_targets(stack4):
+    with pytest.raises(ValueError, match="empty"):
+        solve_path(stack4, [])
+    with pytest.raises(ValueError, match="mixed planar and spatial"):
+        solve_path(stack4, [A, A.to_spatial()])
+    with pytest.raises(ValueError, match="phi"):
+        solve_path(stack4, [A, PlanarTarget(145.0, 1500.0, -0.207, phi=0.5)])
+    with pytest.raises(ValueError, match="targets\\[1\\]"):
+        solve_path(stack4, [A, (1.0, 2.0, 3.0)])
+    with pytest.raises(ValueError, match="single target"):
+        solve_path(stack4, A)
+    with pytest.raises(ValueError, match="Stack"):
+        solve_path("stack", [A, B])
+    with pytest.raises(ValueError):  # NaN is refused by the target itself
+        solve_path(stack4, [A, PlanarTarget(float("nan"), 1.0, 0.0)])
+
+
+# =========================================================================================
+# Solving
+# =========================================================================================
+def test_fast_planar_path_is_valid_and_continuous(stack4, planar_path, fast_result):
+    r = fast_result
+    assert r.success and r.status is PathStatus.SUCCESS and r.completed == r.m == 9
+    assert r.break_index is None
+    assert_valid_path(stack4, r)
+    assert r.q.shape == (9, 4, 3) and r.leg_lengths.shape == (9, 4, 6)
+    assert r.margins.shape == (9, 4, 4) and np.all(r.margins >= -1e-6)
+    np.testing.assert_array_equal(r.source, np.arange(9.0))
+    # the first pose is the default solve's best pose
+    np.testing.assert_allclose(r.q[0], solve_ik(stack4, A).q, atol=1e-9)
+    arr = path_arrays(stack4, r.targets, r.q)
+    np.testing.assert_allclose(arr["frobenius_norm"], r.frobenius_norm)
+    fn = [frobenius_norm(planar_jacobian(q)) for q in r.q]
+    np.testing.assert_allclose(r.frobenius_norm, fn, rtol=1e-12)  # FN of the poses
+
+
+def test_global_mode_is_no_worse_than_fast(stack4, planar_path, fast_result):
+    g = solve_path(stack4, planar_path, max_jump=MAX_JUMP, mode="global")
+    assert g.success and g.mode == "global"
+    assert_valid_path(stack4, g)
+    # the fast path's branch is among the candidates: the DP optimum is at least as good
+    assert np.sum(g.frobenius_norm**2) <= np.sum(fast_result.frobenius_norm**2) * (1 + 1e-9)
+    assert g.info["default"] >= g.m
+
+
+def test_motion_weight_trades_fn_for_motion(stack4, planar_path):
+    r0 = solve_path(stack4, planar_path, max_jump=MAX_JUMP, mode="global")
+    r1 = solve_path(stack4, planar_path, max_jump=MAX_JUMP, mode="global", motion_weight=1e6)
+    assert_valid_path(stack4, r1)
+    assert np.sum(np.diff(r1.q, axis=0) ** 2) <= np.sum(np.diff(r0.q, axis=0) ** 2) + 1e-9
+    assert np.sum(r1.frobenius_norm**2) >= np.sum(r0.frobenius_norm**2) * (1 - 1e-9)
+
+
+def test_start_pose_is_kept(stack4, planar_path, fast_result):
+    q0 = solve_ik(stack4, A, method="ip", starts=1).q  # the paper's guess, one start
+    r = solve_path(stack4, planar_path, max_jump=MAX_JUMP, start=q0)
+    np.testing.assert_array_equal(r.q[0], q0)
+    assert_valid_path(stack4, r)
+
+
+def test_path_leaving_the_workspace_breaks_with_its_index(stack4):
+    pts = interpolate_targets([A, OUT], steps=12)
+    r = solve_path(stack4, pts, max_jump=MAX_JUMP)
+    assert not r.success and r.status is PathStatus.UNREACHABLE
+    k = r.completed
+    assert 0 < k < r.m and r.break_index == k
+    assert f"index {k}" in r.message and "outside the workspace" in r.message
+    assert_valid_path(stack4, r)
+    assert not solve_ik(stack4, pts[k]).success  # the break is real
+    g = solve_path(stack4, pts, max_jump=MAX_JUMP, mode="global")
+    assert g.status is PathStatus.UNREACHABLE and g.completed == k
+    assert_valid_path(stack4, g)
+
+
+def test_too_coarse_steps_break_as_jump_and_refine_gets_through(stack4):
+    mj = (20.0, 0.1)
+    pts = interpolate_targets([A, B], steps=3)
+    r = solve_path(stack4, pts, max_jump=mj)
+    assert r.status is PathStatus.JUMP and r.completed < r.m
+    assert f"index {r.completed}" in r.message and "max_jump" in r.message
+    assert_valid_path(stack4, r)
+    f = solve_path(stack4, pts, max_jump=mj, refine=True)
+    assert f.success, f.message
+    assert_valid_path(stack4, f)
+    assert f.m > r.m
+    assert {0.0, 1.0, 2.0, 3.0} <= set(f.source.tolist())
+    assert np.any(f.source % 1 != 0)
+    for t, s in zip(f.targets, f.source):  # inserted waypoints lie on the segments
+        lo = int(math.floor(s))
+        ref = pts[lo] if s == lo else lerp_target(pts[lo], pts[lo + 1], s - lo)
+        np.testing.assert_allclose(t.y, ref.y, atol=1e-9)
+
+
+def test_spatial_path():
+    stack = Stack.reference(2)
+    qa = np.array([[0, 0, 380, 0, 0, 0], [0, 0, 380, 0, 0, 0.0]])
+    qb = np.array([[30, -20, 360, 0.1, 0.05, -0.05], [40, 10, 370, 0.15, -0.05, 0.1]])
+    ta, tb = (SpatialTarget(*spatial_forward(q)) for q in (qa, qb))
+    pts = interpolate_targets([ta, tb], steps=4)
+    r = solve_path(stack, pts, max_jump=MAX_JUMP)
+    assert r.success and r.q.shape == (5, 2, 6)
+    assert_valid_path(stack, r)
+    assert r.step_jumps.shape == (4, 2)
+    tight = solve_path(stack, pts, max_jump=(5.0, 0.02))  # forces bounded steps or a break
+    assert_valid_path(stack, tight)
+    assert tight.success or tight.status in (PathStatus.JUMP, PathStatus.UNREACHABLE)
+
+
+def test_tight_jump_limit_uses_bounded_steps_and_never_violates_it(stack4, planar_path):
+    r = solve_path(stack4, planar_path, max_jump=(25.0, 0.08))
+    assert_valid_path(stack4, r)
+    assert r.info["bounded"] > 0
+
+
+# =========================================================================================
+# Time parameterisation
+# =========================================================================================
+def _rates(L, t):
+    """Finite differences written out here (independent of leg_rates)."""
+    v = [(L[k + 1] - L[k]) / (t[k + 1] - t[k]) for k in range(len(t) - 1)]
+    a = []
+    for k in range(len(t)):
+        v_in = v[k - 1] if k > 0 else np.zeros_like(L[0])
+        v_out = v[k] if k < len(t) - 1 else np.zeros_like(L[0])
+        h_in = t[k] - t[k - 1] if k > 0 else 0.0
+        h_out = t[k + 1] - t[k] if k < len(t) - 1 else 0.0
+        a.append(2 * (v_out - v_in) / (h_in + h_out))
+    return np.array(v), np.array(a)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_time_parameterization_respects_speed_and_acceleration(seed):
+    rng = np.random.default_rng(seed)
+    L = 350 + np.cumsum(rng.normal(0, 8, (30, 2, 6)), axis=0)
+    L[10:14] = L[10]  # a pause: no leg moves
+    vmax, amax = 80.0, 150.0
+    t = time_parameterize(L, leg_speed=vmax, leg_accel=amax)
+    assert t.shape == (30,) and t[0] == 0 and np.all(np.diff(t) > 0)
+    v, a = _rates(L, t)
+    assert np.abs(v).max() <= vmax * (1 + 1e-9)
+    assert np.abs(a).max() <= amax * (1 + 1e-9)
+    # not needlessly slow: some limit is nearly reached
+    assert max(np.abs(v).max() / vmax, np.abs(a).max() / amax) > 0.99
+    v2, a2 = leg_rates(L, t)
+    np.testing.assert_allclose(v2, v)
+    np.testing.assert_allclose(a2, a)
+
+
+def test_solved_path_times(stack4, fast_result):
+    r = fast_result
+    assert r.times is not None and r.times[0] == 0
+    v, a = _rates(r.leg_lengths, r.times)
+    assert np.abs(v).max() <= 150.0 * (1 + 1e-9)
+    assert np.abs(a).max() <= 300.0 * (1 + 1e-9)
+    np.testing.assert_array_equal(time_parameterize(r, leg_speed=150.0, leg_accel=300.0), r.times)
+    with pytest.raises(ValueError, match="leg_speed"):
+        time_parameterize(r, leg_speed=-1.0, leg_accel=1.0)
+
+
+# =========================================================================================
+# Files and checkpoints
+# =========================================================================================
+def test_json_round_trip(stack4, fast_result, tmp_path):
+    broken = solve_path(stack4, interpolate_targets([A, OUT], steps=12), max_jump=MAX_JUMP)
+    for r in (fast_result, broken):
+        back = PathResult.from_json(r.to_json(tmp_path / "p.json"))
+        again = PathResult.from_json(tmp_path / "p.json")
+        for b in (back, again):
+            np.testing.assert_array_equal(b.q, r.q)
+            np.testing.assert_array_equal(b.frobenius_norm, r.frobenius_norm)
+            np.testing.assert_array_equal(b.leg_lengths, r.leg_lengths)
+            np.testing.assert_array_equal(b.margins, r.margins)
+            np.testing.assert_array_equal(b.source, r.source)
+            assert (b.times is None) == (r.times is None)
+            if r.times is not None:
+                np.testing.assert_array_equal(b.times, r.times)
+            assert (b.status, b.message, b.completed, b.success) == (
+                r.status, r.message, r.completed, r.success
+            )  # fmt: skip
+            assert [t.y.tolist() for t in b.targets] == [t.y.tolist() for t in r.targets]
+    json.loads((tmp_path / "p.json").read_text())  # plain JSON (NaN written as null)
+    assert "NaN" not in (tmp_path / "p.json").read_text()
+
+
+def test_csv_round_trip(stack4, fast_result, tmp_path):
+    broken = solve_path(stack4, interpolate_targets([A, OUT], steps=12), max_jump=MAX_JUMP)
+    for r in (fast_result, broken):
+        d = read_path_csv(r.to_csv(tmp_path / "p.csv"))
+        np.testing.assert_array_equal(d["q"], r.q)
+        np.testing.assert_array_equal(d["frobenius_norm"], r.frobenius_norm)
+        np.testing.assert_array_equal(d["leg_lengths"], r.leg_lengths)
+        np.testing.assert_array_equal(d["margins"], r.margins)
+        if r.times is None:
+            assert d["times"] is None
+        else:
+            np.testing.assert_array_equal(d["times"], r.times)
+        assert [t.y.tolist() for t in d["targets"]] == [t.y.tolist() for t in r.targets]
+    header = (tmp_path / "p.csv").read_text().splitlines()[0].split(",")
+    assert header[:4] == ["index", "source", "time_s", "target_rho"]
+    assert "p4_theta" in header and "p4_leg5" in header and "p4_margin_joint_top" in header
+
+
+def test_spatial_csv_round_trip(tmp_path):
+    stack = Stack.reference(2)
+    q = np.array([[0, 0, 380, 0, 0, 0], [10, 0, 380, 0.1, 0, 0.0]])
+    t = SpatialTarget(*spatial_forward(q))
+    r = solve_path(stack, [t], start=q)
+    d = read_path_csv(r.to_csv(tmp_path / "s.csv"))
+    np.testing.assert_array_equal(d["q"], r.q)
+    np.testing.assert_array_equal(d["targets"][0].rotation, t.rotation)
+
+
+@pytest.mark.parametrize("mode", ["fast", "global"])
+def test_checkpoint_resume_gives_the_uninterrupted_result(stack4, mode, tmp_path):
+    pts = interpolate_targets([A, B], steps=8)
+    ck = tmp_path / "ck.jsonl"
+    full = solve_path(stack4, pts, max_jump=(25.0, 0.08), mode=mode, checkpoint=ck)
+    lines = ck.read_text().splitlines(keepends=True)
+    assert len(lines) > 4
+    # interrupted: keep the header and three records, then a torn line
+    ck.write_text("".join(lines[:4]) + lines[4][: len(lines[4]) // 2])
+    resumed = solve_path(stack4, pts, max_jump=(25.0, 0.08), mode=mode, checkpoint=ck)
+    np.testing.assert_array_equal(resumed.q, full.q)
+    assert resumed.status is full.status
+    assert len(ck.read_text().splitlines()) == len(lines)
+    # everything recorded: the rerun only reads
+    again = solve_path(stack4, pts, max_jump=(25.0, 0.08), mode=mode, checkpoint=ck)
+    np.testing.assert_array_equal(again.q, full.q)
+    assert again.info.get("warm", 0) == 0 and again.info.get("bounded", 0) == 0
+    with pytest.raises(ValueError, match="different path"):
+        solve_path(stack4, pts[:-1], max_jump=(25.0, 0.08), mode=mode, checkpoint=ck)
+
+
+def test_refined_path_checkpoint_resume(stack4, tmp_path):
+    pts = interpolate_targets([A, B], steps=3)
+    ck = tmp_path / "ck.jsonl"
+    full = solve_path(stack4, pts, max_jump=(20.0, 0.1), refine=True, checkpoint=ck)
+    lines = ck.read_text().splitlines(keepends=True)
+    for cut in (3, len(lines) // 2, len(lines) - 1):
+        ck.write_text("".join(lines[:cut]))
+        resumed = solve_path(stack4, pts, max_jump=(20.0, 0.1), refine=True, checkpoint=ck)
+        np.testing.assert_array_equal(resumed.q, full.q)
+        np.testing.assert_array_equal(resumed.source, full.source)
+
+
+# =========================================================================================
+# Figures and the command line
+# =========================================================================================
+def test_animation_and_plot(stack4, fast_result, tmp_path):
+    pytest.importorskip("matplotlib")
+    from PIL import Image
+
+    from stackik.paths.animate import animate_path, default_caption, plot_path, stack_nodes
+
+    nd = stack_nodes(stack4, fast_result, 3)
+    L = np.linalg.norm(nd["top"] - nd["base"], axis=-1)
+    np.testing.assert_allclose(L, fast_result.leg_lengths[3], atol=1e-9)
+    np.testing.assert_allclose(nd["O"][-1][[0, 2]], fast_result.targets[3].y[:2], atol=1e-6)
+    files = animate_path(fast_result, stack4, tmp_path / "a.gif", max_frames=3, dpi=40, mp4=False)
+    assert files == [tmp_path / "a.gif"]
+    with Image.open(files[0]) as im:
+        assert im.n_frames == 3
+    fig = plot_path(fast_result, stack4, tmp_path / "p.png")
+    assert (tmp_path / "p.png").stat().st_size > 0
+    assert "4-platform stack" in default_caption(fast_result)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def test_cli_path_smoke(tmp_path):
+    pytest.importorskip("matplotlib")
+    from stackik.cli import main
+
+    out = tmp_path / "out"
+    rc = main(
+        ["path", "--n", "4", "--from", "600", "1000", "-1.57", "--to", "145", "1500", "-0.207",
+         "--steps", "6", "--max-jump", "60", "0.3", "--leg-speed", "100", "--frames", "3",
+         "--out", str(out), "--json"]
+    )  # fmt: skip
+    assert rc == 0
+    for name in ("path.csv", "path.json", "path.png", "path.gif"):
+        assert (out / name).stat().st_size > 0
+    r = PathResult.from_json(out / "path.json")
+    assert r.success and r.m == 7 and r.times is not None
+
+
+def test_cli_path_csv_break_and_errors(tmp_path, capsys):
+    from stackik.cli import main
+
+    wp = tmp_path / "wp.csv"
+    rows = ["rho,z,theta"] + [f"{600 + 190 * j},1000,{-1.57 + 0.157 * j}" for j in range(11)]
+    wp.write_text("\n".join(rows) + "\n")
+    rc = main(["path", "--csv", str(wp), "--out", str(tmp_path / "o"), "--no-animation"])
+    assert rc == 1  # leaves the workspace, or a step above the jump limit
+    text = capsys.readouterr().out
+    assert "the path breaks at index" in text
+    assert (tmp_path / "o" / "path.csv").exists()
+    assert main(["path", "--from", "600", "1000", "--to", "1", "2", "3"]) == 2
+    assert main(["path", "--out", str(tmp_path / "x")]) == 2
+    assert main(["path", "--from", "600", "1000", "-1.57", "--to", "145", "1500", "-0.207",
+                 "--max-jump", "0", "0.3", "--out", str(tmp_path / "y")]) == 2  # fmt: skip
+    err = capsys.readouterr().err
+    assert "stackik: error:" in err
