@@ -283,9 +283,9 @@ def test_problem_derivatives_planar(phi):
 def test_spatial_default_tries_the_folded_starts():
     # the paper's start and four folds of the top two platforms (x and y, both signs);
     # the best of them is at least as good as the paper's start alone
-    from stackik.bench import _spatial_targets
+    from stackik.sampling import random_spatial_targets
 
-    t = _spatial_targets(STACK4, 1, 7)[0]
+    t = random_spatial_targets(STACK4, 1, 7)[0]
     r = sk.solve_ik(STACK4, t)
     one = sk.solve_ik(STACK4, t, x0=paper_initial_guess(STACK4, t))
     assert r.success and one.success and r.n_starts >= 5

@@ -106,10 +106,3 @@ def test_workspace_reexports_the_samplers():
     ):
         assert getattr(workspace, name) is getattr(sampling, name)
         assert name in workspace.__all__
-
-
-def test_bench_keeps_its_old_names():
-    import stackik.bench as bench
-
-    assert bench.random_stack is random_stack
-    assert bench._spatial_targets is random_spatial_targets

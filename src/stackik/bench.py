@@ -41,10 +41,6 @@ from stackik.targets import PAPER_TARGETS, PlanarTarget, target_to_dict
 
 __all__ = ["BenchConfig", "machine_info", "main", "run_benchmark"]
 
-# Random stacks and targets come from stackik.sampling; the old names stay importable
-# from here (random_stack, _spatial_targets) for tests that predate it.
-_spatial_targets = random_spatial_targets
-
 DEFAULT = "stackik (default)"
 SLSQP = "slsqp, 1 start"
 SLSQP8 = "slsqp, 8 starts"
