@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 
+import fd
 import numpy as np
 import pytest
 import reference_impl as ref
@@ -30,7 +31,7 @@ NS = [1, 2, 4, 7]
 PHIS = [0.0, 0.7, -2.1, math.pi / 2, 3.0]
 SEEDS = [0, 1, 2]
 REF_RTOL = 1e-9  # agreement with the reference implementation, relative to magnitude
-FD_RTOL = 1e-6  # central differences, relative to magnitude
+# Derivatives are checked by fd.py: tolerances from the step and the scales below.
 
 
 def to_stack(geoms):
@@ -40,6 +41,22 @@ def to_stack(geoms):
             for g in geoms
         )
     )
+
+
+def planar_scale(q):
+    """F of the planar output (rho_ee, z_ee [mm], theta_ee [rad])."""
+    L = fd.chain_length(q)
+    return np.array([L, L, 1.0 + float(np.abs(q[:, 2]).sum())])
+
+
+def spatial_scale(q):
+    """F of the spatial output (P_ee [mm], R_ee.ravel())."""
+    return np.array([fd.chain_length(q)] * 3 + [1.0] * 9)
+
+
+def planar_fn2_scale(q):
+    """F of FN^2 = 3n + sum_j |P_ee - O_j|^2 [mm^2]: each term is at most chain_length^2."""
+    return 3.0 * len(q) + len(q) * fd.chain_length(q) ** 2
 
 
 def psd_min_eig(H):
@@ -53,15 +70,20 @@ pose_params = pytest.mark.parametrize(("n", "seed"), [(n, s) for n in NS for s i
 # =========================================================================================
 # Agreement with the reference implementation
 # =========================================================================================
+@pytest.mark.derivatives
 @pose_params
 @pytest.mark.parametrize("phi", PHIS)
 def test_planar_forward_and_jacobian_match_reference(n, seed, phi):
     q = ref.random_planar_pose(np.random.default_rng(seed), n)
     assert_close(stackik.planar_forward(q), ref.planar_forward(q, phi), REF_RTOL, "y")
-    assert_close(stackik.planar_jacobian(q), ref.planar_jacobian(q, phi), REF_RTOL, "J")
+    # the reference's Jacobian: complex step of its forward model (ref.planar_jacobian)
+    cs = fd.complex_step(lambda x: ref.planar_forward(x, phi), q, typical=fd.TYPICAL_PLANAR)
+    J = stackik.planar_jacobian(q).reshape(cs.shape)
+    fd.assert_derivative_close(J, cs, f_scale=planar_scale(q), what="J")
     assert_close(stackik.planar_plate_origins(q), ref.planar_plate_origins(q, phi), REF_RTOL, "O")
 
 
+@pytest.mark.derivatives
 @pose_params
 def test_spatial_forward_and_jacobian_match_reference(n, seed):
     q = ref.random_spatial_pose(np.random.default_rng(100 + seed), n)
@@ -71,7 +93,9 @@ def test_spatial_forward_and_jacobian_match_reference(n, seed):
     assert_close(R, R_ref, REF_RTOL, "R_ee")
     J = stackik.spatial_jacobian(q)
     assert J.shape == (12, 6 * n)
-    assert_close(J, ref.spatial_jacobian(q), REF_RTOL, "J")
+    # the reference's Jacobian: complex step of its forward model (ref.spatial_jacobian)
+    cs = fd.complex_step(ref.spatial_output, q, typical=fd.TYPICAL_SPATIAL)
+    fd.assert_derivative_close(J.reshape(cs.shape), cs, f_scale=spatial_scale(q), what="J")
     O = stackik.spatial_plate_origins(q)
     assert O.shape == (n + 1, 3)
     assert_close(O, ref.spatial_plate_origins(q), REF_RTOL, "O")
@@ -135,13 +159,16 @@ def test_spatial_fn2_closed_form(n, seed):
 # =========================================================================================
 # Finite differences: Jacobians of the forward models
 # =========================================================================================
+@pytest.mark.derivatives
 @pose_params
 def test_planar_jacobian_finite_differences(n, seed):
     q = ref.random_planar_pose(np.random.default_rng(500 + seed), n)
-    fd = ref.central_diff(stackik.planar_forward, q).reshape(3, 3 * n)
-    assert_close(stackik.planar_jacobian(q), fd, FD_RTOL, "planar J")
+    num = fd.central(stackik.planar_forward, q, typical=fd.TYPICAL_PLANAR)  # (3, n, 3)
+    J = stackik.planar_jacobian(q).reshape(num.shape)
+    fd.assert_derivative_close(J, num, f_scale=planar_scale(q), what="planar J")
 
 
+@pytest.mark.derivatives
 @pose_params
 def test_spatial_jacobian_finite_differences(n, seed):
     q = ref.random_spatial_pose(np.random.default_rng(600 + seed), n)
@@ -150,13 +177,15 @@ def test_spatial_jacobian_finite_differences(n, seed):
         P, R = stackik.spatial_forward(x)
         return np.concatenate([P, R.ravel()])
 
-    fd = ref.central_diff(y, q).reshape(12, 6 * n)
-    assert_close(stackik.spatial_jacobian(q), fd, FD_RTOL, "spatial J")
+    num = fd.central(y, q, typical=fd.TYPICAL_SPATIAL)  # (12, n, 6)
+    J = stackik.spatial_jacobian(q).reshape(num.shape)
+    fd.assert_derivative_close(J, num, f_scale=spatial_scale(q), what="spatial J")
 
 
 # =========================================================================================
 # Planar FN^2: residuals, gradient, Hessians
 # =========================================================================================
+@pytest.mark.derivatives
 @pose_params
 def test_planar_fn_residuals(n, seed):
     q = ref.random_planar_pose(np.random.default_rng(700 + seed), n)
@@ -165,26 +194,33 @@ def test_planar_fn_residuals(n, seed):
     assert Jr.shape == (2 * (n - 1), 3 * n)
     assert 3 * n + r @ r == pytest.approx(stackik.planar_fn2(q), rel=1e-12)
     if n > 1:
-        fd = ref.central_diff(lambda x: planar_fn_residuals(x)[0], q).reshape(Jr.shape)
-        assert_close(Jr, fd, FD_RTOL, "Jr")
+        num = fd.central(lambda x: planar_fn_residuals(x)[0], q, typical=fd.TYPICAL_PLANAR)
+        L = fd.chain_length(q)  # residuals are differences of positions [mm]
+        fd.assert_derivative_close(Jr.reshape(num.shape), num, f_scale=L, what="Jr")
 
 
+@pytest.mark.derivatives
 @pose_params
 def test_planar_fn_gradient_finite_differences(n, seed):
     q = ref.random_planar_pose(np.random.default_rng(800 + seed), n)
     fn = PlanarFN.at(q)
     assert fn.gradient.shape == (3 * n,)
-    fd = ref.central_diff(stackik.planar_fn2, q).ravel()
-    assert_close(fn.gradient, fd, FD_RTOL, "grad FN^2")
+    num = fd.central(stackik.planar_fn2, q, typical=fd.TYPICAL_PLANAR)  # (n, 3)
+    g = fn.gradient.reshape(num.shape)
+    fd.assert_derivative_close(g, num, f_scale=planar_fn2_scale(q), what="grad FN^2")
 
 
+@pytest.mark.derivatives
 @pose_params
 def test_planar_hessian_fn2(n, seed):
     q = ref.random_planar_pose(np.random.default_rng(900 + seed), n)
     H = planar_hessian_fn2(q, exact=True)
     assert H.shape == (3 * n, 3 * n)
-    fd = ref.central_diff(lambda x: PlanarFN.at(x).gradient, q).reshape(3 * n, 3 * n)
-    assert_close(H, fd, FD_RTOL, "exact Hessian")
+    num = fd.central(
+        lambda x: PlanarFN.at(x).gradient, q, typical=fd.TYPICAL_PLANAR, richardson=True
+    )
+    F = fd.derivative_scale(planar_fn2_scale(q), num.x_scale.ravel())  # gradient rows
+    fd.assert_derivative_close(H.reshape(num.shape), num, f_scale=F, what="exact Hessian")
     assert np.allclose(H, H.T, rtol=0, atol=1e-9 * max(1.0, np.abs(H).max()))
     GN = planar_hessian_fn2(q, exact=False)
     assert psd_min_eig(GN) >= -1e-12
@@ -205,22 +241,31 @@ def test_planar_hessian_rows_of_fixed_variables_vanish():
 # =========================================================================================
 # Spatial chain: Hessian, third derivatives, weighted objective
 # =========================================================================================
+@pytest.mark.derivatives
 @pytest.mark.parametrize(("n", "seed"), [(1, 0), (2, 1), (3, 2)])
 def test_spatial_chain_hessian_and_third(n, seed):
     q = ref.random_spatial_pose(np.random.default_rng(1000 + seed), n)
     chain = stackik.spatial_chain(q)
     N = 6 * n
+    X = fd.variable_scale(q, fd.TYPICAL_SPATIAL).ravel()
     H = chain.hessian()
     assert H.shape == (12, N, N)
-    fd_H = ref.central_diff(lambda x: stackik.spatial_chain(x).J, q).reshape(12, N, N)
-    assert_close(H, fd_H, FD_RTOL, "hessian")
+    num = fd.central(
+        lambda x: stackik.spatial_chain(x).J, q, typical=fd.TYPICAL_SPATIAL, richardson=True
+    )
+    F = fd.derivative_scale(spatial_scale(q), X)  # J = d(P, R)/dq: (12, N)
+    fd.assert_derivative_close(H.reshape(num.shape), num, f_scale=F, what="hessian")
     assert np.allclose(H, np.swapaxes(H, 1, 2), atol=1e-9 * np.abs(H).max())
     T = chain.third()
     assert T.shape == (12, N, N, N)
-    fd_T = ref.central_diff(lambda x: stackik.spatial_chain(x).hessian(), q).reshape(12, N, N, N)
-    assert_close(T, fd_T, FD_RTOL, "third")
+    num = fd.central(
+        lambda x: stackik.spatial_chain(x).hessian(), q, typical=fd.TYPICAL_SPATIAL, richardson=True
+    )
+    F = fd.derivative_scale(spatial_scale(q), X, 2)  # (12, N, N)
+    fd.assert_derivative_close(T.reshape(num.shape), num, f_scale=F, what="third")
 
 
+@pytest.mark.derivatives
 @pytest.mark.parametrize(("n", "seed"), [(1, 0), (2, 1), (3, 2), (4, 3)])
 def test_spatial_weighted_objective_derivatives(n, seed):
     rng = np.random.default_rng(1100 + seed)
@@ -233,14 +278,27 @@ def test_spatial_weighted_objective_derivatives(n, seed):
         assert val == pytest.approx(
             ref.weighted_objective(ref.spatial_jacobian(q), w_arr), rel=1e-9
         )
+        # F of sum_b w_b |J[:, b]|^2: a translation column has |J[:, b]|^2 = 1, a rotation
+        # column |w_b x d|^2 + |[w_b]x R_ee|_F^2 <= L^2 + 2 (L = chain length)
+        X = fd.variable_scale(q, fd.TYPICAL_SPATIAL).ravel()
+        rot = np.tile([False] * 3 + [True] * 3, n)
+        F = float(np.sum(w_arr * np.where(rot, fd.chain_length(q) ** 2 + 2.0, 1.0)))
         g = chain.weighted_gradient(w)
-        fd_g = ref.central_diff(lambda x, w=w: stackik.spatial_chain(x).weighted_norm2(w), q)
-        assert_close(g, fd_g.ravel(), FD_RTOL, "weighted gradient")
+        num = fd.central(
+            lambda x, w=w: stackik.spatial_chain(x).weighted_norm2(w), q, typical=fd.TYPICAL_SPATIAL
+        )
+        fd.assert_derivative_close(g.reshape(num.shape), num, f_scale=F, what="weighted gradient")
         Hw = chain.weighted_hessian(w)
-        fd_Hw = ref.central_diff(
-            lambda x, w=w: stackik.spatial_chain(x).weighted_gradient(w), q
-        ).reshape(N, N)
-        assert_close(Hw, fd_Hw, FD_RTOL, "weighted hessian")
+        num = fd.central(
+            lambda x, w=w: stackik.spatial_chain(x).weighted_gradient(w),
+            q,
+            typical=fd.TYPICAL_SPATIAL,
+            richardson=True,
+        )
+        F_rows = fd.derivative_scale(F, X)
+        fd.assert_derivative_close(
+            Hw.reshape(num.shape), num, f_scale=F_rows, what="weighted hessian"
+        )
         GN = chain.weighted_gauss_newton(w)
         assert psd_min_eig(GN) >= -1e-12
 
