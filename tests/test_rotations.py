@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import fd
 import numpy as np
 import pytest
 import reference_impl as ref
@@ -24,7 +25,8 @@ from stackik.rotations import (
     rotation_2d,
 )
 
-FD_RTOL = 1e-8  # central differences on O(1) functions of O(1) angles
+# Derivatives are checked by fd.py: rotation matrices have entries of scale F = 1, angles
+# the scale X = max(|angle|, 1); the tolerances follow from these and the step.
 PHIS = [0.0, 0.7, -2.1, math.pi / 2, 3.0]
 
 angle = st.floats(-4.0, 4.0, allow_nan=False)
@@ -88,6 +90,7 @@ def test_rodrigues_is_the_2d_rotation_in_the_plane(phi):
     assert (E @ R @ E.T)[1, 0] > 0
 
 
+@pytest.mark.derivatives
 @pytest.mark.parametrize("seed", range(3))
 @pytest.mark.parametrize("phi", PHIS)
 def test_rodrigues_derivative_finite_differences(seed, phi):
@@ -95,20 +98,21 @@ def test_rodrigues_derivative_finite_differences(seed, phi):
     th = np.random.default_rng(seed).uniform(-4, 4, 5)
     dR = rodrigues_derivative(s, th)
     assert dR.shape == (5, 3, 3)
-    fd = ref.central_diff(lambda t: rodrigues(s, t), th)  # (5, 3, 3, 5)
-    fd = np.einsum("kijk->kij", fd)
-    assert_close(dR, fd, FD_RTOL, "dR/dtheta")
+    num = fd.central(lambda t: rodrigues(s, t), th)  # (5, 3, 3, 5): R_k depends on th_k only
+    full = np.einsum("kij,km->kijm", dR, np.eye(5))
+    fd.assert_derivative_close(full, num, f_scale=1.0, what="dR/dtheta")
     assert_close(dR, cross_matrix(s) @ rodrigues(s, th), 1e-14, "[s]x R")
 
 
+@pytest.mark.derivatives
 def test_rodrigues_general_axis_and_derivative():
     rng = np.random.default_rng(4)
     s = rng.normal(size=3)
     s /= np.linalg.norm(s)
     th = 0.83
     assert_close(rodrigues(s, th), Rotation.from_rotvec(th * s).as_matrix(), 1e-14)
-    fd = (rodrigues(s, th + 1e-6) - rodrigues(s, th - 1e-6)) / 2e-6
-    assert_close(rodrigues_derivative(s, th), fd, FD_RTOL)
+    num = fd.central(lambda t: rodrigues(s, float(t)), th)  # (3, 3)
+    fd.assert_derivative_close(rodrigues_derivative(s, th), num, f_scale=1.0, what="dR/dtheta")
 
 
 def test_rotation_2d_shapes():
@@ -139,18 +143,20 @@ def test_euler_zyx_elementary_rotations():
     assert_close(euler_zyx([0, 0, t]), [[1, 0, 0], [0, c, -s], [0, s, c]], 1e-15)
 
 
+@pytest.mark.derivatives
 @pytest.mark.parametrize("seed", range(4))
 def test_euler_zyx_derivatives_finite_differences(seed):
     a = np.random.default_rng(10 + seed).uniform(-3, 3, (4, 3))
     D = euler_zyx_derivatives(a)
     assert D.shape == (4, 3, 3, 3)
-    fd = ref.central_diff(euler_zyx, a)  # (4, 3, 3, 4, 3)
-    fd = np.einsum("kijkl->klij", fd)
-    assert_close(D, fd, FD_RTOL, "dR/dangles")
+    num = fd.central(euler_zyx, a)  # (4, 3, 3, 4, 3): R_k depends on a_k only
+    full = np.einsum("klij,km->kijml", D, np.eye(4))
+    fd.assert_derivative_close(full, num, f_scale=1.0, what="dR/dangles")
     # and by the complex step of the written-out reference
     for k in range(4):
-        cs = ref.complex_step(lambda x: ref.euler_zyx_explicit(*x), a[k])  # (3, 3, 3)
-        assert_close(D[k], np.moveaxis(cs, -1, 0), 1e-13)
+        cs = fd.complex_step(lambda x: ref.euler_zyx_explicit(*x), a[k])  # (3, 3, 3)
+        Dk = np.moveaxis(D[k], 0, -1)
+        fd.assert_derivative_close(Dk, cs, f_scale=1.0, what="dR/dangles vs complex step")
 
 
 @pytest.mark.parametrize("seed", range(4))
