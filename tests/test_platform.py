@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import fd
 import numpy as np
 import pytest
 import reference_impl as ref
@@ -28,11 +29,18 @@ from stackik.rotations import euler_zyx, euler_zyx_from_matrix
 NS = [1, 2, 4, 7]
 PHIS = [0.0, 0.7, -2.1, math.pi / 2, 3.0]
 REF_RTOL = 1e-9
-FD_RTOL = 1e-6
+# Derivatives are checked by fd.py: tolerances from the step and the constraints' scale.
 
 
 def to_geometry(g):
     return PlatformGeometry(g["base"], g["top"], g["leg_min"], g["leg_max"], g["joint_min"])
+
+
+def constraint_scale(geoms, q):
+    """F of the 24 constraints of each platform (fd.constraint_scale), shape (n, 24)."""
+    top = np.array([g["top"] for g in geoms])
+    base = np.array([g["base"] for g in geoms])
+    return fd.constraint_scale(top, base, [g["leg_max"] for g in geoms], q)
 
 
 def mixed(rng, n):
@@ -49,6 +57,7 @@ cases = pytest.mark.parametrize(("n", "seed"), [(n, s) for n in NS for s in (0, 
 # =========================================================================================
 # Agreement with the reference implementation
 # =========================================================================================
+@pytest.mark.derivatives
 @cases
 @pytest.mark.parametrize("phi", PHIS)
 def test_planar_constraints_match_reference(n, seed, phi):
@@ -61,9 +70,14 @@ def test_planar_constraints_match_reference(n, seed, phi):
     c2, Jc = planar_constraint_jacobian(stack, q, phi)
     assert np.array_equal(c2, c)
     assert np.array_equal(planar_constraints(stack, q, phi), c)
-    blocks, full = ref.planar_constraint_jacobian(geoms, q, phi)
     assert Jc.shape == (n, 24, 3)
-    assert_close(Jc, blocks, REF_RTOL, "Jc")
+    # the reference's Jacobian, by complex step (as ref.planar_constraint_jacobian)
+    cs = fd.complex_step(
+        lambda x: ref.planar_constraints(geoms, x, phi), q, typical=fd.TYPICAL_PLANAR
+    )
+    F = constraint_scale(geoms, q)
+    fd.assert_derivative_close(fd.block_diagonal(Jc), cs, f_scale=F, what="Jc")
+    full = cs.value
     # block diagonal: platform i's constraints depend on platform i only
     for i in range(n):
         for j in range(n):
@@ -71,6 +85,7 @@ def test_planar_constraints_match_reference(n, seed, phi):
                 assert np.all(full[i, :, j, :] == 0)
 
 
+@pytest.mark.derivatives
 @cases
 def test_spatial_constraints_match_reference(n, seed):
     rng = np.random.default_rng(50 + seed)
@@ -82,9 +97,11 @@ def test_spatial_constraints_match_reference(n, seed):
     c2, Jc = spatial_constraint_jacobian(stack, q)
     assert np.array_equal(c2, c)
     assert np.array_equal(spatial_constraints(stack, q), c)
-    blocks, _ = ref.spatial_constraint_jacobian(geoms, q)
     assert Jc.shape == (n, 24, 6)
-    assert_close(Jc, blocks, REF_RTOL, "Jc")
+    # the reference's Jacobian, by complex step (as ref.spatial_constraint_jacobian)
+    cs = fd.complex_step(lambda x: ref.spatial_constraints(geoms, x), q, typical=fd.TYPICAL_SPATIAL)
+    F = constraint_scale(geoms, q)
+    fd.assert_derivative_close(fd.block_diagonal(Jc), cs, f_scale=F, what="Jc")
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -104,25 +121,29 @@ def test_leg_vectors_and_lengths_match_reference(seed):
 # =========================================================================================
 # Finite differences
 # =========================================================================================
+@pytest.mark.derivatives
 @cases
 @pytest.mark.parametrize("phi", [0.3, -2.5])
 def test_planar_constraint_jacobian_finite_differences(n, seed, phi):
     rng = np.random.default_rng(200 + seed)
-    _, stack = mixed(rng, n)
+    geoms, stack = mixed(rng, n)
     q = ref.random_planar_pose(rng, n)
     _, Jc = planar_constraint_jacobian(stack, q, phi)
-    fd = ref.central_diff(lambda x: stack.planar_constraints(x, phi), q)  # (n,24,n,3)
-    assert_close(Jc, np.array([fd[i, :, i, :] for i in range(n)]), FD_RTOL, "planar Jc")
+    num = fd.central(lambda x: stack.planar_constraints(x, phi), q, typical=fd.TYPICAL_PLANAR)
+    F = constraint_scale(geoms, q)
+    fd.assert_derivative_close(fd.block_diagonal(Jc), num, f_scale=F, what="planar Jc")
 
 
+@pytest.mark.derivatives
 @cases
 def test_spatial_constraint_jacobian_finite_differences(n, seed):
     rng = np.random.default_rng(300 + seed)
-    _, stack = mixed(rng, n)
+    geoms, stack = mixed(rng, n)
     q = ref.random_spatial_pose(rng, n)
     _, Jc = spatial_constraint_jacobian(stack, q)
-    fd = ref.central_diff(stack.spatial_constraints, q)  # (n,24,n,6)
-    assert_close(Jc, np.array([fd[i, :, i, :] for i in range(n)]), FD_RTOL, "spatial Jc")
+    num = fd.central(stack.spatial_constraints, q, typical=fd.TYPICAL_SPATIAL)  # (n,24,n,6)
+    F = constraint_scale(geoms, q)
+    fd.assert_derivative_close(fd.block_diagonal(Jc), num, f_scale=F, what="spatial Jc")
 
 
 # =========================================================================================
