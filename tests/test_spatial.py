@@ -3,6 +3,7 @@ and finite differences."""
 
 from __future__ import annotations
 
+import fd
 import numpy as np
 import pytest
 
@@ -47,27 +48,21 @@ def test_spatial_parts_match_numpy(n, seed):
     np.testing.assert_allclose(Jr * prob.rw[:, None], Jr0, rtol=1e-12, atol=1e-10)
 
 
+@pytest.mark.derivatives
 @pytest.mark.parametrize("n", [1, 3])
 def test_spatial_parts_derivatives_by_finite_differences(n):
+    """Tolerances from the step and the scales (tests/fd.py): positions and the residuals
+    (w x d [mm], [w]x R) of scale chain_length, constraints of fd.constraint_scale."""
     st, q = case(n, 1)
     _, _, Jp, _, c, Jc, r, Jr = parts(st, q)
-    eps = 1e-6
-    N = 6 * n
-    fd_c = np.zeros((n, 24, 6))
-    fd_r = np.zeros((r.size, N))
-    fd_p = np.zeros((3, N))
-    for a in range(N):
-        dq = np.zeros(N)
-        dq[a] = eps
-        hi = parts(st, q + dq.reshape(n, 6))
-        lo = parts(st, q - dq.reshape(n, 6))
-        fd_p[:, a] = (hi[0] - lo[0]) / (2 * eps)
-        fd_r[:, a] = (hi[6] - lo[6]) / (2 * eps)
-        i, j = divmod(a, 6)
-        fd_c[i, :, j] = (hi[4][i] - lo[4][i]) / (2 * eps)
-    np.testing.assert_allclose(Jp, fd_p, rtol=1e-6, atol=1e-5)
-    np.testing.assert_allclose(Jc, fd_c, rtol=1e-6, atol=1e-3)  # c in mm^2
-    np.testing.assert_allclose(Jr, fd_r, rtol=1e-6, atol=1e-5)
+    L = fd.chain_length(q)
+    num = fd.central(lambda x: parts(st, x)[0], q, typical=fd.TYPICAL_SPATIAL)  # (3, n, 6)
+    fd.assert_derivative_close(Jp.reshape(num.shape), num, f_scale=L, what="Jp")
+    num = fd.central(lambda x: parts(st, x)[4], q, typical=fd.TYPICAL_SPATIAL)  # (n, 24, n, 6)
+    F = fd.constraint_scale(st.top_nodes, st.base_nodes, st.leg_max, q)  # mm^2 and mm
+    fd.assert_derivative_close(fd.block_diagonal(Jc), num, f_scale=F, what="Jc")
+    num = fd.central(lambda x: parts(st, x)[6], q, typical=fd.TYPICAL_SPATIAL)  # (9n, n, 6)
+    fd.assert_derivative_close(Jr.reshape(num.shape), num, f_scale=L, what="Jr")
 
 
 def test_spatial_solve_uses_the_compiled_parts_and_checks():
