@@ -304,24 +304,6 @@ def weighted_objective(J, variances):
     return float(np.trace(J @ np.diag(variances) @ J.T))
 
 
-def central_diff(f, x, rel_step=1e-6):
-    """Central finite differences of f at the real array x, shape f(x).shape + x.shape.
-
-    The step of variable a is ``rel_step * max(1, |x_a|)``.
-    """
-    x = np.asarray(x, dtype=float)
-    f0 = np.asarray(f(x))
-    out = np.zeros(f0.shape + x.shape)
-    for idx in np.ndindex(*x.shape):
-        h = rel_step * max(1.0, abs(x[idx]))
-        xp = x.copy()
-        xm = x.copy()
-        xp[idx] += h
-        xm[idx] -= h
-        out[(Ellipsis,) + idx] = (np.asarray(f(xp)) - np.asarray(f(xm))) / (2 * h)
-    return out
-
-
 def random_planar_pose(rng, n):
     """(n, 3) rows (rho, z, theta): rho may be negative [mm, mm, rad]."""
     return np.column_stack(
