@@ -214,7 +214,6 @@ def test_unreachable_target_exit_1(capsys: pytest.CaptureFixture[str]) -> None:
         ["solve"],
         ["solve", "--spatial", "--target", *TARGET],
         ["solve", "--spatial", "--position", "0", "0", "nan"],
-        ["solve", "--spatial", "--position", "0", "0", "900", "--method", "ipopt"],
         ["frobnicate"],
         [],
     ],

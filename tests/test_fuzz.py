@@ -302,15 +302,9 @@ def test_every_method_and_objective(solver, objective):
     kw = {**solver, **objective, "max_time": 5.0}
     recs = []
     for stack, target in METHOD_TARGETS:
-        if kw.get("method") == "ipopt" and isinstance(target, SpatialTarget):
-            continue  # planar only (documented ValueError, checked below)
         recs.append(run(fc.Case("method", str(kw), lambda s=stack, t=target: (s, t, kw))))
     assert recs[0]["outcome"] == "success", recs[0]  # n = 1: every method gets it
     assert recs[-1]["outcome"] != "success", recs[-1]
-    if kw.get("method") == "ipopt":
-        stack, target = METHOD_TARGETS[2]
-        with pytest.raises(ValueError, match="planar"):
-            sk.solve_ik(stack, target, **kw)
 
 
 def test_weighted_with_per_platform_sigmas():

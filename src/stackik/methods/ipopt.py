@@ -1,9 +1,20 @@
-"""``method="ipopt"``: IPOPT through CasADi (optional extra ``stackik[ipopt]``), planar mode.
+"""``method="ipopt"``: IPOPT through CasADi (optional extra ``stackik[ipopt]``), planar and
+spatial targets.
 
 The same scaled problem as :class:`stackik.formulation.Problem` is written symbolically so that
 IPOPT gets exact first and second derivatives from CasADi's automatic differentiation.
-Solvers are built once per (stack, phi, objective) and cached; the target is a parameter,
-so timing a solve excludes the symbolic set-up.
+Solvers are built once per (stack, phi, objective) (planar) or (stack, objective) (spatial)
+and cached; the target is a parameter, so timing a solve excludes the symbolic set-up.
+
+Spatial mode: ``R_i = Rz(yaw) Ry(pitch) Rx(roll)``, the chain ``O_{i+1} = O_i + A_i p_i``,
+``A_{i+1} = A_i R_i``; FN^2 exactly as :meth:`Problem.objective_value` (``c0`` plus the
+weighted squared position derivatives ``w_a x (P_ee - O_{i+1})`` of every angle column);
+the 24 limits per platform with :class:`Problem`'s scaling. The orientation equality is
+the skew part ``vee(E - E^T) / 2 = sin(angle) axis`` of ``E = R_target^T R_ee``: smooth
+everywhere (the rotation vector's ``acos`` is not differentiable at the solution), equal to
+the rotation vector to third order at ``E = I``, so first and second derivatives agree
+there and the KKT points with ``E = I`` are the same. Its spurious zeros (half turns,
+``trace E = -1``) fail the independent check like any other bad pose.
 """
 
 from __future__ import annotations
@@ -20,7 +31,7 @@ from stackik.geometry import Stack
 from stackik.methods.base import Method
 from stackik.result import OptionError
 from stackik.rotations import plane_axis
-from stackik.targets import PlanarTarget
+from stackik.targets import PlanarTarget, SpatialTarget
 
 FloatArray = NDArray[np.float64]
 
@@ -94,7 +105,18 @@ def _solver(
         g_in += rows[0] + rows[1] + rows[2] + rows[3]
     g = ca.vertcat(g_eq, *g_in)
     nlp = {"x": u, "p": p, "f": f, "g": g}
-    opts: dict[str, Any] = {
+    try:
+        solver = ca.nlpsol("stackik_ipopt", "ipopt", nlp, _ipopt_options(user))  # type: ignore[arg-type]
+    except RuntimeError as exc:  # e.g. "No such IPOPT option"
+        msg = str(exc).strip().splitlines()[-1]
+        raise OptionError(f"options: IPOPT rejected them ({msg})") from None
+    lbg = np.concatenate([np.zeros(3), np.zeros(24 * n)])
+    ubg = np.concatenate([np.zeros(3), np.full(24 * n, np.inf)])
+    return solver, lbg, ubg
+
+
+def _ipopt_options(user: tuple[tuple[str, Any], ...]) -> dict[str, Any]:
+    return {
         "print_time": False,
         "ipopt": {
             "print_level": 0,
@@ -106,30 +128,107 @@ def _solver(
             **dict(user),
         },
     }
+
+
+@lru_cache(maxsize=32)
+def _spatial_solver(
+    stack: Stack,
+    objective: str,
+    xs: tuple[float, ...],
+    user: tuple[tuple[str, Any], ...] = (),
+) -> Any:
+    """IPOPT for the scaled spatial problem; parameters ``p = (P_target (3),
+    R_target.ravel() (9), per-platform angle weights w_th (n), c0, fscale)``."""
     try:
-        solver = ca.nlpsol("stackik_ipopt", "ipopt", nlp, opts)  # type: ignore[arg-type]
+        import casadi as ca
+    except ImportError:
+        raise ValueError(
+            'method "ipopt" needs CasADi: pip install "stackik[ipopt]" (or casadi)'
+        ) from None
+    n = stack.n
+    L = float(stack.leg_max.max())
+    u = ca.SX.sym("u", 6 * n)
+    p = ca.SX.sym("p", 12 + n + 2)
+    x = u * np.asarray(xs)
+    p_t = p[0:3]
+    R_t = ca.reshape(p[3:12], 3, 3).T  # p holds R_target row-major
+    w_th = p[12 : 12 + n]
+    c0, fscale = p[12 + n], p[13 + n]
+
+    def mat(rows: list[list[Any]]) -> Any:
+        return ca.vertcat(*[ca.horzcat(*r) for r in rows])
+
+    A: Any = ca.SX.eye(3)
+    O: Any = ca.SX.zeros(3, 1)
+    axes: list[tuple[Any, int]] = []  # (world axis, platform) of every angle variable
+    origins = []
+    g_in = []
+    ez = np.array([0.0, 0.0, 1.0])
+    for i in range(n):
+        px, ang = x[6 * i : 6 * i + 3], x[6 * i + 3 : 6 * i + 6]
+        ca_, sa = ca.cos(ang[0]), ca.sin(ang[0])
+        cb, sb = ca.cos(ang[1]), ca.sin(ang[1])
+        cc, sc = ca.cos(ang[2]), ca.sin(ang[2])
+        Rz = mat([[ca_, -sa, 0], [sa, ca_, 0], [0, 0, 1]])
+        Ry = mat([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
+        Rx = mat([[1, 0, 0], [0, cc, -sc], [0, sc, cc]])
+        RzRy = Rz @ Ry
+        R = RzRy @ Rx
+        # world axes of yaw, pitch, roll: A_i (e_z, Rz e_y, Rz Ry e_x)
+        for loc in (ez, Rz[:, 1], RzRy[:, 0]):
+            axes.append((A @ loc, i))
+        O = O + A @ px
+        origins.append(O)
+        A = A @ R
+        # limits of platform i in its own frame: l_k = R t_k + p - b_k
+        sj = float(stack.sin_joint_min[i])
+        lmin2, lmax2, lm = stack.leg_min[i] ** 2, stack.leg_max[i] ** 2, stack.leg_max[i]
+        rows: list[list[Any]] = [[], [], [], []]
+        for k in range(6):
+            lk = R @ stack.top_nodes[i, k] + px - stack.base_nodes[i, k]
+            sq = ca.dot(lk, lk)
+            nrm = ca.sqrt(sq)
+            rows[0].append((sq - lmin2) / lmax2)
+            rows[1].append((lmax2 - sq) / lmax2)
+            rows[2].append((lk[2] - nrm * sj) / lm)
+            rows[3].append((ca.dot(lk, R[:, 2]) - nrm * sj) / lm)
+        g_in += rows[0] + rows[1] + rows[2] + rows[3]
+    P_ee, R_ee = O, A
+    E = R_t.T @ R_ee
+    skew = 0.5 * ca.vertcat(E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1])
+    g_eq = ca.vertcat((P_ee - p_t) / L, skew)
+    if objective == "feasible":
+        f: Any = 0
+    else:
+        acc: Any = 0
+        for w_a, i in axes:
+            r_a = ca.cross(w_a, P_ee - origins[i])
+            acc = acc + w_th[i] * ca.dot(r_a, r_a)
+        f = (c0 + acc) / fscale
+    nlp = {"x": u, "p": p, "f": f, "g": ca.vertcat(g_eq, *g_in)}
+    try:
+        solver = ca.nlpsol("stackik_ipopt_spatial", "ipopt", nlp, _ipopt_options(user))  # type: ignore[arg-type]
     except RuntimeError as exc:  # e.g. "No such IPOPT option"
         msg = str(exc).strip().splitlines()[-1]
         raise OptionError(f"options: IPOPT rejected them ({msg})") from None
-    lbg = np.concatenate([np.zeros(3), np.zeros(24 * n)])
-    ubg = np.concatenate([np.zeros(3), np.full(24 * n, np.inf)])
+    lbg = np.zeros(6 + 24 * n)
+    ubg = np.concatenate([np.zeros(6), np.full(24 * n, np.inf)])
     return solver, lbg, ubg
 
 
 def run_ipopt(
     prob: Problem, u0: FloatArray, options: dict[str, Any], time_left: float = math.inf
 ) -> tuple[FloatArray, int, str]:
-    """Solve the scaled planar problem ``prob`` (:class:`~stackik.formulation.Problem`)
-    with IPOPT from ``u0``.
+    """Solve the scaled problem ``prob`` (:class:`~stackik.formulation.Problem`, planar or
+    spatial) with IPOPT from ``u0``.
 
     ``options`` are IPOPT options (``max_iter``, ``tol``, ...). ``time_left`` [s] becomes
     IPOPT's ``max_wall_time``, rounded down to a power of two so that cached solvers are
     reused.
     """
     target = prob.target
-    if not isinstance(target, PlanarTarget):
-        raise OptionError('method "ipopt" supports planar targets only')
-    if prob.objective == "weighted" and np.ptp(prob.w_th) != 0:
+    planar = isinstance(target, PlanarTarget)
+    if planar and prob.objective == "weighted" and np.ptp(prob.w_th) != 0:
         raise OptionError('method "ipopt" supports "weighted" only with uniform sigma_theta')
     user = dict(options)
     if math.isfinite(time_left):
@@ -139,8 +238,21 @@ def run_ipopt(
         hash(key)
     except TypeError:
         raise OptionError("options: IPOPT option values must be numbers or strings") from None
-    solver, lbg, ubg = _solver(prob.stack, target.phi, prob.objective, tuple(prob.xs), key)
-    sol = solver(x0=u0, p=target.y, lbg=lbg, ubg=ubg)
+    if isinstance(target, PlanarTarget):
+        solver, lbg, ubg = _solver(prob.stack, target.phi, prob.objective, tuple(prob.xs), key)
+        par = target.y
+    else:
+        assert isinstance(target, SpatialTarget)
+        solver, lbg, ubg = _spatial_solver(prob.stack, prob.objective, tuple(prob.xs), key)
+        par = np.concatenate(
+            [
+                target.position,
+                np.asarray(target.rotation, float).ravel(),
+                np.asarray(prob.w_th, float),
+                [prob.c0, prob.fscale],
+            ]
+        )
+    sol = solver(x0=u0, p=par, lbg=lbg, ubg=ubg)
     stats = solver.stats()
     u = np.asarray(sol["x"], dtype=float).ravel()
     status = "success" if stats.get("success") else str(stats.get("return_status"))
@@ -148,13 +260,14 @@ def run_ipopt(
 
 
 class IpoptMethod(Method):
-    """IPOPT with exact derivatives by automatic differentiation (CasADi), planar only."""
+    """IPOPT with exact derivatives by automatic differentiation (CasADi), planar and
+    spatial targets."""
 
     name: ClassVar[str] = "ipopt"
-    modes: ClassVar[frozenset[str]] = frozenset({"planar"})
+    modes: ClassVar[frozenset[str]] = frozenset({"planar", "spatial"})
 
     def supports(self, prob: Problem) -> str | None:
-        return None  # run_ipopt reports a spatial target as a failed run (as before)
+        return None  # run_ipopt reports what it cannot do as an OptionError
 
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         return dict(options)  # IPOPT itself judges them (OptionError on the first run)
