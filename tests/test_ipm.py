@@ -55,24 +55,35 @@ def test_compiled_evaluation_matches_python_problem(n, seed, phi):
     np.testing.assert_allclose(blocks_to_dense(D), AI0, rtol=1e-12, atol=1e-13)
 
 
+@pytest.mark.derivatives
 @pytest.mark.parametrize(("n", "seed", "phi"), CASES)
 def test_compiled_derivatives_by_finite_differences(n, seed, phi):
+    """Tolerances from the step and the scales of f, cE, cI in the scaled variables u
+    (x / L for translations, L = max leg_max; see tests/fd.py)."""
+    import fd  # the derivative toolkit of tests/
+
     prob, u, P, rng = random_problem(n, seed, phi)
-    N = u.size
-    eps = 1e-6
 
     def parts(v):
         f, g, cE, AE, cI, D = _ipm._evaluate(v, P)
         return f, g, cE, AE, cI, blocks_to_dense(D)
 
     f, g, cE, AE, cI, AI = parts(u)
-    E = np.eye(N)
-    fd_g = np.array([(parts(u + eps * e)[0] - parts(u - eps * e)[0]) / (2 * eps) for e in E])
-    fd_AE = np.array([(parts(u + eps * e)[2] - parts(u - eps * e)[2]) / (2 * eps) for e in E]).T
-    fd_AI = np.array([(parts(u + eps * e)[4] - parts(u - eps * e)[4]) / (2 * eps) for e in E]).T
-    np.testing.assert_allclose(g, fd_g, rtol=1e-5, atol=1e-6 * max(1.0, np.abs(g).max()))
-    np.testing.assert_allclose(AE, fd_AE, rtol=1e-5, atol=1e-7)
-    np.testing.assert_allclose(AI, fd_AI, rtol=1e-5, atol=1e-7)
+    # scales: positions are at most Lc (chain length) [mm], i.e. Lc / L in u; the objective
+    # sums n squared residuals of at most that; the equalities add the target; the limits
+    # are the raw constraints (fd.constraint_scale) times their row scaling prob.cs
+    q = prob.q_of(u)
+    lc = fd.chain_length(q) / prob.L
+    F_f = f + n * lc**2
+    F_E = 1.0 + 2.0 * lc + float(np.abs(q[:, 2]).sum() + np.abs(cE).max())
+    st = prob.stack
+    F_I = fd.constraint_scale(st.top_nodes, st.base_nodes, st.leg_max, q).ravel() * prob.cs
+    num = fd.central(lambda v: parts(v)[0], u)
+    fd.assert_derivative_close(g, num, f_scale=F_f, what="gradient")
+    num = fd.central(lambda v: parts(v)[2], u)
+    fd.assert_derivative_close(AE, num, f_scale=F_E, what="AE")
+    num = fd.central(lambda v: parts(v)[4], u)
+    fd.assert_derivative_close(AI, num, f_scale=F_I, what="AI")
     # Hessian of the Lagrangian f - yE.cE - z.cI against differences of its gradient
     yE = rng.standard_normal(3)
     z = rng.random(24 * n)
@@ -82,9 +93,11 @@ def test_compiled_derivatives_by_finite_differences(n, seed, phi):
         return g - AE.T @ yE - AI.T @ z
 
     H = _ipm._lagrangian_hessian(u, yE, z, P)
-    fd_H = np.array([(grad_l(u + eps * e) - grad_l(u - eps * e)) / (2 * eps) for e in E])
+    num = fd.central(grad_l, u, richardson=True)  # Richardson: a ~100x tighter bound
+    F_L = F_f + float(np.abs(yE).sum()) * F_E + float(z @ F_I)  # the Lagrangian's scale
+    F_rows = fd.derivative_scale(F_L, num.x_scale)
+    fd.assert_derivative_close(H, num, f_scale=F_rows, what="Lagrangian Hessian")
     scale = max(1.0, np.abs(H).max())
-    np.testing.assert_allclose(H, fd_H, rtol=1e-5, atol=1e-6 * scale)
     np.testing.assert_allclose(H, H.T, atol=1e-12 * scale)
     np.testing.assert_allclose(H, prob.lagrangian_hessian(u, yE, z), rtol=1e-9, atol=1e-11 * scale)
 
