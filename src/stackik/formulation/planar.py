@@ -62,6 +62,7 @@ class PlanarEvaluator:
         self.idx = np.arange(n)
         self._scaling = (np.ones(24 * n), np.ones(3 * n))
         self.jflat: FloatArray | None = None  # index arrays, built on first use
+        self._csc: tuple[Any, Any, FloatArray] | None = None  # pattern of :meth:`sparse`
 
     # index arrays of the Python (SQP) path, built on first use: the compiled
     # interior-point path never needs them
@@ -201,6 +202,7 @@ class PlanarEvaluator:
         """Scale rows (constraints) and columns (variables) of what :meth:`__call__` returns."""
         self._scaling = (row_scale, col_scale)
         self.jflat = None
+        self._csc = None
 
     def _build_scaling(self) -> None:
         row_scale, col_scale = self._scaling
@@ -232,6 +234,43 @@ class PlanarEvaluator:
 
         Raw unless :meth:`set_scaling` was called, then scaled by rows and columns.
         """
+        D = self._values(q)
+        n = self.n
+        if self.jflat is None:
+            self._build_scaling()
+        assert self.jflat is not None
+        J = np.zeros(72 * n * n)
+        J[self.jflat] = D.ravel() * self.jscale
+        return self.c.ravel() * self.cscale, J.reshape(24 * n, 3 * n)
+
+    def sparse(self, q: FloatArray) -> tuple[FloatArray, Any]:
+        """:meth:`__call__` with the Jacobian as a CSC matrix: block diagonal (platform i's
+        24 limits touch only its 3 variables), one fixed pattern of 72 n entries (explicit
+        zeros kept), the same ``indptr``/``indices`` arrays at every call."""
+        import scipy.sparse as sp
+
+        D = self._values(q)
+        n = self.n
+        if self.jflat is None:
+            self._build_scaling()
+        if self._csc is None:
+            cols = np.arange(3 * n)
+            self._csc = (
+                (24 * np.arange(3 * n + 1)).astype(np.int32),
+                (24 * (cols // 3)[:, None] + np.arange(24)[None, :]).ravel().astype(np.int32),
+                # CSC order (platform, variable, limit) of D's (platform, limit, variable)
+                self.jscale.reshape(n, 24, 3).transpose(0, 2, 1).ravel(),
+            )
+        indptr, indices, scale = self._csc
+        J = sp.csc_matrix((24 * n, 3 * n))
+        J.data = D.transpose(0, 3, 1, 2).ravel() * scale
+        J.indices, J.indptr = indices, indptr
+        J.has_sorted_indices = True
+        return self.c.ravel() * self.cscale, J
+
+    def _values(self, q: FloatArray) -> FloatArray:
+        """Fill ``self.c`` (raw constraints) and return ``D`` (n, 4, 6, 3): their
+        derivatives with respect to each platform's (rho, z, theta)."""
         legs = self._legs(q)
         self._legs_cache = (q.copy(), legs)
         c, sn, Rtf, Rtz, rf, rz, lf, lz, sq, norm = legs
@@ -256,10 +295,4 @@ class PlanarEvaluator:
         D[:, 3, :, 0] = -sn - k * lf
         D[:, 3, :, 1] = c - k * lz
         D[:, 3, :, 2] = (sn * Rtz + c * Rtf) - (c * lf + sn * lz) - 0.5 * k * dsq_t
-        n = self.n
-        if self.jflat is None:
-            self._build_scaling()
-        assert self.jflat is not None
-        J = np.zeros(72 * n * n)
-        J[self.jflat] = D.ravel() * self.jscale
-        return out.ravel() * self.cscale, J.reshape(24 * n, 3 * n)
+        return D

@@ -9,9 +9,15 @@ from typing import Any, ClassVar
 import numpy as np
 
 from stackik.formulation import Problem
+from stackik.formulation.structured import ReducedPlanarNLP
 from stackik.methods.base import FloatArray, Method
 from stackik.result import OptionError
-from stackik.sqp import NonlinearProgram, SQPOptions, solve
+from stackik.sqp import NonlinearProgram, SQPOptions, default_qp_solver, solve
+from stackik.sqp.qp import SPARSE_BACKENDS
+
+#: ``options["formulation"]`` values: ``"auto"`` (sparse when the QP backend is),
+#: ``"dense"`` (dense Jacobians), ``"sparse"`` (block-diagonal limit Jacobian).
+FORMULATIONS = ("auto", "dense", "sparse")
 
 __all__ = ["SQPMethod", "sqp_options"]
 
@@ -38,7 +44,11 @@ class SQPMethod(Method):
     name: ClassVar[str] = "sqp"
 
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
-        sqp_options(options)
+        opts = dict(options)
+        form = opts.pop("formulation", "auto")
+        if form not in FORMULATIONS:
+            raise OptionError(f"options: formulation must be one of {FORMULATIONS}, got {form!r}")
+        sqp_options(opts)
         return dict(options)
 
     def solve_with(
@@ -50,13 +60,23 @@ class SQPMethod(Method):
         qp_solver: str | None,
     ) -> tuple[FloatArray, int, str]:
         opts = dict(options)
+        form = opts.pop("formulation", "auto")
         if "max_time" not in opts and math.isfinite(time_left):
             opts["max_time"] = max(time_left, 1e-3)
         exact = prob.fast is not None and (prob.objective != "weighted" or np.ptp(prob.w_th) == 0)
+        name = default_qp_solver() if qp_solver is None else qp_solver
+        if form == "auto":
+            form = "sparse" if name.strip().lower() in SPARSE_BACKENDS else "dense"
+        evaluate: Any = prob.evaluate
+        hessian: Any = prob.lagrangian_hessian
+        if form == "sparse" and prob.fast is not None:
+            # planar: the limit Jacobian as CSC, block diagonal by platform
+            structured = ReducedPlanarNLP(prob)
+            evaluate, hessian = structured.evaluate, structured.hessian
         nlp = NonlinearProgram(
             objective=None,
-            evaluate=prob.evaluate,
-            hessian=prob.lagrangian_hessian if exact else None,
+            evaluate=evaluate,
+            hessian=hessian if exact else None,
             gauss_newton=None if prob.objective == "feasible" else prob.gauss_newton,
             gn_scale=2.0,
             eq_scale=np.ones(prob.es.size),

@@ -7,23 +7,33 @@ from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 
 FloatArray = NDArray[np.float64]
+
+
+def _matrix(M: Any) -> Any:
+    """A Jacobian as returned: scipy sparse matrices pass through, the rest becomes a
+    float array."""
+    if sp.issparse(M):
+        return M
+    return np.asarray(M, dtype=float)
 
 
 class Evaluation(NamedTuple):
     """All problem functions at one point, as returned by a ``evaluate`` callable.
 
     ``c_eq``/``J_eq`` and ``c_ineq``/``J_ineq`` may be ``None`` (no such constraints).
+    ``J_eq``/``J_ineq`` may be scipy sparse matrices (see :class:`NonlinearProgram`).
     """
 
     f: float
     g: FloatArray
     c_eq: FloatArray | None
-    J_eq: FloatArray | None
+    J_eq: Any
     c_ineq: FloatArray | None
-    J_ineq: FloatArray | None
+    J_ineq: Any
 
 
 @dataclass(frozen=True)
@@ -42,13 +52,22 @@ class NonlinearProgram:
     gradient : callable ``x -> ndarray (n,)`` or None
         ``grad f(x)``.  May be None only if ``evaluate`` is given.
     eq, eq_jacobian : callables ``x -> (m_E,)`` and ``x -> (m_E, n)``, optional
-        Equality constraints ``eq(x) == 0`` and their dense Jacobian (both or neither).
+        Equality constraints ``eq(x) == 0`` and their Jacobian (both or neither).
     ineq, ineq_jacobian : callables ``x -> (m_I,)`` and ``x -> (m_I, n)``, optional
-        Inequality constraints ``ineq(x) >= 0`` and their dense Jacobian (both or neither).
-    hessian : callable ``(x, y_eq, y_ineq) -> ndarray (n, n)``, optional
+        Inequality constraints ``ineq(x) >= 0`` and their Jacobian (both or neither).
+    hessian : callable ``(x, y_eq, y_ineq) -> (n, n)``, optional
         Exact Hessian of the Lagrangian ``L = f - y_eq.c_E - y_ineq.c_I`` (Nocedal & Wright
         sign convention, ``y_ineq >= 0``), i.e.
         ``hess f - sum_i y_eq[i] hess c_E[i] - sum_j y_ineq[j] hess c_I[j]``.
+
+    **Sparse problems.**  Jacobians may be scipy sparse matrices (any format; CSC avoids a
+    conversion). When either Jacobian at ``x0`` is sparse the engine works sparse: the
+    Jacobians and the QP Hessian are kept as CSC matrices in fixed patterns (the union of
+    every pattern returned; a pattern that never changes costs nothing), the Hessian may
+    then be sparse too (both triangles, symmetric pattern) and is convexified by sparse
+    LDL' factorisations, and the OSQP and Clarabel backends factorise only the nonzeros
+    (dense backends densify). Return structural zeros as explicit zeros to keep one
+    pattern. Dense Jacobians keep the dense engine.
     lower, upper : array_like (n,), optional
         Variable bounds (``-inf``/``+inf`` allowed).  Iterates always satisfy them.
     gauss_newton : callable ``x -> (r, Jr)``, optional
@@ -133,9 +152,9 @@ class NonlinearProgram:
             self.objective(x),
             np.asarray(self.gradient(x), dtype=float),
             None if self.eq is None else np.asarray(self.eq(x), dtype=float),
-            None if self.eq_jacobian is None else np.asarray(self.eq_jacobian(x), dtype=float),
+            None if self.eq_jacobian is None else _matrix(self.eq_jacobian(x)),
             None if self.ineq is None else np.asarray(self.ineq(x), dtype=float),
-            None if self.ineq_jacobian is None else np.asarray(self.ineq_jacobian(x), dtype=float),
+            None if self.ineq_jacobian is None else _matrix(self.ineq_jacobian(x)),
         )
 
     def evaluate_values(

@@ -33,6 +33,7 @@ import time
 from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.linalg.lapack import dpotrf as _dpotrf
 from scipy.linalg.lapack import dsyev as _dsyev
@@ -42,6 +43,16 @@ from .options import SQPOptions
 from .problem import Evaluation, FloatArray, NonlinearProgram
 from .qp import QPBackend, QPSolution, QPStatus, default_qp_solver, make_backend
 from .result import MESSAGES, SQPResult, SQPStatus
+from .sparse import (
+    FixedPattern,
+    StackedPattern,
+    csc,
+    diagonal_positions,
+    gram_structure,
+    is_sparse,
+    positive_definite,
+    transpose_permutation,
+)
 
 BoolArray = NDArray[np.bool_]
 #: (lam, g, J, c_I, at_lower, at_upper) of one KKT evaluation.
@@ -89,7 +100,23 @@ class _Timer:
 def _as2d(J: Any, m: int, n: int) -> FloatArray:
     if J is None or m == 0:
         return np.zeros((m, n))
+    if is_sparse(J):
+        return np.asarray(J.toarray(), dtype=float).reshape(m, n)
     return np.asarray(J, dtype=float).reshape(m, n)
+
+
+def _row_absmax(J: Any) -> FloatArray:
+    """``max_j |J_ij|`` per row, dense or sparse ``J``."""
+    if is_sparse(J):
+        if J.shape[0] == 0:
+            return np.zeros(0)
+        return np.asarray(abs(J).max(axis=1).toarray(), dtype=float).ravel()
+    return np.abs(J).max(axis=1)  # type: ignore[no-any-return]
+
+
+def _values(M: Any) -> FloatArray:
+    """The stored values of a dense or sparse matrix."""
+    return M.data if is_sparse(M) else M  # type: ignore[no-any-return]
 
 
 def _all_finite(a: FloatArray) -> bool:
@@ -182,10 +209,21 @@ class _Engine:
         self.cE: FloatArray = self.c
         self.cI: FloatArray = self.c
         self.g: FloatArray = np.zeros(n)
-        self.J: FloatArray = np.zeros((0, n))
-        self.JE: FloatArray = self.J
-        self.JI: FloatArray = self.J
-        self.B: FloatArray = np.eye(n)
+        self.J: Any = np.zeros((0, n))
+        self.JE: Any = self.J
+        self.JI: Any = self.J
+        self.B: Any = np.eye(n)
+        # Sparse mode (a Jacobian given as a scipy sparse matrix): J and the QP Hessian
+        # are CSC matrices in fixed patterns (see stackik.sqp.sparse).
+        self.sparse = False
+        self.je_pat = FixedPattern((0, n))
+        self.ji_pat = FixedPattern((0, n))
+        self.j_stack = StackedPattern(0, 0, n)
+        self.h_pat = FixedPattern((n, n))
+        self.h_src: tuple[Any, Any] | None = None  # pattern arrays perm/diag belong to
+        self.h_perm: Any = None  # data[perm]: data of the transpose
+        self.h_diag: Any = None  # positions of the diagonal
+        self.h_shift = 0.0  # last diagonal shift of the sparse convexification
         self.bfgs_first = True
         self.hess_modified = False  # the last exact Hessian needed convexification
         self.v = 0.0
@@ -247,6 +285,15 @@ class _Engine:
             JI = None if nlp.ineq_jacobian is None else nlp.ineq_jacobian(x)
         self.timer.eval += time.perf_counter() - t
         self.g = self.sf * np.asarray(g, dtype=float).ravel()
+        if self.sparse:
+            A = self.je_pat.fit(np.zeros((0, n)) if JE is None else JE)
+            B = self.ji_pat.fit(np.zeros((0, n)) if JI is None else JI)
+            Js = self.j_stack.stack(A, B)
+            if not self.unit_w:
+                Js.data *= self.w[Js.indices]
+            # row blocks only for the rare elastic subproblems and the dense-only paths
+            self.J, self.JE, self.JI = Js, None, None
+            return
         J = np.empty((self.m, n))
         if mE:
             J[:mE] = _as2d(JE, mE, n)
@@ -374,7 +421,7 @@ class _Engine:
         """Scaled stationarity and complementarity (of :meth:`_kkt_args`)."""
         lam, g, J, cI, at_lo, at_up = args
         m = self.m
-        r = g - lam @ J if m else g.copy()
+        r = g - J.T @ lam if m else g.copy()
         if at_lo is not None:
             np.minimum(r, 0.0, out=r, where=at_lo)
         if at_up is not None:
@@ -387,7 +434,7 @@ class _Engine:
         return stat, compl
 
     # ------------------------------------------------------------------ Hessian -------
-    def _exact_hessian(self, lam: FloatArray) -> FloatArray:
+    def _exact_hessian(self, lam: FloatArray) -> Any:
         nlp = self.nlp
         assert nlp.hessian is not None
         y = lam * self.w
@@ -395,14 +442,109 @@ class _Engine:
             y /= self.sf
         mE = self.mE
         t = time.perf_counter()
-        H = np.asarray(nlp.hessian(self.x, y[:mE], y[mE:]), dtype=float).reshape(self.n, self.n)
+        Hraw: Any = nlp.hessian(self.x, y[:mE], y[mE:])
         self.timer.eval += time.perf_counter() - t
         t = time.perf_counter()
+        if self.sparse:
+            Hs = self._fit_hessian(Hraw)
+            Hs.data *= self.sf
+            B = self._convexify_sparse(Hs, lam)
+            self.timer.build += time.perf_counter() - t
+            return B
+        if is_sparse(Hraw):
+            Hraw = Hraw.toarray()
+        H = np.asarray(Hraw, dtype=float).reshape(self.n, self.n)
         H = H + H.T
         H *= 0.5 * self.sf
         B = self._convexify(H, lam)
         self.timer.build += time.perf_counter() - t
         return B
+
+    # ------------------------------------------------------- sparse Hessians -------
+    def _fit_hessian(self, Hraw: Any) -> Any:
+        """``(H + H')/2`` as a CSC matrix in the fixed QP Hessian pattern (structurally
+        symmetric: the user's pattern, its transpose, the diagonal and that of ``J'J``, so
+        that the convexification below never changes it)."""
+        n = self.n
+        pat = self.h_pat
+        if pat.indices is None:
+            pat.include(sp.identity(n, format="csc"))
+            if self.m:
+                pat.include(gram_structure(self.J))
+        H = pat.fit(Hraw)
+        if self._sync_pattern():
+            H = pat.fit(Hraw)
+        H.data = 0.5 * (H.data + H.data[self.h_perm])
+        return H
+
+    def _sync_pattern(self) -> bool:
+        """After the Hessian pattern grew: make it symmetric again and recompute the
+        transpose permutation and the diagonal positions (True if it had grown)."""
+        pat, n = self.h_pat, self.n
+        src = self.h_src
+        if src is not None and src[0] is pat.indptr and src[1] is pat.indices:
+            return False
+        assert pat.indices is not None and pat.indptr is not None
+        ones = csc(np.ones(pat.indices.size), pat.indices, pat.indptr, (n, n))
+        pat.include(ones.T)
+        assert pat.indices is not None and pat.indptr is not None
+        self.h_perm = transpose_permutation(pat.indptr, pat.indices, n)
+        self.h_diag = diagonal_positions(pat.indptr, pat.indices, n)
+        self.h_src = (pat.indptr, pat.indices)
+        return True
+
+    def _shifted(self, H: Any, shift: float) -> Any:
+        """``H + shift I`` in the same pattern (a new matrix)."""
+        data = H.data.copy()
+        data[self.h_diag] += shift
+        return csc(data, H.indices, H.indptr, H.shape)
+
+    def _convexify_sparse(self, H: Any, lam: FloatArray) -> Any:
+        """Sparse twin of :meth:`_convexify`: the test is an LDL' factorisation (all pivots
+        positive), the modifications keep the pattern: ``H + tau J_A'J_A`` as in the dense
+        case, else ``H + delta I`` with ``delta`` raised from the last one (IPOPT's inertia
+        correction) instead of eigenvalue clipping."""
+        data = H.data
+        n = self.n
+        if data.size == n * n:
+            # a full pattern (e.g. a dense Hessian with a sparse Jacobian): the dense
+            # convexification (eigenvalues) costs no fill; values back in column order
+            Hd = self._convexify(H.toarray(), lam)
+            return csc(np.ascontiguousarray(Hd.T).ravel(), H.indices, H.indptr, H.shape)
+        fro = math.sqrt(float(data @ data))
+        if not math.isfinite(fro):
+            return self._shifted(csc(np.zeros_like(data), H.indices, H.indptr, H.shape), 1.0)
+        reg = HESS_REG * max(1.0, fro)
+        if positive_definite(self._shifted(H, -reg)):
+            self.hess_modified = False
+            self.h_shift = 0.0
+            return H
+        self.hess_modified = True
+        lam_max = float(np.abs(lam).max()) if lam.size else 0.0
+        active = lam > ACTIVE_MULTIPLIER_TOL * max(1.0, lam_max)
+        active[: self.mE] = True
+        rows = np.flatnonzero(active)
+        if rows.size:
+            JA = self.J[rows]
+            JtJ = self.h_pat.fit((JA.T @ JA).tocsc())
+            if self._sync_pattern():  # J's pattern grew since the Hessian's was fixed
+                H = self.h_pat.fit(H)
+                data = H.data
+                JtJ = self.h_pat.fit((JA.T @ JA).tocsc())
+            nj = max(float(JtJ.data[self.h_diag].max()), 1e-300)
+            for tau in AUG_TAUS:
+                coef = tau * 1e-2 * max(1.0, fro) / nj
+                Ha = csc(data + coef * JtJ.data, H.indices, H.indptr, H.shape)
+                if positive_definite(self._shifted(Ha, -reg)):
+                    return Ha
+        delta = max(HESS_FLOOR, 1e-4 * max(1.0, fro), self.h_shift / 4.0)
+        while delta < 1e12 * max(1.0, fro):
+            Hd = self._shifted(H, delta)
+            if positive_definite(self._shifted(Hd, -reg)):
+                self.h_shift = delta
+                return Hd
+            delta *= 8.0
+        return self._shifted(csc(np.zeros_like(data), H.indices, H.indptr, H.shape), 1.0)
 
     def _pd_enough(self, H: FloatArray, fro: float) -> bool:
         """Whether ``lambda_min(H) >= HESS_REG max(1, max|lambda(H)|)`` (the convexity test of
@@ -450,9 +592,11 @@ class _Engine:
         lam_max = float(np.abs(lam).max()) if lam.size else 0.0
         active = lam > ACTIVE_MULTIPLIER_TOL * max(1.0, lam_max)
         active[: self.mE] = True
-        JA = self.J[active]
+        JA = self.J[np.flatnonzero(active)] if self.sparse else self.J[active]
         if JA.shape[0]:
             JtJ = JA.T @ JA
+            if is_sparse(JtJ):
+                JtJ = JtJ.toarray()
             # max|JtJ| is on the diagonal of a Gram matrix.
             nj = max(float(JtJ.diagonal().max()), 1e-300)
             for tau in AUG_TAUS:
@@ -467,13 +611,23 @@ class _Engine:
         Hc: FloatArray = (V * w) @ V.T
         return 0.5 * (Hc + Hc.T)
 
-    def _gn_hessian(self) -> FloatArray:
+    def _gn_hessian(self) -> Any:
         nlp = self.nlp
         assert nlp.gauss_newton is not None
         t = time.perf_counter()
-        _r, Jr = nlp.gauss_newton(self.x)
+        Jr: Any = nlp.gauss_newton(self.x)[1]
         self.timer.eval += time.perf_counter() - t
         t = time.perf_counter()
+        if self.sparse:
+            G = Jr.T @ Jr
+            Hs = self._fit_hessian(G.tocsc() if is_sparse(G) else G)
+            Hs.data *= self.sf * nlp.gn_scale
+            diag = Hs.data[self.h_diag]
+            Hs.data[self.h_diag] += HESS_REG * max(1.0, float(diag.max()) if diag.size else 1.0)
+            self.timer.build += time.perf_counter() - t
+            return Hs
+        if is_sparse(Jr):
+            Jr = Jr.toarray()
         Jr = np.asarray(Jr, dtype=float)
         B = (self.sf * nlp.gn_scale) * (Jr.T @ Jr)
         reg = HESS_REG * max(1.0, float(np.max(np.diag(B)))) if self.n else 0.0
@@ -506,7 +660,7 @@ class _Engine:
         self.B = 0.5 * (B + B.T)
 
     def _grad_lagrangian(self, lam: FloatArray) -> FloatArray:
-        return self.g - lam @ self.J if self.m else self.g.copy()
+        return self.g - self.J.T @ lam if self.m else self.g.copy()
 
     # --------------------------------------------------------------- subproblem -------
     def _elastic(
@@ -516,6 +670,8 @@ class _Engine:
         viol_idx = np.flatnonzero(self.cI < 0.0)
         k = viol_idx.size
         nz = n + 2 * mE + k
+        if self.sparse:
+            return self._elastic_sparse(nu, lb, ub, delta_vec, viol_idx)
         P = np.zeros((nz, nz))
         P[:n, :n] = self.B
         idx = np.arange(n, nz)
@@ -537,6 +693,34 @@ class _Engine:
         ubz[n : n + mE] = np.abs(self.cE) + np.abs(self.JE) @ delta_vec + 1.0
         ubz[n + mE : n + 2 * mE] = ubz[n : n + mE]
         ubz[n + 2 * mE :] = -self.cI[viol_idx] + np.abs(self.JI[viol_idx]) @ delta_vec + 1.0
+        sol = self._qp(P, q, A_eq, -self.cE, G, self.cI, lbz, ubz)
+        return sol, sol.x[:n]
+
+    def _elastic_sparse(
+        self, nu: float, lb: FloatArray, ub: FloatArray, delta_vec: FloatArray, viol_idx: Any
+    ) -> tuple[QPSolution, FloatArray]:
+        """:meth:`_elastic` with sparse matrices (same QP)."""
+        n, mE, mI = self.n, self.mE, self.mI
+        k = viol_idx.size
+        nz = n + 2 * mE + k
+        J = sp.csr_matrix(self.J)
+        JE, JI = J[:mE], J[mE:]
+        B = self.B if is_sparse(self.B) else sp.csr_matrix(self.B)
+        P = sp.block_diag((B, sp.identity(nz - n) * SLACK_REG), format="csc")
+        q = np.full(nz, nu)
+        q[:n] = self.g
+        eye = sp.identity(mE, format="csr")
+        A_eq = sp.hstack((JE, -eye, eye, sp.csr_matrix((mE, k))), format="csc")
+        E = sp.csr_matrix((np.ones(k), (viol_idx, np.arange(k))), shape=(mI, k))
+        G = sp.hstack((-JI, sp.csr_matrix((mI, 2 * mE)), -E), format="csc")
+        lbz = np.zeros(nz)
+        ubz = np.empty(nz)
+        lbz[:n] = lb
+        ubz[:n] = ub
+        absJ = abs(J)
+        ubz[n : n + mE] = np.abs(self.cE) + absJ[:mE] @ delta_vec + 1.0
+        ubz[n + mE : n + 2 * mE] = ubz[n : n + mE]
+        ubz[n + 2 * mE :] = -self.cI[viol_idx] + absJ[mE:][viol_idx] @ delta_vec + 1.0
         sol = self._qp(P, q, A_eq, -self.cE, G, self.cI, lbz, ubz)
         return sol, sol.x[:n]
 
@@ -603,8 +787,16 @@ class _Engine:
         self.mE, self.mI = mE, mI = cE_raw.size, cI_raw.size
         self.m = m = mE + mI
         g_raw = np.asarray(ev.g, dtype=float).ravel()
-        JE_raw = _as2d(ev.J_eq, mE, n)
-        JI_raw = _as2d(ev.J_ineq, mI, n)
+        self.sparse = is_sparse(ev.J_eq) or is_sparse(ev.J_ineq)
+        if self.sparse:
+            self.je_pat = FixedPattern((mE, n))
+            self.ji_pat = FixedPattern((mI, n))
+            self.j_stack = StackedPattern(mE, mI, n)
+            JE_raw = self.je_pat.fit(np.zeros((0, n)) if ev.J_eq is None else ev.J_eq)
+            JI_raw = self.ji_pat.fit(np.zeros((0, n)) if ev.J_ineq is None else ev.J_ineq)
+        else:
+            JE_raw = _as2d(ev.J_eq, mE, n)
+            JI_raw = _as2d(ev.J_ineq, mI, n)
         # Scaling (IPOPT gradient-based rule, W&B 2006 Sec. 3.8) or user-given factors.
         self.sf = 1.0
         if opts.scaling:
@@ -612,12 +804,12 @@ class _Engine:
             if math.isfinite(gmax) and gmax > SCALE_MAX_GRADIENT:
                 self.sf = SCALE_MAX_GRADIENT / gmax
 
-        def row_scale(user: Any, Jraw: FloatArray, mc: int) -> FloatArray:
+        def row_scale(user: Any, Jraw: Any, mc: int) -> FloatArray:
             if user is not None:
                 return np.broadcast_to(np.asarray(user, float), (mc,)).copy()
             if not (opts.scaling and mc and n):
                 return np.ones(mc)
-            ws = SCALE_MAX_GRADIENT / np.maximum(np.abs(Jraw).max(axis=1), SCALE_MAX_GRADIENT)
+            ws = SCALE_MAX_GRADIENT / np.maximum(_row_absmax(Jraw), SCALE_MAX_GRADIENT)
             ws[~np.isfinite(ws)] = 1.0
             return ws
 
@@ -651,7 +843,7 @@ class _Engine:
         if not (math.isfinite(self.f) and _all_finite(self.g) and math.isfinite(self.v)):
             status = SQPStatus.NUMERICAL_ERROR
             detail = " (at x0)"
-        elif not _all_finite(self.J):
+        elif not _all_finite(_values(self.J)):
             status = SQPStatus.NUMERICAL_ERROR
             detail = " (Jacobian at x0)"
         if status is None:
@@ -797,7 +989,7 @@ class _Engine:
                 if ev_t is None and self.nlp.evaluate is not None:
                     ev_t = self._eval_full(x)
                 self._derivs(x, ev_t)
-                if not (_all_finite(self.g) and _all_finite(self.J)):
+                if not (_all_finite(self.g) and _all_finite(_values(self.J))):
                     status = SQPStatus.NUMERICAL_ERROR
                     break
                 self._new_point()

@@ -16,6 +16,7 @@ from typing import Any
 from .base import QPBackend, QPSolution, QPStatus
 
 __all__ = [
+    "SPARSE_BACKENDS",
     "QPBackend",
     "QPSolution",
     "QPStatus",
@@ -30,6 +31,9 @@ _NATIVE: dict[str, tuple[str, str]] = {
     "osqp": ("osqp_", "OSQPBackend"),
     "clarabel": ("clarabel_", "ClarabelBackend"),
 }
+
+#: Backends that factorise sparse matrices (the engine's sparse mode pays off with them).
+SPARSE_BACKENDS = frozenset({"osqp", "clarabel"})
 
 _INSTALL_HINT = (
     "install a QP solver, e.g. `pip install daqp osqp clarabel` "

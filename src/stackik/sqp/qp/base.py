@@ -30,6 +30,11 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 
 
+def dense(M: Any) -> Any:
+    """``M`` as a dense array (scipy sparse matrices are converted)."""
+    return M.toarray() if hasattr(M, "toarray") else M
+
+
 class QPStatus(enum.Enum):
     """Outcome of one QP solve."""
 
@@ -72,6 +77,9 @@ class QPBackend:
     A backend is created once per SQP run, ``setup(n, m_eq, m_ineq)`` is called whenever the
     problem dimensions change (the SQP engine has at most a few distinct shapes: the plain
     QP and the elastic QP), then ``solve`` many times with fresh data of those shapes.
+    Matrices are dense arrays or, when the problem is sparse, scipy CSC matrices whose
+    pattern arrays stay the same objects while the pattern is unchanged; a backend without
+    sparse support densifies them (:func:`dense`).
 
     Parameters
     ----------
@@ -93,6 +101,13 @@ class QPBackend:
     def setup(self, n: int, m_eq: int, m_ineq: int) -> None:
         """Prepare for QPs with ``n`` variables, ``m_eq`` equalities, ``m_ineq`` inequalities."""
         self.n, self.m_eq, self.m_ineq = n, m_eq, m_ineq
+
+    def set_accuracy(self, eps: float | None) -> None:
+        """Solve the next QPs to about ``eps`` (None: the backend's own tolerances).
+
+        The SQP engine's inexact mode calls it with a tolerance that follows its own
+        optimality measure; backends whose cost does not depend on it (active-set, dense)
+        ignore it, and user-set tolerances in ``qp_options`` always win."""
 
     def for_elastic(self) -> None:
         """Adjust settings for the engine's elastic subproblems (called once, before

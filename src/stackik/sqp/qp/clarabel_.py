@@ -5,7 +5,9 @@ Clarabel solves ``min 1/2 x'Px + q'x  s.t.  A x + s = b,  s in K``.  Rows are or
 blocks carry ``d <= ub`` and ``-d <= -lb``).  The solver object is built once per shape
 from CSC arrays assembled directly with numpy over a dense pattern (presolve and
 structural-zero dropping disabled), and later QPs only call
-``solver.update(P=..., q=..., A=..., b=...)`` with the new nonzero values.
+``solver.update(P=..., q=..., A=..., b=...)`` with the new nonzero values.  Sparse (CSC)
+``P`` and ``J`` keep their own patterns (:mod:`stackik.sqp.qp._layout`), so that Clarabel's
+sparse LDL' does work proportional to their nonzeros.
 """
 
 from __future__ import annotations
@@ -18,7 +20,11 @@ import clarabel
 import numpy as np
 import scipy.sparse as sp
 
+from ._layout import StackLayout, TriuLayout, any_sparse, sqp_form
 from .base import FloatArray, QPBackend, QPSolution, QPStatus
+
+#: Tolerance settings that :meth:`ClarabelBackend.set_accuracy` moves together.
+_TOL_KEYS = ("tol_gap_abs", "tol_gap_rel", "tol_feas")
 
 #: Settings tuned for SQP subproblems; user ``qp_options`` override them.
 DEFAULT_SETTINGS: dict[str, Any] = {
@@ -46,6 +52,27 @@ class ClarabelBackend(QPBackend):
         super().__init__(options)
         self.settings = {**DEFAULT_SETTINGS, **self.options}
         self._solver: Any = None
+        self._sp_solver: Any = None
+
+    def set_accuracy(self, eps: float | None) -> None:
+        """Solve the next QPs to ``eps`` (gap and feasibility; None: the settings' values;
+        user-given tolerances are kept)."""
+        base = {**DEFAULT_SETTINGS, **self.options}
+        if eps is None or any(k in self.options for k in _TOL_KEYS):
+            new = {k: base[k] for k in _TOL_KEYS}
+        else:
+            new = dict.fromkeys(_TOL_KEYS, eps)
+        new["tol_ktratio"] = (
+            base["tol_ktratio"]
+            if eps is None
+            else max(float(base["tol_ktratio"]), min(1e-6, 100.0 * eps))
+        )
+        if all(self.settings[k] == v for k, v in new.items()):
+            return
+        self.settings.update(new)
+        for solver in (self._solver, self._sp_solver):
+            if solver is not None:
+                solver.update(settings=self._make_settings())
 
     def setup(self, n: int, m_eq: int, m_ineq: int) -> None:
         super().setup(n, m_eq, m_ineq)
@@ -58,6 +85,10 @@ class ClarabelBackend(QPBackend):
         self._A[m_eq + m_ineq : m_eq + m_ineq + n] = np.eye(n)
         self._A[m_eq + m_ineq + n :] = -np.eye(n)
         self._b = np.empty(m)
+        # sparse path: rows [J_E; -J_I; I; -I]
+        self._sp_solver = None
+        self._triu = TriuLayout()
+        self._stack = StackLayout(np.r_[np.ones(m_eq), -np.ones(m_ineq)], (1.0, -1.0))
 
     def _make_settings(self) -> Any:
         st = clarabel.DefaultSettings()
@@ -79,6 +110,9 @@ class ClarabelBackend(QPBackend):
         ub: FloatArray,
         warm: QPSolution | None = None,
     ) -> QPSolution:
+        if any_sparse(P, A_eq, G):
+            J, c = sqp_form(A_eq, b_eq, G, h)
+            return self._solve_sparse(P, q, J, c, lb, ub)
         n, me, mi = self.n, self.m_eq, self.m_ineq
         A, b = self._A, self._b
         A[:me] = A_eq
@@ -117,6 +151,62 @@ class ClarabelBackend(QPBackend):
         except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
             self._solver = None
             return self.failed(f"clarabel raised {exc!r}")
+        return self._result(sol)
+
+    def _new_solver(self, P: Any, q: FloatArray, A: Any, b: FloatArray) -> Any:
+        me, mi, n = self.m_eq, self.m_ineq, self.n
+        cones = []
+        if me:
+            cones.append(clarabel.ZeroConeT(me))
+        cones.append(clarabel.NonnegativeConeT(mi + 2 * n))
+        solver = clarabel.DefaultSolver(P, q, A, b, cones, self._make_settings())
+        if math.isfinite(self.deadline):
+            # stop an interior-point run that would outlast the SQP time budget
+            solver.set_termination_callback(lambda _info: time.perf_counter() > self.deadline)
+        return solver
+
+    def solve_sqp(
+        self,
+        P: Any,
+        q: FloatArray,
+        J: Any,
+        c: FloatArray,
+        lb: FloatArray,
+        ub: FloatArray,
+    ) -> QPSolution:
+        if any_sparse(P, J):
+            return self._solve_sparse(P, q, J, c, lb, ub)
+        return super().solve_sqp(P, q, J, c, lb, ub)
+
+    def _solve_sparse(
+        self, P: Any, q: FloatArray, J: Any, c: FloatArray, lb: FloatArray, ub: FloatArray
+    ) -> QPSolution:
+        """The SQP-form QP with sparse ``P`` and/or ``J``, on their own patterns."""
+        n, me, mi = self.n, self.m_eq, self.m_ineq
+        b = self._b
+        np.negative(c[:me], out=b[:me])
+        b[me : me + mi] = c[me:]
+        b[me + mi : me + mi + n] = ub
+        np.negative(lb, out=b[me + mi + n :])
+        Px, new_p = self._triu.values(P)
+        Ax, new_a = self._stack.values(J)
+        try:
+            if self._sp_solver is None or new_p or new_a:
+                self._sp_solver = self._new_solver(
+                    self._triu.matrix(Px, n), q, self._stack.matrix(me + mi + 2 * n, n), b
+                )
+            else:
+                self._sp_solver.update(P=Px, q=q, A=Ax, b=b)
+            sol = self._sp_solver.solve()
+        except ValueError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
+            self._sp_solver = None
+            return self.failed(f"clarabel raised {exc!r}")
+        return self._result(sol)
+
+    def _result(self, sol: Any) -> QPSolution:
+        n, me, mi = self.n, self.m_eq, self.m_ineq
         name = _status_name(sol.status)
         if name in ("Solved", "AlmostSolved"):
             z = np.asarray(sol.z)

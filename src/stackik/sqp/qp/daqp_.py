@@ -20,7 +20,7 @@ from typing import Any
 import daqp
 import numpy as np
 
-from .base import FloatArray, QPBackend, QPSolution, QPStatus
+from .base import FloatArray, QPBackend, QPSolution, QPStatus, dense
 
 #: DAQP exit flags (https://darnstrom.github.io/daqp/parameters).
 _EXIT_OPTIMAL = (1, 2)
@@ -125,6 +125,7 @@ class DAQPBackend(QPBackend):
         warm: QPSolution | None = None,
     ) -> QPSolution:
         n, me = self.n, self.m_eq
+        P, A_eq, G = dense(P), dense(A_eq), dense(G)
         ws = self._gen
         A, bu, bl = ws.A, ws.bu, ws.bl
         A[:me] = A_eq
@@ -151,6 +152,7 @@ class DAQPBackend(QPBackend):
     ) -> QPSolution:
         # Two-sided rows: J_E d = -c_E and -c_I <= J_I d, with J passed as is (no copies).
         n, me = self.n, self.m_eq
+        P, J = dense(P), dense(J)
         ws = self._sqp
         bu, bl = ws.bu, ws.bl
         bu[:n] = ub

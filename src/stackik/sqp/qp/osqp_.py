@@ -1,9 +1,11 @@
 """OSQP backend through its persistent update path (OSQP >= 1.0 Python API).
 
-The solver is set up once per shape with a *dense* sparsity pattern (full upper triangle of
-``P``, full ``A``), so that every later QP of that shape is passed with
-``update(Px=..., Ax=..., q=..., l=..., u=...)`` and solved warm-started, without rebuilding
-the factorisation structure.  Tolerances are tightened (OSQP defaults give only ~1e-3
+The solver is set up once per shape and pattern, so that every later QP of that shape is
+passed with ``update(Px=..., Ax=..., q=..., l=..., u=...)`` and solved warm-started, without
+rebuilding the factorisation structure.  Dense ``P`` and ``J`` get dense patterns (full
+upper triangle of ``P``, full ``A``); sparse (CSC) ones keep their own patterns
+(:mod:`stackik.sqp.qp._layout`), so that OSQP's sparse LDL' does work proportional to
+their nonzeros.  Tolerances are tightened (OSQP defaults give only ~1e-3
 accuracy, not enough for SQP steps and multipliers) and solution polishing is on.
 
 Rows are ordered ``[A_eq; G; I]`` (the identity rows carry the bounds on ``d``).
@@ -22,6 +24,7 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
+from ._layout import StackLayout, TriuLayout, any_sparse, sqp_form
 from .base import FloatArray, QPBackend, QPSolution, QPStatus
 
 #: Settings tuned for SQP subproblems; user ``qp_options`` override them.
@@ -90,6 +93,22 @@ class OSQPBackend(QPBackend):
         super().__init__(options)
         self.settings = {**DEFAULT_SETTINGS, **self.options}
         self._solver: Any = None
+        self._sp_solver: Any = None
+
+    def set_accuracy(self, eps: float | None) -> None:
+        """Solve the next QPs to ``eps_abs = eps_rel = eps`` (None: the settings' values;
+        never looser than the user's ``eps_abs``/``eps_rel`` if given)."""
+        base = {**DEFAULT_SETTINGS, **self.options}
+        if eps is None or "eps_abs" in self.options or "eps_rel" in self.options:
+            new = {"eps_abs": base["eps_abs"], "eps_rel": base["eps_rel"]}
+        else:
+            new = {"eps_abs": eps, "eps_rel": eps}
+        if all(self.settings[k] == v for k, v in new.items()):
+            return
+        self.settings.update(new)
+        for solver in (self._solver, self._sp_solver):
+            if solver is not None:
+                solver.update_settings(**new)
 
     def for_elastic(self) -> None:
         """ADMM converges slowly on the nearly linear elastic QPs (10000 iterations, ~30 ms
@@ -113,6 +132,10 @@ class OSQPBackend(QPBackend):
         self._l = np.empty(m)
         self._u = np.empty(m)
         self._l[m_eq : m_eq + m_ineq] = -np.inf
+        # sparse path: rows [J_E; -J_I; I] (the dense path's [A_eq; G; I])
+        self._sp_solver = None
+        self._triu = TriuLayout()
+        self._stack = StackLayout(np.r_[np.ones(m_eq), -np.ones(m_ineq)], (1.0,))
 
     def _dense_csc(self, M: FloatArray) -> sp.csc_matrix:
         rows, cols = M.shape
@@ -132,6 +155,9 @@ class OSQPBackend(QPBackend):
         ub: FloatArray,
         warm: QPSolution | None = None,
     ) -> QPSolution:
+        if any_sparse(P, A_eq, G):
+            J, c = sqp_form(A_eq, b_eq, G, h)
+            return self._solve_sparse(P, q, J, c, lb, ub)
         n, me, mi = self.n, self.m_eq, self.m_ineq
         A, l, u = self._Afull, self._l, self._u
         A[:me] = A_eq
@@ -157,6 +183,56 @@ class OSQPBackend(QPBackend):
         except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
             self._solver = None
             return self.failed(f"osqp raised {exc!r}")
+        return self._result(res)
+
+    def solve_sqp(
+        self,
+        P: Any,
+        q: FloatArray,
+        J: Any,
+        c: FloatArray,
+        lb: FloatArray,
+        ub: FloatArray,
+    ) -> QPSolution:
+        if any_sparse(P, J):
+            return self._solve_sparse(P, q, J, c, lb, ub)
+        return super().solve_sqp(P, q, J, c, lb, ub)
+
+    def _solve_sparse(
+        self, P: Any, q: FloatArray, J: Any, c: FloatArray, lb: FloatArray, ub: FloatArray
+    ) -> QPSolution:
+        """The SQP-form QP with sparse ``P`` and/or ``J``, on their own patterns."""
+        n, me, mi = self.n, self.m_eq, self.m_ineq
+        l, u = self._l, self._u
+        np.negative(c[:me], out=l[:me])
+        u[:me] = l[:me]
+        u[me : me + mi] = c[me:]
+        l[me + mi :] = lb
+        u[me + mi :] = ub
+        Px, new_p = self._triu.values(P)
+        Ax, new_a = self._stack.values(J)
+        try:
+            if self._sp_solver is None or new_p or new_a:
+                self._sp_solver = osqp.OSQP()
+                self._sp_solver.setup(
+                    self._triu.matrix(Px, n),
+                    q,
+                    self._stack.matrix(me + mi + n, n),
+                    l,
+                    u,
+                    **self.settings,
+                )
+            else:
+                self._sp_solver.update(Px=Px, Ax=Ax, q=q, l=l, u=u)
+            with _quiet_c_stdout(not self.settings.get("verbose", False)):
+                res = self._sp_solver.solve(raise_error=False)
+        except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
+            self._sp_solver = None
+            return self.failed(f"osqp raised {exc!r}")
+        return self._result(res)
+
+    def _result(self, res: Any) -> QPSolution:
+        me, mi = self.m_eq, self.m_ineq
         status = res.info.status_val
         polished = getattr(res.info, "status_polish", 0) == 1
         if status in _SOLVED or (status == _MAX_ITER and polished):

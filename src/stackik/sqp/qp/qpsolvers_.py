@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import qpsolvers
 
-from .base import FloatArray, QPBackend, QPSolution, QPStatus
+from .base import FloatArray, QPBackend, QPSolution, QPStatus, dense
 
 
 def available() -> list[str]:
@@ -48,6 +48,7 @@ class QPSolversBackend(QPBackend):
         ub: FloatArray,
         warm: QPSolution | None = None,
     ) -> QPSolution:
+        P, A_eq, G = dense(P), dense(A_eq), dense(G)
         problem = qpsolvers.Problem(
             P,
             q,
