@@ -150,6 +150,8 @@ def test_interpolate_bad_input():
         ({"start": np.zeros((4, 3))}, "does not reach"),
         ({"max_candidates": 0}, "max_candidates"),
         ({"refine": "yes"}, "refine"),
+        ({"reanchor_every": -1}, "reanchor_every"),
+        ({"max_depth": 20}, "max_depth"),
     ],
 )
 def test_solve_path_bad_options(stack4, kwargs, match):
@@ -208,6 +210,31 @@ def test_motion_weight_trades_fn_for_motion(stack4, planar_path):
     assert_valid_path(stack4, r1)
     assert np.sum(np.diff(r1.q, axis=0) ** 2) <= np.sum(np.diff(r0.q, axis=0) ** 2) + 1e-9
     assert np.sum(r1.frobenius_norm**2) >= np.sum(r0.frobenius_norm**2) * (1 - 1e-9)
+
+
+def test_global_mode_moves_to_a_better_branch(stack4):
+    # a curved path on which the branch of the first waypoint's optimum ends up 12 % worse
+    # in FN than the per-waypoint optima: global mode crosses to their branch by transit
+    # steps, fast mode (re-anchoring every 20 waypoints) part of the way
+    a = PlanarTarget(222.83, 1374.04, -0.3687)
+    c = PlanarTarget(-804.55, 859.93, 0.6632)
+    b = PlanarTarget(531.70, 1137.47, -0.1418)
+    pts = []
+    for s in np.linspace(0.0, 1.0, 30):
+        y = (1 - s) ** 2 * a.y + 2 * s * (1 - s) * c.y + s**2 * b.y
+        pts.append(PlanarTarget(*y))
+    ref = np.mean([solve_ik(stack4, t).frobenius_norm for t in pts])
+    stay = solve_path(stack4, pts, max_jump=MAX_JUMP, reanchor_every=0)
+    fast = solve_path(stack4, pts, max_jump=MAX_JUMP)
+    glob = solve_path(stack4, pts, max_jump=MAX_JUMP, mode="global")
+    for r in (stay, fast, glob):
+        assert r.success
+        assert_valid_path(stack4, r)
+    assert stay.mean_frobenius_norm > 1.1 * ref
+    assert fast.mean_frobenius_norm < stay.mean_frobenius_norm
+    assert fast.info["reanchored"] >= 1
+    assert glob.mean_frobenius_norm < 1.01 * ref
+    assert glob.info["transit"] >= 1
 
 
 def test_start_pose_is_kept(stack4, planar_path, fast_result):

@@ -31,7 +31,7 @@ from stackik.sqp import NonlinearProgram, SQPOptions
 from stackik.sqp import solve as sqp_solve
 from stackik.targets import Target
 
-__all__ = ["BOUNDED_OPTIONS", "BOX_SHRINK", "bounded_step"]
+__all__ = ["BOUNDED_OPTIONS", "BOX_SHRINK", "TRANSIT_WEIGHT", "bounded_step"]
 
 FloatArray = NDArray[np.float64]
 
@@ -39,6 +39,8 @@ FloatArray = NDArray[np.float64]
 BOUNDED_OPTIONS = {"tol": 1e-7, "constr_tol": 1e-10, "max_iter": 200, "initial_tr_radius": 0.5}
 #: The box is ``max_jump * (1 - BOX_SHRINK)``, so that rounding never reports a jump.
 BOX_SHRINK = 1e-9
+#: Weight of the distance to the goal against FN in a transit step (both relative).
+TRANSIT_WEIGHT = 1.0
 
 
 def bounded_step(
@@ -48,9 +50,14 @@ def bounded_step(
     max_jump: FloatArray,
     *,
     x0: FloatArray | None = None,
+    goal: FloatArray | None = None,
     max_time: float = math.inf,
 ) -> FloatArray | None:
     """Least-FN pose of ``target`` within ``max_jump`` of ``q_prev``, or None.
+
+    With ``goal``, the pose within the box nearest ``goal`` instead (a transit step: the
+    objective is ``|u - u_goal|^2`` in the scaled variables, translations / ``L`` and
+    angles in rad), to move a path towards a better basin ``max_jump`` at a time.
 
     Parameters
     ----------
@@ -62,6 +69,8 @@ def bounded_step(
         Largest change of each variable of a platform [mm, rad].
     x0 : ndarray, shape (n, 3) or (n, 6), optional
         Start (projected onto the box); default ``q_prev``.
+    goal : ndarray, shape (n, 3) or (n, 6), optional
+        Pose to approach (see above).
     max_time : float
         Wall-time budget [s].
 
@@ -74,14 +83,31 @@ def bounded_step(
     n = q_prev.shape[0]
     prob = Problem(stack, target, "frobenius", None)
     exact = prob.fast is not None
+    evaluate, hessian = prob.evaluate, prob.lagrangian_hessian
+    if goal is not None:
+        # FN^2 and the squared distance to the goal, each relative to its value at q_prev
+        ug, u_prev = prob.u_of(goal), prob.u_of(q_prev)
+        f0 = max(float(prob.evaluate(u_prev)[0]), 1e-12)
+        d0 = max(float(np.sum((u_prev - ug) ** 2)), 1e-12) / TRANSIT_WEIGHT
+
+        def evaluate(u: FloatArray) -> tuple[Any, ...]:
+            f, g, ceq, Jeq, cin, Jin = prob.evaluate(u)
+            d = u - ug
+            return f / f0 + float(d @ d) / d0, g / f0 + 2.0 * d / d0, ceq, Jeq, cin, Jin
+
+        def hessian(u: FloatArray, y_eq: FloatArray, y_in: FloatArray) -> FloatArray:
+            H_f = prob.lagrangian_hessian(u, 0.0 * y_eq, 0.0 * y_in)  # objective part
+            H = prob.lagrangian_hessian(u, y_eq, y_in) - H_f  # constraint part
+            return H + H_f / f0 + (2.0 / d0) * np.eye(H.shape[0])  # type: ignore[no-any-return]
+
     box = np.tile(max_jump * (1.0 - BOX_SHRINK), n)
     x_prev = q_prev.ravel()
     lower, upper = (x_prev - box) / prob.xs, (x_prev + box) / prob.xs
     nlp = NonlinearProgram(
         objective=None,
-        evaluate=prob.evaluate,
-        hessian=prob.lagrangian_hessian if exact else None,
-        gauss_newton=prob.gauss_newton,
+        evaluate=evaluate,
+        hessian=hessian if exact else None,
+        gauss_newton=prob.gauss_newton if goal is None else None,
         gn_scale=2.0,
         eq_scale=np.ones(prob.es.size),
         ineq_scale=np.ones(prob.cs.size),

@@ -60,6 +60,8 @@ class StepCounts:
     subdivided: int = 0
     bounded: int = 0
     bounded_failed: int = 0
+    transit: int = 0
+    transit_failed: int = 0
 
     def as_dict(self) -> dict[str, int]:
         return dict(self.__dict__)
@@ -136,6 +138,16 @@ class Tracker:
         if qb is not None and self.ratio(q, qb) <= 1.0 and check_pose(self.stack, target, qb).ok:
             return qb
         self.counts.bounded_failed += 1
+        return None
+
+    def transit(self, q: FloatArray, target: Target, goal: FloatArray) -> FloatArray | None:
+        """The pose of ``target`` within one jump of ``q`` nearest ``goal`` (checked), or
+        None: one step of a path moving towards a better basin."""
+        self.counts.transit += 1
+        qb = bounded_step(self.stack, target, q, self.scale, goal=goal)
+        if qb is not None and self.ratio(q, qb) <= 1.0 and check_pose(self.stack, target, qb).ok:
+            return qb
+        self.counts.transit_failed += 1
         return None
 
     # --- the ladder -------------------------------------------------------------------

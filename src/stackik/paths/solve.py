@@ -50,7 +50,17 @@ from stackik.platform import planar_legs, spatial_legs
 from stackik.solve import solve_ik
 from stackik.targets import PlanarTarget, Target, target_from_dict, target_to_dict
 
-__all__ = ["DEDUPE", "MODES", "REFINE_DEPTH", "path_arrays", "solve_path"]
+__all__ = [
+    "DEDUPE",
+    "MODES",
+    "REFINE_DEPTH",
+    "FAST_TRANSIT_GAIN",
+    "REANCHOR_EVERY",
+    "TRANSIT_GAIN",
+    "TRANSIT_STEPS",
+    "path_arrays",
+    "solve_path",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -59,6 +69,13 @@ MODES = ("fast", "global")
 DEDUPE = 1e-3
 #: Bisection levels of ``refine=True``: up to 16 inserted steps per input step.
 REFINE_DEPTH = 4
+#: Transit steps per attempt to reach a better basin (each must bring it 1/4 jump closer).
+TRANSIT_STEPS = 10
+#: Fast mode: every ``reanchor_every`` waypoints the default solve is compared with the
+#: path, which moves to the default pose's basin when its FN is lower by this fraction.
+FAST_TRANSIT_GAIN = 0.01
+#: Default ``reanchor_every`` of planar paths (spatial: 0, off; see solve_path).
+REANCHOR_EVERY = 20
 
 
 # =========================================================================================
@@ -80,6 +97,7 @@ class _Request:
     leg_accel: float | None
     max_candidates: int
     seed: int | None
+    reanchor_every: int
 
     def key(self) -> dict[str, Any]:
         """JSON-ready identity of the problem (for checkpoints)."""
@@ -94,6 +112,7 @@ class _Request:
             "start": None if self.start is None else self.start.tolist(),
             "max_candidates": self.max_candidates,
             "seed": self.seed,
+            "reanchor_every": self.reanchor_every,
         }
 
     def default_solve(self, target: Target, index: int) -> Any:
@@ -114,6 +133,7 @@ def _request(
     leg_accel: Any,
     max_candidates: Any,
     rng: Any,
+    reanchor_every: Any,
 ) -> _Request:
     if not isinstance(stack, Stack):
         raise ValueError(f"stack: expected a Stack, got {type(stack).__name__}")
@@ -168,6 +188,16 @@ def _request(
                 f"(position error {chk.position_error:.3g} mm, angle error "
                 f"{chk.angle_error:.3g} rad, worst violation {chk.max_violation_mm:.3g} mm)"
             )
+    if reanchor_every is None:
+        reanchor_every = REANCHOR_EVERY if planar else 0
+    if (
+        isinstance(reanchor_every, bool)
+        or not isinstance(reanchor_every, int)
+        or reanchor_every < 0
+    ):
+        raise ValueError(
+            f"reanchor_every: expected an integer >= 0 or None, got {reanchor_every!r}"
+        )
     seed = None
     if rng is not None:
         try:
@@ -176,7 +206,7 @@ def _request(
             raise ValueError(f"rng: expected None, an int seed or a Generator ({exc})") from None
     return _Request(
         stack, pts, planar, k, mj, mode, w, refine, max_depth, q0, speeds[0], speeds[1],
-        max_candidates, seed,
+        max_candidates, seed, reanchor_every,
     )  # fmt: skip
 
 
@@ -333,10 +363,27 @@ def _break(
 # =========================================================================================
 # Fast mode
 # =========================================================================================
+@dataclass(frozen=True)
+class _Goal:
+    """A better basin a fast path is moving to: its pose at the current waypoint, the
+    path's distance to it [max_jump] and the transit steps taken."""
+
+    q: FloatArray
+    dist: float
+    steps: int
+
+    def record(self) -> list[Any]:
+        return [self.q.tolist(), self.dist, self.steps]
+
+    @classmethod
+    def load(cls, r: list[Any] | None) -> _Goal | None:
+        return None if r is None else cls(np.array(r[0], dtype=float), float(r[1]), int(r[2]))
+
+
 def _fast(
     req: _Request, ck: PathCheckpoint, tracker: Tracker, t_start: float
 ) -> tuple[list[Target], list[float], list[FloatArray], list[str], PathStatus, str, dict]:
-    info: dict[str, Any] = {"default": 0}
+    info: dict[str, Any] = {"default": 0, "reanchored": 0}
     tl: list[Target] = []
     sl: list[float] = []
     ql: list[FloatArray] = []
@@ -357,10 +404,11 @@ def _fast(
                 )
                 return [], [], [], [], PathStatus.UNREACHABLE, msg, info
             q0, how = r0.q, "default"
-        ck.put("fast", 0, {"q": q0.tolist(), "how": how, "pending": []})
+        ck.put("fast", 0, {"q": q0.tolist(), "how": how, "pending": [], "goal": None})
         rec = ck.get("fast", 0)
     j = 0
     refined: list[tuple[Target, float, int]] = []
+    goal: _Goal | None = None
     while rec is not None:  # replay the checkpoint (or just waypoint 0)
         if j == 0:
             tl.append(pts[0])
@@ -371,6 +419,7 @@ def _fast(
         ql.append(np.array(rec["q"], dtype=float))
         hows.append(str(rec["how"]))
         refined = [(target_from_dict(t), float(s), int(d)) for t, s, d in rec["pending"]]
+        goal = _Goal.load(rec["goal"])
         j += 1
         rec = ck.get("fast", j)
     # pending: a stack of (target, source, depth); the top is the next waypoint to reach
@@ -382,23 +431,30 @@ def _fast(
     status, message = PathStatus.SUCCESS, PATH_MESSAGES[PathStatus.SUCCESS]
     while pending:
         tb, sb, depth = pending[-1]
-        step: Step | None = tracker.step(ql[-1], tl[-1], tb, subdivide=hows[-1] != "bounded")
+        step, goal = _towards(tracker, goal, ql[-1], tb, info) if goal else (None, None)
+        if step is None:
+            off = hows[-1] in ("bounded", "transit")  # off the optimum: no bisection
+            step = tracker.step(ql[-1], tl[-1], tb, subdivide=not off)
         if step is not None:
             pending.pop()
             tl.append(tb)
             sl.append(sb)
             ql.append(step.q)
             hows.append(step.how)
+            k = len(ql) - 1
+            if goal is None and req.reanchor_every and pending and k % req.reanchor_every == 0:
+                goal = _reanchor(req, tracker, k, tb, step.q, info)
             top = [(target_to_dict(t), s, d) for t, s, d in pending if d > 0]
             ck.put(
                 "fast",
-                len(ql) - 1,
+                k,
                 {
                     "target": target_to_dict(tb),
                     "source": sb,
                     "q": step.q.tolist(),
                     "how": step.how,
                     "pending": top,
+                    "goal": None if goal is None else goal.record(),
                 },
             )
             continue
@@ -416,46 +472,297 @@ def _fast(
     return tl + rest, sl + rest_src, ql, hows, status, message, info
 
 
+def _reanchor(
+    req: _Request, tracker: Tracker, k: int, target: Target, q: FloatArray, info: dict
+) -> _Goal | None:
+    """The default solve's pose at waypoint k as a goal, when its FN is lower than the
+    path's by more than FAST_TRANSIT_GAIN and it is more than max_jump away."""
+    r = req.default_solve(target, k)
+    info["default"] += 1
+    if not r.success:
+        return None
+    fn = math.sqrt(_fn2(req, q))
+    dist = tracker.ratio(q, r.q)
+    if r.frobenius_norm >= (1 - FAST_TRANSIT_GAIN) * fn or dist <= 1.0:
+        return None
+    info["reanchored"] += 1
+    return _Goal(r.q, dist, 0)
+
+
+def _towards(
+    tracker: Tracker, goal: _Goal, q: FloatArray, target: Target, info: dict
+) -> tuple[Step | None, _Goal | None]:
+    """One step of a fast path towards its goal basin: the goal's pose at ``target``
+    (warm continuation); joined when within max_jump, else a transit step that must bring
+    it at least a quarter jump closer. ``(None, None)``: the transit is abandoned."""
+    g = tracker.warm(goal.q, target)
+    if g is not None:
+        if tracker.ratio(q, g) <= 1.0:
+            return Step(g, "joined"), None
+        if goal.steps < TRANSIT_STEPS:
+            qt = tracker.transit(q, target, g)
+            if qt is not None and tracker.ratio(qt, g) < goal.dist - 0.25:
+                return Step(qt, "transit"), _Goal(g, tracker.ratio(qt, g), goal.steps + 1)
+    info["transit_abandoned"] = info.get("transit_abandoned", 0) + 1
+    return None, None
+
+
 # =========================================================================================
 # Global mode
 # =========================================================================================
 @dataclass(eq=False)  # identity: candidates hold arrays
 class _Cand:
+    """A candidate pose of one waypoint in global mode."""
+
     q: FloatArray
     fn2: float
-    origin: str  # "default", "start", "forward", "backward"
-    how: str  # rung of the continuation that produced it ("" for default/start)
+    origin: str  # "default", "start", "forward", "backward" or "transit"
+    how: str = ""  # rung of the continuation that produced it
+    steps: int = 0  # transit steps taken (origin "transit")
+    goal_dist: float = math.inf  # transit: distance to its goal, in max_jump
+    back_done: bool = False  # backward continuation tried
+
+    def record(self) -> list[Any]:
+        return [self.q.tolist(), self.fn2, self.origin, self.how, self.steps,
+                None if math.isinf(self.goal_dist) else self.goal_dist, self.back_done]  # fmt: skip
+
+    @classmethod
+    def load(cls, r: list[Any]) -> _Cand:
+        gd = math.inf if r[5] is None else float(r[5])
+        return cls(np.array(r[0], dtype=float), float(r[1]), str(r[2]), str(r[3]), int(r[4]),
+                   gd, bool(r[6]))  # fmt: skip
 
 
 def _fn2(req: _Request, q: FloatArray) -> float:
     return float(path_arrays(req.stack, req.targets[:1], q[None])["frobenius_norm"][0] ** 2)
 
 
-def _add(cands: list[_Cand], c: _Cand, tracker: Tracker) -> bool:
-    """Append ``c`` unless a candidate within DEDUPE exists; True if appended."""
-    for o in cands:
-        if tracker.ratio(o.q, c.q) <= DEDUPE:
-            if c.fn2 < o.fn2 - 1e-12 * o.fn2:  # keep the better twin
-                o.q, o.fn2 = c.q, c.fn2
-            return False
-    cands.append(c)
-    return True
+#: Global mode: a default pose that no candidate reaches within max_jump is approached by
+#: transit steps when its FN is lower than every reachable candidate's by this fraction
+#: (one transit at a time; after one gives up, none starts for TRANSIT_COOLDOWN waypoints).
+TRANSIT_GAIN = 0.005
+TRANSIT_COOLDOWN = 5
+#: Global mode: candidates (the cheapest so far) whose continuation may take the bounded
+#: rung when their minimum ends; the others' lineages end there.
+BOUNDED_CANDIDATES = 2
 
 
-def _cap(cands: list[_Cand], k: int) -> list[_Cand]:
-    if len(cands) <= k:
-        return cands
-    keep = [c for c in cands if c.origin in ("default", "start")][:1]
-    rest = sorted((c for c in cands if c not in keep), key=lambda c: c.fn2)
-    return keep + rest[: k - len(keep)]
+class _Sweep:
+    """Candidates per waypoint and their Viterbi costs, built waypoint by waypoint.
 
+    ``cost[k][j]``: least ``sum FN^2 + w sum |dq|^2`` over the continuous sequences from
+    waypoint 0 to candidate j of waypoint k (inf: none within max_jump); ``back[k][j]``:
+    its predecessor in ``C[k-1]``.
+    """
 
-def _cand_record(cands: list[_Cand]) -> list[Any]:
-    return [[c.q.tolist(), c.fn2, c.origin, c.how] for c in cands]
+    def __init__(self, req: _Request, tracker: Tracker, targets: list[Target]) -> None:
+        self.req, self.tracker, self.targets = req, tracker, targets
+        self.C: list[list[_Cand]] = []
+        self.cost: list[FloatArray] = []
+        self.back: list[NDArray[np.int64]] = []
+        self.cooldown = 0  # no transit starts before this waypoint
 
+    # --- Viterbi costs ---------------------------------------------------------------
+    def relax(self, k: int) -> None:
+        cur = self.C[k]
+        fn2 = np.array([c.fn2 for c in cur])
+        back = np.full(len(cur), -1, dtype=np.int64)
+        if k == 0:
+            start = self.req.start is not None
+            cost = np.array([c.fn2 if (c.origin == "start" or not start) else np.inf
+                             for c in cur])  # fmt: skip
+        else:
+            cost = np.full(len(cur), np.inf)
+            prev, pc = self.C[k - 1], self.cost[k - 1]
+            w = self.req.motion_weight
+            for j, cj in enumerate(cur):
+                for i, pi in enumerate(prev):
+                    if not np.isfinite(pc[i]) or self.tracker.ratio(pi.q, cj.q) > 1.0:
+                        continue
+                    v = pc[i] + fn2[j] + w * float(np.sum((cj.q - pi.q) ** 2))
+                    if v < cost[j]:
+                        cost[j], back[j] = v, i
+        if k < len(self.cost):
+            self.cost[k], self.back[k] = cost, back
+        else:
+            self.cost.append(cost)
+            self.back.append(back)
 
-def _cand_load(rec: list[Any]) -> list[_Cand]:
-    return [_Cand(np.array(q, dtype=float), float(f), str(o), str(h)) for q, f, o, h in rec]
+    def relax_from(self, j: int) -> None:
+        for k in range(j, len(self.C)):
+            self.relax(k)
+
+    def connected(self, k: int, c: _Cand) -> bool:
+        return bool(np.isfinite(self.cost[k][self.C[k].index(c)]))
+
+    # --- candidate lists ----------------------------------------------------------------
+    def add(self, k: int, c: _Cand) -> _Cand:
+        """Append ``c`` to ``C[k]`` unless a twin within DEDUPE is there (the better FN
+        is kept in the twin); returns the candidate in the list."""
+        for o in self.C[k]:
+            if self.tracker.ratio(o.q, c.q) <= DEDUPE:
+                if c.fn2 < o.fn2 * (1 - 1e-12):
+                    o.q, o.fn2 = c.q, c.fn2
+                return o
+        self.C[k].append(c)
+        return c
+
+    def cand(self, q: FloatArray, origin: str, how: str = "", **kw: Any) -> _Cand:
+        return _Cand(q, _fn2(self.req, q), origin, how, **kw)
+
+    # --- one waypoint -------------------------------------------------------------------
+    def first(self, d0: _Cand | None) -> None:
+        self.C.append([])
+        if self.req.start is not None:
+            self.C[0].append(self.cand(self.req.start, "start"))
+        elif d0 is not None:
+            self.C[0].append(d0)
+        self.relax(0)
+
+    def step(self, k: int, dk: _Cand | None) -> set[int]:
+        """Build ``C[k]``; returns the waypoints whose candidate lists changed."""
+        tr, t = self.tracker, self.targets
+        self.C.append([])
+        if dk is not None:
+            self.C[k].append(dk)
+        # continuations, cheapest first; the bounded rung (the followed minimum ended)
+        # only for the BOUNDED_CANDIDATES cheapest reachable candidates
+        prev = self.C[k - 1]
+        order = np.argsort(self.cost[k - 1], kind="stable")
+        for rank, i in enumerate(order):
+            c = prev[i]
+            bounded = c.origin != "transit" and rank < BOUNDED_CANDIDATES
+            bounded = bounded and bool(np.isfinite(self.cost[k - 1][i]))
+            off = c.how == "bounded" or c.origin == "transit"
+            st = tr.step(c.q, t[k - 1], t[k], subdivide=not off, bounded=bounded)
+            if st is not None:
+                self.add(k, self.cand(st.q, "forward", st.how))
+        moving = False
+        if dk is not None:  # a transit under way continues towards the default pose
+            for c, cc in zip(prev, self.cost[k - 1]):
+                if c.origin != "transit" or not np.isfinite(cc) or c.steps >= TRANSIT_STEPS:
+                    continue
+                if tr.ratio(c.q, dk.q) <= 1.0:  # arrived: the edge c -> dk exists
+                    continue
+                qt = tr.transit(c.q, t[k], dk.q)
+                if qt is not None and tr.ratio(qt, dk.q) < c.goal_dist - 0.25:
+                    g = tr.ratio(qt, dk.q)
+                    self.add(k, self.cand(qt, "transit", steps=c.steps + 1, goal_dist=g))
+                    moving = True
+                else:  # gave up: no new transit for a while
+                    self.cooldown = k + TRANSIT_COOLDOWN
+        self.relax(k)
+        changed = {k} | self._rejoin(k)
+        if dk is not None:
+            dk = self.add(k, dk)
+            if not self.connected(k, dk):
+                changed |= self._backward(k, dk)
+            if not moving and k >= self.cooldown:
+                self._start_transit(k, dk)
+        self._prune(k)
+        return changed
+
+    def _backward(self, k: int, x: _Cand) -> set[int]:
+        """Continue ``x`` (waypoint k, not reachable) backwards along its own branch (warm
+        rungs) until a reachable candidate is within max_jump or the branch ends."""
+        tr, t = self.tracker, self.targets
+        changed: set[int] = set()
+        j = k
+        while j > 0 and not x.back_done:
+            x.back_done = True
+            st = tr.step(x.q, t[j], t[j - 1], bounded=False)
+            if st is None:
+                break
+            b = self.add(j - 1, self.cand(st.q, "backward", st.how))
+            changed.add(j - 1)
+            self.relax_from(j - 1)
+            if self.connected(j - 1, b):
+                break
+            x, j = b, j - 1
+        return changed
+
+    def _rejoin(self, k: int) -> set[int]:
+        """When the cheapest sequence to waypoint k-1 has no continuation at k (its branch
+        ends at a limit wall or the minimum it follows vanishes), walk back from the
+        cheapest candidate of waypoint k by transit steps towards that sequence's poses
+        until they meet: the DP can then leave the ending branch in time."""
+        prev, pc = self.C[k - 1], self.cost[k - 1]
+        if not np.any(np.isfinite(self.cost[k])) or not np.any(np.isfinite(pc)):
+            return set()
+        i = int(np.argmin(pc))
+        if any(self.tracker.ratio(prev[i].q, c.q) <= 1.0 for c in self.C[k]):
+            return set()  # it continues
+        chain = []  # the ending sequence, waypoint k-1 down to 0
+        for j in range(k - 1, -1, -1):
+            chain.append(self.C[j][i].q)
+            i = int(self.back[j][i])
+        cur = self.C[k][int(np.argmin(self.cost[k]))].q
+        dist = self.tracker.ratio(cur, chain[0])
+        changed: set[int] = set()
+        for step, goal in enumerate(chain[: 2 * TRANSIT_STEPS]):
+            j = k - 1 - step
+            if dist <= 1.0 or j < 0:
+                break
+            qt = self.tracker.transit(cur, self.targets[j], goal)
+            if qt is None or self.tracker.ratio(qt, goal) >= dist - 0.25:
+                break
+            self.add(j, self.cand(qt, "transit", steps=step + 1))
+            changed.add(j)
+            cur = qt
+            dist = self.tracker.ratio(cur, chain[step + 1]) if step + 1 < len(chain) else 0.0
+        if changed:
+            self.relax_from(min(changed))
+        return changed
+
+    def _start_transit(self, k: int, dk: _Cand) -> None:
+        """A transit from the cheapest candidate of waypoint k-1 towards the default pose
+        ``dk`` when ``dk`` has a lower FN than the cheapest candidate of waypoint k by more
+        than TRANSIT_GAIN and is not within max_jump of the former."""
+        best = self.C[k][int(np.argmin(self.cost[k]))]
+        if best is dk or dk.fn2 >= (1 - TRANSIT_GAIN) ** 2 * best.fn2:
+            return
+        c = self.C[k - 1][int(np.argmin(self.cost[k - 1]))]
+        dist = self.tracker.ratio(c.q, dk.q)
+        if dist <= 1.0:
+            return  # a direct edge: the DP weighs it
+        if dist > TRANSIT_STEPS:  # too far to get there
+            self.cooldown = k + TRANSIT_COOLDOWN
+            return
+        qt = self.tracker.transit(c.q, self.targets[k], dk.q)
+        if qt is None:
+            self.cooldown = k + TRANSIT_COOLDOWN
+        else:
+            g = self.tracker.ratio(qt, dk.q)
+            self.add(k, self.cand(qt, "transit", steps=1, goal_dist=g))
+            self.relax(k)
+
+    def _prune(self, k: int) -> None:
+        """Keep the ``max_candidates`` cheapest reachable candidates and at most two
+        unreachable ones (the default pose first: a later backward step may reach it)."""
+        cur, cost = self.C[k], self.cost[k]
+        fin = sorted((j for j in range(len(cur)) if np.isfinite(cost[j])), key=lambda j: cost[j])
+        inf = sorted((j for j in range(len(cur)) if not np.isfinite(cost[j])),
+                     key=lambda j: (cur[j].origin != "default", cur[j].fn2))  # fmt: skip
+        keep = sorted(fin[: self.req.max_candidates] + inf[:2])
+        if len(keep) < len(cur):
+            self.C[k] = [cur[j] for j in keep]
+            self.relax(k)
+
+    def best_path(self) -> list[FloatArray]:
+        """Poses of the cheapest sequence to the last waypoint reached."""
+        reached = 0
+        for k in range(len(self.C)):
+            if not np.any(np.isfinite(self.cost[k])):
+                break
+            reached = k + 1
+        if reached == 0:
+            return []
+        j = int(np.argmin(self.cost[reached - 1]))
+        poses = []
+        for k in range(reached - 1, -1, -1):
+            poses.append(self.C[k][j].q)
+            j = int(self.back[k][j])
+        return poses[::-1]
 
 
 def _global(
@@ -465,94 +772,49 @@ def _global(
     targets: list[Target],
 ) -> tuple[list[FloatArray], PathStatus, str, dict[str, Any]]:
     info: dict[str, Any] = {"default": 0}
-    m = len(targets)
-    # 1. the default (multi-start) solve of every waypoint
-    D: list[_Cand | None] = []
-    for k, t in enumerate(targets):
+    sw = _Sweep(req, tracker, targets)
+
+    def default(k: int) -> _Cand | None:
         rec = ck.get("default", k)
         if rec is None:
-            r = req.default_solve(t, k)
+            r = req.default_solve(targets[k], k)
             info["default"] += 1
-            rec = [r.q.tolist(), float(r.frobenius_norm) ** 2] if r.success else None
-            ck.put("default", k, rec if rec is not None else [])
-        D.append(_Cand(np.array(rec[0]), float(rec[1]), "default", "") if rec else None)
-    # 2. forward sweep: continuations of every candidate, plus the default pose
-    C: list[list[_Cand]] = []
-    for k, t in enumerate(targets):
-        rec = ck.get("forward", k)
-        if rec is not None:
-            C.append(_cand_load(rec))
-            continue
-        cands: list[_Cand] = []
-        if k == 0:
-            if req.start is not None:
-                cands.append(_Cand(req.start, _fn2(req, req.start), "start", ""))
-            elif D[0] is not None:
-                cands.append(D[0])
+            rec = [r.q.tolist(), float(r.frobenius_norm) ** 2] if r.success else []
+            ck.put("default", k, rec)
+        return _Cand(np.array(rec[0]), float(rec[1]), "default") if rec else None
+
+    for k in range(len(targets)):
+        rec = ck.get("sweep", k)
+        if rec is not None:  # replay: the candidate lists this step left
+            sw.C.append([])
+            low = k
+            sw.cooldown = int(rec["cooldown"])
+            for j, cands in rec["sets"]:
+                sw.C[j] = [_Cand.load(r) for r in cands]
+                low = min(low, j)
+            if low < k:
+                sw.relax_from(low)
+            else:
+                sw.relax(k)
         else:
-            dk = D[k]
-            if dk is not None:
-                cands.append(dk)
-            for c in C[k - 1]:
-                st = tracker.step(c.q, targets[k - 1], t, subdivide=c.how != "bounded")
-                if st is not None:
-                    _add(cands, _Cand(st.q, _fn2(req, st.q), "forward", st.how), tracker)
-        cands = _cap(cands, req.max_candidates)
-        ck.put("forward", k, _cand_record(cands))
-        C.append(cands)
-    # 3. backward sweep: default poses with no predecessor within max_jump are continued
-    #    backwards (warm and subdivided rungs: along their own branch) until they connect
-    rec = ck.get("backward", 0)
-    if rec is not None:
-        C = [_cand_load(r) for r in rec]
-    elif req.start is None:
-        for k in range(m - 1, 0, -1):
-            for c in list(C[k]):
-                if c.origin not in ("default", "backward"):
-                    continue
-                if any(tracker.ratio(p.q, c.q) <= 1.0 for p in C[k - 1]):
-                    continue
-                st = tracker.step(c.q, targets[k], targets[k - 1], bounded=False)
-                if st is not None:
-                    _add(C[k - 1], _Cand(st.q, _fn2(req, st.q), "backward", st.how), tracker)
-        ck.put("backward", 0, [_cand_record(c) for c in C])
-    info["candidates_mean"] = float(np.mean([len(c) for c in C])) if C else 0.0
-    info["candidates_max"] = max((len(c) for c in C), default=0)
-    # 4. dynamic programming over the candidates
-    w = req.motion_weight
-    cost = np.array([c.fn2 for c in C[0]]) if C[0] else np.zeros(0)
-    back: list[NDArray[np.int64]] = []
-    reached = 0 if cost.size == 0 else 1
-    for k in range(1, m):
-        prev, cur = C[k - 1], C[k]
-        new = np.full(len(cur), np.inf)
-        arg = np.full(len(cur), -1, dtype=np.int64)
-        for j, cj in enumerate(cur):
-            for i, pi in enumerate(prev):
-                if not np.isfinite(cost[i]) or tracker.ratio(pi.q, cj.q) > 1.0:
-                    continue
-                v = cost[i] + cj.fn2 + w * float(np.sum((cj.q - pi.q) ** 2))
-                if v < new[j]:
-                    new[j], arg[j] = v, i
-        if not np.any(np.isfinite(new)):
+            if k == 0:
+                sw.first(None if req.start is not None else default(0))
+                changed = {0}
+            else:
+                changed = sw.step(k, default(k))
+            sets = [[j, [c.record() for c in sw.C[j]]] for j in sorted(changed)]
+            ck.put("sweep", k, {"sets": sets, "cooldown": sw.cooldown})
+        if not np.any(np.isfinite(sw.cost[k])):
             break
-        back.append(arg)
-        cost = new
-        reached = k + 1
-    poses: list[FloatArray] = []
-    if reached:
-        j = int(np.argmin(cost))
-        for k in range(reached - 1, -1, -1):
-            poses.append(C[k][j].q)
-            if k > 0:
-                j = int(back[k - 1][j])
-        poses.reverse()
-    if reached == m:
+    info["candidates_mean"] = float(np.mean([len(c) for c in sw.C]))
+    info["candidates_max"] = max(len(c) for c in sw.C)
+    info["transit_candidates"] = sum(c.origin == "transit" for cs in sw.C for c in cs)
+    poses = sw.best_path()
+    if len(poses) == len(targets):
         return poses, PathStatus.SUCCESS, PATH_MESSAGES[PathStatus.SUCCESS], info
-    t = targets[reached]
-    status, message = _break(
-        req, tracker, reached, t, float(reached), poses[-1] if poses else None, info
-    )
+    k = len(poses)
+    status, message = _break(req, tracker, k, targets[k], float(k), poses[-1] if poses else None,
+                             info)  # fmt: skip
     return poses, status, message, info
 
 
@@ -574,6 +836,7 @@ def solve_path(
     max_candidates: int = 6,
     checkpoint: str | Path | None = None,
     rng: np.random.Generator | int | None = None,
+    reanchor_every: int | None = None,
 ) -> PathResult:
     """Continuous least-FN poses along a sequence of end-effector waypoints.
 
@@ -621,6 +884,14 @@ def solve_path(
     rng : Generator, int or None
         Seeds the random starts of the default solves (waypoint k gets seed ``s + k``);
         None keeps :func:`stackik.solve.solve_ik`'s fixed seed. Deterministic either way.
+    reanchor_every : int or None
+        Fast mode: every this many waypoints, compare the path with the default solve of
+        the waypoint; when that pose's FN is lower by more than ``FAST_TRANSIT_GAIN`` (1 %)
+        and it lies more than ``max_jump`` away, the path moves to its basin by transit
+        steps (the pose within ``max_jump`` nearest the goal's continuation), at most
+        ``TRANSIT_STEPS`` of them. 0 turns it off. Default (None): 20 for planar paths,
+        0 for spatial ones (a spatial default solve costs as much as ~20 warm steps, and
+        the spatial FN landscape has so many minima that the default is no reference).
 
     Returns
     -------
@@ -639,7 +910,7 @@ def solve_path(
     t_start = time.perf_counter()
     req = _request(
         stack, targets, max_jump, mode, motion_weight, refine, max_depth, start,
-        leg_speed, leg_accel, max_candidates, rng,
+        leg_speed, leg_accel, max_candidates, rng, reanchor_every,
     )  # fmt: skip
     ck = PathCheckpoint(checkpoint, req.key())
     tracker = Tracker(req.stack, req.planar, req.max_jump, req.max_depth)
