@@ -239,11 +239,13 @@ def animate_path(
             ax.set_xlabel("rho [mm]")
             ax.set_ylabel("z [mm]")
         else:
-            span = float(np.max(hi - lo)) / 2 + pad
+            span = float(np.max(hi[:2] - lo[:2])) / 2 + pad  # equal scales on all axes
             mid = (hi + lo) / 2
+            z0, z1 = min(lo[2], 0.0) - pad, hi[2] + pad
             ax.set_xlim(mid[0] - span, mid[0] + span)
             ax.set_ylim(mid[1] - span, mid[1] + span)
-            ax.set_zlim(max(mid[2] - span, -pad), mid[2] + span)
+            ax.set_zlim(z0, z1)
+            ax.set_box_aspect((2 * span, 2 * span, z1 - z0))
             ax.set_xlabel("x [mm]")
             ax.set_ylabel("y [mm]")
             ax.set_zlabel("z [mm]")
