@@ -20,8 +20,8 @@ only matters for the 3D constraints and drawings. Spatial poses ``(n, 6)`` (rows
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
-from typing import Literal
+from dataclasses import dataclass, field, replace
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -387,6 +387,25 @@ class _PlanarChunk:
         out_z -= y0[1]
 
 
+@dataclass(frozen=True)
+class _OnePose:
+    """Picklable: :func:`monte_carlo` of one pose (a task of a spread Monte Carlo)."""
+
+    n_samples: int
+    sigma_t: float
+    sigma_theta: float
+    rng: int | np.random.SeedSequence
+    chunk: int
+    keep_samples: bool
+    level: float
+
+    def __call__(self, pose: FloatArray) -> MonteCarloResult:
+        return monte_carlo(
+            pose, self.n_samples, self.sigma_t, self.sigma_theta, self.rng, chunk=self.chunk,
+            keep_samples=self.keep_samples, level=self.level,
+        )  # fmt: skip
+
+
 def _rotation_angle(R0: FloatArray, R: FloatArray) -> FloatArray:
     """Rotation angle [rad] of ``R0^T R`` for R (..., 3, 3), accurate at small angles."""
     M = np.einsum("ji,...jk->...ik", R0, R)
@@ -422,6 +441,7 @@ def monte_carlo(
     chunk: int = 8192,
     keep_samples: bool = True,
     level: float = 0.95,
+    executor: Any = None,
 ) -> MonteCarloResult:
     """Perturb poses with common Gaussian noise and measure the end-effector motion.
 
@@ -449,6 +469,10 @@ def monte_carlo(
         Keep the per-sample displacement vectors and angles (``distance`` is always kept).
     level : float, optional
         Coverage of the confidence ellipse (0.95: chi-square quantile 5.991 in 2D).
+    executor : concurrent.futures.Executor or distributed.Client, optional
+        Spreads the poses, one task each (:mod:`stackik.batch`): every task draws the
+        same noise from ``rng``, so the result is that of the serial call. Only with an
+        int (or SeedSequence) ``rng`` and more than one pose; otherwise ignored.
 
     Returns
     -------
@@ -462,6 +486,26 @@ def monte_carlo(
     N = int(n_samples)
     if N < 2:
         raise ValueError(f"n_samples must be >= 2, got {n_samples}")
+    if (
+        executor is not None
+        and k > 1
+        and isinstance(rng, int | np.integer | np.random.SeedSequence)
+    ):
+        _sigmas(ncols, sigma_t, sigma_theta)  # bad input is reported here, not remotely
+        from stackik.batch import checkpointed_map
+
+        seq = rng if isinstance(rng, np.random.SeedSequence) else int(rng)
+        one = _OnePose(N, float(sigma_t), float(sigma_theta), seq, chunk, keep_samples, level)
+        parts = checkpointed_map(
+            one,
+            list(Q),
+            key=lambda q: None,
+            encode=lambda r: r,
+            decode=lambda r: r,
+            executor=executor,
+            chunksize=1,
+        )
+        return replace(parts[0], poses=tuple(p.poses[0] for p in parts))
     chunk = max(1, int(chunk))
     sig = _sigmas(ncols, sigma_t, sigma_theta)
     seed = int(rng) if isinstance(rng, int | np.integer) else None

@@ -31,6 +31,7 @@ import json
 import math
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor
+from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -193,6 +194,54 @@ def target_poses(
     return TargetPoses(target, opt, tuple(non))
 
 
+@dataclass(frozen=True)
+class _PosesOf:
+    """Picklable :func:`target_poses` with fixed settings (one task per paper target)."""
+
+    stack: Stack
+    count: int
+    seed: int
+    perturbation: tuple[float, float, float]
+    max_attempts: int
+
+    def prepare(self) -> None:
+        from stackik.solve.kernels import warm_up
+
+        warm_up(("planar",), notice=False)
+
+    def __call__(self, target: PlanarTarget) -> TargetPoses:
+        return target_poses(
+            self.stack, target, self.count, self.seed, self.perturbation, self.max_attempts
+        )
+
+
+@dataclass(frozen=True)
+class _MonteCarloOf:
+    """Picklable :func:`monte_carlo` of a list of poses with fixed settings."""
+
+    n_samples: int
+    sigma_t: float
+    sigma_theta: float
+    seed: int
+    keep_samples: bool = True
+
+    def __call__(self, poses: list[np.ndarray]) -> MonteCarloResult:
+        return monte_carlo(
+            poses, self.n_samples, self.sigma_t, self.sigma_theta, rng=self.seed,
+            keep_samples=self.keep_samples,
+        )  # fmt: skip
+
+
+def _spread(fn: Any, items: list[Any], executor: Any, progress: bool, desc: str) -> list[Any]:
+    """``[fn(x) for x in items]``, one task per item when there is an executor."""
+    from stackik.batch import checkpointed_map
+
+    return checkpointed_map(
+        fn, items, key=lambda x: None, encode=lambda r: r, decode=lambda r: r,
+        executor=executor, chunksize=1, progress=progress, desc=desc,
+    )  # fmt: skip
+
+
 def _fmt_target(t: PlanarTarget) -> str:
     return f"({t.rho:g}, {t.z:g}) mm, theta = {t.theta:g} rad"
 
@@ -206,7 +255,7 @@ def reproduce(
     rng: int = DEFAULT_SEED,
     progress: bool = True,
     settings: ReproduceSettings | None = None,
-    executor: Executor | None = None,
+    executor: Executor | Any | None = None,
 ) -> ReproduceResult:
     """Reproduce Tables 1-2, the figures and the regression of the paper into ``out_dir``.
 
@@ -223,9 +272,10 @@ def reproduce(
         tqdm progress bars on stderr.
     settings : ReproduceSettings, optional
         Overrides ``quick`` and ``rng`` when given.
-    executor : concurrent.futures.Executor, optional
-        Spreads the workspace solves; by default a process pool of ``settings.workers``
-        when it is > 1.
+    executor : concurrent.futures.Executor or distributed.Client, optional
+        Spreads the work (the paper targets' poses and Monte Carlo runs, one task per
+        target, and the workspace study, :func:`workspace_study`) with the serial
+        results; by default a process pool of ``settings.workers`` when it is > 1.
 
     Returns
     -------
@@ -254,34 +304,41 @@ def reproduce(
 
         return tqdm(it, **kw)
 
-    # 1. poses ------------------------------------------------------------------------
-    tp = tuple(
-        target_poses(stack, t, 2, s.seed + 1, s.perturbation, s.max_attempts)
-        for t in bar(targets, desc="paper targets: poses", unit="target")
-    )
-    # 2-3. Tables 1 and 2 ---------------------------------------------------------------
-    table1 = tuple(
-        monte_carlo(p.poses, s.t1_samples, s.t1_sigma_t, s.t1_sigma_theta, rng=s.seed + 10)
-        for p in bar(tp, desc="Table 1 Monte Carlo", unit="target")
-    )
-    table2_mc = [
-        monte_carlo(
-            p.poses,
-            s.t2_samples,
-            s.t2_sigma_t,
-            s.t2_sigma_theta,
-            rng=s.seed + 20,
-            keep_samples=False,
-        )  # fmt: skip
-        for p in bar(tp, desc="Table 2 Monte Carlo", unit="target")
-    ]
-    table2 = tuple(tuple(c.F for c in linearity_check(mc)) for mc in table2_mc)
+    with ExitStack() as cleanup:
+        if executor is None and s.workers > 1:
+            from stackik.distributed import connect
 
-    # 4. workspace study ------------------------------------------------------------------
-    own_pool = None
-    if executor is None and s.workers > 1:
-        own_pool = executor = ProcessPoolExecutor(max_workers=s.workers)
-    try:
+            executor = cleanup.enter_context(connect(workers=s.workers))
+        # 1. poses --------------------------------------------------------------------
+        tp = tuple(
+            _spread(
+                _PosesOf(stack, 2, s.seed + 1, s.perturbation, s.max_attempts),
+                targets,
+                executor,
+                progress,
+                "paper targets: poses",
+            )
+        )
+        # 2-3. Tables 1 and 2 -----------------------------------------------------------
+        table1 = tuple(
+            _spread(
+                _MonteCarloOf(s.t1_samples, s.t1_sigma_t, s.t1_sigma_theta, s.seed + 10),
+                [p.poses for p in tp],
+                executor,
+                progress,
+                "Table 1 Monte Carlo",
+            )
+        )
+        table2_mc = _spread(
+            _MonteCarloOf(s.t2_samples, s.t2_sigma_t, s.t2_sigma_theta, s.seed + 20, False),
+            [p.poses for p in tp],
+            executor,
+            progress,
+            "Table 2 Monte Carlo",
+        )
+        table2 = tuple(tuple(c.F for c in linearity_check(mc)) for mc in table2_mc)
+
+        # 4. workspace study --------------------------------------------------------------
         study = workspace_study(
             stack,
             s.n_targets,
@@ -296,9 +353,6 @@ def reproduce(
             executor=executor,
             sampling=s.target_sampling,
         )
-    finally:
-        if own_pool is not None:
-            own_pool.shutdown()
 
     # checks ----------------------------------------------------------------------------
     med = np.array([mc.medians for mc in table1])  # (3, 3)
@@ -611,18 +665,24 @@ def main_reproduce(
     seed: int = DEFAULT_SEED,
     workers: int = 1,
     strict: bool = False,
+    scheduler: str | None = None,
 ) -> int:
-    """``stackik reproduce --out DIR [--quick] [--seed S] [--workers W] [--strict]``.
+    """``stackik reproduce --out DIR [--quick] [--seed S] [--workers W] [--scheduler
+    ADDRESS] [--strict]``.
 
     Writes the report into ``out`` and prints a summary. Returns 0, or 1 with ``strict``
-    when a done-when check failed.
+    when a done-when check failed. ``workers`` > 1 spreads the work over local processes,
+    ``scheduler`` over a Dask cluster (:func:`stackik.distributed.connect`).
     """
+    from stackik.distributed import connect
+
     settings = (
         ReproduceSettings.quick_settings(seed=seed, workers=workers)
         if quick
         else ReproduceSettings(seed=seed, workers=workers)
     )
-    res = reproduce(out, progress=progress, settings=settings)
+    with connect(scheduler, workers) as executor:
+        res = reproduce(out, progress=progress, settings=settings, executor=executor)
     print(f"report: {Path(out) / 'report.md'}  ({res.elapsed:.1f} s)")
     for i, mc in enumerate(res.table1):
         meds = " / ".join(f"{m:.2f}" for m in mc.medians)

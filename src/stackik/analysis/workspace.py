@@ -58,6 +58,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_PERTURBATION",
+    "MedianPair",
     "NonOptimalSearch",
     "Regression",
     "WorkspaceStudy",
@@ -66,6 +67,7 @@ __all__ = [
     "random_feasible_poses",
     "random_reachable_targets",
     "regress",
+    "study_targets",
     "uniform_reachable_targets",
     "workspace_study",
 ]
@@ -152,6 +154,27 @@ class NonOptimalSearch:
     max_attempts: int = 20
     solve_kwargs: dict[str, Any] = field(default_factory=dict)
 
+    def prepare(self) -> None:
+        """Load the compiled kernels once per process (called by workers before a chunk)."""
+        from stackik.solve.kernels import warm_up
+
+        warm_up(("planar",), notice=False)
+
+    def starts(self, target: PlanarTarget) -> FloatArray:
+        """All ``max_attempts`` perturbed starts, shape (max_attempts, n, 3), in draw order
+        (the same values the sequential search draws one by one)."""
+        from stackik.starts import paper_initial_guess
+
+        g = paper_initial_guess(self.stack, target)
+        gen = np.random.default_rng(self.seed)
+        return g + gen.normal(0.0, self.perturbation, (self.max_attempts, *g.shape))  # type: ignore[no-any-return]
+
+    def attempt(self, target: PlanarTarget, x0: FloatArray) -> IKResult:
+        """One feasibility solve from ``x0``."""
+        from stackik.solve import solve_ik
+
+        return solve_ik(self.stack, target, objective="feasible", x0=x0, **self.solve_kwargs)
+
     def __call__(self, target: PlanarTarget) -> list[IKResult]:
         from stackik.solve import solve_ik
         from stackik.starts import paper_initial_guess
@@ -169,6 +192,44 @@ class NonOptimalSearch:
         return found
 
 
+@dataclass(frozen=True)
+class _Attempt:
+    """Picklable: :meth:`NonOptimalSearch.attempt` of one target from a given start."""
+
+    search: NonOptimalSearch
+    target: PlanarTarget
+
+    def prepare(self) -> None:
+        self.search.prepare()
+
+    def __call__(self, x0: FloatArray) -> IKResult:
+        return self.search.attempt(self.target, x0)
+
+
+@dataclass(frozen=True)
+class MedianPair:
+    """Picklable callable: Monte Carlo medians of an (optimal, non-optimal) pose pair.
+
+    ``MedianPair(...)((q_opt, q_non))`` is ``monte_carlo([q_opt, q_non], n_samples,
+    sigma_t, sigma_theta, rng=seed).medians`` (common draws for the two poses, the same
+    seed for every pair): the Monte Carlo stage of :func:`workspace_study`, which an
+    executor spreads like the solves.
+    """
+
+    n_samples: int
+    sigma_t: float
+    sigma_theta: float
+    seed: int
+
+    def __call__(self, poses: tuple[FloatArray, FloatArray]) -> tuple[float, float]:
+        mc = monte_carlo(
+            list(poses), self.n_samples, self.sigma_t, self.sigma_theta, rng=self.seed,
+            keep_samples=False,
+        )  # fmt: skip
+        a, b = mc.medians
+        return float(a), float(b)
+
+
 def nonoptimal_poses(
     stack: Stack,
     target: PlanarTarget,
@@ -176,16 +237,59 @@ def nonoptimal_poses(
     seed: int = 0,
     perturbation: tuple[float, float, float] = DEFAULT_PERTURBATION,
     max_attempts: int = 20,
+    executor: Executor | Any | None = None,
     **solve_kwargs: Any,
 ) -> list[IKResult]:
     """The paper's non-optimised poses of one target (see :class:`NonOptimalSearch`).
 
+    With ``executor`` (a pool or a Dask client) the starts are tried in waves of as many
+    as the executor runs at once, and the first ``count`` successes in draw order are
+    kept: the poses of the sequential search, sooner when the first starts fail.
+
     Returns up to ``count`` successful :class:`~stackik.result.IKResult` (fewer if
     ``max_attempts`` starts did not give enough).
     """
-    return NonOptimalSearch(stack, count, seed, _triple(perturbation), max_attempts, solve_kwargs)(
-        target
-    )
+    search = NonOptimalSearch(stack, count, seed, _triple(perturbation), max_attempts, solve_kwargs)
+    if executor is None:
+        return search(target)
+    from stackik.batch import executor_slots
+
+    starts = search.starts(target)
+    wave = max(2, executor_slots(executor))
+    found: list[IKResult] = []
+    for a in range(0, max_attempts, wave):
+        results = checkpointed_map(
+            _Attempt(search, target),
+            list(starts[a : a + wave]),
+            key=lambda x0: None,
+            encode=lambda r: r,
+            decode=lambda r: r,
+            executor=executor,
+            chunksize=1,
+        )
+        for r in results:
+            if r.success:
+                found.append(r)
+                if len(found) >= count:
+                    return found
+    return found
+
+
+def study_targets(
+    stack: Stack,
+    count: int,
+    *,
+    seed: int = 0,
+    phi: float = 0.0,
+    sampling: Literal["uniform", "poses"] = "uniform",
+    cell: float = 100.0,
+) -> list[PlanarTarget]:
+    """The targets :func:`workspace_study` draws when given a number (same arguments)."""
+    if sampling == "uniform":
+        return uniform_reachable_targets(stack, int(count), rng=seed, phi=phi, cell=cell)
+    if sampling == "poses":
+        return random_reachable_targets(stack, int(count), rng=seed, phi=phi)
+    raise ValueError(f"sampling must be 'uniform' or 'poses', got {sampling!r}")
 
 
 # =========================================================================================
@@ -271,7 +375,7 @@ def workspace_study(
     perturbation: tuple[float, float, float] = DEFAULT_PERTURBATION,
     max_attempts: int = 10,
     progress: bool = False,
-    executor: Executor | None = None,
+    executor: Executor | Any | None = None,
     solve_kwargs: dict[str, Any] | None = None,
     checkpoint_dir: str | Path | None = None,
     sampling: Literal["uniform", "poses"] = "uniform",
@@ -295,8 +399,10 @@ def workspace_study(
         Perturbed starts tried per target before giving up.
     progress : bool
         tqdm progress bars.
-    executor : concurrent.futures.Executor, optional
-        Spreads the solves (passed to :func:`stackik.solve_many` and ``executor.map``).
+    executor : concurrent.futures.Executor or distributed.Client, optional
+        Spreads the optimal solves (:func:`stackik.solve_many`), the non-optimal searches
+        and the Monte Carlo stage (:class:`MedianPair`), each in chunks
+        (:mod:`stackik.batch`); the results are those of a serial run.
     solve_kwargs : dict, optional
         Extra keyword arguments of :func:`stackik.solve_ik`.
     checkpoint_dir : path, optional
@@ -319,10 +425,7 @@ def workspace_study(
         raise ValueError(f"sampling must be 'uniform' or 'poses', got {sampling!r}")
     kw = dict(solve_kwargs or {})
     if isinstance(targets, int | np.integer):
-        if sampling == "uniform":
-            tlist = uniform_reachable_targets(stack, int(targets), rng=seed, phi=phi, cell=cell)
-        else:
-            tlist = random_reachable_targets(stack, int(targets), rng=seed, phi=phi)
+        tlist = study_targets(stack, int(targets), seed=seed, phi=phi, sampling=sampling, cell=cell)
     else:
         tlist = list(targets)
     m, n = len(tlist), stack.n
@@ -356,20 +459,25 @@ def workspace_study(
     q_non = np.full((m, n, 3), np.nan)
     fn_opt, fn_non = np.full(m, np.nan), np.full(m, np.nan)
     med_opt, med_non = np.full(m, np.nan), np.full(m, np.nan)
-    rows = range(m)
-    if progress:
-        from tqdm.auto import tqdm
-
-        rows = tqdm(rows, desc="monte carlo", unit="target")
-    for i in rows:
-        if not (opt[i].success and non[i]):
-            continue
-        a, b = opt[i], non[i][0]
-        mc = monte_carlo([a.q, b.q], n_samples, sigma_t, sigma_theta, rng=seed + 2)
-        valid[i] = True
-        q_opt[i], q_non[i] = a.q, b.q
-        fn_opt[i], fn_non[i] = a.frobenius_norm, b.frobenius_norm
-        med_opt[i], med_non[i] = mc.medians
+    for i in range(m):
+        if opt[i].success and non[i]:
+            a, b = opt[i], non[i][0]
+            valid[i] = True
+            q_opt[i], q_non[i] = a.q, b.q
+            fn_opt[i], fn_non[i] = a.frobenius_norm, b.frobenius_norm
+    rows = np.flatnonzero(valid)
+    medians = checkpointed_map(
+        MedianPair(int(n_samples), float(sigma_t), float(sigma_theta), seed + 2),
+        [(q_opt[i], q_non[i]) for i in rows],
+        key=lambda pair: None,
+        encode=list,
+        decode=tuple,
+        executor=executor,
+        progress=progress,
+        desc="monte carlo",
+    )
+    for i, (mo, mn) in zip(rows.tolist(), medians, strict=True):
+        med_opt[i], med_non[i] = mo, mn
     reg = None
     if valid.sum() >= 3:
         reg = regress(fn_opt[valid] / fn_non[valid], med_opt[valid] / med_non[valid])

@@ -31,10 +31,13 @@ __all__ = [
     "add_method_args",
     "add_phi_args",
     "add_planar_target_args",
+    "add_scale_args",
     "add_stack_args",
     "call_entry",
+    "check_scale_args",
     "draw_figures",
     "dump_json",
+    "executor_from_args",
     "finite_float",
     "json_default",
     "load_stack",
@@ -46,6 +49,7 @@ __all__ = [
     "positive_int",
     "progress",
     "resolve_qp",
+    "say_where",
 ]
 
 PROG = "stackik"
@@ -190,6 +194,62 @@ def add_method_args(p: argparse.ArgumentParser) -> None:
         help="QP backend of --method sqp (with auto: selects sqp): daqp (default when "
         "installed), osqp, clarabel or any qpsolvers name",
     )
+
+
+def add_scale_args(p: argparse.ArgumentParser) -> None:
+    """``--workers K`` and ``--scheduler ADDRESS`` (read with :func:`executor_from_args`)."""
+    p.add_argument(
+        "--workers",
+        type=positive_int,
+        default=None,
+        metavar="K",
+        help="spread the work over K local processes (default: this process only)",
+    )
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="spread the work over a Dask cluster: the address of a running scheduler "
+        "(tcp://host:8786), or local:K to start a local cluster of K worker processes "
+        "(needs the [dask] extra)",
+    )
+
+
+def check_scale_args(args: argparse.Namespace) -> None:
+    """Validate ``--workers`` / ``--scheduler`` (CLIError, also for a missing Dask)."""
+    scheduler, workers = args.scheduler, args.workers
+    if scheduler is None:
+        return
+    from stackik.distributed import parse_scheduler
+
+    try:
+        parse_scheduler(scheduler)
+    except ValueError as exc:
+        raise CLIError(f"--scheduler: {exc}") from None
+    if workers is not None and scheduler.strip() != "local":
+        raise CLIError("--workers goes with local processes or `--scheduler local` only")
+    try:
+        import distributed  # noqa: F401 - only to report a missing extra early
+    except ImportError:
+        raise CLIError("--scheduler needs Dask: pip install 'stackik[dask]'") from None
+
+
+def executor_from_args(args: argparse.Namespace) -> Any:
+    """Context manager yielding the executor of ``--workers`` / ``--scheduler`` (None:
+    serial), from :func:`stackik.distributed.connect`; bad values raise CLIError."""
+    check_scale_args(args)
+    from stackik.distributed import connect
+
+    return connect(args.scheduler, args.workers)
+
+
+def say_where(executor: Any, quiet: bool) -> None:
+    """One line on stderr about where the work runs (nothing when serial or quiet)."""
+    if executor is None or quiet:
+        return
+    from stackik.distributed import describe
+
+    print(f"{PROG}: running on {describe(executor)}", file=sys.stderr, flush=True)
 
 
 def resolve_qp(method: str, qp_solver: str | None) -> str | None:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import json
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
@@ -15,15 +17,18 @@ from ._common import (
     NotAvailableError,
     add_method_args,
     add_phi_args,
+    add_scale_args,
     add_stack_args,
     draw_figures,
     dump_json,
+    executor_from_args,
     load_stack,
     lookup,
     not_available,
     phi_of,
     positive_int,
     resolve_qp,
+    say_where,
 )
 
 __all__ = ["HELP", "NAME", "add_parser", "run"]
@@ -57,6 +62,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="write workspace.csv, regression.json and the figures into DIR; finished "
         "solves are recorded in DIR/checkpoint, so an interrupted run resumes there",
     )
+    add_scale_args(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of a summary")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     return p
@@ -70,22 +76,31 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError(f"--targets: expected at least 3, got {args.targets}")
     try:
         study_fn = lookup("stackik.analysis.workspace", ("workspace_study",))
+        targets_fn = lookup("stackik.analysis.workspace", ("study_targets",))
     except NotAvailableError as exc:
         return not_available(NAME, exc)
     qp = resolve_qp(args.method, args.qp_solver)
     seed = DEFAULT_SEED if args.seed is None else args.seed
-    study = study_fn(
-        stack,
-        args.targets,
-        n_samples=args.samples,
-        sigma_t=args.sigma_t,
-        sigma_theta=args.sigma_theta,
-        seed=seed,
-        phi=phi,
-        progress=not args.quiet,
-        solve_kwargs={"method": args.method, "qp_solver": qp},
-        checkpoint_dir=None if args.out is None else args.out / "checkpoint",
-    )
+    with ExitStack() as cleanup:
+        # the workers start (and load the kernels) while this process draws the targets
+        with ThreadPoolExecutor(1) as starter:
+            pending = starter.submit(cleanup.enter_context, executor_from_args(args))
+            targets = targets_fn(stack, args.targets, seed=seed, phi=phi)
+            executor = pending.result()
+        say_where(executor, args.quiet)
+        study = study_fn(
+            stack,
+            targets,
+            n_samples=args.samples,
+            sigma_t=args.sigma_t,
+            sigma_theta=args.sigma_theta,
+            seed=seed,
+            phi=phi,
+            progress=not args.quiet,
+            executor=executor,
+            solve_kwargs={"method": args.method, "qp_solver": qp},
+            checkpoint_dir=None if args.out is None else args.out / "checkpoint",
+        )
     rows = study.rows()
     reg = study.regression
     written: list[Path] = []

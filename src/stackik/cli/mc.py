@@ -18,15 +18,18 @@ from ._common import (
     CLIError,
     add_method_args,
     add_planar_target_args,
+    add_scale_args,
     add_stack_args,
     draw_figures,
     dump_json,
+    executor_from_args,
     json_default,
     load_stack,
     planar_target,
     positive_int,
     progress,
     resolve_qp,
+    say_where,
 )
 
 if TYPE_CHECKING:
@@ -62,16 +65,19 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument(
         "--out", type=Path, default=None, metavar="DIR", help="write mc.json and the figures"
     )
+    add_scale_args(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
 
 
-def _nonoptimal(stack: Stack, target: PlanarTarget, k: int, seed: int, **kw: Any) -> list[IKResult]:
+def _nonoptimal(
+    stack: Stack, target: PlanarTarget, k: int, seed: int, executor: Any = None, **kw: Any
+) -> list[IKResult]:
     """``k`` non-optimised feasible poses (:func:`stackik.analysis.workspace.nonoptimal_poses`)."""
     from stackik.analysis.workspace import nonoptimal_poses
 
-    found = nonoptimal_poses(stack, target, k, seed=seed, **kw)
+    found = nonoptimal_poses(stack, target, k, seed=seed, executor=executor, **kw)
     if len(found) < k:
         raise ValueError(f"found only {len(found)} of {k} non-optimised poses of the target")
     return found
@@ -92,25 +98,34 @@ def run(args: argparse.Namespace) -> int:
 
     if args.nonopt < 0:
         raise CLIError(f"--nonopt: expected an integer >= 0, got {args.nonopt}")
-    bar = progress(None, 3, "mc", args.quiet)
-    bar.set_postfix_str("least-FN pose")
-    opt = solve_ik(stack, target, method=args.method, qp_solver=qp, starts=args.starts)
-    if not opt.success:
+    with executor_from_args(args) as executor:
+        say_where(executor, args.quiet)
+        bar = progress(None, 3, "mc", args.quiet)
+        bar.set_postfix_str("least-FN pose")
+        opt = solve_ik(stack, target, method=args.method, qp_solver=qp, starts=args.starts)
+        if not opt.success:
+            bar.close()
+            print(f"{PROG}: no feasible least-FN pose: {opt.message}", file=sys.stderr)
+            return EXIT_INFEASIBLE
+        bar.update()
+        bar.set_postfix_str("non-optimised poses")
+        seed = DEFAULT_SEED if args.seed is None else args.seed
+        others = _nonoptimal(
+            stack, target, args.nonopt, seed + 1, executor, method=args.method, qp_solver=qp
+        )
+        bar.update()
+        bar.set_postfix_str(f"{args.samples} samples")
+        results = [opt, *others]
+        mc = monte_carlo(
+            [r.q for r in results],
+            args.samples,
+            args.sigma_t,
+            args.sigma_theta,
+            rng=seed + 10,
+            executor=executor,
+        )
+        bar.update()
         bar.close()
-        print(f"{PROG}: no feasible least-FN pose: {opt.message}", file=sys.stderr)
-        return EXIT_INFEASIBLE
-    bar.update()
-    bar.set_postfix_str("non-optimised poses")
-    seed = DEFAULT_SEED if args.seed is None else args.seed
-    others = _nonoptimal(stack, target, args.nonopt, seed + 1, method=args.method, qp_solver=qp)
-    bar.update()
-    bar.set_postfix_str(f"{args.samples} samples")
-    results = [opt, *others]
-    mc = monte_carlo(
-        [r.q for r in results], args.samples, args.sigma_t, args.sigma_theta, rng=seed + 10
-    )
-    bar.update()
-    bar.close()
     labels = ["optimal"] + [f"non-opt {i + 1}" for i in range(args.nonopt)]
     rows = []
     for label, res, pm in zip(labels, results, mc.poses):
