@@ -237,6 +237,26 @@ def test_global_mode_moves_to_a_better_branch(stack4):
     assert glob.info["transit"] >= 1
 
 
+def test_fast_mode_leaves_a_branch_that_ends_at_a_limit_wall(tmp_path):
+    # n = 8: the branch the fast path follows ends at a joint limit before waypoint 45;
+    # the path reaches that waypoint's default pose by transit steps walked back from it
+    # (a spliced detour) instead of breaking; resuming after the splice gives the same
+    stack = Stack.reference(8)
+    a = PlanarTarget(1390.7857889700388, 1760.292531041743, -2.023119966011402)
+    b = PlanarTarget(178.77968731850942, 2078.076457656921, -0.022992853149510606)
+    pts = interpolate_targets([a, b], steps=59)
+    ck = tmp_path / "ck.jsonl"
+    r = solve_path(stack, pts, max_jump=MAX_JUMP, checkpoint=ck)
+    assert r.success, r.message
+    assert r.info.get("rejoined", 0) >= 1 and r.info["how"].get("rejoin", 0) >= 1
+    assert_valid_path(stack, r)
+    lines = ck.read_text().splitlines(keepends=True)
+    cut = next(i for i, ln in enumerate(lines) if '"many"' in ln) + 2
+    ck.write_text("".join(lines[:cut]))
+    resumed = solve_path(stack, pts, max_jump=MAX_JUMP, checkpoint=ck)
+    np.testing.assert_array_equal(resumed.q, r.q)
+
+
 def test_start_pose_is_kept(stack4, planar_path, fast_result):
     q0 = solve_ik(stack4, A, method="ip", starts=1).q  # the paper's guess, one start
     r = solve_path(stack4, planar_path, max_jump=MAX_JUMP, start=q0)

@@ -2,11 +2,12 @@
 
 A JSON-lines file, as :func:`stackik.solve.solve_many`'s checkpoints: a header line with a
 fingerprint of the problem (stack, waypoints, options), then one record per finished
-piece of work (``{"stage": ..., "index": ..., "value": ...}``), appended and flushed as it
-finishes. A path is sequential, so a resumed solve reads the records in order and
-continues after the last one; floats round-trip exactly through JSON, so the resumed
-result equals an uninterrupted one. A torn last line (the process died while writing) is
-dropped; a file written for another problem is refused.
+piece of work (``{"stage": ..., "index": ..., "value": ...}``, or several at once in one
+line, ``{"stage": ..., "many": [[index, value], ...]}``; later lines replace earlier
+records), appended and flushed as it finishes. A path is sequential, so a resumed solve
+reads the records in order and continues after the last one; floats round-trip exactly
+through JSON, so the resumed result equals an uninterrupted one. A torn last line (the
+process died while writing) is dropped; a file written for another problem is refused.
 """
 
 from __future__ import annotations
@@ -69,7 +70,9 @@ class PathCheckpoint:
         for k, line in enumerate(lines[1:], start=2):
             try:
                 rec = json.loads(line)
-                self.records[(str(rec["stage"]), int(rec["index"]))] = rec["value"]
+                items = rec["many"] if "many" in rec else [[rec["index"], rec["value"]]]
+                for index, value in items:
+                    self.records[(str(rec["stage"]), int(index))] = value
             except (ValueError, KeyError, TypeError) as exc:
                 raise ValueError(
                     f"checkpoint {self.path}: line {k} is not a stackik record ({exc})"
@@ -90,3 +93,11 @@ class PathCheckpoint:
         self.records[(stage, index)] = value
         if self.path is not None:
             self._append({"stage": stage, "index": index, "value": value})
+
+    def put_many(self, stage: str, items: list[tuple[int, Any]]) -> None:
+        """Record (or replace) several pieces at once, in one line: an interruption keeps
+        all of them or none."""
+        for index, value in items:
+            self.records[(stage, index)] = value
+        if self.path is not None:
+            self._append({"stage": stage, "many": [[i, v] for i, v in items]})

@@ -28,10 +28,11 @@ reachable only by a pose farther than ``max_jump``) and which limit was tightest
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
@@ -98,6 +99,7 @@ class _Request:
     max_candidates: int
     seed: int | None
     reanchor_every: int
+    memo: dict[Any, Any] = field(default_factory=dict, compare=False, repr=False)
 
     def key(self) -> dict[str, Any]:
         """JSON-ready identity of the problem (for checkpoints)."""
@@ -116,8 +118,13 @@ class _Request:
         }
 
     def default_solve(self, target: Target, index: int) -> Any:
-        rng = None if self.seed is None else self.seed + index
-        return solve_ik(self.stack, target, rng=rng)
+        """The default multi-start solve of waypoint ``index`` (memoised: a break's
+        diagnosis reuses the rejoin attempt's solve)."""
+        key = (index, json.dumps(target_to_dict(target)))
+        if key not in self.memo:
+            rng = None if self.seed is None else self.seed + index
+            self.memo[key] = solve_ik(self.stack, target, rng=rng)
+        return self.memo[key]
 
 
 def _request(
@@ -458,6 +465,17 @@ def _fast(
                 },
             )
             continue
+        splice = _rejoin_fast(req, tracker, tl, ql, tb, info)
+        if splice is not None:  # the followed branch ended: leave it earlier
+            j0, poses = splice
+            items = []
+            for j, q in enumerate(poses, start=j0):
+                ql[j], hows[j] = q, "rejoin"
+                old = ck.get("fast", j)
+                items.append((j, {**old, "q": q.tolist(), "how": "rejoin", "goal": None}))
+            ck.put_many("fast", items)
+            goal = None
+            continue  # the next step from the new pose before tb
         if req.refine and depth < REFINE_DEPTH:
             sa = sl[-1]
             pending[-1] = (tb, sb, depth + 1)
@@ -470,6 +488,42 @@ def _fast(
     rest_src = [float(i) for i in range(m) if i > sl[-1]]
     info["how"] = {h: hows.count(h) for h in sorted(set(hows))}
     return tl + rest, sl + rest_src, ql, hows, status, message, info
+
+
+def _rejoin_fast(
+    req: _Request,
+    tracker: Tracker,
+    tl: list[Target],
+    ql: list[FloatArray],
+    target: Target,
+    info: dict,
+) -> tuple[int, list[FloatArray]] | None:
+    """New poses for the last waypoints of a fast path whose branch ends before
+    ``target``: from the default pose of ``target``, transit steps backwards towards the
+    path's poses until one is within max_jump of the path; ``(first index replaced,
+    poses)`` (the last one within max_jump of the default pose, so the next step reaches
+    it), or None when the waypoint is unreachable or no such detour is found."""
+    k = len(ql)
+    r = req.default_solve(target, k)
+    info["default"] += 1
+    if not r.success or k < 2:
+        return None
+    cur = r.q
+    dist = tracker.ratio(cur, ql[-1])
+    new: list[FloatArray] = []
+    for j in range(k - 1, max(k - 1 - 2 * TRANSIT_STEPS, 0), -1):
+        qt = tracker.transit(cur, tl[j], ql[j])
+        if qt is None:
+            return None
+        new.append(qt)
+        if tracker.ratio(qt, ql[j - 1]) <= 1.0:
+            info["rejoined"] = info.get("rejoined", 0) + 1
+            return j, new[::-1]
+        d = tracker.ratio(qt, ql[j])
+        if d >= dist - 0.25:
+            return None
+        cur, dist = qt, tracker.ratio(qt, ql[j - 1])
+    return None
 
 
 def _reanchor(
