@@ -400,3 +400,34 @@ def test_commands_follow_the_module_convention() -> None:
 def test_method_choices_from_one_place(capsys: pytest.CaptureFixture[str]) -> None:
     rc, out, _ = _run(capsys, "solve", "--help")
     assert rc == 0 and "{" + ",".join(METHOD_NAMES) + "}" in out
+
+
+# -----------------------------------------------------------------------------------------
+# --workers / --scheduler (the runs themselves: tests/test_distributed.py)
+# -----------------------------------------------------------------------------------------
+@pytest.mark.parametrize("command", ["map", "mc", "reproduce"])
+def test_scale_out_options_listed(capsys: pytest.CaptureFixture[str], command: str) -> None:
+    rc, out, _ = _run(capsys, command, "--help")
+    assert rc == 0 and "--workers" in out and "--scheduler" in out and "local:K" in out
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [
+        ["--scheduler", "local:x"],
+        ["--scheduler", "local:0"],
+        ["--workers", "0"],
+        ["--scheduler", "tcp://127.0.0.1:1", "--workers", "2"],
+    ],
+)
+def test_bad_scale_out_options_exit_2(capsys: pytest.CaptureFixture[str], extra: list[str]) -> None:
+    rc, _, err = _run(capsys, "mc", "--target", *TARGET, "--quiet", *extra)
+    _assert_one_line_error(rc, err)
+
+
+def test_mc_on_two_local_processes_is_the_serial_run(capsys: pytest.CaptureFixture[str]) -> None:
+    argv = ["mc", "--target", *TARGET, "--samples", "500", "--quiet", "--json"]
+    rc, serial, _ = _run(capsys, *argv)
+    assert rc == 0
+    rc, pooled, _ = _run(capsys, *argv, "--workers", "2")
+    assert rc == 0 and json.loads(pooled) == json.loads(serial)
