@@ -9,12 +9,12 @@ import pytest
 
 import stackik as sk
 from stackik import _ipm
-from stackik.bench import random_stack
 from stackik.check import check_pose
 from stackik.formulation import Problem
 from stackik.geometry import Stack
 from stackik.methods import ip as ip_method
 from stackik.result import IKStatus, OptionError
+from stackik.sampling import random_stack
 from stackik.starts import paper_initial_guess
 
 PAPER_TARGETS = [(600.0, 1000.0, -1.57), (145.0, 1500.0, -0.207), (-319.0, 1532.0, 0.332)]
