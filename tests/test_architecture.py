@@ -34,6 +34,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
         "stackik.sqp",
         "stackik._ipm",
         "stackik._spatial",
+        "stackik._spatial_ipm",
         "stackik.batch",
         "stackik._io",
         "stackik._version",
@@ -46,6 +47,7 @@ ENGINE_RULES: dict[str, tuple[str, ...]] = {
     "stackik.sqp": ("stackik.sqp",),
     "stackik._ipm": (),
     "stackik._spatial": (),
+    "stackik._spatial_ipm": ("stackik._spatial",),  # the spatial evaluation it solves
     "stackik._check": ("stackik.check", "stackik._arrays"),  # the acceptance rule
     "stackik.batch": (),
 }

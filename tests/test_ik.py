@@ -299,7 +299,11 @@ def test_spatial_unreachable_stops_after_three_far_off_starts():
     t = sk.SpatialTarget([1500.0, 0.0, 200.0], Rotation.from_rotvec([0.5, -0.6, 0.4]).as_matrix())
     r = sk.solve_ik(STACK4, t)
     assert r.status is IKStatus.INFEASIBLE and not r.success
-    assert r.n_starts == 3 and r.max_violation > 1.0
+    # the first three interior-point starts stall far off; the answer is a pose within
+    # every limit stretched toward the target (as in planar mode), not a violating one
+    assert r.max_violation <= 1e-6 and r.target_error > 1.0
+    sqp = sk.solve_ik(STACK4, t, method="sqp")  # the SQP engine's early stop
+    assert sqp.status is IKStatus.INFEASIBLE and sqp.n_starts == 3
 
 
 def test_so3_log_fast_matches_scipy():

@@ -179,7 +179,9 @@ def test_auto_picks_the_engine():
         STACK4, t, objective="weighted", sigma_t=1.0, sigma_theta=[0.005, 0.01, 0.005, 0.005]
     )
     assert w2.method == "sqp" and w2.success
-    sp = sk.solve_ik(STACK4, t.to_spatial())
+    sp = sk.solve_ik(STACK4, t.to_spatial())  # the spatial interior point
+    assert sp.method == "ip" and sp.success
+    sp = sk.solve_ik(STACK4, t.to_spatial(), objective="feasible")
     assert sp.method == "sqp" and sp.success
 
 
@@ -193,8 +195,6 @@ def test_weighted_uniform_has_the_frobenius_minimiser():
 
 def test_ip_input_errors():
     t = sk.PlanarTarget(*PAPER_TARGETS[0])
-    with pytest.raises(ValueError, match="planar only"):
-        sk.solve_ik(STACK4, t.to_spatial(), method="ip")
     with pytest.raises(ValueError, match="one sigma_theta"):
         sk.solve_ik(
             STACK4, t, method="ip", objective="weighted", sigma_t=1.0, sigma_theta=[1, 2, 1, 1]

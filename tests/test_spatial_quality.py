@@ -4,12 +4,20 @@ solve_many in spatial mode."""
 
 from __future__ import annotations
 
+import fd
+import numpy as np
 import pytest
 
+from stackik._arrays import readonly
 from stackik.check import check_pose
+from stackik.formulation import Problem
 from stackik.geometry import Stack
+from stackik.result import IKStatus
+from stackik.rotations import euler_zyx
 from stackik.sampling import random_spatial_targets
-from stackik.solve import solve_ik
+from stackik.solve import solve_ik, solve_many
+from stackik.starts import paper_initial_guess
+from stackik.targets import SpatialTarget
 
 try:
     import casadi  # noqa: F401
@@ -44,3 +52,152 @@ def test_ipopt_spatial_weighted_and_feasible() -> None:
     assert w.success
     f = solve_ik(stack, target, method="ipopt", starts=1, objective="feasible")
     assert f.success
+
+
+# =========================================================================================
+# The spatial interior point's derivatives (closed forms against finite differences;
+# tolerances from tests/fd.py: step, scale and rounding)
+# =========================================================================================
+def _case(n: int, seed: int) -> tuple[Stack, SpatialTarget, Problem, np.ndarray]:
+    stack = Stack.reference(n)
+    target = random_spatial_targets(stack, 1, seed)[0]
+    prob = Problem(stack, target, "frobenius", None)
+    rng = np.random.default_rng(seed)
+    q = paper_initial_guess(stack, target)
+    q = q + rng.normal(size=q.shape) * np.array([30, 30, 30, 0.3, 0.3, 0.3])
+    return stack, target, prob, q
+
+
+def test_euler_second_derivatives_match_differences() -> None:
+    from stackik._spatial_ipm import euler_second
+
+    ang = np.array([0.4, -0.7, 1.1])
+    R, D, D2 = euler_second(*ang)
+    np.testing.assert_allclose(R, euler_zyx(ang[None])[0], atol=1e-15)
+    num = fd.central(lambda a: euler_second(*a)[0], ang)  # dR/da: (3, 3, 3 [a])
+    fd.assert_derivative_close(np.moveaxis(D, 0, -1), num, f_scale=1.0, what="dR")
+    num2 = fd.central(lambda a: euler_second(*a)[1], ang)  # (3 [j], 3, 3, 3 [k])
+    fd.assert_derivative_close(np.moveaxis(D2, 1, -1), num2, f_scale=1.0, what="d2R")
+
+
+@pytest.mark.parametrize("n", [1, 3])
+def test_limit_hessians_match_differences(n: int) -> None:
+    from stackik._spatial import spatial_parts
+    from stackik._spatial_ipm import limit_hessians
+
+    stack, _, _, q = _case(n, 9401 + n)
+    geo = (
+        readonly(stack.top_nodes),
+        readonly(stack.base_nodes),
+        readonly(stack.leg_min),
+        readonly(stack.leg_max),
+        readonly(stack.sin_joint_min),
+    )
+    y = np.random.default_rng(n).uniform(-1, 1, size=(n, 24))
+    H = limit_hessians(q, y, geo[0], geo[1], geo[4])
+
+    def grad(qq: np.ndarray) -> np.ndarray:  # sum_r y_r dc_r/dq_i, per platform (n, 6)
+        Jc = spatial_parts(qq.reshape(n, 6), *geo)[5]
+        return np.einsum("ir,irk->ik", y, Jc)
+
+    num = fd.central(grad, q, typical=np.array(fd.TYPICAL_SPATIAL))  # (n, 6, n, 6)
+    F = np.abs(y) @ np.ones(24) * fd.constraint_scale(*geo[:2], stack.leg_max, q).max(1)
+    X = fd.variable_scale(q, np.array(fd.TYPICAL_SPATIAL))
+    ana = np.einsum("iab,im->iamb", H, np.eye(n))
+    fd.assert_derivative_close(ana, num, f_scale=F[:, None] / X, what="limit Hessians")
+
+
+@pytest.mark.parametrize("n", [2, 4])
+def test_spatial_ip_evaluation_and_lagrangian_hessian(n: int) -> None:
+    from stackik._spatial import spatial_parts
+    from stackik._spatial_ipm import evaluate, fn2_hessian, lagrangian_hessian
+    from stackik.kinematics import spatial_chain
+    from stackik.methods.ip import spatial_problem_arrays
+
+    stack, target, prob, q = _case(n, 9501 + n)
+    P = spatial_problem_arrays(prob)
+    u = prob.u_of(q)
+    f, g, cE, AE, cI, D = evaluate(u, P)
+    # the same objective and limits as Problem (the orientation rows are the skew form)
+    assert f == pytest.approx(prob.objective_value(q) / prob.fscale, rel=1e-13)
+    np.testing.assert_allclose(cI, prob.evaluate(u)[4], rtol=1e-13, atol=1e-15)
+    # FN^2 Hessian against the kinematics' exact (third-derivative) one
+    geo = (stack.top_nodes, stack.base_nodes, stack.leg_min, stack.leg_max, stack.sin_joint_min)
+    Pee, Ree, Jp, w, c, Jc, r, Jr = spatial_parts(q, *(readonly(a) for a in geo))
+    wts = (np.arange(6 * n) % 6 >= 3).astype(float)
+    ref = spatial_chain(q).weighted_hessian(wts)
+    np.testing.assert_allclose(
+        fn2_hessian(Jp, w, r, Jr, np.ones(n)), ref, atol=1e-12 * np.abs(ref).max()
+    )
+    # first derivatives
+    num = fd.central(lambda v: evaluate(v, P)[0], u)
+    fd.assert_derivative_close(g, num, f_scale=fd.term_scale(f, num), what="grad f")
+    num = fd.central(lambda v: evaluate(v, P)[2], u)
+    fd.assert_derivative_close(AE, num, f_scale=fd.term_scale(cE, num), what="A_E")
+    # the Lagrangian Hessian: differences of the Lagrangian's gradient
+    rng = np.random.default_rng(n)
+    yE, z = rng.normal(size=6), rng.uniform(0, 2, size=24 * n)
+
+    def lag_grad(v: np.ndarray) -> np.ndarray:
+        f_, g_, cE_, AE_, cI_, D_ = evaluate(v, P)
+        AItz = np.einsum("ir,irk->ik", z.reshape(n, 24), D_).ravel()
+        return g_ - AE_.T @ yE - AItz
+
+    H = lagrangian_hessian(u, yE, z, P)
+    num = fd.central(lag_grad, u)
+    fd.assert_derivative_close(H, num, f_scale=fd.term_scale(lag_grad(u), num), what="W")
+
+
+# =========================================================================================
+# The default in spatial mode
+# =========================================================================================
+def test_spatial_default_is_the_interior_point_and_passes_the_check() -> None:
+    stack = Stack.reference(3)
+    for target in random_spatial_targets(stack, 3, 9601):
+        r = solve_ik(stack, target)
+        assert r.success and r.method == "ip" and r.n_starts == 13
+        assert check_pose(stack, target, r.q).ok
+        one = solve_ik(stack, target, starts=1)
+        assert one.success and one.method == "ip"
+        assert r.frobenius_norm <= one.frobenius_norm * (1 + 1e-9)
+
+
+def test_spatial_weighted_objective() -> None:
+    from stackik.kinematics import spatial_chain
+
+    stack = Stack.reference(3)
+    target = random_spatial_targets(stack, 1, 9701)[0]
+    st_, sth = np.array([0.1, 0.5, 1.0]), np.array([0.01, 0.02, 0.03])
+    kw = {"objective": "weighted", "sigma_t": st_, "sigma_theta": sth}
+    r = solve_ik(stack, target, **kw)
+    assert r.success and r.method == "ip"
+    # the objective is trace(J C_x J^T) for C_x = diag(sigma^2) per platform
+    var = np.column_stack([np.repeat(st_[:, None] ** 2, 3, 1), np.repeat(sth[:, None] ** 2, 3, 1)])
+    expect = spatial_chain(r.q).weighted_norm2(var.ravel())
+    assert r.objective_value == pytest.approx(expect, rel=1e-10)
+    # and it is minimised: no better than the SQP engine's from the same starts by much
+    sqp = solve_ik(stack, target, method="sqp", **kw)
+    assert sqp.success
+    assert r.objective_value <= sqp.objective_value * 1.02
+
+
+def test_spatial_unreachable_targets_get_a_limit_respecting_pose() -> None:
+    from scipy.spatial.transform import Rotation
+
+    stack = Stack.reference(4)
+    rot = Rotation.from_rotvec([0.3, -0.2, 0.1]).as_matrix()
+    for pos in ([1500.0, 0.0, 200.0], [0.0, 0.0, 5000.0]):  # inside / beyond the reach bound
+        r = solve_ik(stack, SpatialTarget(np.array(pos), rot))
+        assert r.status is IKStatus.INFEASIBLE and not r.success
+        assert r.max_violation <= 1e-6 and r.target_error > 1.0
+        assert r.time < 5.0
+
+
+def test_solve_many_spatial_matches_serial() -> None:
+    stack = Stack.reference(2)
+    targets = random_spatial_targets(stack, 3, 9801)
+    many = solve_many(stack, targets)
+    for t, m in zip(targets, many, strict=True):
+        one = solve_ik(stack, t)
+        assert m.success and m.method == one.method == "ip"
+        np.testing.assert_array_equal(m.q, one.q)

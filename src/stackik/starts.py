@@ -23,6 +23,7 @@ __all__ = [
     "initial_starts",
     "nominal_height",
     "paper_initial_guess",
+    "spatial_starts",
     "tall_random_starts",
 ]
 
@@ -151,6 +152,61 @@ def fold_patterns(stack: Stack, q0: FloatArray, depth: int) -> list[FloatArray]:
         q = q0.copy()
         q[n - m :, 0] += a * signs
         out.append(q)
+    return out
+
+
+#: Yaw of the opposite twists of the top two platforms in :func:`spatial_starts` [rad].
+SPATIAL_YAW_FOLDS = (1.2, -1.2, 2.5, -2.5)
+#: Tilt of the bottom platform in the leaning starts of :func:`spatial_starts` [rad]:
+#: roll (lean along y) and pitch (lean along x).
+SPATIAL_LEAN = 0.7
+SPATIAL_PITCH_LEAN = 0.8
+
+
+def spatial_starts(stack: Stack, q0: FloatArray) -> list[FloatArray]:
+    """The structured starts of the spatial interior point, in order (n >= 2).
+
+    The spatial FN minima fold the stack in more ways than the planar ones (measured on
+    random reachable targets against IPOPT from 32 starts, ``benchmarks/bench_spatial.py``):
+
+    * sideways folds: the top two platforms offset in opposite directions along x or y
+      (:func:`initial_starts`, 4 starts);
+    * twists: the top two platforms turned about their normals in opposite directions
+      (yaw ``+-a``, ``a`` in :data:`SPATIAL_YAW_FOLDS`; the best poses of about half the
+      targets turn them by 1-2.5 rad);
+    * leans (n >= 3): the bottom platform tilted by :data:`SPATIAL_LEAN` about x (roll)
+      or :data:`SPATIAL_PITCH_LEAN` about y (pitch), both signs, the middle platforms
+      shifted along the tilted axis that points up (``1.5 leg range``, and ``-100 mm`` in
+      height): the whole stack leaning over and folding back. At n = 8 the best known
+      poses of most targets lean so; no other start reached them.
+
+    ``q0`` (the paper's guess) first; 13 starts in all (9 for n = 2).
+    """
+    n = stack.n
+    out = [q0]
+    a = 0.75 * float(np.mean(stack.leg_max - stack.leg_min))
+    for axis in (0, 1):
+        for sign in (1.0, -1.0):
+            q = q0.copy()
+            q[-2, axis] += sign * a
+            q[-1, axis] -= sign * a
+            out.append(q)
+    for yaw in SPATIAL_YAW_FOLDS:
+        q = q0.copy()
+        q[n - 2, 3] += yaw
+        q[n - 1, 3] -= yaw
+        out.append(q)
+    if n >= 3:
+        shift = 1.5 * float(np.mean(stack.leg_max - stack.leg_min))
+        # roll about x leans the stack toward +-y; pitch about y toward -+x: the middle
+        # platforms move along the tilted axis that points up
+        for col, tilt, axis, dirn in ((5, SPATIAL_LEAN, 1, 1.0), (4, SPATIAL_PITCH_LEAN, 0, -1.0)):
+            for sign in (1.0, -1.0):
+                q = q0.copy()
+                q[0, col] += sign * tilt
+                q[1 : n - 1, axis] += dirn * sign * shift
+                q[1 : n - 1, 2] -= 100.0
+                out.append(q)
     return out
 
 

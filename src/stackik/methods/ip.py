@@ -1,8 +1,10 @@
-"""``method="ip"``: the compiled primal-dual interior point (:mod:`stackik._ipm`), planar.
+"""``method="ip"``: the compiled primal-dual interior point, planar (:mod:`stackik._ipm`)
+and spatial (:mod:`stackik._spatial_ipm`, exact second derivatives in closed form).
 
 This module turns a :class:`~stackik.formulation.Problem` into the arrays the compiled
 kernels take, parses the method's options, runs every start in one compiled call and
-checks the poses with the compiled twin of the independent check.
+checks the poses with the independent check (planar: its compiled twin; spatial:
+:func:`stackik.check.check_pose` after the polish of :func:`stackik.formulation.polish`).
 """
 
 from __future__ import annotations
@@ -15,11 +17,34 @@ from typing import Any, ClassVar
 import numpy as np
 
 from stackik._arrays import readonly
-from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
+from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem, polish
 from stackik.methods.base import FloatArray, Method, Run, RunStatus, run_status
 from stackik.result import OptionError
 
 __all__ = ["IP_DEFAULTS", "IPMethod", "ip_multi", "ip_solve", "problem_arrays", "warm_up"]
+
+
+def spatial_problem_arrays(prob: Any) -> tuple[Any, ...]:
+    """The tuple of arrays :func:`stackik._spatial_ipm.ip_loop` needs, from a spatial
+    :class:`~stackik.formulation.Problem` (every array read-only)."""
+    st = prob.stack
+    tgt = prob.target
+    return (
+        readonly(prob.xs),
+        readonly(prob.cs),
+        readonly(prob.es),
+        readonly(tgt.position),
+        readonly(tgt.rotation),
+        float(prob.fscale),
+        float(prob.c0),
+        readonly(prob.w_th),
+        readonly(st.top_nodes),
+        readonly(st.base_nodes),
+        readonly(st.leg_min),
+        readonly(st.leg_max),
+        readonly(st.sin_joint_min),
+        prob.objective == "feasible",
+    )
 
 
 def problem_arrays(prob: Any) -> tuple[Any, ...]:
@@ -82,8 +107,9 @@ def _ip_options(options: dict[str, Any] | None) -> dict[str, Any]:
 def ip_solve(prob: Any, u0: FloatArray, options: dict[str, Any] | None = None) -> tuple[
     FloatArray, int, str
 ]:  # fmt: skip
-    """Run the barrier method (and the polish) on a planar :class:`stackik.formulation.Problem`
-    from one scaled start ``u0``: :func:`ip_multi` with one row.
+    """Run the barrier method (and the polish, planar) on a
+    :class:`stackik.formulation.Problem` from one scaled start ``u0``: :func:`ip_multi`
+    with one row.
 
     Returns the scaled point, the iteration count and a status string
     (``"success"``, ``"max_iter"``, ``"stalled"``, ``"nonfinite"``, ``"max_time"``).
@@ -106,10 +132,23 @@ def ip_multi(
     statuses as strings.
     """
     opts = _ip_options(options)
-    P = problem_arrays(prob)
     deadline = time.perf_counter() + float(opts["max_time"])
     U = np.ascontiguousarray(np.atleast_2d(U0), dtype=float)
     mus = np.full(U.shape[0], float(opts["mu0"])) if mu0 is None else np.asarray(mu0, float)
+    if not prob.planar:  # the spatial kernels; the polish is the caller's (Problem's form)
+        from stackik import _spatial_ipm
+
+        X, st, nit, obj, viol = _spatial_ipm.ip_multi(
+            U,
+            spatial_problem_arrays(prob),
+            float(opts["tol"]),
+            float(opts["constr_tol"]),
+            np.ascontiguousarray(mus),
+            int(opts["max_iter"]),
+            deadline if math.isfinite(deadline) else 1e300,
+        )
+        return X, [_spatial_ipm.IP_STATUS[int(s)] for s in st], nit, obj, viol
+    P = problem_arrays(prob)
     from stackik import _ipm  # numba: imported when first needed
 
     X, st, nit, obj, viol = _ipm._ip_multi(
@@ -148,6 +187,7 @@ def ip_starts(
     the independent check (tried in order of objective among those the solver reports
     feasible), or the least-violation run when none passes."""
     from stackik._check import planar_check
+    from stackik.check import check_pose
 
     U0 = np.stack([prob.u_of(q) for q in starts])
     opts = {"max_time": max_time, **options}
@@ -163,11 +203,17 @@ def ip_starts(
     total = int(np.sum(nits))
     for j in order:
         q = prob.q_of(X[j])
-        # the independent re-check (compiled; same values as check_pose, tested)
-        chk, P, R, legs = planar_check(prob.stack, prob.target, q)
-        # the objective at the polished point, unscaled (f = objective / fscale)
-        obj = objs[j] * prob.fscale
-        run = Run(q, int(nits[j]), statuses[j], chk, obj, (P, R, legs), texts[j])
+        if prob.planar:
+            # the independent re-check (compiled; same values as check_pose, tested)
+            chk, P, R, legs = planar_check(prob.stack, prob.target, q)
+            # the objective at the polished point, unscaled (f = objective / fscale)
+            obj = objs[j] * prob.fscale
+            run = Run(q, int(nits[j]), statuses[j], chk, obj, (P, R, legs), texts[j])
+        else:  # polished here, only the runs checked (Problem's rotation-vector form)
+            q = prob.q_of(polish(prob, X[j]))
+            chk = check_pose(prob.stack, prob.target, q)
+            obj = prob.objective_value(q)
+            run = Run(q, int(nits[j]), statuses[j], chk, obj, None, texts[j])
         if chk.ok:
             return IPBatch(run, least, total, statuses)
         if least is None or chk.max_violation_mm < least.check.max_violation_mm:
@@ -178,16 +224,15 @@ def ip_starts(
 
 
 class IPMethod(Method):
-    """The compiled primal-dual interior point (planar; all starts in one call)."""
+    """The compiled primal-dual interior point (planar and spatial; all starts in one
+    call)."""
 
     name: ClassVar[str] = "ip"
-    modes: ClassVar[frozenset[str]] = frozenset({"planar"})
+    modes: ClassVar[frozenset[str]] = frozenset({"planar", "spatial"})
     uses_blas: ClassVar[bool] = False
 
     def supports(self, prob: Problem) -> str | None:
-        if prob.mode.name != "planar":
-            return 'method "ip" is planar only (PlanarTarget); use "sqp" or "auto"'
-        if prob.objective == "weighted" and np.ptp(prob.w_th) != 0:
+        if prob.planar and prob.objective == "weighted" and np.ptp(prob.w_th) != 0:
             return 'method "ip" needs one sigma_theta for all platforms; use "sqp"'
         return None
 

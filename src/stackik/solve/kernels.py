@@ -1,7 +1,8 @@
 """The compiled kernels: loaded (or compiled) once per process, before any clock starts.
 
-The planar interior point and its re-check (:mod:`stackik._ipm`, :mod:`stackik._check`)
-and the spatial evaluation (:mod:`stackik._spatial`) are compiled by numba with
+The planar interior point and its re-check (:mod:`stackik._ipm`, :mod:`stackik._check`),
+the spatial evaluation (:mod:`stackik._spatial`) and the spatial interior point
+(:mod:`stackik._spatial_ipm`) are compiled by numba with
 ``cache=True``: the first use on a machine compiles them (tens of seconds) and writes
 machine code beside the sources (or to ``NUMBA_CACHE_DIR``); later processes load it
 (a fraction of a second). :func:`solve_ik` calls :func:`ensure_kernels` for what the
@@ -11,6 +12,7 @@ nor shows in :attr:`IKResult.time`. A compilation says so on stderr once.
 
 from __future__ import annotations
 
+import math
 import sys
 import threading
 import time
@@ -19,7 +21,7 @@ from typing import Any
 __all__ = ["KERNEL_KINDS", "ensure_kernels", "kernels_cached", "warm_up"]
 
 #: The kernel sets, and the rough first-compile time of each on a 2-core machine [s].
-KERNEL_KINDS: dict[str, float] = {"planar": 30.0, "spatial": 15.0}
+KERNEL_KINDS: dict[str, float] = {"planar": 30.0, "spatial": 60.0}
 
 _READY: set[str] = set()
 _LOCK = threading.Lock()
@@ -30,9 +32,9 @@ def _dispatchers(kind: str) -> list[Any]:
         from stackik import _check, _ipm
 
         return [_ipm._ip_multi, _check._planar_check]
-    from stackik import _spatial
+    from stackik import _spatial, _spatial_ipm
 
-    return [_spatial.spatial_parts, _spatial.block_jacobian]
+    return [_spatial.spatial_parts, _spatial.block_jacobian, _spatial_ipm.ip_multi]
 
 
 def kernels_cached(kind: str) -> bool | None:
@@ -59,8 +61,11 @@ def _warm(kind: str) -> None:
 
     stack = Stack.reference(2)
     target = SpatialTarget(np.array([0.0, 0.0, 700.0]), np.eye(3))
+    from stackik.methods.ip import ip_starts
+
     prob = Problem(stack, target, "frobenius", None)
     prob.evaluate(prob.u_of(paper_initial_guess(stack, target)))
+    ip_starts(prob, [paper_initial_guess(stack, target)], {}, math.inf)  # spatial IP
 
 
 def ensure_kernels(kind: str, *, notice: bool = True) -> float:

@@ -22,6 +22,7 @@ __all__ = [
     "NEAREST_MAX_T",
     "NEAREST_MESSAGE",
     "NEAREST_STEPS",
+    "SPATIAL_NEAREST_MESSAGE",
     "nearest_reachable",
     "stretch_toward",
 ]
@@ -44,6 +45,13 @@ NEAREST_MESSAGE = (
     "stalled); q respects every limit and reaches the point y0 + t (y_target - y0) for "
     "the largest t a bisection from the upright pose y0 found; target_error is what is "
     "left [mm]."
+)
+
+SPATIAL_NEAREST_MESSAGE = (
+    "No feasible pose found: the target looks unreachable (the first interior-point "
+    "starts all stalled far from it); q respects every limit and is stretched toward the "
+    "target position in the vertical plane through it (a bisection of interior-point "
+    "solves from the upright pose); target_error is what is left [mm]."
 )
 
 

@@ -18,6 +18,7 @@ from stackik.starts import (
     fold_depth,
     fold_patterns,
     initial_starts,
+    spatial_starts,
     tall_random_starts,
 )
 
@@ -54,8 +55,9 @@ def auto_method(
 ) -> str:
     """``method="auto"``: the compiled interior-point path where it applies, else SQP.
 
-    The interior-point path (:mod:`stackik._ipm`) covers planar targets with the
-    ``"frobenius"`` objective or ``"weighted"`` with one ``sigma_theta`` for all platforms.
+    The interior-point path covers planar targets (:mod:`stackik._ipm`) with the
+    ``"frobenius"`` objective or ``"weighted"`` with one ``sigma_theta`` for all platforms,
+    and spatial targets (:mod:`stackik._spatial_ipm`) with either objective.
     ``"feasible"`` stays with the SQP engine: its poses are the paper's "first feasible
     pose from the start", which a barrier method (drawn to the centre of the feasible
     set) does not reproduce. A given ``qp_solver``, or ``options`` that are not all
@@ -63,10 +65,12 @@ def auto_method(
     """
     from stackik.methods.ip import IP_DEFAULTS
 
-    if not planar or objective == "feasible" or qp_solver is not None:
+    if objective == "feasible" or qp_solver is not None:
         return "sqp"
     if options and any(key not in IP_DEFAULTS for key in options):
         return "sqp"
+    if not planar:  # the spatial interior point takes any per-platform weights
+        return "ip"
     if objective == "weighted" and np.ptp(np.asarray(sigma_theta, dtype=float)) != 0:
         return "sqp"
     return "ip"
@@ -113,6 +117,12 @@ def plan_starts(req: Any) -> StartPlan:
     queue = initial_starts(req.stack, req.target, req.q0, structured=req.structured)
     starts = req.starts
     spatial_default = False
+    spatial_ip = not req.mode.planar and req.method.name == "ip" and req.stack.n >= 2
+    if spatial_ip and req.structured:
+        # spatial interior point: folds, twists and leans (stackik.starts.spatial_starts)
+        queue = spatial_starts(req.stack, req.q0)
+        if starts is None:
+            return StartPlan(queue, len(queue), len(queue), True)
     if starts is None and not req.mode.planar and req.stack.n >= 2 and req.structured:
         # spatial: the five structured starts and seven random ones, each solved in full
         # (benchmark: within 0.1 % of the best FN found on 30 of 30 targets, vs 28 from

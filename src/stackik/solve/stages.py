@@ -17,7 +17,13 @@ from numpy.typing import NDArray
 from stackik.check import FEAS_TOL
 from stackik.methods import Method, Run, RunStatus, get_method
 from stackik.result import IKStatus
-from stackik.solve.nearest import NEAREST_MAX_T, NEAREST_MESSAGE, nearest_reachable
+from stackik.solve.nearest import (
+    NEAREST_MAX_T,
+    NEAREST_MESSAGE,
+    SPATIAL_NEAREST_MESSAGE,
+    nearest_reachable,
+    stretch_toward,
+)
 from stackik.solve.policy import (
     SCREEN_FEAS_MM,
     SCREEN_OPTIONS,
@@ -130,6 +136,8 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     method = req.method
     assert isinstance(method, IPMethod)
     starts = plan.batch(req.sampler, req.structured, req.stack.n)
+    if not req.mode.planar:  # the spatial kernels call LAPACK/BLAS on (6n)^2 matrices
+        req.blas.apply()
     left = req.time_left(time.perf_counter())
     batch = method.run_many(req.problem, starts, req.options, left)
     if batch.best is not None:
@@ -138,7 +146,18 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         return Verdict(batch.least, _ip_status(batch.statuses), batch.nit, len(starts), "ip")
     stalled = all(s in (RunStatus.STALLED, RunStatus.SKIPPED) for s in batch.statuses)
     queue = plan.queue
-    if stalled:
+    if stalled and not isinstance(req.target, PlanarTarget):
+        # spatial: the same bisection in the vertical plane through the target position
+        # gives a pose within every limit stretched toward it
+        near_s, nit_near, n_near = stretch_toward(
+            req.stack, req.target, req.objective, req.weights, req.options,
+            req.t_start + req.max_time,
+        )  # fmt: skip
+        if near_s is not None:
+            n = len(starts) + n_near
+            nit = batch.nit + nit_near
+            return Verdict(near_s, IKStatus.INFEASIBLE, nit, n, "ip", SPATIAL_NEAREST_MESSAGE)
+    elif stalled:
         target = req.target
         assert isinstance(target, PlanarTarget)
         deadline = req.t_start + req.max_time

@@ -1,0 +1,765 @@
+"""Compiled primal-dual interior point for the spatial IK problem, with exact second
+derivatives.
+
+The spatial problem of :class:`stackik.formulation.Problem` (scaled variables
+``u = q / xs``, pose rows ``[x, y, z, yaw, pitch, roll]``, ``R = Rz Ry Rx``):
+
+    min f(u) = (c0 + sum_a w_a |dP_ee / d angle_a|^2) / fscale
+    s.t. c_E(u) = 0   (end-effector position / L, and the orientation, 6 rows)
+         c_I(u) >= 0  (24 n limits, scaled by ``cs``)
+
+is solved by the barrier method of :mod:`stackik._ipm` (IPOPT-like: slacks, Fiacco-McCormick
+``mu``, Newton steps on the perturbed KKT conditions with inertia correction, fraction to
+the boundary, filter line search), here with a null-space KKT solve through the SVD of the
+6 x 6n equality Jacobian. The orientation rows are the skew part
+``vee(E - E^T) / 2 = sin(angle) axis`` of ``E = R_target^T R_ee``: smooth everywhere and
+equal to the rotation vector to third order at ``E = I``, so the KKT points with ``E = I``
+are those of the rotation-vector form :class:`Problem` uses (the caller polishes with that
+form and re-checks every pose).
+
+Exact Hessian of the Lagrangian, all in closed form (serial-chain rules, variable ``a``
+moving along ``A_i e_j`` or turning about the world axis ``w_a``, ``Jp`` the position
+Jacobian):
+
+* ``d^2 P_ee / dx_a dx_b = w_lo x Jp[:, hi]`` (``lo, hi`` = min, max of ``a, b``; zero when
+  ``lo`` translates);
+* third derivatives ``d^3 P_ee / dx_i dx_j dx_k = w_i x (w_j x Jp[:, k])`` for sorted
+  ``i <= j <= k`` with ``i, j`` angles (zero otherwise), which with the Gauss-Newton part
+  gives the FN^2 Hessian;
+* ``d^2 E / dx_a dx_b = [v_lo]x [v_hi]x E`` with ``v = R_target^T w`` (both angles);
+* each platform's 24 limits from the Euler-angle second derivatives of ``R`` (6 x 6 blocks).
+
+Everything is tested against finite differences (``tests/test_spatial_quality.py``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from typing import Any
+
+import numpy as np
+from numba import njit, objmode
+
+from stackik._spatial import spatial_parts
+
+FloatArray = Any
+
+_jit = njit(cache=True, error_model="numpy", nogil=True)
+warnings.filterwarnings(
+    "ignore", message="Code running in object mode won't allow parallel execution"
+)
+
+#: Stop after this many starts when all end farther than GIVE_UP_VIOLATION (scaled) from
+#: feasibility (an unreachable target).
+GIVE_UP_AFTER = 3
+GIVE_UP_VIOLATION = 1e-4
+OBJ_MAX_GRAD = 100.0
+
+IP_SUCCESS, IP_MAX_ITER, IP_STALLED, IP_NONFINITE, IP_MAX_TIME, IP_SKIPPED = 0, 1, 2, 3, 4, 5
+IP_STATUS = {
+    IP_SKIPPED: "skipped",
+    IP_SUCCESS: "success",
+    IP_MAX_ITER: "max_iter",
+    IP_STALLED: "stalled",
+    IP_NONFINITE: "nonfinite",
+    IP_MAX_TIME: "max_time",
+}
+
+
+# =========================================================================================
+# Derivatives
+# =========================================================================================
+@_jit
+def _mm3(A: FloatArray, B: FloatArray) -> FloatArray:
+    """3 x 3 product by loops (BLAS costs more than the arithmetic at this size)."""
+    out = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
+    return out
+
+
+@_jit
+def euler_second(a: float, b: float, c: float) -> tuple[Any, Any, Any]:
+    """``R = Rz(a) Ry(b) Rx(c)``, ``D[j] = dR/d(a, b, c)[j]`` and
+    ``D2[j, k] = d^2 R / d(a, b, c)[j] d(a, b, c)[k]``."""
+    ca, sa = math.cos(a), math.sin(a)
+    cb, sb = math.cos(b), math.sin(b)
+    cc, sc = math.cos(c), math.sin(c)
+    F = np.zeros((3, 3, 3, 3))  # F[factor, derivative order]
+    F[0, 0] = np.array([[ca, -sa, 0.0], [sa, ca, 0.0], [0.0, 0.0, 1.0]])
+    F[0, 1] = np.array([[-sa, -ca, 0.0], [ca, -sa, 0.0], [0.0, 0.0, 0.0]])
+    F[0, 2] = np.array([[-ca, sa, 0.0], [-sa, -ca, 0.0], [0.0, 0.0, 0.0]])
+    F[1, 0] = np.array([[cb, 0.0, sb], [0.0, 1.0, 0.0], [-sb, 0.0, cb]])
+    F[1, 1] = np.array([[-sb, 0.0, cb], [0.0, 0.0, 0.0], [-cb, 0.0, -sb]])
+    F[1, 2] = np.array([[-cb, 0.0, -sb], [0.0, 0.0, 0.0], [sb, 0.0, -cb]])
+    F[2, 0] = np.array([[1.0, 0.0, 0.0], [0.0, cc, -sc], [0.0, sc, cc]])
+    F[2, 1] = np.array([[0.0, 0.0, 0.0], [0.0, -sc, -cc], [0.0, cc, -sc]])
+    F[2, 2] = np.array([[0.0, 0.0, 0.0], [0.0, -cc, sc], [0.0, -sc, -cc]])
+    R = _mm3(_mm3(F[0, 0], F[1, 0]), F[2, 0])
+    D = np.empty((3, 3, 3))
+    D2 = np.empty((3, 3, 3, 3))
+    for j in range(3):
+        D[j] = _mm3(_mm3(F[0, int(j == 0)], F[1, int(j == 1)]), F[2, int(j == 2)])
+        for k in range(j, 3):
+            D2[j, k] = _mm3(
+                _mm3(F[0, int(j == 0) + int(k == 0)], F[1, int(j == 1) + int(k == 1)]),
+                F[2, int(j == 2) + int(k == 2)],
+            )
+            D2[k, j] = D2[j, k]
+    return R, D, D2
+
+
+@_jit
+def limit_hessians(q: FloatArray, y: FloatArray, top: FloatArray, base: FloatArray,
+                   sin_joint: FloatArray) -> FloatArray:  # fmt: skip
+    """``sum_r y[i, r] d^2 c_r / dq_i^2`` per platform, shape (n, 6, 6): the raw limits of
+    platform i (24, DESIGN.md order) against its own six variables, weighted by ``y``
+    (n, 24)."""
+    n = q.shape[0]
+    out = np.zeros((n, 6, 6))
+    lk = np.empty(3)
+    dl = np.zeros((6, 3))
+    dRn = np.zeros((6, 3))
+    d2l = np.zeros((3, 3, 3))  # angles only: D2[a, b] t
+    gsq = np.empty(6)
+    for i in range(n):
+        R, D, D2 = euler_second(q[i, 3], q[i, 4], q[i, 5])
+        s = sin_joint[i]
+        for j in range(3):
+            for r in range(3):
+                dRn[3 + j, r] = D[j, r, 2]
+        for k in range(6):
+            t0, t1, t2 = top[i, k, 0], top[i, k, 1], top[i, k, 2]
+            for r in range(3):
+                lk[r] = R[r, 0] * t0 + R[r, 1] * t1 + R[r, 2] * t2 + q[i, r] - base[i, k, r]
+            for j in range(3):
+                for r in range(3):
+                    dl[j, r] = 1.0 if r == j else 0.0
+                    dl[3 + j, r] = D[j, r, 0] * t0 + D[j, r, 1] * t1 + D[j, r, 2] * t2
+                for jj in range(3):
+                    for r in range(3):
+                        d2l[j, jj, r] = (
+                            D2[j, jj, r, 0] * t0 + D2[j, jj, r, 1] * t1 + D2[j, jj, r, 2] * t2
+                        )
+            sq = lk[0] * lk[0] + lk[1] * lk[1] + lk[2] * lk[2]
+            nrm = math.sqrt(sq)
+            for j in range(6):
+                gsq[j] = 2.0 * (lk[0] * dl[j, 0] + lk[1] * dl[j, 1] + lk[2] * dl[j, 2])
+            y0, y1, y2, y3 = y[i, k], y[i, 6 + k], y[i, 12 + k], y[i, 18 + k]
+            for a in range(6):
+                for b in range(a, 6):
+                    dd = dl[a, 0] * dl[b, 0] + dl[a, 1] * dl[b, 1] + dl[a, 2] * dl[b, 2]
+                    cross_n = (dl[a, 0] * dRn[b, 0] + dl[a, 1] * dRn[b, 1] + dl[a, 2] * dRn[b, 2]
+                               + dl[b, 0] * dRn[a, 0] + dl[b, 1] * dRn[a, 1]
+                               + dl[b, 2] * dRn[a, 2])  # fmt: skip
+                    ld2l = 0.0
+                    d2lz = 0.0
+                    d2lRn = 0.0
+                    lRn2 = 0.0
+                    if a >= 3:  # then b >= 3 too
+                        a3, b3 = a - 3, b - 3
+                        ld2l = (
+                            lk[0] * d2l[a3, b3, 0] + lk[1] * d2l[a3, b3, 1] + lk[2] * d2l[a3, b3, 2]
+                        )
+                        d2lz = d2l[a3, b3, 2]
+                        d2lRn = (d2l[a3, b3, 0] * R[0, 2] + d2l[a3, b3, 1] * R[1, 2]
+                                 + d2l[a3, b3, 2] * R[2, 2])  # fmt: skip
+                        lRn2 = (
+                            lk[0] * D2[a3, b3, 0, 2]
+                            + lk[1] * D2[a3, b3, 1, 2]
+                            + lk[2] * D2[a3, b3, 2, 2]
+                        )
+                    hsq = 2.0 * (dd + ld2l)
+                    hn = hsq / (2.0 * nrm) - gsq[a] * gsq[b] / (4.0 * nrm * sq)
+                    h2 = d2lz - s * hn
+                    h3 = d2lRn + cross_n + lRn2 - s * hn
+                    v = (y0 - y1) * hsq + y2 * h2 + y3 * h3
+                    out[i, a, b] += v
+                    if b != a:
+                        out[i, b, a] += v
+    return out
+
+
+@_jit
+def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
+
+
+@_jit
+def _skew_vee(M: FloatArray) -> FloatArray:
+    return 0.5 * np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]])
+
+
+@_jit
+def _hat(v: FloatArray) -> FloatArray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+@_jit
+def fn2_hessian(Jp: FloatArray, w: FloatArray, r: FloatArray, Jr: FloatArray,
+                wa: FloatArray) -> FloatArray:  # fmt: skip
+    """Exact Hessian of ``sum_a wa[platform(a)] |Jp[:, a]|^2`` over the angle columns a
+    (raw variables), shape (6n, 6n), from the outputs of
+    :func:`stackik._spatial.spatial_parts`."""
+    N = Jp.shape[1]
+    n = N // 6
+    Wr = np.empty((9 * n, N))
+    for m in range(9 * n):
+        wt = wa[m // 9]
+        for b in range(N):
+            Wr[m, b] = Jr[m, b] * wt
+    H = Wr.T @ Jr  # Gauss-Newton part Jr^T W Jr
+    # curvature part: sum_a wt_a Jp_a . (w_i x (w_j x Jp_k)) over sorted (i, j, k) of
+    # (a, b, c) with i, j angles; = C[j, k] . Q[a, i] with C[j, k] = w_j x Jp_k (the
+    # position Hessian) and Q[a, i] = wt_a Jp_a x w_i (scalar triple product)
+    C = np.zeros((N, N, 3))
+    for j in range(N):
+        if j % 6 < 3:
+            continue
+        for k in range(j, N):
+            C[j, k, 0] = w[j, 1] * Jp[2, k] - w[j, 2] * Jp[1, k]
+            C[j, k, 1] = w[j, 2] * Jp[0, k] - w[j, 0] * Jp[2, k]
+            C[j, k, 2] = w[j, 0] * Jp[1, k] - w[j, 1] * Jp[0, k]
+    Q = np.zeros((N, N, 3))
+    for a in range(N):
+        if a % 6 < 3:
+            continue
+        wt = wa[a // 6]
+        r0, r1, r2 = wt * Jp[0, a], wt * Jp[1, a], wt * Jp[2, a]
+        for i in range(N):
+            if i % 6 < 3:
+                continue
+            Q[a, i, 0] = r1 * w[i, 2] - r2 * w[i, 1]
+            Q[a, i, 1] = r2 * w[i, 0] - r0 * w[i, 2]
+            Q[a, i, 2] = r0 * w[i, 1] - r1 * w[i, 0]
+    for a in range(N):
+        if a % 6 < 3:
+            continue
+        for b in range(N):
+            for c in range(b, N):
+                x0, x1, x2 = a, b, c  # sort the triple
+                if x0 > x1:
+                    x0, x1 = x1, x0
+                if x1 > x2:
+                    x1, x2 = x2, x1
+                if x0 > x1:
+                    x0, x1 = x1, x0
+                if x0 % 6 < 3 or x1 % 6 < 3:
+                    continue
+                val = (Q[a, x0, 0] * C[x1, x2, 0] + Q[a, x0, 1] * C[x1, x2, 1]
+                       + Q[a, x0, 2] * C[x1, x2, 2])  # fmt: skip
+                H[b, c] += val
+                if c != b:
+                    H[c, b] += val
+    return 2.0 * H
+
+
+# =========================================================================================
+# Evaluation (scaled)
+# =========================================================================================
+@_jit
+def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
+    """Scaled ``f, grad f, c_E (6,), A_E (6, N), c_I (24n,), A_I blocks (n, 24, 6)`` and
+    the kinematic parts the Hessian reuses."""
+    (xs, cs, es, p_t, R_t, fscale, c0, wa, top, base, lmin, lmax, sj, feasible) = P
+    n = top.shape[0]
+    N = 6 * n
+    q = (u * xs).reshape(n, 6)
+    Pee, Ree, Jp, w, c, Jc, r, Jr = spatial_parts(q, top, base, lmin, lmax, sj)
+    E = _mm3(R_t.T.copy(), Ree)
+    cE = np.empty(6)
+    sk = _skew_vee(E)
+    for k in range(3):
+        cE[k] = (Pee[k] - p_t[k]) * es[k]
+        cE[3 + k] = sk[k] * es[3 + k]
+    AE = np.zeros((6, N))
+    trE = E[0, 0] + E[1, 1] + E[2, 2]
+    M = -0.5 * E
+    for k in range(3):
+        M[k, k] += 0.5 * trE
+    for b in range(N):
+        for k in range(3):
+            AE[k, b] = Jp[k, b] * es[k] * xs[b]
+        if b % 6 >= 3:  # d vee(skew E) / dx_b = (tr(E) I - E) v / 2, v = R_target^T w_b
+            v0 = R_t[0, 0] * w[b, 0] + R_t[1, 0] * w[b, 1] + R_t[2, 0] * w[b, 2]
+            v1 = R_t[0, 1] * w[b, 0] + R_t[1, 1] * w[b, 1] + R_t[2, 1] * w[b, 2]
+            v2 = R_t[0, 2] * w[b, 0] + R_t[1, 2] * w[b, 1] + R_t[2, 2] * w[b, 2]
+            for k in range(3):
+                d = M[k, 0] * v0 + M[k, 1] * v1 + M[k, 2] * v2
+                AE[3 + k, b] = d * es[3 + k] * xs[b]
+    cI = c.ravel() * cs
+    D = np.empty((n, 24, 6))
+    for i in range(n):
+        for rr in range(24):
+            for k in range(6):
+                D[i, rr, k] = Jc[i, rr, k] * cs[24 * i + rr] * xs[6 * i + k]
+    g = np.zeros(N)
+    parts = (q, Ree, Jp, w, r, Jr)
+    if feasible:
+        return 0.0, g, cE, AE, cI, D, parts
+    acc = 0.0
+    for m in range(9 * n):
+        wt = wa[m // 9]
+        acc += wt * r[m] * r[m]
+        for b in range(N):
+            g[b] += 2.0 * wt * r[m] * Jr[m, b]
+    for b in range(N):
+        g[b] *= xs[b] / fscale
+    return (c0 + acc) / fscale, g, cE, AE, cI, D, parts
+
+
+@_jit
+def evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
+    """Scaled ``f, grad f, c_E (6,), A_E (6, N), c_I (24n,), A_I blocks (n, 24, 6)``."""
+    f, g, cE, AE, cI, D, parts = _evaluate(u, P)
+    return f, g, cE, AE, cI, D
+
+
+@_jit
+def lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
+    """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (6n, 6n)."""
+    return _hessian(_evaluate(u, P)[6], yE, z, P)
+
+
+@_jit
+def _hessian(parts: Any, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
+    """:func:`lagrangian_hessian` from the kinematic parts of :func:`_evaluate`."""
+    (xs, cs, es, p_t, R_t, fscale, c0, wa, top, base, lmin, lmax, sj, feasible) = P
+    q, Ree, Jp, w, r, Jr = parts
+    n = top.shape[0]
+    N = 6 * n
+    if feasible:
+        H = np.zeros((N, N))
+    else:
+        H = fn2_hessian(Jp, w, r, Jr, wa) / fscale
+    E = _mm3(R_t.T.copy(), Ree)
+    yp = yE[:3] * es[:3]
+    yo = yE[3:] * es[3:]
+    V = np.zeros((N, 3, 3))  # [v_b]x for angle columns, v_b = R_target^T w_b
+    for b in range(N):
+        if b % 6 >= 3:
+            v0 = R_t[0, 0] * w[b, 0] + R_t[1, 0] * w[b, 1] + R_t[2, 0] * w[b, 2]
+            v1 = R_t[0, 1] * w[b, 0] + R_t[1, 1] * w[b, 1] + R_t[2, 1] * w[b, 2]
+            v2 = R_t[0, 2] * w[b, 0] + R_t[1, 2] * w[b, 1] + R_t[2, 2] * w[b, 2]
+            V[b] = _hat(np.array([v0, v1, v2]))
+    for a in range(N):
+        if a % 6 < 3:
+            continue
+        for b in range(a, N):
+            # position: yp . (w_a x Jp_b) (a <= b, a an angle)
+            x = _cross(w[a], Jp[:, b])
+            val = yp[0] * x[0] + yp[1] * x[1] + yp[2] * x[2]
+            if b % 6 >= 3:
+                sk = _skew_vee(_mm3(_mm3(V[a], V[b]), E))
+                val += yo[0] * sk[0] + yo[1] * sk[1] + yo[2] * sk[2]
+            H[a, b] -= val
+            if b != a:
+                H[b, a] -= val
+    Hb = limit_hessians(q, (z * cs).reshape(n, 24), top, base, sj)
+    for i in range(n):
+        for a in range(6):
+            for b in range(6):
+                H[6 * i + a, 6 * i + b] -= Hb[i, a, b]
+    for a in range(N):
+        for b in range(N):
+            H[a, b] *= xs[a] * xs[b]
+    return H
+
+
+# =========================================================================================
+# Linear algebra
+# =========================================================================================
+@_jit
+def _AI_dot(D: FloatArray, dx: FloatArray) -> FloatArray:
+    n = D.shape[0]
+    out = np.empty(24 * n)
+    for i in range(n):
+        for r in range(24):
+            acc = 0.0
+            for k in range(6):
+                acc += D[i, r, k] * dx[6 * i + k]
+            out[24 * i + r] = acc
+    return out
+
+
+@_jit
+def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
+    n = D.shape[0]
+    out = np.zeros(6 * n)
+    for i in range(n):
+        for r in range(24):
+            vr = v[24 * i + r]
+            for k in range(6):
+                out[6 * i + k] += D[i, r, k] * vr
+    return out
+
+
+@_jit
+def _cholesky(A: FloatArray) -> tuple[FloatArray, bool]:
+    k = A.shape[0]
+    L = np.zeros((k, k))
+    dmax = 0.0
+    for i in range(k):
+        dmax = max(dmax, abs(A[i, i]))
+    for j in range(k):
+        acc = A[j, j]
+        for p in range(j):
+            acc -= L[j, p] * L[j, p]
+        if not acc > 1e-14 * dmax:
+            return L, False
+        L[j, j] = math.sqrt(acc)
+        for i in range(j + 1, k):
+            acc = A[i, j]
+            for p in range(j):
+                acc -= L[i, p] * L[j, p]
+            L[i, j] = acc / L[j, j]
+    return L, True
+
+
+@_jit
+def _cho_solve(L: FloatArray, b: FloatArray) -> FloatArray:
+    k = L.shape[0]
+    y = np.empty(k)
+    for i in range(k):
+        acc = b[i]
+        for p in range(i):
+            acc -= L[i, p] * y[p]
+        y[i] = acc / L[i, i]
+    x = np.empty(k)
+    for i in range(k - 1, -1, -1):
+        acc = y[i]
+        for p in range(i + 1, k):
+            acc -= L[p, i] * x[p]
+        x[i] = acc / L[i, i]
+    return x
+
+
+@_jit
+def _solve6(B: FloatArray) -> tuple[FloatArray, bool]:
+    """Inverse of a 6 x 6 matrix by Gauss-Jordan with partial pivoting (no LAPACK);
+    ``ok`` False when a pivot is below 1e-10 of the largest entry."""
+    A = B.copy()
+    inv = np.eye(6)
+    big = np.abs(A).max()
+    for c in range(6):
+        p = c
+        for r in range(c + 1, 6):
+            if abs(A[r, c]) > abs(A[p, c]):
+                p = r
+        if not abs(A[p, c]) > 1e-10 * big:
+            return inv, False
+        if p != c:
+            for k in range(6):
+                A[c, k], A[p, k] = A[p, k], A[c, k]
+                inv[c, k], inv[p, k] = inv[p, k], inv[c, k]
+        d = 1.0 / A[c, c]
+        for k in range(6):
+            A[c, k] *= d
+            inv[c, k] *= d
+        for r in range(6):
+            if r != c and A[r, c] != 0.0:
+                m = A[r, c]
+                for k in range(6):
+                    A[r, k] -= m * A[c, k]
+                    inv[r, k] -= m * inv[c, k]
+    return inv, True
+
+
+@_jit
+def _basis(AE: FloatArray, cE: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """A null-space basis ``Z`` (N, K) of the 6 x N equality Jacobian and the particular
+    step ``dxp`` with ``AE dxp = -cE``: ``Z = [-B^-1 C; I]`` from the first platform's six
+    columns ``B`` (a translation block and three rotation axes: invertible away from
+    gimbal lock), else an orthonormal basis from the SVD."""
+    N = AE.shape[1]
+    K = N - 6
+    Binv, ok = _solve6(AE[:, :6].copy())
+    if ok:
+        Z = np.zeros((N, K))
+        dxp = np.zeros(N)
+        for i in range(6):
+            acc = 0.0
+            for j in range(6):
+                acc -= Binv[i, j] * cE[j]
+            dxp[i] = acc
+            for a in range(K):
+                acc = 0.0
+                for j in range(6):
+                    acc -= Binv[i, j] * AE[j, 6 + a]
+                Z[i, a] = acc
+        for a in range(K):
+            Z[6 + a, a] = 1.0
+        return Z, dxp
+    U, S, Vt = np.linalg.svd(AE)
+    rank = 0
+    for k in range(6):
+        if S[k] > 1e-10 * S[0]:
+            rank += 1
+    dxp = np.zeros(N)
+    for k in range(rank):
+        coef = -(U[:, k] @ cE) / S[k]
+        for a in range(N):
+            dxp[a] += coef * Vt[k, a]
+    return Vt[rank:].T.copy(), dxp
+
+
+@_jit
+def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
+              last_shift: float) -> tuple[FloatArray, float]:  # fmt: skip
+    """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` for ``dx`` by a null-space method
+    (:func:`_basis`), adding ``delta I`` to ``W`` until the reduced Hessian is positive
+    definite (IPOPT's inertia correction)."""
+    Z, dxp = _basis(AE, cE)
+    WZ = W @ Z
+    Hz = Z.T @ WZ
+    rz = Z.T @ (rhs - W @ dxp)
+    K = Hz.shape[0]
+    shift = 0.0
+    L, ok = _cholesky(Hz)
+    if not ok:
+        scale = 0.0
+        for i in range(K):
+            scale = max(scale, abs(Hz[i, i]))
+        ZtZ = Z.T @ Z  # the shift is delta I in x-space: Z^T (W + delta I) Z
+        shift = max(last_shift / 3.0, 1e-4) if last_shift > 0.0 else 1e-4
+        grow = 8.0 if last_shift > 0.0 else 100.0
+        for _ in range(60):
+            L, ok = _cholesky(Hz + shift * ZtZ)
+            if ok or not shift <= 1e20 * (1.0 + scale):
+                break
+            shift *= grow
+    if shift > 0.0:  # the particular part sees the shifted Hessian too
+        rz -= shift * (Z.T @ dxp)
+    wz = _cho_solve(L, rz)
+    dx = dxp + Z @ wz
+    return dx, shift
+
+
+@_jit
+def _ls_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArray:
+    """Least-squares equality multipliers ``argmin |g - AI^T z - AE^T y|``."""
+    G = AE @ AE.T
+    for k in range(G.shape[0]):
+        G[k, k] += 1e-14 * (1.0 + G[k, k])
+    return np.linalg.solve(G, AE @ (g - AItz))
+
+
+@_jit
+def _now() -> float:
+    with objmode(t="float64"):
+        t = time.perf_counter()
+    return t
+
+
+# =========================================================================================
+# The barrier method (as stackik._ipm._ip_loop, 6 equalities, 6 x 6 limit blocks)
+# =========================================================================================
+@_jit
+def _with_fscale(P0: Any, fscale: float) -> Any:
+    return (P0[0], P0[1], P0[2], P0[3], P0[4], fscale, P0[6], P0[7], P0[8], P0[9], P0[10],
+            P0[11], P0[12], P0[13])  # fmt: skip
+
+
+@_jit
+def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
+            max_iter: int, deadline: float) -> tuple[FloatArray, int, int]:  # fmt: skip
+    n = P0[8].shape[0]
+    m = 24 * n
+    x = u0.copy()
+    f, g, cE, AE, cI, D, parts = _evaluate(x, P0)
+    if not (np.all(np.isfinite(cI)) and np.all(np.isfinite(cE)) and math.isfinite(f)):
+        return x, IP_NONFINITE, 0
+    gmax = np.abs(g).max()
+    fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
+    P = _with_fscale(P0, P0[5] / fs)
+    f, g = f * fs, g * fs
+    mu = mu0
+    mu_min = min(tol, constr_tol) / 10.0
+    s = np.maximum(cI, 1e-2)
+    z = np.ones(m)
+    yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
+    last_shift = 0.0
+    logsum = np.log(s).sum()
+    logsum_t = logsum
+    theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
+    theta_max = 1e4 * max(1.0, theta0)
+    theta_min = 1e-4 * max(1.0, theta0)
+    filt = np.empty((max_iter + 1, 2))
+    nfilt = 0
+    status = IP_MAX_ITER
+    fails = 0
+    it = 0
+    for it in range(max_iter):
+        if it % 8 == 7 and _now() > deadline:
+            status = IP_MAX_TIME
+            break
+        AEty = AE.T @ yE
+        AItz = _AIT_dot(D, z)
+        sd_acc = np.abs(yE).sum() + np.abs(z).sum()
+        sd = max(100.0, sd_acc / (m + 6)) / 100.0
+        e_du = np.abs(g - AEty - AItz).max() / sd
+        e_pr = np.abs(cE).max()
+        comp = 0.0
+        for r in range(m):
+            e_pr = max(e_pr, abs(cI[r] - s[r]))
+            comp = max(comp, abs(s[r] * z[r]))
+        if max(e_du, comp / sd) <= tol and e_pr <= constr_tol:
+            status = IP_SUCCESS
+            break
+        while mu > mu_min:
+            comp_mu = 0.0
+            for r in range(m):
+                comp_mu = max(comp_mu, abs(s[r] * z[r] - mu))
+            e_mu = max(e_du, max(comp_mu / sd, e_pr))
+            if e_mu > 10.0 * mu:
+                break
+            mu = max(mu_min, min(0.2 * mu, mu**1.5))
+            nfilt = 0
+        W = _hessian(parts, yE, z, P)
+        if not (np.all(np.isfinite(W)) and np.all(np.isfinite(g)) and np.all(np.isfinite(AE))):
+            status = IP_NONFINITE
+            break
+        Sig = z / s
+        for i in range(n):
+            for a in range(6):
+                for b in range(6):
+                    acc = 0.0
+                    for r in range(24):
+                        acc += D[i, r, a] * Sig[24 * i + r] * D[i, r, b]
+                    W[6 * i + a, 6 * i + b] += acc
+        v = np.empty(m)
+        for r in range(m):
+            v[r] = mu / s[r] - Sig[r] * (cI[r] - s[r])
+        rhs = -g + AEty + _AIT_dot(D, v)
+        dx, shift = _kkt_step(W, AE, cE, rhs, last_shift)
+        if not np.all(np.isfinite(dx)):
+            status = IP_NONFINITE
+            break
+        if shift > 0.0:
+            last_shift = shift
+        AIdx = _AI_dot(D, dx)
+        ds = np.empty(m)
+        dz = np.empty(m)
+        for r in range(m):
+            ds[r] = AIdx[r] + cI[r] - s[r]
+            dz[r] = -z[r] + mu / s[r] - Sig[r] * ds[r]
+        tau = max(0.99, 1.0 - mu)
+        a_s = 1.0
+        a_z = 1.0
+        for r in range(m):
+            if ds[r] < 0.0:
+                a_s = min(a_s, -tau * s[r] / ds[r])
+            if dz[r] < 0.0:
+                a_z = min(a_z, -tau * z[r] / dz[r])
+        theta = np.abs(cE).sum()
+        dsum = 0.0
+        for r in range(m):
+            theta += abs(cI[r] - s[r])
+            dsum += ds[r] / s[r]
+        gdx = g @ dx
+        phi = f - mu * logsum
+        gphi = gdx - mu * dsum
+        alpha = a_s
+        accepted = False
+        ftype = False
+        st = s.copy()
+        ft, gt, cEt, AEt, cIt, Dt, parts_t = f, g, cE, AE, cI, D, parts
+        xt = x
+        for _ in range(40):
+            xt = x + alpha * dx
+            st = s + alpha * ds
+            ft, gt, cEt, AEt, cIt, Dt, parts_t = _evaluate(xt, P)
+            theta_t = np.abs(cEt).sum()
+            logsum_t = 0.0
+            for r in range(m):
+                theta_t += abs(cIt[r] - st[r])
+                logsum_t += math.log(st[r])
+            if math.isfinite(ft) and math.isfinite(theta_t):
+                phi_t = ft - mu * logsum_t
+                ok = theta_t <= theta_max
+                for j in range(nfilt):
+                    if theta_t >= filt[j, 0] and phi_t >= filt[j, 1]:
+                        ok = False
+                        break
+                if ok:
+                    switching = gphi < 0.0 and alpha * (-gphi) ** 2.3 > theta**1.1
+                    if switching and theta <= theta_min:
+                        if phi_t <= phi + 1e-4 * alpha * gphi + 1e-14 * abs(phi):
+                            accepted = True
+                            ftype = True
+                    elif theta_t <= (1.0 - 1e-5) * theta or phi_t <= phi - 1e-8 * theta:
+                        accepted = True
+                    elif switching and phi_t <= phi + 1e-4 * alpha * gphi + 1e-14 * abs(phi):
+                        accepted = True
+                        ftype = True
+                if accepted:
+                    break
+            alpha *= 0.5
+            if alpha < 1e-12:
+                break
+        if accepted and not ftype and nfilt < filt.shape[0]:
+            filt[nfilt, 0] = (1.0 - 1e-5) * theta
+            filt[nfilt, 1] = phi - 1e-8 * theta
+            nfilt += 1
+        if not accepted:
+            fails += 1
+            if fails >= 3:
+                status = IP_STALLED
+                break
+            nfilt = 0
+            alpha = min(alpha, 1e-8)
+            xt = x + alpha * dx
+            st = s + alpha * ds
+            ft, gt, cEt, AEt, cIt, Dt, parts_t = _evaluate(xt, P)
+            if not (math.isfinite(ft) and np.all(np.isfinite(cIt))):
+                status = IP_NONFINITE
+                break
+        else:
+            fails = 0
+        x = xt
+        s = st
+        logsum = logsum_t if accepted else np.log(s).sum()
+        for r in range(m):
+            if cIt[r] > s[r]:
+                logsum += math.log(cIt[r]) - math.log(s[r])
+                s[r] = cIt[r]
+            zr = z[r] + a_z * dz[r]
+            z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
+        f, g, cE, AE, cI, D, parts = ft, gt, cEt, AEt, cIt, Dt, parts_t
+        yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
+    return x, status, it + 1 if status != IP_SUCCESS else it
+
+
+@_jit
+def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatArray,
+             max_iter: int, deadline: float) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`ip_loop` from each row of ``U0``: points, statuses, iterations, scaled
+    objective values and worst scaled violations (for ranking; the caller polishes and
+    re-checks)."""
+    k, N = U0.shape
+    X = np.empty((k, N))
+    status = np.full(k, IP_SKIPPED)
+    nit = np.zeros(k, dtype=np.int64)
+    obj = np.full(k, np.inf)
+    viol = np.full(k, np.inf)
+    for j in range(k):
+        X[j] = U0[j]
+        if j > 0 and _now() > deadline:
+            break
+        x, st, it = ip_loop(U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline)
+        if st == IP_NONFINITE or not np.all(np.isfinite(x)):
+            x = U0[j].copy()
+        X[j] = x
+        status[j] = st
+        nit[j] = it
+        f, g, cE, AE, cI, D = evaluate(x, P)
+        obj[j] = f
+        viol[j] = max(np.abs(cE).max(), max(0.0, -cI.min()))
+        if j + 1 == GIVE_UP_AFTER and viol[: j + 1].min() > GIVE_UP_VIOLATION:
+            break
+    return X, status, nit, obj, viol
