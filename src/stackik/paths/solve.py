@@ -57,6 +57,7 @@ __all__ = [
     "REFINE_DEPTH",
     "FAST_TRANSIT_GAIN",
     "REANCHOR_EVERY",
+    "REANCHOR_PER_N",
     "TRANSIT_GAIN",
     "TRANSIT_STEPS",
     "path_arrays",
@@ -75,8 +76,11 @@ TRANSIT_STEPS = 10
 #: Fast mode: every ``reanchor_every`` waypoints the default solve is compared with the
 #: path, which moves to the default pose's basin when its FN is lower by this fraction.
 FAST_TRANSIT_GAIN = 0.01
-#: Default ``reanchor_every`` of planar paths (spatial: 0, off; see solve_path).
+#: Default ``reanchor_every`` of planar paths: ``max(REANCHOR_EVERY, REANCHOR_PER_N * n)``
+#: waypoints (the default solve's starts grow with n: 3 at n = 4, 19 at n = 8, 35 at
+#: n = 16; this keeps its share of a fast path's time small). Spatial: 0, off.
 REANCHOR_EVERY = 20
+REANCHOR_PER_N = 5
 
 
 # =========================================================================================
@@ -196,7 +200,7 @@ def _request(
                 f"{chk.angle_error:.3g} rad, worst violation {chk.max_violation_mm:.3g} mm)"
             )
     if reanchor_every is None:
-        reanchor_every = REANCHOR_EVERY if planar else 0
+        reanchor_every = max(REANCHOR_EVERY, REANCHOR_PER_N * stack.n) if planar else 0
     if (
         isinstance(reanchor_every, bool)
         or not isinstance(reanchor_every, int)
@@ -942,10 +946,12 @@ def solve_path(
         Fast mode: every this many waypoints, compare the path with the default solve of
         the waypoint; when that pose's FN is lower by more than ``FAST_TRANSIT_GAIN`` (1 %)
         and it lies more than ``max_jump`` away, the path moves to its basin by transit
-        steps (the pose within ``max_jump`` nearest the goal's continuation), at most
-        ``TRANSIT_STEPS`` of them. 0 turns it off. Default (None): 20 for planar paths,
-        0 for spatial ones (a spatial default solve costs as much as ~20 warm steps, and
-        the spatial FN landscape has so many minima that the default is no reference).
+        steps (least FN^2 plus distance to the goal's continuation, within
+        ``max_jump``), at most ``TRANSIT_STEPS`` of them. 0 turns it off. Default (None):
+        ``max(20, 5 n)`` for planar paths (20 at n = 4, 40 at n = 8, 80 at n = 16: the
+        default solve's cost grows with n), 0 for spatial ones (a spatial default solve
+        costs as much as tens of warm steps, and the spatial FN landscape has so many
+        minima that the default solve is no reliable reference).
 
     Returns
     -------
