@@ -2,11 +2,11 @@
 
 The ladder, cheapest first (each rung is tried only when the one before fails):
 
-1. **warm**: one warm-started solve from the previous pose (planar: the compiled interior
-   point, first with a small initial barrier ``mu0`` so that it stays near its start, then
-   with the default one; spatial: the SQP engine). Accepted when the pose passes the
-   independent check and no variable moved more than ``max_jump``: the solve stayed in the
-   basin of the previous pose, i.e. on its fold.
+1. **warm**: one warm-started solve from the previous pose (the compiled interior point,
+   planar or spatial, first with a small initial barrier ``mu0`` so that it stays near
+   its start, then with the default one if that finds no checked pose). Accepted when
+   the pose passes the independent check and no variable moved more than ``max_jump``:
+   the solve stayed in the basin of the previous pose, i.e. on its fold.
 2. **subdivided**: bisect the target segment and solve the halves warm-started, recursively
    to ``max_depth`` (a step too large for a warm start to stay in its basin).
 3. **bounded**: the least-FN pose within the ``max_jump`` box of the previous pose
@@ -30,7 +30,7 @@ from stackik.geometry import Stack
 from stackik.paths.bounded import bounded_step
 from stackik.paths.interpolate import lerp_target
 from stackik.solve import solve_ik
-from stackik.targets import PlanarTarget, Target
+from stackik.targets import Target
 
 __all__ = ["WARM_MU0", "Step", "StepCounts", "Tracker", "jump_scale"]
 
@@ -106,14 +106,11 @@ class Tracker:
     def warm(self, q: FloatArray, target: Target) -> FloatArray | None:
         """Warm-started solve from ``q``; the pose if checked and within one jump."""
         self.counts.warm += 1
-        if isinstance(target, PlanarTarget):
-            r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options={"mu0": WARM_MU0})
-            if r.success:  # kept its basin, or left it: the default barrier would too
-                return r.q if self.ratio(q, r.q) <= 1.0 else None
-            self.counts.warm_retry += 1
-            r = solve_ik(self.stack, target, x0=q, starts=1, method="ip")
-        else:
-            r = solve_ik(self.stack, target, x0=q, starts=1, method="sqp")
+        r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options={"mu0": WARM_MU0})
+        if r.success:  # kept its basin, or left it: the default barrier would too
+            return r.q if self.ratio(q, r.q) <= 1.0 else None
+        self.counts.warm_retry += 1
+        r = solve_ik(self.stack, target, x0=q, starts=1, method="ip")
         if r.success and self.ratio(q, r.q) <= 1.0:
             return r.q
         return None
