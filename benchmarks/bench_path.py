@@ -51,8 +51,8 @@ FULL = [
     ("planar", 16, 3, 3, 0, 60, True),
     ("spatial", 4, 2, 2, 0, 16, True),
     ("spatial", 8, 1, 1, 0, 12, True),
-    # one default solve takes ~25 s at n = 16: one short path, fast mode only
-    ("spatial", 16, 0, 0, 1, 6, False),
+    # a spatial default solve takes 3-5 s at n = 16: one short path
+    ("spatial", 16, 0, 0, 1, 8, True),
 ]
 QUICK = [
     ("planar", 4, 1, 1, 0, 30, True),
