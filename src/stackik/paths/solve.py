@@ -11,13 +11,16 @@ waypoints. Two modes:
     (:class:`stackik.paths.continuation.Tracker`): a warm-started solve that keeps the fold
     of the previous pose, bisection of the step when the warm start leaves its basin, and,
     when the followed FN minimum ends, the least-FN pose within ``max_jump`` of the
-    previous one. The path follows one local optimum; FN is that of the followed branch.
+    previous one. Every ``reanchor_every`` waypoints it compares the path with the default
+    solve and moves to a basin better by 1 % by transit steps; when the followed branch
+    ends at a limit wall it splices in a detour walked back from the next waypoint's
+    default pose.
 
 ``"global"`` (Descartes-style)
-    Candidates per waypoint: the default solve's best pose, the continuation of every
-    candidate of the previous waypoint, and the backward continuation of default poses
-    that nothing before reaches; deduplicated, at most ``max_candidates``. Then dynamic
-    programming (Viterbi) over the candidates minimises
+    Candidates per waypoint: the default solve's best pose, the continuations of the
+    previous waypoint's candidates, default poses continued backwards until something
+    reaches them, and transit poses towards better basins; deduplicated and pruned by
+    cost. Dynamic programming (Viterbi) minimises
     ``sum_k FN_k^2 + motion_weight * sum_k |q_{k+1} - q_k|^2`` over the sequences whose
     every step is within ``max_jump`` (``|dq|^2`` mixes mm^2 and rad^2, as FN^2 does).
 
@@ -53,11 +56,11 @@ from stackik.targets import PlanarTarget, Target, target_from_dict, target_to_di
 
 __all__ = [
     "DEDUPE",
-    "MODES",
-    "REFINE_DEPTH",
     "FAST_TRANSIT_GAIN",
+    "MODES",
     "REANCHOR_EVERY",
     "REANCHOR_PER_N",
+    "REFINE_DEPTH",
     "TRANSIT_GAIN",
     "TRANSIT_STEPS",
     "path_arrays",
