@@ -13,7 +13,6 @@ from stackik.check import check_pose
 from stackik.formulation import Problem
 from stackik.geometry import Stack
 from stackik.result import IKStatus
-from stackik.rotations import euler_zyx
 from stackik.sampling import random_spatial_targets
 from stackik.solve import solve_ik, solve_many
 from stackik.starts import paper_initial_guess
@@ -66,18 +65,6 @@ def _case(n: int, seed: int) -> tuple[Stack, SpatialTarget, Problem, np.ndarray]
     q = paper_initial_guess(stack, target)
     q = q + rng.normal(size=q.shape) * np.array([30, 30, 30, 0.3, 0.3, 0.3])
     return stack, target, prob, q
-
-
-def test_euler_second_derivatives_match_differences() -> None:
-    from stackik._spatial_ipm import euler_second
-
-    ang = np.array([0.4, -0.7, 1.1])
-    R, D, D2 = euler_second(*ang)
-    np.testing.assert_allclose(R, euler_zyx(ang[None])[0], atol=1e-15)
-    num = fd.central(lambda a: euler_second(*a)[0], ang)  # dR/da: (3, 3, 3 [a])
-    fd.assert_derivative_close(np.moveaxis(D, 0, -1), num, f_scale=1.0, what="dR")
-    num2 = fd.central(lambda a: euler_second(*a)[1], ang)  # (3 [j], 3, 3, 3 [k])
-    fd.assert_derivative_close(np.moveaxis(D2, 1, -1), num2, f_scale=1.0, what="d2R")
 
 
 @pytest.mark.parametrize("n", [1, 3])
@@ -155,7 +142,7 @@ def test_spatial_default_is_the_interior_point_and_passes_the_check() -> None:
     stack = Stack.reference(3)
     for target in random_spatial_targets(stack, 3, 9601):
         r = solve_ik(stack, target)
-        assert r.success and r.method == "ip" and r.n_starts == 13
+        assert r.success and r.method == "ip" and r.n_starts == 5
         assert check_pose(stack, target, r.q).ok
         one = solve_ik(stack, target, starts=1)
         assert one.success and one.method == "ip"

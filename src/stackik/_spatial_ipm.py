@@ -27,7 +27,7 @@ Jacobian):
   ``i <= j <= k`` with ``i, j`` angles (zero otherwise), which with the Gauss-Newton part
   gives the FN^2 Hessian;
 * ``d^2 E / dx_a dx_b = [v_lo]x [v_hi]x E`` with ``v = R_target^T w`` (both angles);
-* each platform's 24 limits from the Euler-angle second derivatives of ``R`` (6 x 6 blocks).
+* each platform's 24 limits from ``d^2 R / d angle_j d angle_k = [w_j]x [w_k]x R`` (6 x 6 blocks).
 
 Everything is tested against finite differences (``tests/test_spatial_quality.py``).
 """
@@ -82,68 +82,71 @@ def _mm3(A: FloatArray, B: FloatArray) -> FloatArray:
 
 
 @_jit
-def euler_second(a: float, b: float, c: float) -> tuple[Any, Any, Any]:
-    """``R = Rz(a) Ry(b) Rx(c)``, ``D[j] = dR/d(a, b, c)[j]`` and
-    ``D2[j, k] = d^2 R / d(a, b, c)[j] d(a, b, c)[k]``."""
-    ca, sa = math.cos(a), math.sin(a)
-    cb, sb = math.cos(b), math.sin(b)
-    cc, sc = math.cos(c), math.sin(c)
-    F = np.zeros((3, 3, 3, 3))  # F[factor, derivative order]
-    F[0, 0] = np.array([[ca, -sa, 0.0], [sa, ca, 0.0], [0.0, 0.0, 1.0]])
-    F[0, 1] = np.array([[-sa, -ca, 0.0], [ca, -sa, 0.0], [0.0, 0.0, 0.0]])
-    F[0, 2] = np.array([[-ca, sa, 0.0], [-sa, -ca, 0.0], [0.0, 0.0, 0.0]])
-    F[1, 0] = np.array([[cb, 0.0, sb], [0.0, 1.0, 0.0], [-sb, 0.0, cb]])
-    F[1, 1] = np.array([[-sb, 0.0, cb], [0.0, 0.0, 0.0], [-cb, 0.0, -sb]])
-    F[1, 2] = np.array([[-cb, 0.0, -sb], [0.0, 0.0, 0.0], [sb, 0.0, -cb]])
-    F[2, 0] = np.array([[1.0, 0.0, 0.0], [0.0, cc, -sc], [0.0, sc, cc]])
-    F[2, 1] = np.array([[0.0, 0.0, 0.0], [0.0, -sc, -cc], [0.0, cc, -sc]])
-    F[2, 2] = np.array([[0.0, 0.0, 0.0], [0.0, -cc, sc], [0.0, -sc, -cc]])
-    R = _mm3(_mm3(F[0, 0], F[1, 0]), F[2, 0])
-    D = np.empty((3, 3, 3))
-    D2 = np.empty((3, 3, 3, 3))
-    for j in range(3):
-        D[j] = _mm3(_mm3(F[0, int(j == 0)], F[1, int(j == 1)]), F[2, int(j == 2)])
-        for k in range(j, 3):
-            D2[j, k] = _mm3(
-                _mm3(F[0, int(j == 0) + int(k == 0)], F[1, int(j == 1) + int(k == 1)]),
-                F[2, int(j == 2) + int(k == 2)],
-            )
-            D2[k, j] = D2[j, k]
-    return R, D, D2
-
-
-@_jit
 def limit_hessians(q: FloatArray, y: FloatArray, top: FloatArray, base: FloatArray,
                    sin_joint: FloatArray) -> FloatArray:  # fmt: skip
     """``sum_r y[i, r] d^2 c_r / dq_i^2`` per platform, shape (n, 6, 6): the raw limits of
     platform i (24, DESIGN.md order) against its own six variables, weighted by ``y``
-    (n, 24)."""
+    (n, 24).
+
+    With ``R = Rz Ry Rx`` and the axes ``w = (e_z, Rz e_y, Rz Ry e_x)`` of yaw, pitch and
+    roll in the bottom plate's frame, ``dR / d angle_j = [w_j]x R`` and
+    ``d^2 R / d angle_j d angle_k = [w_j]x [w_k]x R`` (``j <= k``: the serial-chain rule
+    within one platform), so the leg ``l = R t + p - b`` and the top normal ``R e_z`` have
+    their first and second derivatives by cross products.
+    """
     n = q.shape[0]
     out = np.zeros((n, 6, 6))
     lk = np.empty(3)
     dl = np.zeros((6, 3))
     dRn = np.zeros((6, 3))
-    d2l = np.zeros((3, 3, 3))  # angles only: D2[a, b] t
+    d2l = np.zeros((3, 3, 3))  # angles j <= k: w_j x (w_k x R t)
+    d2Rn = np.zeros((3, 3, 3))
     gsq = np.empty(6)
+    W = np.empty((3, 3))
+    Rt = np.empty(3)
     for i in range(n):
-        R, D, D2 = euler_second(q[i, 3], q[i, 4], q[i, 5])
-        s = sin_joint[i]
+        cy, sy = math.cos(q[i, 3]), math.sin(q[i, 3])
+        cp, sp = math.cos(q[i, 4]), math.sin(q[i, 4])
+        cr, sr = math.cos(q[i, 5]), math.sin(q[i, 5])
+        R = np.array(
+            [
+                [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                [-sp, cp * sr, cp * cr],
+            ]
+        )
+        W[0, 0], W[0, 1], W[0, 2] = 0.0, 0.0, 1.0
+        W[1, 0], W[1, 1], W[1, 2] = -sy, cy, 0.0
+        W[2, 0], W[2, 1], W[2, 2] = cy * cp, sy * cp, -sp
+        Rn0, Rn1, Rn2 = R[0, 2], R[1, 2], R[2, 2]
         for j in range(3):
-            for r in range(3):
-                dRn[3 + j, r] = D[j, r, 2]
+            dRn[3 + j, 0] = W[j, 1] * Rn2 - W[j, 2] * Rn1
+            dRn[3 + j, 1] = W[j, 2] * Rn0 - W[j, 0] * Rn2
+            dRn[3 + j, 2] = W[j, 0] * Rn1 - W[j, 1] * Rn0
+        for j in range(3):
+            for k in range(j, 3):  # w_j x (w_k x Rn) = w_j x dRn_k
+                x0, x1, x2 = dRn[3 + k, 0], dRn[3 + k, 1], dRn[3 + k, 2]
+                d2Rn[j, k, 0] = W[j, 1] * x2 - W[j, 2] * x1
+                d2Rn[j, k, 1] = W[j, 2] * x0 - W[j, 0] * x2
+                d2Rn[j, k, 2] = W[j, 0] * x1 - W[j, 1] * x0
+        s = sin_joint[i]
         for k in range(6):
             t0, t1, t2 = top[i, k, 0], top[i, k, 1], top[i, k, 2]
             for r in range(3):
-                lk[r] = R[r, 0] * t0 + R[r, 1] * t1 + R[r, 2] * t2 + q[i, r] - base[i, k, r]
+                Rt[r] = R[r, 0] * t0 + R[r, 1] * t1 + R[r, 2] * t2
+                lk[r] = Rt[r] + q[i, r] - base[i, k, r]
             for j in range(3):
                 for r in range(3):
                     dl[j, r] = 1.0 if r == j else 0.0
-                    dl[3 + j, r] = D[j, r, 0] * t0 + D[j, r, 1] * t1 + D[j, r, 2] * t2
-                for jj in range(3):
-                    for r in range(3):
-                        d2l[j, jj, r] = (
-                            D2[j, jj, r, 0] * t0 + D2[j, jj, r, 1] * t1 + D2[j, jj, r, 2] * t2
-                        )
+                dl[3 + j, 0] = W[j, 1] * Rt[2] - W[j, 2] * Rt[1]
+                dl[3 + j, 1] = W[j, 2] * Rt[0] - W[j, 0] * Rt[2]
+                dl[3 + j, 2] = W[j, 0] * Rt[1] - W[j, 1] * Rt[0]
+            for j in range(3):
+                for jj in range(j, 3):
+                    x0, x1, x2 = dl[3 + jj, 0], dl[3 + jj, 1], dl[3 + jj, 2]
+                    d2l[j, jj, 0] = W[j, 1] * x2 - W[j, 2] * x1
+                    d2l[j, jj, 1] = W[j, 2] * x0 - W[j, 0] * x2
+                    d2l[j, jj, 2] = W[j, 0] * x1 - W[j, 1] * x0
             sq = lk[0] * lk[0] + lk[1] * lk[1] + lk[2] * lk[2]
             nrm = math.sqrt(sq)
             for j in range(6):
@@ -159,19 +162,14 @@ def limit_hessians(q: FloatArray, y: FloatArray, top: FloatArray, base: FloatArr
                     d2lz = 0.0
                     d2lRn = 0.0
                     lRn2 = 0.0
-                    if a >= 3:  # then b >= 3 too
+                    if a >= 3:  # then b >= 3 too (a <= b)
                         a3, b3 = a - 3, b - 3
-                        ld2l = (
-                            lk[0] * d2l[a3, b3, 0] + lk[1] * d2l[a3, b3, 1] + lk[2] * d2l[a3, b3, 2]
-                        )
-                        d2lz = d2l[a3, b3, 2]
-                        d2lRn = (d2l[a3, b3, 0] * R[0, 2] + d2l[a3, b3, 1] * R[1, 2]
-                                 + d2l[a3, b3, 2] * R[2, 2])  # fmt: skip
-                        lRn2 = (
-                            lk[0] * D2[a3, b3, 0, 2]
-                            + lk[1] * D2[a3, b3, 1, 2]
-                            + lk[2] * D2[a3, b3, 2, 2]
-                        )
+                        e0, e1, e2 = d2l[a3, b3, 0], d2l[a3, b3, 1], d2l[a3, b3, 2]
+                        ld2l = lk[0] * e0 + lk[1] * e1 + lk[2] * e2
+                        d2lz = e2
+                        d2lRn = e0 * Rn0 + e1 * Rn1 + e2 * Rn2
+                        lRn2 = (lk[0] * d2Rn[a3, b3, 0] + lk[1] * d2Rn[a3, b3, 1]
+                                + lk[2] * d2Rn[a3, b3, 2])  # fmt: skip
                     hsq = 2.0 * (dd + ld2l)
                     hn = hsq / (2.0 * nrm) - gsq[a] * gsq[b] / (4.0 * nrm * sq)
                     h2 = d2lz - s * hn
@@ -184,20 +182,8 @@ def limit_hessians(q: FloatArray, y: FloatArray, top: FloatArray, base: FloatArr
 
 
 @_jit
-def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
-    return np.array(
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-    )
-
-
-@_jit
 def _skew_vee(M: FloatArray) -> FloatArray:
     return 0.5 * np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]])
-
-
-@_jit
-def _hat(v: FloatArray) -> FloatArray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 @_jit
@@ -214,48 +200,59 @@ def fn2_hessian(Jp: FloatArray, w: FloatArray, r: FloatArray, Jr: FloatArray,
         for b in range(N):
             Wr[m, b] = Jr[m, b] * wt
     H = Wr.T @ Jr  # Gauss-Newton part Jr^T W Jr
-    # curvature part: sum_a wt_a Jp_a . (w_i x (w_j x Jp_k)) over sorted (i, j, k) of
-    # (a, b, c) with i, j angles; = C[j, k] . Q[a, i] with C[j, k] = w_j x Jp_k (the
-    # position Hessian) and Q[a, i] = wt_a Jp_a x w_i (scalar triple product)
-    C = np.zeros((N, N, 3))
-    for j in range(N):
-        if j % 6 < 3:
-            continue
-        for k in range(j, N):
-            C[j, k, 0] = w[j, 1] * Jp[2, k] - w[j, 2] * Jp[1, k]
-            C[j, k, 1] = w[j, 2] * Jp[0, k] - w[j, 0] * Jp[2, k]
-            C[j, k, 2] = w[j, 0] * Jp[1, k] - w[j, 1] * Jp[0, k]
-    Q = np.zeros((N, N, 3))
+    # curvature part H2[b, c] = sum_a wt_a Jp_a . T[sorted(a, b, c)] (a an angle), with
+    # T[i, j, k] = w_i x (w_j x Jp_k) (i, j angles), in O(N^2) for b <= c by where a
+    # falls (Jp_a is orthogonal to w_a):
+    #   a <= b:      (w_b x Jp_c) . S[b],  S[b] = sum_{a <= b} wt_a Jp_a x w_a
+    #   b < a <= c:  -w_b . sum_{b < a <= c} wt_a w_a (Jp_a . Jp_c)
+    #   c < a:       w_c^T M[c] w_b - (w_b . w_c) tr M[c],  M[c] = sum_{a > c} wt_a Jp_a Jp_a^T
+    S = np.zeros((N, 3))
+    acc0 = acc1 = acc2 = 0.0
     for a in range(N):
-        if a % 6 < 3:
-            continue
-        wt = wa[a // 6]
-        r0, r1, r2 = wt * Jp[0, a], wt * Jp[1, a], wt * Jp[2, a]
-        for i in range(N):
-            if i % 6 < 3:
-                continue
-            Q[a, i, 0] = r1 * w[i, 2] - r2 * w[i, 1]
-            Q[a, i, 1] = r2 * w[i, 0] - r0 * w[i, 2]
-            Q[a, i, 2] = r0 * w[i, 1] - r1 * w[i, 0]
-    for a in range(N):
-        if a % 6 < 3:
-            continue
-        for b in range(N):
-            for c in range(b, N):
-                x0, x1, x2 = a, b, c  # sort the triple
-                if x0 > x1:
-                    x0, x1 = x1, x0
-                if x1 > x2:
-                    x1, x2 = x2, x1
-                if x0 > x1:
-                    x0, x1 = x1, x0
-                if x0 % 6 < 3 or x1 % 6 < 3:
-                    continue
-                val = (Q[a, x0, 0] * C[x1, x2, 0] + Q[a, x0, 1] * C[x1, x2, 1]
-                       + Q[a, x0, 2] * C[x1, x2, 2])  # fmt: skip
+        if a % 6 >= 3:
+            wt = wa[a // 6]
+            acc0 += wt * (Jp[1, a] * w[a, 2] - Jp[2, a] * w[a, 1])
+            acc1 += wt * (Jp[2, a] * w[a, 0] - Jp[0, a] * w[a, 2])
+            acc2 += wt * (Jp[0, a] * w[a, 1] - Jp[1, a] * w[a, 0])
+        S[a, 0], S[a, 1], S[a, 2] = acc0, acc1, acc2
+    M = np.zeros((N, 3, 3))
+    Macc = np.zeros((3, 3))
+    for c in range(N - 1, -1, -1):
+        M[c] = Macc
+        if c % 6 >= 3:
+            wt = wa[c // 6]
+            for k in range(3):
+                for m in range(3):
+                    Macc[k, m] += wt * Jp[k, c] * Jp[m, c]
+    acc = np.zeros(3)
+    for c in range(N):
+        acc[:] = 0.0
+        for b in range(c, -1, -1):  # acc = sum_{b < a <= c} wt_a w_a (Jp_a . Jp_c)
+            if b % 6 >= 3:
+                val = (
+                    (w[b, 1] * Jp[2, c] - w[b, 2] * Jp[1, c]) * S[b, 0]
+                    + (w[b, 2] * Jp[0, c] - w[b, 0] * Jp[2, c]) * S[b, 1]
+                    + (w[b, 0] * Jp[1, c] - w[b, 1] * Jp[0, c]) * S[b, 2]
+                    - (w[b, 0] * acc[0] + w[b, 1] * acc[1] + w[b, 2] * acc[2])
+                )
+                if c % 6 >= 3:
+                    Mc = M[c]
+                    wMw = 0.0
+                    for k in range(3):
+                        wMw += w[c, k] * (
+                            Mc[k, 0] * w[b, 0] + Mc[k, 1] * w[b, 1] + Mc[k, 2] * w[b, 2]
+                        )
+                    tr = Mc[0, 0] + Mc[1, 1] + Mc[2, 2]
+                    wbwc = w[b, 0] * w[c, 0] + w[b, 1] * w[c, 1] + w[b, 2] * w[c, 2]
+                    val += wMw - wbwc * tr
                 H[b, c] += val
                 if c != b:
                     H[c, b] += val
+                wt = wa[b // 6]
+                dot = Jp[0, b] * Jp[0, c] + Jp[1, b] * Jp[1, c] + Jp[2, b] * Jp[2, c]
+                acc[0] += wt * w[b, 0] * dot
+                acc[1] += wt * w[b, 1] * dot
+                acc[2] += wt * w[b, 2] * dot
     return 2.0 * H
 
 
@@ -340,23 +337,36 @@ def _hessian(parts: Any, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
     E = _mm3(R_t.T.copy(), Ree)
     yp = yE[:3] * es[:3]
     yo = yE[3:] * es[3:]
-    V = np.zeros((N, 3, 3))  # [v_b]x for angle columns, v_b = R_target^T w_b
+    # orientation: d^2 E / dx_a dx_b = [v_a]x [v_b]x E = (v_b v_a^T - (v_a . v_b) I) E
+    # (v = R_target^T w, a <= b angles), whose skew part is
+    # (E^T v_a) x v_b / 2 - (v_a . v_b) vee(skew E)
+    V = np.zeros((N, 3))
+    EV = np.zeros((N, 3))
     for b in range(N):
         if b % 6 >= 3:
-            v0 = R_t[0, 0] * w[b, 0] + R_t[1, 0] * w[b, 1] + R_t[2, 0] * w[b, 2]
-            v1 = R_t[0, 1] * w[b, 0] + R_t[1, 1] * w[b, 1] + R_t[2, 1] * w[b, 2]
-            v2 = R_t[0, 2] * w[b, 0] + R_t[1, 2] * w[b, 1] + R_t[2, 2] * w[b, 2]
-            V[b] = _hat(np.array([v0, v1, v2]))
+            for k in range(3):
+                V[b, k] = R_t[0, k] * w[b, 0] + R_t[1, k] * w[b, 1] + R_t[2, k] * w[b, 2]
+            for k in range(3):
+                EV[b, k] = E[0, k] * V[b, 0] + E[1, k] * V[b, 1] + E[2, k] * V[b, 2]
+    sE = _skew_vee(E)
+    ysE = yo[0] * sE[0] + yo[1] * sE[1] + yo[2] * sE[2]
     for a in range(N):
         if a % 6 < 3:
             continue
+        wa0, wa1, wa2 = w[a, 0], w[a, 1], w[a, 2]
         for b in range(a, N):
             # position: yp . (w_a x Jp_b) (a <= b, a an angle)
-            x = _cross(w[a], Jp[:, b])
-            val = yp[0] * x[0] + yp[1] * x[1] + yp[2] * x[2]
+            j0, j1, j2 = Jp[0, b], Jp[1, b], Jp[2, b]
+            val = (yp[0] * (wa1 * j2 - wa2 * j1) + yp[1] * (wa2 * j0 - wa0 * j2)
+                   + yp[2] * (wa0 * j1 - wa1 * j0))  # fmt: skip
             if b % 6 >= 3:
-                sk = _skew_vee(_mm3(_mm3(V[a], V[b]), E))
-                val += yo[0] * sk[0] + yo[1] * sk[1] + yo[2] * sk[2]
+                e0, e1, e2 = EV[a, 0], EV[a, 1], EV[a, 2]
+                v0, v1, v2 = V[b, 0], V[b, 1], V[b, 2]
+                c0_ = 0.5 * (e1 * v2 - e2 * v1)
+                c1_ = 0.5 * (e2 * v0 - e0 * v2)
+                c2_ = 0.5 * (e0 * v1 - e1 * v0)
+                dot = V[a, 0] * v0 + V[a, 1] * v1 + V[a, 2] * v2
+                val += yo[0] * c0_ + yo[1] * c1_ + yo[2] * c2_ - dot * ysE
             H[a, b] -= val
             if b != a:
                 H[b, a] -= val

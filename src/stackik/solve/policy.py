@@ -18,6 +18,7 @@ from stackik.starts import (
     fold_depth,
     fold_patterns,
     initial_starts,
+    spatial_start_count,
     spatial_starts,
     tall_random_starts,
 )
@@ -122,7 +123,8 @@ def plan_starts(req: Any) -> StartPlan:
         # spatial interior point: folds, twists and leans (stackik.starts.spatial_starts)
         queue = spatial_starts(req.stack, req.q0)
         if starts is None:
-            return StartPlan(queue, len(queue), len(queue), True)
+            k = min(len(queue), spatial_start_count(req.stack.n))
+            return StartPlan(queue, k, k, True)
     if starts is None and not req.mode.planar and req.stack.n >= 2 and req.structured:
         # spatial: the five structured starts and seven random ones, each solved in full
         # (benchmark: within 0.1 % of the best FN found on 30 of 30 targets, vs 28 from
