@@ -21,7 +21,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from stackik.rotations import cross_matrix
 from stackik.targets import PlanarTarget, SpatialTarget, Target
 
 __all__ = [
@@ -80,22 +79,6 @@ def as_waypoints(targets: Any) -> list[Target]:
     return out
 
 
-def _so3_exp(v: FloatArray) -> FloatArray:
-    """Rotation matrix of the rotation vector ``v`` (Rodrigues)."""
-    th = float(np.linalg.norm(v))
-    K = cross_matrix(v)
-    if th < 1e-8:
-        return np.eye(3) + K + 0.5 * K @ K  # type: ignore[no-any-return]
-    return np.eye(3) + math.sin(th) / th * K + (1 - math.cos(th)) / th**2 * K @ K  # type: ignore[no-any-return]
-
-
-def _so3_log(R: FloatArray) -> FloatArray:
-    """Rotation vector of ``R`` (angle in [0, pi])."""
-    from scipy.spatial.transform import Rotation
-
-    return Rotation.from_matrix(R).as_rotvec()  # type: ignore[no-any-return]
-
-
 def rotation_angle(Ra: FloatArray, Rb: FloatArray) -> float:
     """Angle of the relative rotation ``Ra^T Rb`` [rad], in ``[0, pi]``."""
     c = (float(np.trace(np.asarray(Ra).T @ np.asarray(Rb))) - 1.0) / 2.0
@@ -117,12 +100,15 @@ def slerp(Ra: FloatArray, Rb: FloatArray, s: float) -> FloatArray:
     -------
     ndarray, shape (3, 3)
     """
+    from scipy.spatial.transform import Rotation
+
     Ra = np.asarray(Ra, dtype=float)
     if s == 0.0:
         return Ra.copy()
     if s == 1.0:
         return np.array(Rb, dtype=float)
-    R = Ra @ _so3_exp(s * _so3_log(Ra.T @ np.asarray(Rb, dtype=float)))
+    rv = Rotation.from_matrix(Ra.T @ np.asarray(Rb, dtype=float)).as_rotvec()
+    R = Ra @ Rotation.from_rotvec(s * rv).as_matrix()
     # re-orthonormalise (SVD) so that the target constructor's 1e-6 test always passes
     U, _, Vt = np.linalg.svd(R)
     return U @ Vt  # type: ignore[no-any-return]
