@@ -22,9 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from stackik.geometry import Stack
-from stackik.kinematics import lift_planar
 from stackik.paths.result import PathResult
-from stackik.rotations import euler_zyx
 from stackik.targets import PlanarTarget
 
 __all__ = ["animate_path", "default_caption", "plot_path", "stack_nodes"]
@@ -33,7 +31,8 @@ FloatArray = NDArray[np.float64]
 
 
 def stack_nodes(stack: Stack, result: PathResult, k: int) -> dict[str, FloatArray]:
-    """World coordinates of the stack at waypoint ``k`` [mm].
+    """World coordinates of the stack at waypoint ``k`` [mm]
+    (:func:`stackik.analysis.figures.stack_nodes` of its pose).
 
     Returns
     -------
@@ -41,22 +40,30 @@ def stack_nodes(stack: Stack, result: PathResult, k: int) -> dict[str, FloatArra
         ``O`` (n+1, 3) plate origins, ``A`` (n+1, 3, 3) plate orientations, ``base`` and
         ``top`` (n, 6, 3): both ends of every leg.
     """
-    q = result.q[k]
+    from stackik.analysis.figures import stack_nodes as nodes_of
+
     t0 = result.targets[0]
-    if isinstance(t0, PlanarTarget):
-        P, R = lift_planar(q, t0.phi)
-    else:
-        P, R = q[:, :3], euler_zyx(q[:, 3:])
-    n = stack.n
-    O = np.zeros((n + 1, 3))
-    A = np.empty((n + 1, 3, 3))
-    A[0] = np.eye(3)
-    for i in range(n):
-        O[i + 1] = O[i] + A[i] @ P[i]
-        A[i + 1] = A[i] @ R[i]
-    base = O[:-1, None, :] + np.einsum("nij,nkj->nki", A[:-1], stack.base_nodes)
-    top = O[1:, None, :] + np.einsum("nij,nkj->nki", A[1:], stack.top_nodes)
-    return {"O": O, "A": A, "base": base, "top": top}
+    phi = t0.phi if isinstance(t0, PlanarTarget) else None
+    return nodes_of(stack, result.q[k], phi)
+
+
+def _plate_outlines(stack: Stack, nd: dict[str, FloatArray]) -> list[FloatArray]:
+    """Closed outline of every plate (0 = base .. n = end effector) through every node it
+    carries (the top nodes of the platform below and the base nodes of the one above), in
+    the order of their angle about the plate centre: legs end on the outlines."""
+    out = []
+    for j in range(stack.n + 1):
+        local, world = [], []
+        if j > 0:
+            local.append(stack.top_nodes[j - 1])
+            world.append(nd["top"][j - 1])
+        if j < stack.n:
+            local.append(stack.base_nodes[j])
+            world.append(nd["base"][j])
+        L, W = np.concatenate(local), np.concatenate(world)
+        W = W[np.argsort(np.arctan2(L[:, 1], L[:, 0]))]
+        out.append(np.vstack([W, W[:1]]))
+    return out
 
 
 def _target_points(result: PathResult) -> FloatArray:
@@ -224,10 +231,6 @@ def animate_path(
     cmap = plt.get_cmap("coolwarm")
     lmin, lmax = float(stack.leg_min.min()), float(stack.leg_max.max())
     ee = np.array([proj(nd["O"][-1]) for nd in nodes])
-    # plate outlines: nodes in the order of their angle about the plate centre
-    bn, tn = stack.base_nodes, stack.top_nodes
-    order_base = np.argsort(np.arctan2(bn[..., 1], bn[..., 0]), axis=-1)
-    order_top = np.argsort(np.arctan2(tn[-1, :, 1], tn[-1, :, 0]))
 
     def draw(k: int) -> None:
         ax.cla()
@@ -255,15 +258,8 @@ def animate_path(
         ax.plot(*trail.T, "b-", lw=2, label="end-effector trail")
         ax.plot(*tpp[k], "rx", ms=14, mew=1.5, label="target (waypoint)", zorder=5)
         ax.plot(*ee[k], "o", color="b", ms=4, label="end effector", zorder=6)
-        # plates: closed polygons through their nodes (base plate of each platform, top
-        # plate of the last)
-        for i in range(stack.n + 1):
-            if i < stack.n:
-                pts = nd["base"][i][order_base[i]]
-            else:
-                pts = nd["top"][stack.n - 1][order_top]
-            poly = proj(np.vstack([pts, pts[:1]]))
-            ax.plot(*poly.T, color="0.3", lw=1.5)
+        for poly in _plate_outlines(stack, nd):
+            ax.plot(*proj(poly).T, color="0.3", lw=1.5)
         lengths = result.leg_lengths[k]
         for i in range(stack.n):
             for j in range(6):
