@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import fd
 import numpy as np
 import pytest
 
 from stackik import PlanarTarget, Stack, check_pose, solve_ik
 from stackik.formulation import Problem
+from stackik.formulation.lifted import LiftedPlanarNLP
 from stackik.formulation.structured import ReducedPlanarNLP
 from stackik.sampling import random_planar_targets
 from stackik.starts import paper_initial_guess
@@ -44,3 +46,102 @@ def test_sqp_sparse_backends_solve_paper_target(qp: str) -> None:
     )
     assert dense.success
     assert res.frobenius_norm == pytest.approx(dense.frobenius_norm, rel=1e-6)
+
+
+def _lifted_case(n: int) -> tuple[Problem, LiftedPlanarNLP, np.ndarray]:
+    stack = Stack.reference(n)
+    target = random_planar_targets(stack, 1, rng=3)[0]
+    prob = Problem(stack, target, "frobenius", None)
+    rng = np.random.default_rng(0)
+    u = prob.u_of(paper_initial_guess(stack, target)) + 0.01 * rng.normal(size=3 * n)
+    return prob, LiftedPlanarNLP(prob), u
+
+
+def test_lifted_values_match_reduced() -> None:
+    prob, lifted, u = _lifted_case(5)
+    x = lifted.lift(u)
+    np.testing.assert_array_equal(lifted.reduce(x), u)
+    f, g, ceq, Jeq, cin, Jin = lifted.evaluate(x)
+    dense = prob.evaluate(u)
+    assert f == pytest.approx(dense[0], rel=1e-13)
+    np.testing.assert_array_equal(cin, dense[4])
+    b = ceq.reshape(5, 3)
+    # the chain holds exactly inside; the end effector's error sits in b_1 and a_n
+    np.testing.assert_allclose(b[1:, :2], 0.0, atol=1e-14)
+    np.testing.assert_allclose(b[:-1, 2], 0.0, atol=1e-14)
+    np.testing.assert_allclose(b[0, :2], -dense[2][:2], rtol=1e-12, atol=1e-14)
+    assert b[-1, 2] == pytest.approx(-dense[2][2], rel=1e-12, abs=1e-15)
+    # O(n) patterns: banded chain rows, 72 entries per platform for the limits
+    assert Jin.nnz == 72 * 5
+    assert Jeq.nnz <= 12 * 5
+    assert lifted.h_pat.nnz <= 25 * 5
+
+
+@pytest.mark.derivatives
+@pytest.mark.parametrize("psd", [False, True])
+def test_lifted_derivatives(psd: bool) -> None:
+    prob, _, u = _lifted_case(4)
+    lifted = LiftedPlanarNLP(prob, psd_blocks=psd)
+    x = lifted.lift(u)
+    _, g, _, Jeq, _, Jin = lifted.evaluate(x)
+
+    def part(k: int):  # noqa: ANN202 - test helper
+        return lambda z: np.array(LiftedPlanarNLP(prob).evaluate(z)[k], dtype=float)
+
+    for k, analytic, what in ((2, Jeq.toarray(), "J_eq"), (4, Jin.toarray(), "J_in")):
+        num = fd.central(part(k), x)
+        fd.assert_derivative_close(analytic, num, f_scale=fd.term_scale(part(k)(x), num), what=what)
+    num = fd.central(lambda z: np.array([part(0)(z)]), x)
+    fd.assert_derivative_close(
+        g[None], num, f_scale=fd.term_scale([part(0)(x)], num), what="gradient"
+    )
+    rng = np.random.default_rng(1)
+    ye, yi = rng.normal(size=3 * 4), rng.random(24 * 4)
+
+    def lag_grad(z: np.ndarray) -> np.ndarray:
+        _, gz, _, Je, _, Ji = LiftedPlanarNLP(prob).evaluate(z)
+        return gz - Je.T @ ye - Ji.T @ yi
+
+    H = lifted.hessian(x, ye, yi).toarray()
+    np.testing.assert_array_equal(H, H.T)
+    if psd:
+        assert np.linalg.eigvalsh(H).min() >= -1e-9 * np.abs(H).max()
+        return
+    num = fd.central(lag_grad, x, richardson=True)
+    fd.assert_derivative_close(
+        H, num, f_scale=fd.term_scale(lag_grad(x), num), what="Lagrangian Hessian"
+    )
+
+
+@pytest.mark.parametrize("form", ["lifted", "lifted-exact"])
+def test_sqp_lifted_solves(form: str) -> None:
+    stack = Stack.reference(4)
+    target = PlanarTarget(600.0, 1000.0, -1.57)
+    res = solve_ik(
+        stack, target, method="sqp", qp_solver="clarabel", starts=1, options={"formulation": form}
+    )
+    assert res.success
+    assert check_pose(stack, target, res.q).ok
+
+
+def test_sqp_barrier_start_solves() -> None:
+    stack = Stack.reference(4)
+    target = PlanarTarget(600.0, 1000.0, -1.57)
+    for qp in ("daqp", "clarabel"):
+        res = solve_ik(
+            stack, target, method="sqp", qp_solver=qp, starts=1, options={"barrier_start": True}
+        )
+        assert res.success
+        assert check_pose(stack, target, res.q).ok
+
+
+def test_sqp_formulation_option_checked() -> None:
+    from stackik.result import OptionError
+
+    with pytest.raises(OptionError, match="formulation"):
+        solve_ik(
+            Stack.reference(2),
+            PlanarTarget(0.0, 700.0, 0.0),
+            method="sqp",
+            options={"formulation": "nope"},
+        )

@@ -112,3 +112,22 @@ def test_banded_problem_sparse(solver: str) -> None:
     res = solve(_banded(n), np.zeros(n), qp_solver=solver)
     assert res.success, res.message
     np.testing.assert_allclose(res.x, 0.5, atol=1e-5)
+
+
+def test_interior_start_option_on_hs() -> None:
+    """barrier_start: same answers on inequality-constrained textbook problems."""
+    opts = SQPOptions(barrier_start=True)
+    for number in (35, 43, 65, 71, 100):
+        p = PROBLEMS[number]
+        res = solve(p.nlp, p.x0, options=opts)
+        assert res.success, (number, res.message)
+        assert _ok(res.fun, p.f_star), number
+        assert res.max_violation <= opts.constr_tol
+
+
+def test_adaptive_accuracy_option() -> None:
+    with pytest.raises(ValueError, match="qp_accuracy"):
+        SQPOptions(qp_accuracy="loose")
+    p = PROBLEMS[71]
+    res = solve(p.nlp, p.x0, qp_solver="osqp", options=SQPOptions(qp_accuracy="adaptive"))
+    assert res.success and _ok(res.fun, p.f_star)

@@ -160,6 +160,15 @@ class PlanarEvaluator:
         ``y`` has shape (n*24,) in constraint order; block diagonal by platform.
         """
         n = self.n
+        H = self.constraint_hessian_blocks(q, y)
+        out = np.zeros((n, 3, n, 3))
+        out[self.idx, :, self.idx, :] = H
+        return out.reshape(3 * n, 3 * n)
+
+    def constraint_hessian_blocks(self, q: FloatArray, y: FloatArray) -> FloatArray:
+        """The diagonal blocks of :meth:`constraint_hessian`, shape (n, 3, 3): platform i's
+        limits curve in its own ``(rho, z, theta)`` only."""
+        n = self.n
         lc = self._legs_cache
         legs = lc[1] if lc is not None and np.array_equal(lc[0], q) else self._legs(q)
         c, sn, Rtf, Rtz, rf, rz, lf, lz, sq, norm = legs
@@ -194,9 +203,7 @@ class PlanarEvaluator:
         H[:, 1, 0] = H[:, 0, 1]
         H[:, 2, 0] = H[:, 0, 2]
         H[:, 2, 1] = H[:, 1, 2]
-        out = np.zeros((n, 3, n, 3))
-        out[self.idx, :, self.idx, :] = H
-        return out.reshape(3 * n, 3 * n)
+        return H
 
     def set_scaling(self, row_scale: FloatArray, col_scale: FloatArray) -> None:
         """Scale rows (constraints) and columns (variables) of what :meth:`__call__` returns."""

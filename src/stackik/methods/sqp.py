@@ -9,15 +9,28 @@ from typing import Any, ClassVar
 import numpy as np
 
 from stackik.formulation import Problem
+from stackik.formulation.lifted import LiftedPlanarNLP
 from stackik.formulation.structured import ReducedPlanarNLP
 from stackik.methods.base import FloatArray, Method
 from stackik.result import OptionError
 from stackik.sqp import NonlinearProgram, SQPOptions, default_qp_solver, solve
 from stackik.sqp.qp import SPARSE_BACKENDS
 
-#: ``options["formulation"]`` values: ``"auto"`` (sparse when the QP backend is),
-#: ``"dense"`` (dense Jacobians), ``"sparse"`` (block-diagonal limit Jacobian).
-FORMULATIONS = ("auto", "dense", "sparse")
+#: ``options["formulation"]`` values (planar; spatial is always dense): ``"auto"`` (with a
+#: sparse QP backend ``"sparse"`` below :data:`LIFTED_FROM` platforms and ``"lifted"``
+#: from there, else ``"dense"``), ``"dense"`` (dense Jacobians), ``"sparse"`` (the reduced
+#: problem with its block-diagonal limit Jacobian; its exact Hessian is dense),
+#: ``"lifted"`` (chain states as variables, :mod:`stackik.formulation.lifted`: every matrix
+#: O(n) sparse; the Hessian's 3x3 chain and limit blocks each made positive semidefinite),
+#: ``"lifted-exact"`` (the same with the exact Hessian, convexified by the engine).
+FORMULATIONS = ("auto", "dense", "sparse", "lifted", "lifted-exact")
+#: From this many platforms ``"auto"`` lifts: at n = 64 a Clarabel QP with the reduced
+#: problem's dense (3n)^2 Hessian costs ~30x one with the lifted problem's O(n) one
+#: (benchmarks/results/sqp_scaling.md), more than the lifted problem's extra iterations.
+LIFTED_FROM = 48
+#: OSQP's ADMM iteration cap in this method (the engine's default is 10,000): past it the
+#: approximate solution is used as a step and judged by the ratio test.
+OSQP_MAX_ITER = 4000
 
 __all__ = ["SQPMethod", "sqp_options"]
 
@@ -38,7 +51,11 @@ class SQPMethod(Method):
 
     Exact Lagrangian Hessian in planar mode (``"frobenius"``, ``"feasible"``, or
     ``"weighted"`` with one ``sigma_theta``); damped BFGS otherwise (Gauss-Newton ignores
-    the curvature of active limits and stalls there).
+    the curvature of active limits and stalls there). With OSQP or Clarabel the planar
+    problem is passed with its sparsity (``options["formulation"]``, :data:`FORMULATIONS`);
+    ``options`` are otherwise :class:`stackik.sqp.SQPOptions` fields, e.g.
+    ``barrier_start=True`` for the interior start phase (better local minima from one
+    start, more iterations).
     """
 
     name: ClassVar[str] = "sqp"
@@ -64,22 +81,35 @@ class SQPMethod(Method):
         if "max_time" not in opts and math.isfinite(time_left):
             opts["max_time"] = max(time_left, 1e-3)
         exact = prob.fast is not None and (prob.objective != "weighted" or np.ptp(prob.w_th) == 0)
-        name = default_qp_solver() if qp_solver is None else qp_solver
+        name = (default_qp_solver() if qp_solver is None else qp_solver).strip().lower()
         if form == "auto":
-            form = "sparse" if name.strip().lower() in SPARSE_BACKENDS else "dense"
+            if name not in SPARSE_BACKENDS:
+                form = "dense"
+            else:
+                form = "lifted" if prob.n >= LIFTED_FROM else "sparse"
+        if name == "osqp" and "qp_options" not in opts:
+            opts["qp_options"] = {"max_iter": OSQP_MAX_ITER}
         evaluate: Any = prob.evaluate
         hessian: Any = prob.lagrangian_hessian
+        gauss_newton: Any = None if prob.objective == "feasible" else prob.gauss_newton
+        lifted: LiftedPlanarNLP | None = None
+        x0 = u0
         if form == "sparse" and prob.fast is not None:
             # planar: the limit Jacobian as CSC, block diagonal by platform
             structured = ReducedPlanarNLP(prob)
             evaluate, hessian = structured.evaluate, structured.hessian
+        elif form.startswith("lifted") and prob.fast is not None and exact:
+            lifted = LiftedPlanarNLP(prob, psd_blocks=form == "lifted")
+            evaluate, hessian, gauss_newton = lifted.evaluate, lifted.hessian, None
+            x0 = lifted.lift(u0)
+        n_eq = prob.es.size if lifted is None else 3 * prob.n
         nlp = NonlinearProgram(
             objective=None,
             evaluate=evaluate,
             hessian=hessian if exact else None,
-            gauss_newton=None if prob.objective == "feasible" else prob.gauss_newton,
+            gauss_newton=gauss_newton,
             gn_scale=2.0,
-            eq_scale=np.ones(prob.es.size),
+            eq_scale=np.ones(n_eq),
             ineq_scale=np.ones(prob.cs.size),
             name="stackik-ik",
         )
@@ -95,8 +125,9 @@ class SQPMethod(Method):
         kw: dict[str, Any] = {}
         if qp_solver is not None:
             kw["qp_solver"] = qp_solver
-        res = solve(nlp, u0, options=sqp_options(run_opts), **kw)
-        return res.x, res.nit, res.status.value
+        res = solve(nlp, x0, options=sqp_options(run_opts), **kw)
+        u = res.x if lifted is None else lifted.reduce(res.x)
+        return u, res.nit, res.status.value
 
     def solve(
         self, prob: Problem, u0: FloatArray, options: dict[str, Any], time_left: float

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 HESSIAN_STRATEGIES = ("auto", "exact", "gauss-newton", "bfgs")
+QP_ACCURACIES = ("fixed", "adaptive")
 
 
 def _positive(name: str, value: Any) -> None:
@@ -47,6 +48,17 @@ class SQPOptions:
     scaling : bool
         Automatic objective/constraint scaling from gradient norms at ``x0`` (IPOPT rule:
         a function whose gradient max-norm exceeds 100 is scaled down to 100).
+    barrier_start : bool
+        Interior start phase: when ``x0`` satisfies every inequality strictly, first follow
+        the log-barrier path ``min f - mu sum log c_I  s.t.  c_E = 0`` for decreasing
+        ``mu`` (trust-region steps from equality-constrained QPs, multipliers ``mu / c_I``)
+        and only then run the SQP on the full QP, from the barrier's point and
+        multipliers. It keeps early iterates away from the limits, which leads to the
+        local minima an interior-point method finds, and its QPs carry no inequality rows.
+    qp_accuracy : {"fixed", "adaptive"}
+        ``"adaptive"``: inexact SQP, the backends' tolerances follow the SQP's own
+        optimality measure (loose far from a solution, the backend's defaults near it;
+        iterative backends only: OSQP, Clarabel).
     """
 
     tol: float = 1e-6
@@ -60,6 +72,8 @@ class SQPOptions:
     fallback_qp_solver: str | None = None
     qp_options: dict[str, Any] = field(default_factory=dict)
     scaling: bool = True
+    barrier_start: bool = False
+    qp_accuracy: str = "fixed"
 
     def __post_init__(self) -> None:
         _positive("tol", self.tol)
@@ -90,3 +104,9 @@ class SQPOptions:
             raise ValueError(f"SQPOptions.qp_options must be a dict, got {self.qp_options!r}")
         if not isinstance(self.scaling, bool):
             raise ValueError(f"SQPOptions.scaling must be a bool, got {self.scaling!r}")
+        if not isinstance(self.barrier_start, bool):
+            raise ValueError(f"SQPOptions.barrier_start must be a bool, got {self.barrier_start!r}")
+        if self.qp_accuracy not in QP_ACCURACIES:
+            raise ValueError(
+                f"SQPOptions.qp_accuracy must be one of {QP_ACCURACIES}, got {self.qp_accuracy!r}"
+            )

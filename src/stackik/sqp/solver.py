@@ -28,6 +28,7 @@ Byrd, Nocedal & Waltz 2008 penalty steering), in the scaled problem
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from typing import Any
@@ -45,12 +46,16 @@ from .qp import QPBackend, QPSolution, QPStatus, default_qp_solver, make_backend
 from .result import MESSAGES, SQPResult, SQPStatus
 from .sparse import (
     FixedPattern,
+    GramMap,
+    RowSubset,
     StackedPattern,
     csc,
     diagonal_positions,
     gram_structure,
     is_sparse,
+    matvec,
     positive_definite,
+    rmatvec,
     transpose_permutation,
 )
 
@@ -62,6 +67,9 @@ _KKTArgs = tuple[FloatArray, FloatArray, FloatArray, FloatArray, BoolArray | Non
 ETA_ACCEPT = 1e-4  # eta: step acceptance threshold on ared/pred, N&W Alg. 18.4 (eta in (0,1))
 ETA_GOOD = 0.75  # very successful step -> enlarge radius, N&W Alg. 4.1
 ETA_BAD = 0.25  # poor step -> shrink radius, N&W Alg. 4.1
+SOC_BELOW = ETA_GOOD  # a second-order correction is tried when the ratio is below this
+BACKTRACK_STEPS = 2  # rejected steps: shorter steps along d tried before shrinking
+BACKTRACK_FACTOR = 0.5
 GAMMA_SHRINK = 0.25  # radius factor on poor/rejected steps, N&W Alg. 4.1
 GAMMA_GROW = 2.0  # radius factor on very successful boundary steps, N&W Alg. 4.1
 BOUNDARY_FRACTION = 0.8  # a step "hits the boundary" if ||d|| >= 0.8 radius
@@ -80,12 +88,25 @@ HESS_REG = 1e-8  # relative floor of the QP Hessian eigenvalues (convexity)
 HESS_FLOOR = 1e-4  # absolute eigenvalue floor of a modified exact Hessian (no LP-like QPs)
 BFGS_DAMP = 0.2  # Powell damping threshold, N&W Proc. 18.2
 BFGS_DAMP_THETA = 0.8  # Powell damping factor, N&W Proc. 18.2
+CONVEXIFY_SHIFT = False
 AUG_TAUS = (1.0, 1e2, 1e4)  # tried multipliers of J_A'J_A for exact-Hessian convexification
 ACTIVE_MULTIPLIER_TOL = 1e-6  # relative multiplier above which a row counts as active
 SCALE_MAX_GRADIENT = 100.0  # IPOPT nlp_scaling_max_gradient (Waechter & Biegler 2006, 3.8)
 KKT_S_MAX = 100.0  # IPOPT s_max for multiplier-scaled stationarity (W&B 2006, eq. 5)
 ROUNDOFF_GUARD = 10.0 * np.finfo(float).eps  # 10 eps_M max(1,|phi|), CGT (2000) 17.4.2
 DELTA_MIN = 1e-12  # trust-region collapse threshold (relative to 1 + ||x/xs||_inf)
+# Interior start phase (SQPOptions.barrier_start); constants as in IPOPT (W&B 2006, 3.1)
+BARRIER_MU0 = 0.1  # initial barrier parameter (IPOPT mu_init)
+BARRIER_MU_END = 1e-4  # hand over to the SQP once the barrier problem of this mu is solved
+BARRIER_KAPPA_EPS = 10.0  # barrier problem solved when its error <= kappa_eps mu
+BARRIER_KAPPA_MU = 0.2  # mu <- max(mu_end, min(kappa_mu mu, mu^theta_mu))
+BARRIER_THETA_MU = 1.5
+BARRIER_ITER_SHARE = 0.8  # share of max_iter the barrier phase may use
+BARRIER_TAU = 0.99  # fraction to the boundary (of the barrier rows' linearisation)
+BARRIER_KAPPA_SIGMA = 1e10  # IPOPT's safeguard of the duals: z c within [mu/k, k mu]
+# Inexact subproblems (SQPOptions.qp_accuracy = "adaptive")
+QP_ACC_FACTOR = 0.1  # QP tolerance = factor x the SQP optimality measure ...
+QP_ACC_MAX = 1e-3  # ... at most this (never looser)
 
 
 class _Timer:
@@ -224,6 +245,8 @@ class _Engine:
         self.h_perm: Any = None  # data[perm]: data of the transpose
         self.h_diag: Any = None  # positions of the diagonal
         self.h_shift = 0.0  # last diagonal shift of the sparse convexification
+        self._gram_maps: dict[int, GramMap] = {}
+        self._row_subset: RowSubset | None = None
         self.bfgs_first = True
         self.hess_modified = False  # the last exact Hessian needed convexification
         self.v = 0.0
@@ -291,8 +314,10 @@ class _Engine:
             Js = self.j_stack.stack(A, B)
             if not self.unit_w:
                 Js.data *= self.w[Js.indices]
-            # row blocks only for the rare elastic subproblems and the dense-only paths
-            self.J, self.JE, self.JI = Js, None, None
+                A.data *= self.wE[A.indices]
+                B.data *= self.wI[B.indices]
+            # scaled row blocks in their own fixed patterns
+            self.J, self.JE, self.JI = Js, A, B
             return
         J = np.empty((self.m, n))
         if mE:
@@ -375,6 +400,9 @@ class _Engine:
         if be is None:
             be = self.main_backend = self._backend(self.qp_name, n, mE, mI)
         sol = be.solve_sqp(B, g, J, c, lb, ub)
+        if self.opts.qp_accuracy == "adaptive" and sol.status is QPStatus.SOLVED:
+            # an inexact solve may leave the step outside the box by its tolerance
+            sol = dataclasses.replace(sol, x=np.minimum(np.maximum(sol.x, lb), ub))
         if self._bad(sol, lb):
             sol = QPSolution(sol.x, sol.y_eq, sol.y_ineq, sol.y_bounds, QPStatus.FAILED, "bad")
         fb = self.opts.fallback_qp_solver
@@ -390,7 +418,7 @@ class _Engine:
         return float(np.abs(c) @ self.viol_a - c @ self.viol_b)
 
     def _lin_violation(self, d: FloatArray) -> float:
-        return self._violation(self.c + self.J @ d)
+        return self._violation(self.c + matvec(self.J, d))
 
     def _max_violation_unscaled(self, c: FloatArray) -> float:
         u = c if self.unit_w else c / self.w
@@ -421,7 +449,7 @@ class _Engine:
         """Scaled stationarity and complementarity (of :meth:`_kkt_args`)."""
         lam, g, J, cI, at_lo, at_up = args
         m = self.m
-        r = g - J.T @ lam if m else g.copy()
+        r = g - rmatvec(J, lam) if m else g.copy()
         if at_lo is not None:
             np.minimum(r, 0.0, out=r, where=at_lo)
         if at_up is not None:
@@ -434,7 +462,23 @@ class _Engine:
         return stat, compl
 
     # ------------------------------------------------------------------ Hessian -------
-    def _exact_hessian(self, lam: FloatArray) -> Any:
+    def _exact_hessian(
+        self, lam: FloatArray, extra: Any = None, lam_active: FloatArray | None = None
+    ) -> Any:
+        """The convexified exact Hessian of the (scaled) Lagrangian at ``lam``, plus
+        ``extra`` (a positive semidefinite term, e.g. the barrier's) before convexifying;
+        ``lam_active`` (default ``lam``) decides the rows of the augmentation."""
+        H = self._lagrangian_hessian(lam)
+        t = time.perf_counter()
+        if extra is not None:
+            H = self._add_psd(H, extra)
+        la = lam if lam_active is None else lam_active
+        B = self._convexify_sparse(H, la) if self.sparse else self._convexify(H, la)
+        self.timer.build += time.perf_counter() - t
+        return B
+
+    def _lagrangian_hessian(self, lam: FloatArray) -> Any:
+        """Symmetrised scaled Hessian of ``f - lam'c`` (dense, or CSC in the fixed pattern)."""
         nlp = self.nlp
         assert nlp.hessian is not None
         y = lam * self.w
@@ -448,17 +492,28 @@ class _Engine:
         if self.sparse:
             Hs = self._fit_hessian(Hraw)
             Hs.data *= self.sf
-            B = self._convexify_sparse(Hs, lam)
             self.timer.build += time.perf_counter() - t
-            return B
+            return Hs
         if is_sparse(Hraw):
             Hraw = Hraw.toarray()
         H = np.asarray(Hraw, dtype=float).reshape(self.n, self.n)
         H = H + H.T
         H *= 0.5 * self.sf
-        B = self._convexify(H, lam)
         self.timer.build += time.perf_counter() - t
-        return B
+        return H
+
+    def _add_psd(self, H: Any, E: Any) -> Any:
+        """``H + E`` in ``H``'s representation (``E`` dense or sparse, pattern within H's
+        when sparse: the fixed pattern includes that of ``J'J``)."""
+        if self.sparse:
+            if not is_sparse(H):
+                H = self._fit_hessian(H)
+            Ef = self.h_pat.fit(E if not is_sparse(E) else E.tocsc())
+            if self._sync_pattern():
+                H = self.h_pat.fit(H)
+                Ef = self.h_pat.fit(E if not is_sparse(E) else E.tocsc())
+            return csc(H.data + Ef.data, H.indices, H.indptr, H.shape)
+        return H + (E.toarray() if is_sparse(E) else E)
 
     # ------------------------------------------------------- sparse Hessians -------
     def _fit_hessian(self, Hraw: Any) -> Any:
@@ -477,6 +532,16 @@ class _Engine:
         H.data = 0.5 * (H.data + H.data[self.h_perm])
         return H
 
+    def _ensure_gram_pattern(self) -> None:
+        """The Hessian pattern contains that of ``J'J`` for the current ``J`` pattern."""
+        key = (self.J.indptr, self.J.indices)
+        seen = getattr(self, "_gram_src", None)
+        if seen is not None and seen[0] is key[0] and seen[1] is key[1]:
+            return
+        self.h_pat.include(gram_structure(self.J))
+        self._sync_pattern()
+        self._gram_src = key
+
     def _sync_pattern(self) -> bool:
         """After the Hessian pattern grew: make it symmetric again and recompute the
         transpose permutation and the diagonal positions (True if it had grown)."""
@@ -492,6 +557,16 @@ class _Engine:
         self.h_diag = diagonal_positions(pat.indptr, pat.indices, n)
         self.h_src = (pat.indptr, pat.indices)
         return True
+
+    def _gram(self, J: Any, w: FloatArray) -> FloatArray:
+        """Data of ``J' diag(w) J`` in the Hessian pattern (sparse ``J``, fixed pattern
+        within that of the full ``J``; the Hessian pattern must be current)."""
+        pat = self.h_pat
+        gm = self._gram_maps.get(id(J.indptr))
+        if gm is None or not gm.matches(J, pat.indptr, pat.indices):
+            gm = GramMap(J, pat.indptr, pat.indices)
+            self._gram_maps[id(J.indptr)] = gm
+        return gm.values(J.data, w)
 
     def _shifted(self, H: Any, shift: float) -> Any:
         """``H + shift I`` in the same pattern (a new matrix)."""
@@ -523,18 +598,16 @@ class _Engine:
         lam_max = float(np.abs(lam).max()) if lam.size else 0.0
         active = lam > ACTIVE_MULTIPLIER_TOL * max(1.0, lam_max)
         active[: self.mE] = True
-        rows = np.flatnonzero(active)
-        if rows.size:
-            JA = self.J[rows]
-            JtJ = self.h_pat.fit((JA.T @ JA).tocsc())
-            if self._sync_pattern():  # J's pattern grew since the Hessian's was fixed
+        if active.any():
+            self._ensure_gram_pattern()
+            if H.indices is not self.h_pat.indices:
                 H = self.h_pat.fit(H)
                 data = H.data
-                JtJ = self.h_pat.fit((JA.T @ JA).tocsc())
-            nj = max(float(JtJ.data[self.h_diag].max()), 1e-300)
+            JtJ = self._gram(self.J, active.astype(float))
+            nj = max(float(JtJ[self.h_diag].max()), 1e-300)
             for tau in AUG_TAUS:
                 coef = tau * 1e-2 * max(1.0, fro) / nj
-                Ha = csc(data + coef * JtJ.data, H.indices, H.indptr, H.shape)
+                Ha = csc(data + coef * JtJ, H.indices, H.indptr, H.shape)
                 if positive_definite(self._shifted(Ha, -reg)):
                     return Ha
         delta = max(HESS_FLOOR, 1e-4 * max(1.0, fro), self.h_shift / 4.0)
@@ -603,6 +676,16 @@ class _Engine:
                 Ha = H + (tau * max(1.0, -w[0]) / nj) * JtJ
                 if self._pd_enough(Ha, math.sqrt(float(np.vdot(Ha, Ha)))):
                     return Ha
+        if CONVEXIFY_SHIFT:
+            Hb = H
+            if JA.shape[0]:
+                Hb = H + (AUG_TAUS[1] * max(1.0, -w[0]) / nj) * JtJ
+            delta = max(floor, 1e-4 * max(1.0, -w[0]))
+            while delta <= 2.0 * max(1.0, -w[0]):
+                Hd = Hb + delta * self.eye
+                if self._pd_enough(Hd, math.sqrt(float(np.vdot(Hd, Hd)))):
+                    return Hd
+                delta *= 4.0
         # Eigenvalue clipping.
         w, V, info = _dsyevd(H, compute_v=1, lower=1)
         if info != 0:  # pragma: no cover - LAPACK failure, retry through numpy
@@ -660,7 +743,7 @@ class _Engine:
         self.B = 0.5 * (B + B.T)
 
     def _grad_lagrangian(self, lam: FloatArray) -> FloatArray:
-        return self.g - self.J.T @ lam if self.m else self.g.copy()
+        return self.g - rmatvec(self.J, lam) if self.m else self.g.copy()
 
     # --------------------------------------------------------------- subproblem -------
     def _elastic(
@@ -725,7 +808,7 @@ class _Engine:
         return sol, sol.x[:n]
 
     def _model_decrease(self, d: FloatArray, nu: float, m0: float, md: float) -> float:
-        return -float(self.g @ d + 0.5 * d @ (self.B @ d)) + nu * (m0 - md)
+        return -float(self.g @ d + 0.5 * d @ matvec(self.B, d)) + nu * (m0 - md)
 
     def _subproblem(
         self, lb: FloatArray, ub: FloatArray, delta: float
@@ -765,6 +848,291 @@ class _Engine:
                     m_nu = self._lin_violation(d)
         self.nu = nu
         return sol, d, True, infeasible
+
+    # ------------------------------------------------------------ interior start -----
+    def _tr_box(self, delta: float) -> tuple[FloatArray, FloatArray]:
+        """Trust-region box intersected with the bounds, around the current x."""
+        n, x = self.n, self.x
+        dvec: Any = delta if self.unit_xs else delta * self.xs
+        if self.any_bounds:
+            lb = np.maximum(np.minimum(self.lower - x, 0.0), -dvec)
+            ub = np.minimum(np.maximum(self.upper - x, 0.0), dvec)
+        else:
+            ub = np.full(n, delta) if self.unit_xs else np.array(dvec, dtype=float)
+            lb = -ub
+        return lb, ub
+
+    def _move_to(self, x_t: FloatArray, f_t: float, c_t: FloatArray, v_t: float, ev_t: Any) -> bool:
+        """Make the trial point current (derivatives evaluated); False if not finite."""
+        self.x = x_t
+        self.f = f_t
+        self._set_c(c_t)
+        self.v = v_t
+        if ev_t is None and self.nlp.evaluate is not None:
+            ev_t = self._eval_full(x_t)
+        self._derivs(x_t, ev_t)
+        if not (_all_finite(self.g) and _all_finite(_values(self.J))):
+            return False
+        self._new_point()
+        return True
+
+    def _barrier_hessian(
+        self, lam: FloatArray, barrier: BoolArray, sigma: FloatArray, lam_active: FloatArray
+    ) -> Any:
+        """Convexified Hessian of the barrier Lagrangian: the Lagrangian's at ``lam`` (the
+        barrier rows' duals ``z``) plus ``J_B' diag(sigma) J_B``, ``sigma = z / c_B``
+        (primal-dual; ``mu / c_B^2`` on the central path)."""
+        JI = self.JI
+        D = np.zeros(self.mI)
+        D[barrier] = sigma
+        H = self._lagrangian_hessian(lam) if self.strategy == "exact" else self._gn_hessian()
+        t = time.perf_counter()
+        if is_sparse(JI):
+            self._ensure_gram_pattern()
+            if H.indices is not self.h_pat.indices:
+                H = self.h_pat.fit(H)
+            H = csc(H.data + self._gram(JI, D), H.indices, H.indptr, H.shape)
+        else:
+            H = H + (JI * D[:, None]).T @ JI
+        if self.strategy == "exact":
+            H = (
+                self._convexify_sparse(H, lam_active)
+                if self.sparse
+                else self._convexify(H, lam_active)
+            )
+        self.timer.build += time.perf_counter() - t
+        return H
+
+    def _barrier_elastic(
+        self,
+        B: Any,
+        g: FloatArray,
+        J: Any,
+        c: FloatArray,
+        lb: FloatArray,
+        ub: FloatArray,
+        delta: float,
+    ) -> QPSolution:
+        """The barrier QP with l1-penalised slacks on every row (``c_E + J_E d = p - q``,
+        ``c_V + J_V d + s >= 0``, slacks >= 0, weight ``nu``): always consistent."""
+        n, mE = self.n, self.mE
+        mV = c.size - mE
+        k = 2 * mE + mV
+        nz = n + k
+        nu = max(self.nu, NU_INIT)
+        q = np.full(nz, nu)
+        q[:n] = g
+        lbz = np.zeros(nz)
+        ubz = np.empty(nz)
+        lbz[:n] = lb
+        ubz[:n] = ub
+        dvec = np.minimum(np.maximum(ub, -lb), delta * self.xs)
+        absJ = abs(J)
+        ubz[n : n + mE] = np.abs(c[:mE]) + absJ[:mE] @ dvec + 1.0
+        ubz[n + mE : n + 2 * mE] = ubz[n : n + mE]
+        ubz[n + 2 * mE :] = np.abs(c[mE:]) + absJ[mE:] @ dvec + 1.0
+        if self.sparse or is_sparse(J) or is_sparse(B):
+            Bs = B if is_sparse(B) else sp.csr_matrix(B)
+            P = sp.block_diag((Bs, sp.identity(k) * SLACK_REG), format="csc")
+            Jc = sp.csr_matrix(J)
+            eye = sp.identity(mE, format="csr")
+            A_eq = sp.hstack((Jc[:mE], -eye, eye, sp.csr_matrix((mE, mV))), format="csc")
+            G = sp.hstack(
+                (-Jc[mE:], sp.csr_matrix((mV, 2 * mE)), -sp.identity(mV, format="csr")),
+                format="csc",
+            )
+        else:
+            P = np.zeros((nz, nz))
+            P[:n, :n] = B
+            idx = np.arange(n, nz)
+            P[idx, idx] = SLACK_REG
+            A_eq = np.zeros((mE, nz))
+            A_eq[:, :n] = J[:mE]
+            A_eq[:, n : n + mE] = -np.eye(mE)
+            A_eq[:, n + mE : n + 2 * mE] = np.eye(mE)
+            G = np.zeros((mV, nz))
+            G[:, :n] = -J[mE:]
+            G[:, n + 2 * mE :] = -np.eye(mV)
+        return self._qp(P, q, A_eq, -c[:mE], G, c[mE:], lbz, ubz)
+
+    def _barrier_phase(
+        self, delta: float, max_iter: int
+    ) -> tuple[FloatArray, float, int, SQPStatus | None]:
+        """Interior start (:attr:`SQPOptions.barrier_start`): trust-region steps on the
+        log-barrier problem ``min f - mu sum_B log c_i  s.t.  c_E = 0, c_V >= 0``, where B
+        are the inequalities strictly satisfied at the start and V the others (kept as
+        linearised QP rows), with the l1 merit on E and V (a trial point leaving the
+        interior of B is rejected), ``mu`` decreased as in IPOPT once the barrier problem
+        is solved to ``kappa_eps mu``, until ``BARRIER_MU_END``.  Returns
+        ``(lam, delta, iterations, status or None)``. The QPs carry no barrier rows."""
+        n, mE, mI, m = self.n, self.mE, self.mI, self.m
+        lam = np.zeros(m)
+        barrier = self.cI > 0.0
+        V = np.flatnonzero(~barrier)
+        if not mI or not barrier.any():
+            return lam, delta, 0, None
+        mu = BARRIER_MU0
+        lamE = np.zeros(mE)
+        lamV = np.zeros(V.size)
+        z = mu / self.cI[barrier]  # duals of the barrier rows (primal-dual, as IPOPT)
+        nit = 0
+        adaptive = self.opts.qp_accuracy == "adaptive"
+        be = self._backend(self.qp_name, n, mE, V.size)
+        rows = np.concatenate((np.arange(mE), mE + V))
+        ev_a = self.viol_a[rows]
+        ev_b = self.viol_b[rows]
+        while nit < max_iter:
+            if self._time_up():
+                return lam, delta, nit, SQPStatus.MAX_TIME
+            cI = self.cI
+            cB = cI[barrier]
+            lamB = np.zeros(mI)
+            lamB[barrier] = mu / cB
+            lamI = np.zeros(mI)
+            lamI[barrier] = z
+            lamI[V] = lamV
+            lam = np.concatenate((lamE, lamI))
+            gphi = self.g - rmatvec(self.JI, lamB)
+            r = self.g - rmatvec(self.J, lam)
+            sd = max(KKT_S_MAX, float(np.abs(lam).sum()) / m) / KKT_S_MAX
+            err = float(np.abs(r).max()) / sd if n else 0.0
+            err = max(err, float(np.abs(z * cB - mu).max()) / sd)
+            c_ev = self.c[rows]
+            if rows.size:
+                err = max(err, float(np.abs(c_ev[:mE]).max(initial=0.0)))
+                err = max(err, float(np.maximum(-c_ev[mE:], 0.0).max(initial=0.0)))
+                err = max(err, float(np.abs(lamV * c_ev[mE:]).max(initial=0.0)) / sd)
+            if err <= BARRIER_KAPPA_EPS * mu:
+                if mu <= BARRIER_MU_END:
+                    break
+                mu = max(BARRIER_MU_END, min(BARRIER_KAPPA_MU * mu, mu**BARRIER_THETA_MU))
+                continue
+            lam_act = np.concatenate((lamE, np.where(barrier, 0.0, lamI)))
+            B = self._barrier_hessian(lam, barrier, z / cB, lam_act)
+            t = time.perf_counter()
+            lb, ub = self._tr_box(delta)
+            if self.sparse:
+                rs = self._row_subset
+                if rs is None or not rs.matches(self.J):
+                    rs = self._row_subset = RowSubset(self.J, rows)
+                J_ev = rs(self.J)
+            else:
+                J_ev = self.J[rows]
+            self.timer.build += time.perf_counter() - t
+            t = time.perf_counter()
+            if adaptive:
+                be.set_accuracy(min(QP_ACC_MAX, QP_ACC_FACTOR * err))
+            sol = be.solve_sqp(B, gphi, J_ev, c_ev, lb, ub)
+            elastic = False
+            if sol.status is not QPStatus.SOLVED or self._bad(sol, lb):
+                # inconsistent linearisation in the trust region: the l1-elastic QP
+                sol = self._barrier_elastic(B, gphi, J_ev, c_ev, lb, ub, delta)
+                elastic = True
+            self._finish_qp(sol, t)
+            nit += 1
+            if sol.status is not QPStatus.SOLVED:
+                break  # the SQP takes over from here
+            d = sol.x[:n]
+            lamE_new = -sol.y_eq[:mE]
+            lamV_new = np.maximum(sol.y_ineq[: V.size], 0.0)
+            # fraction to the boundary of the barrier rows, on their linearisation
+            JBd = matvec(self.JI, d)[barrier]
+            cB = cI[barrier]
+            shrinking = JBd < 0.0
+            if shrinking.any():
+                alpha = float(np.min(BARRIER_TAU * cB[shrinking] / -JBd[shrinking]))
+                if alpha < 1.0:
+                    d = alpha * d
+            m0 = self.v  # = ||c_E||_1 + ||min(c_V, 0)||_1: the barrier rows are positive
+            gd = float(gphi @ d)
+            dBd = float(d @ matvec(B, d))
+            lam_inf = max(
+                float(np.abs(lamE_new).max(initial=0.0)), float(lamV_new.max(initial=0.0))
+            )
+            nu = self.nu
+            if not elastic:
+                nu = max(nu, PENALTY_MARGIN * lam_inf)
+                if m0 > 0:
+                    nu = max(nu, (gd + 0.5 * dBd) / ((1.0 - RHO_PENALTY) * m0))
+            nu = self.nu = min(nu, NU_MAX)
+            lin = c_ev + matvec(J_ev, d)
+            md = float(np.abs(lin) @ ev_a - lin @ ev_b) if rows.size else 0.0
+            pred = -(gd + 0.5 * dBd) + nu * (m0 - md)
+            phi0 = self.f - mu * float(np.log(cI[barrier]).sum()) + nu * m0
+            guard = ROUNDOFF_GUARD * max(1.0, abs(phi0))
+
+            def trial(
+                step: FloatArray,
+                mu: float = mu,
+                nu: float = nu,
+                phi0: float = phi0,
+                guard: float = guard,
+                pred: float = pred,
+            ) -> tuple[float, Any, float, float]:
+                """Merit ratio of ``x + step`` (and its f, c, ev, violation)."""
+                xt = self._project(self.x + step)
+                ft, ct, evt = self._eval_values(xt)
+                cBt = ct[mE:][barrier]
+                if not (bool((cBt > 0.0).all()) and math.isfinite(ft) and pred > 0):
+                    return -math.inf, (xt, ft, ct, evt), math.inf, 0.0
+                vt = self._violation(ct)
+                phit = ft - mu * float(np.log(cBt).sum()) + nu * vt
+                return (phi0 - phit + guard) / (pred + guard), (xt, ft, ct, evt), vt, 0.0
+
+            ratio, (x_t, f_t, c_t, ev_t), v_t, _ = trial(d)
+            kind = "barrier"
+            if ratio < ETA_GOOD and rows.size and pred > 0 and math.isfinite(f_t):
+                # second-order correction (N&W Sec. 15.5): the same QP at c(x + d) - J d
+                sol_c = be.solve_sqp(B, gphi, J_ev, c_t[rows] - matvec(J_ev, d), lb, ub)
+                if sol_c.status is QPStatus.SOLVED:
+                    d_c = sol_c.x
+                    JBd = matvec(self.JI, d_c)[barrier]
+                    shrinking = JBd < 0.0
+                    if shrinking.any():
+                        alpha = float(np.min(BARRIER_TAU * cB[shrinking] / -JBd[shrinking]))
+                        if alpha < 1.0:
+                            d_c = alpha * d_c
+                    ratio_c, pt_c, v_c, _ = trial(d_c)
+                    if ratio_c >= ETA_ACCEPT and ratio_c > ratio:
+                        ratio, (x_t, f_t, c_t, ev_t), v_t = ratio_c, pt_c, v_c
+                        d = d_c
+                        kind = "barrier-soc"
+            dnorm = float(np.abs(d).max()) if self.unit_xs else float(np.max(np.abs(d) / self.xs))
+            if self.opts.verbose:
+                print(
+                    f"{nit:4d} {self.f / self.sf:14.7e} {self.viol_u:9.2e} {err:9.2e} "
+                    f"{mu:9.2e} {delta:9.2e} {nu:9.2e} {ratio:9.2e}  {kind}"
+                )
+            if ratio >= ETA_ACCEPT:
+                # dual step of the barrier rows from the linearised z c = mu, with the
+                # fraction to the boundary and IPOPT's safeguard z c in [mu/k, k mu]
+                dz = (mu - z * (cB + matvec(self.JI, d)[barrier])) / cB
+                neg = dz < 0.0
+                alpha_z = 1.0
+                if neg.any():
+                    alpha_z = min(1.0, float(np.min(BARRIER_TAU * z[neg] / -dz[neg])))
+                z = z + alpha_z * dz
+                if not self._move_to(x_t, f_t, c_t, v_t, ev_t):
+                    return lam, delta, nit, SQPStatus.NUMERICAL_ERROR
+                cB_new = self.cI[barrier]
+                z = np.clip(
+                    z, mu / (BARRIER_KAPPA_SIGMA * cB_new), BARRIER_KAPPA_SIGMA * mu / cB_new
+                )
+                lamE, lamV = lamE_new, lamV_new
+                if ratio >= ETA_GOOD and dnorm >= BOUNDARY_FRACTION * delta:
+                    delta = min(GAMMA_GROW * delta, self.opts.max_tr_radius)
+                elif ratio < ETA_BAD:
+                    delta = GAMMA_SHRINK * delta
+            else:
+                delta = GAMMA_SHRINK * min(delta, dnorm if dnorm > 0 else delta)
+            if delta < DELTA_MIN * (1.0 + self.xnorm):
+                break
+        if adaptive:
+            be.set_accuracy(None)
+        lamI = np.zeros(mI)
+        lamI[barrier] = z
+        lamI[V] = lamV
+        return np.concatenate((lamE, lamI)), delta, nit, None
 
     # ---------------------------------------------------------------------- run -------
     def _time_up(self) -> bool:
@@ -858,12 +1226,24 @@ class _Engine:
         nit = 0
         have_lam = False
         x_changed = True
+        if status is None and opts.barrier_start and self.strategy != "bfgs":
+            budget = max(1, int(BARRIER_ITER_SHARE * opts.max_iter))
+            lam, delta, nit, status = self._barrier_phase(delta, budget)
+            x = self.x
+            if nit and status is None:
+                have_lam = True
+                if self.strategy == "exact":
+                    self.B = self._exact_hessian(lam)
+                elif self.strategy == "gauss-newton":
+                    self.B = self._gn_hessian()
         stat = compl = math.inf
         # Stationarity/complementarity are only needed for the termination test (which
         # needs the violation within tol first), the log and the result: otherwise the
         # evaluation is deferred (``pending``) and done at the end if still the latest.
         pending: _KKTArgs | None = None
         ctol = opts.constr_tol
+        adaptive = opts.qp_accuracy == "adaptive"
+        last_step = math.inf  # length of the last accepted step (inexact subproblems)
         best_x, best_v = x.copy(), self.viol_u
         if verbose and status is None:
             print(
@@ -898,6 +1278,16 @@ class _Engine:
                 ub = np.full(n, delta) if self.unit_xs else dvec
                 lb = -ub
             self.timer.build += time.perf_counter() - t
+            if adaptive:
+                # tolerance from the optimality measure, and from the last step's length:
+                # inexact multipliers can keep the measure up, but not the steps
+                opt = last_step
+                if have_lam:
+                    st_, co_ = self._kkt(self._kkt_args(lam))
+                    opt = min(opt, max(st_, co_, viol_u))
+                self._backend(self.qp_name, n, self.mE, self.mI).set_accuracy(
+                    min(QP_ACC_MAX, QP_ACC_FACTOR * opt)
+                )
             nit += 1
             sol, d, elastic, infeasible = self._subproblem(lb, ub, delta)
             if sol is None:
@@ -921,7 +1311,7 @@ class _Engine:
                 break
             # ---- penalty update (N&W eq. 18.36) after a consistent QP
             m0 = self.v
-            dBd = float(d @ (self.B @ d))
+            dBd = float(d @ matvec(self.B, d))
             gd = float(self.g @ d)
             if not elastic:
                 lam_inf = float(np.abs(lam).max()) if m else 0.0
@@ -936,7 +1326,7 @@ class _Engine:
                 self.nu = min(nu, NU_MAX)
             nu = self.nu
             # Linearised violation of the computed step (not assumed zero: QP tolerances).
-            Jd = self.J @ d
+            Jd = matvec(self.J, d)
             md = self._violation(self.c + Jd)
             pred = -(gd + 0.5 * dBd) + nu * (m0 - md)
             phi0 = self.f + nu * m0
@@ -956,7 +1346,7 @@ class _Engine:
             guard = ROUNDOFF_GUARD * max(1.0, abs(phi0))
             ratio = (phi0 - phi_t + guard) / (pred + guard) if ok and pred > -guard else -math.inf
             kind = "elastic" if elastic else "qp"
-            if ratio < ETA_GOOD and not elastic and m and ok and pred > 0:
+            if ratio < SOC_BELOW and not elastic and m and ok and pred > 0:
                 # Second-order correction (N&W Sec. 15.5 / Alg. 18.4).
                 sol_c = self._qp_sqp(c_t - Jd, lb, ub)
                 if sol_c.status is QPStatus.SOLVED:
@@ -970,6 +1360,32 @@ class _Engine:
                         ratio = ratio_c
                         kind = "soc"
                         d = sol_c.x
+            bt_alpha = 0.0
+            if ratio < ETA_ACCEPT and BACKTRACK_STEPS and not elastic and ok:
+                # backtracking inside the trust region (Nocedal & Yuan 1998): shorter
+                # steps along d cost evaluations only, not a new QP
+                Jd0, d0 = Jd, d
+                for k in range(1, BACKTRACK_STEPS + 1):
+                    alpha = BACKTRACK_FACTOR**k
+                    da = alpha * d0
+                    md_a = self._violation(self.c + alpha * Jd0)
+                    pred_a = -(alpha * gd + 0.5 * alpha * alpha * dBd) + nu * (m0 - md_a)
+                    if not pred_a > 0:
+                        break
+                    x_a = self._project(x + da)
+                    f_a, c_a, ev_a = self._eval_values(x_a)
+                    v_a = self._violation(c_a)
+                    phi_a = f_a + nu * v_a
+                    ratio_a = (phi0 - phi_a + guard) / (pred_a + guard)
+                    if math.isfinite(phi_a) and ratio_a >= ETA_ACCEPT:
+                        x_t, f_t, c_t, v_t, ev_t = x_a, f_a, c_a, v_a, ev_a
+                        ratio, d, kind = ratio_a, da, f"backtrack {alpha:g}"
+                        bt_alpha = alpha
+                        if self.unit_xs:
+                            dnorm = float(np.abs(d).max())
+                        else:
+                            dnorm = float(np.max(np.abs(d) / self.xs))
+                        break
             if verbose:
                 print(
                     f"{nit:4d} {self.f / self.sf:14.7e} {viol_u:9.2e} {stat:9.2e} "
@@ -1002,9 +1418,13 @@ class _Engine:
                     gL_new = self._grad_lagrangian(lam)
                     self._bfgs_update(x - x_old, gL_new - gL_old)
                     self.timer.build += time.perf_counter() - t
+                last_step = dnorm
                 if self.viol_u < best_v:
                     best_x, best_v = x.copy(), self.viol_u
-                if ratio >= ETA_GOOD and dnorm >= BOUNDARY_FRACTION * delta:
+                if bt_alpha:  # a backtracked step: the radius never grows
+                    if ratio < ETA_BAD:
+                        delta = GAMMA_SHRINK * delta
+                elif ratio >= ETA_GOOD and dnorm >= BOUNDARY_FRACTION * delta:
                     delta = min(GAMMA_GROW * delta, opts.max_tr_radius)
                 elif ratio < ETA_BAD:
                     delta = GAMMA_SHRINK * delta

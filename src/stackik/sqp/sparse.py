@@ -29,13 +29,78 @@ def is_sparse(M: Any) -> bool:
     return bool(sp.issparse(M))
 
 
-def csc(data: FloatArray, indices: IntArray, indptr: IntArray, shape: tuple[int, int]) -> Any:
-    """A CSC matrix on the given arrays, without copies, checks or zero dropping."""
+def _csc_checked(
+    data: FloatArray, indices: IntArray, indptr: IntArray, shape: tuple[int, int]
+) -> Any:
     M = sp.csc_matrix(shape, dtype=float)
     M.data, M.indices, M.indptr = data, indices, indptr
     M.has_sorted_indices = True  # the patterns built here are sorted, without duplicates
     M.has_canonical_format = True
     return M
+
+
+_BASE = dict(sp.csc_matrix((1, 1)).__dict__)
+
+
+def _csc_fast(data: FloatArray, indices: IntArray, indptr: IntArray, shape: tuple[int, int]) -> Any:
+    # scipy's constructor validates the arrays (O(nnz) and ~25 us of Python per matrix,
+    # the engine's main overhead at small n); the arrays built here are valid by
+    # construction, so the attributes are set directly (checked once at import below)
+    M = sp.csc_matrix.__new__(sp.csc_matrix)
+    M.__dict__.update(_BASE)
+    M.data, M.indices, M.indptr, M._shape = data, indices, indptr, shape
+    return M
+
+
+def _fast_ok() -> bool:
+    try:
+        A = _csc_fast(
+            np.array([1.0, 2.0]), np.array([0, 1], np.int32), np.array([0, 1, 2], np.int32), (2, 2)
+        )
+        ok = np.array_equal(A.toarray(), np.diag([1.0, 2.0]))
+        ok = ok and np.array_equal(A.T @ np.ones(2), [1.0, 2.0])
+        return bool(ok and np.array_equal((A @ A).toarray(), np.diag([1.0, 4.0])))
+    except Exception:  # noqa: BLE001 - another scipy: the checked constructor
+        return False
+
+
+#: ``csc(data, indices, indptr, shape)``: a CSC matrix on the given arrays, without copies,
+#: checks or zero dropping (the arrays must be valid: sorted, no duplicates, one dtype).
+csc = _csc_fast if _fast_ok() else _csc_checked
+
+_COLS: dict[int, tuple[Any, Any]] = {}
+
+
+def entry_cols(indptr: Any) -> Any:
+    """Column of every stored entry of a CSC pattern (cached per ``indptr`` object)."""
+    hit = _COLS.get(id(indptr))
+    if hit is not None and hit[0] is indptr:
+        return hit[1]
+    cols = np.repeat(np.arange(indptr.size - 1), np.diff(indptr))
+    if len(_COLS) > 64:
+        _COLS.clear()
+    _COLS[id(indptr)] = (indptr, cols)
+    return cols
+
+
+def matvec(A: Any, x: FloatArray) -> FloatArray:
+    """``A @ x`` for a dense array or a CSC matrix (no scipy dispatch)."""
+    if not sp.issparse(A):
+        return A @ x  # type: ignore[no-any-return]
+    return np.asarray(
+        np.bincount(A.indices, weights=A.data * x[entry_cols(A.indptr)], minlength=A.shape[0]),
+        dtype=np.float64,
+    )
+
+
+def rmatvec(A: Any, y: FloatArray) -> FloatArray:
+    """``A.T @ y`` for a dense array or a CSC matrix (no scipy dispatch)."""
+    if not sp.issparse(A):
+        return A.T @ y  # type: ignore[no-any-return]
+    return np.asarray(
+        np.bincount(entry_cols(A.indptr), weights=A.data * y[A.indices], minlength=A.shape[1]),
+        dtype=np.float64,
+    )
 
 
 def _keys(indptr: IntArray, indices: IntArray, nrows: int) -> IntArray:
@@ -91,7 +156,7 @@ class FixedPattern:
             if self.indices is None or self.nnz != m * n:
                 self.include(D)
             assert self.indices is not None and self.indptr is not None
-            return csc(np.ascontiguousarray(D.T).ravel(), self.indices, self.indptr, (m, n))
+            return csc(D.T.copy(order="C").ravel(), self.indices, self.indptr, (m, n))
         A = M if isinstance(M, sp.csc_matrix) else sp.csc_matrix(M)
         if not A.has_canonical_format:
             A = A.copy()
@@ -210,3 +275,70 @@ def gram_structure(J: Any) -> Any:
     """Structure (ones) of ``J'J`` for a sparse ``J``."""
     S = sp.csc_matrix((np.ones(J.indices.size), J.indices, J.indptr), shape=J.shape)
     return (S.T @ S).tocsc()
+
+
+class GramMap:
+    """``J' diag(w) J`` of a CSC ``J`` (fixed pattern) as values in a fixed symmetric CSC
+    pattern that contains its structure (:class:`FixedPattern` of the Hessian): O(sum of
+    squared row counts) work, no scipy objects."""
+
+    def __init__(self, J: Any, h_indptr: Any, h_indices: Any) -> None:
+        m, n = J.shape
+        self.key = (J.indptr, J.indices, h_indptr, h_indices)
+        cols = entry_cols(J.indptr)
+        rows = np.asarray(J.indices, dtype=np.int64)
+        order = np.argsort(rows, kind="stable")
+        counts = np.bincount(rows, minlength=m)
+        starts = np.zeros(m, dtype=np.int64)
+        np.cumsum(counts[:-1], out=starts[1:])
+        sq = counts * counts
+        total = int(sq.sum())
+        self.rows = np.repeat(np.arange(m), sq)
+        off = np.zeros(m, dtype=np.int64)
+        np.cumsum(sq[:-1], out=off[1:])
+        t = np.arange(total) - off[self.rows]
+        k = counts[self.rows]
+        self.p = order[starts[self.rows] + t // k]
+        self.q = order[starts[self.rows] + t % k]
+        keys_h = _keys(h_indptr, h_indices, n)
+        want = cols[self.q] * n + cols[self.p]  # (row cols[p], column cols[q])
+        pos = np.searchsorted(keys_h, want)
+        if pos.size and (pos.max() >= keys_h.size or (keys_h[pos] != want).any()):
+            raise ValueError("the Hessian pattern does not contain that of J'J")
+        self.pos = pos
+        self.nnz = int(keys_h.size)
+
+    def matches(self, J: Any, h_indptr: Any, h_indices: Any) -> bool:
+        k = self.key
+        return k[0] is J.indptr and k[1] is J.indices and k[2] is h_indptr and k[3] is h_indices
+
+    def values(self, Jdata: FloatArray, w: FloatArray) -> FloatArray:
+        """Data of ``J' diag(w) J`` in the Hessian pattern."""
+        return np.asarray(
+            np.bincount(
+                self.pos, weights=w[self.rows] * Jdata[self.p] * Jdata[self.q], minlength=self.nnz
+            ),
+            dtype=np.float64,
+        )
+
+
+class RowSubset:
+    """Rows ``rows`` (sorted) of a CSC matrix with a fixed pattern, as CSC (fixed pattern)."""
+
+    def __init__(self, J: Any, rows: Any) -> None:
+        m, n = J.shape
+        self.key = (J.indptr, J.indices)
+        remap = np.full(m, -1, dtype=np.int64)
+        remap[rows] = np.arange(rows.size)
+        new_rows = remap[J.indices]
+        self.take = np.flatnonzero(new_rows >= 0)
+        cols = entry_cols(J.indptr)[self.take]
+        self.indices = new_rows[self.take].astype(J.indices.dtype)
+        self.indptr = np.searchsorted(cols, np.arange(n + 1)).astype(J.indptr.dtype)
+        self.shape = (int(rows.size), n)
+
+    def matches(self, J: Any) -> bool:
+        return self.key[0] is J.indptr and self.key[1] is J.indices
+
+    def __call__(self, J: Any) -> Any:
+        return csc(J.data[self.take], self.indices, self.indptr, self.shape)

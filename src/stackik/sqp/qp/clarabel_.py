@@ -61,7 +61,7 @@ class ClarabelBackend(QPBackend):
         if eps is None or any(k in self.options for k in _TOL_KEYS):
             new = {k: base[k] for k in _TOL_KEYS}
         else:
-            new = dict.fromkeys(_TOL_KEYS, eps)
+            new = {k: max(float(eps), float(base[k])) for k in _TOL_KEYS}
         new["tol_ktratio"] = (
             base["tol_ktratio"]
             if eps is None

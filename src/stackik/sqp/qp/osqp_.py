@@ -96,13 +96,14 @@ class OSQPBackend(QPBackend):
         self._sp_solver: Any = None
 
     def set_accuracy(self, eps: float | None) -> None:
-        """Solve the next QPs to ``eps_abs = eps_rel = eps`` (None: the settings' values;
-        never looser than the user's ``eps_abs``/``eps_rel`` if given)."""
+        """Solve the next QPs to ``eps_abs = eps_rel = eps`` (None: the settings' values,
+        which are also the tightest used; user-set ``eps_abs``/``eps_rel`` always win)."""
         base = {**DEFAULT_SETTINGS, **self.options}
         if eps is None or "eps_abs" in self.options or "eps_rel" in self.options:
             new = {"eps_abs": base["eps_abs"], "eps_rel": base["eps_rel"]}
         else:
-            new = {"eps_abs": eps, "eps_rel": eps}
+            e = max(float(eps), float(base["eps_abs"]))
+            new = {"eps_abs": e, "eps_rel": max(float(eps), float(base["eps_rel"]))}
         if all(self.settings[k] == v for k, v in new.items()):
             return
         self.settings.update(new)
@@ -234,8 +235,10 @@ class OSQPBackend(QPBackend):
     def _result(self, res: Any) -> QPSolution:
         me, mi = self.m_eq, self.m_ineq
         status = res.info.status_val
-        polished = getattr(res.info, "status_polish", 0) == 1
-        if status in _SOLVED or (status == _MAX_ITER and polished):
+        # At the iteration limit the ADMM iterate is still an approximate solution: the
+        # SQP's ratio test judges the step it gives (rejecting it shrinks the trust
+        # region, which makes the next QP easier), better than ending the run.
+        if status in _SOLVED or status == _MAX_ITER:
             y = res.y
             return QPSolution(
                 np.array(res.x),
