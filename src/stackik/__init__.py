@@ -42,6 +42,7 @@ __all__ = [
     "GeometryError",
     "IKResult",
     "IKStatus",
+    "interpolate_targets",
     "leg_lengths",
     "leg_vectors",
     "lift_planar",
@@ -52,6 +53,8 @@ __all__ = [
     "nonoptimal_poses",
     "OptionError",
     "paper_initial_guess",
+    "PathResult",
+    "PathStatus",
     "planar_fn2",
     "planar_forward",
     "planar_jacobian",
@@ -66,6 +69,7 @@ __all__ = [
     "reproduce",
     "solve_ik",
     "solve_many",
+    "solve_path",
     "spatial_chain",
     "spatial_forward",
     "spatial_jacobian",
@@ -74,6 +78,7 @@ __all__ = [
     "Stack",
     "target_from_dict",
     "target_to_dict",
+    "time_parameterize",
     "warm_up",
     "workspace_study",
 ]
@@ -93,6 +98,11 @@ _LAZY = {
     "random_reachable_targets": "stackik.analysis.workspace",
     "random_feasible_poses": "stackik.analysis.workspace",
     "reproduce": "stackik.analysis.reproduce",
+    "solve_path": "stackik.paths",
+    "PathResult": "stackik.paths",
+    "PathStatus": "stackik.paths",
+    "interpolate_targets": "stackik.paths",
+    "time_parameterize": "stackik.paths",
 }
 
 
