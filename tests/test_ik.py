@@ -18,10 +18,6 @@ PAPER_TARGETS = [(600.0, 1000.0, -1.57), (145.0, 1500.0, -0.207), (-319.0, 1532.
 STACK4 = sk.Stack.reference(4)
 
 
-def _fd_jac(fun, u, eps=1e-6):
-    return np.array([(fun(u + eps * e) - fun(u - eps * e)) / (2 * eps) for e in np.eye(u.size)]).T
-
-
 @pytest.mark.parametrize("target", PAPER_TARGETS)
 def test_paper_targets_optimal_beats_feasible(target):
     t = sk.PlanarTarget(*target, phi=0.0)
@@ -245,8 +241,30 @@ def test_spatial_agrees_with_planar_target():
     assert spatial.frobenius_norm <= fn_lift + 1e-6
 
 
+def _problem_scales(p, u):
+    """Function scales (tests/fd.py) of the scaled problem's objective, equalities and
+    limits at u: positions are at most the chain length Lc [mm] (Lc / L scaled), the
+    objective sums (n - 1 planar, 3 n spatial) squared residuals of at most that, the
+    equalities add the target and the angles, the limits are the raw constraint scales
+    (fd.constraint_scale) times their row scaling."""
+    import fd
+
+    q = p.q_of(u)
+    f, _, cE, _, _, _ = p.evaluate(u)
+    lc = fd.chain_length(q) / p.L
+    k = q.shape[1]
+    terms = q.shape[0] if k == 3 else 3 * q.shape[0]
+    F_f = abs(f) + terms * lc**2
+    F_E = 1.0 + 2.0 * lc + float(np.abs(q[:, 3 if k == 6 else 2 :]).sum() + np.abs(cE).max())
+    st = p.stack
+    F_I = fd.constraint_scale(st.top_nodes, st.base_nodes, st.leg_max, q).ravel() * p.cs
+    return F_f, F_E, F_I
+
+
 def _check_problem_first_derivatives(p, u):
-    """Objective gradient and constraint Jacobians of a scaled IK problem vs FD."""
+    """Objective gradient and constraint Jacobians of a scaled IK problem against central
+    differences, tolerances from the step and the scales (tests/fd.py)."""
+    import fd
 
     def part(i):
         def f(v):
@@ -257,11 +275,13 @@ def _check_problem_first_derivatives(p, u):
 
     p._cache_u = None
     _, g, _, Je, _, Ji = p.evaluate(u)
-    np.testing.assert_allclose(g, _fd_jac(part(0), u)[0], rtol=1e-5, atol=1e-7)
-    np.testing.assert_allclose(Je, _fd_jac(part(2), u), rtol=1e-5, atol=1e-7)
-    np.testing.assert_allclose(Ji, _fd_jac(part(4), u), rtol=1e-5, atol=1e-7)
+    F_f, F_E, F_I = _problem_scales(p, u)
+    fd.assert_derivative_close(g[None], fd.central(part(0), u), f_scale=F_f, what="gradient")
+    fd.assert_derivative_close(Je, fd.central(part(2), u), f_scale=F_E, what="J_eq")
+    fd.assert_derivative_close(Ji, fd.central(part(4), u), f_scale=F_I, what="J_ineq")
 
 
+@pytest.mark.derivatives
 @pytest.mark.parametrize("phi", [0.0, 1.1])
 def test_problem_derivatives_planar(phi):
     t = sk.PlanarTarget(*PAPER_TARGETS[2], phi=phi)
@@ -276,8 +296,15 @@ def test_problem_derivatives_planar(phi):
         _, gg, _, JJe, _, JJi = p.evaluate(v)
         return gg - JJe.T @ ye - JJi.T @ yi
 
+    import fd
+
     H = p.lagrangian_hessian(u, ye, yi)
-    np.testing.assert_allclose(H, _fd_jac(lag_grad, u), rtol=1e-5, atol=1e-6)
+    num = fd.central(lag_grad, u, richardson=True)
+    F_f, F_E, F_I = _problem_scales(p, u)
+    F_L = F_f + float(np.abs(ye).sum()) * F_E + float(np.abs(yi) @ F_I)  # the Lagrangian's
+    fd.assert_derivative_close(
+        H, num, f_scale=fd.derivative_scale(F_L, num.x_scale), what="Lagrangian Hessian"
+    )
 
 
 def test_spatial_default_tries_the_folded_starts():
@@ -325,6 +352,7 @@ def test_so3_log_fast_matches_scipy():
             np.testing.assert_allclose(a, b, atol=1e-12)
 
 
+@pytest.mark.derivatives
 def test_problem_derivatives_spatial():
     t = sk.PlanarTarget(*PAPER_TARGETS[0], phi=0.2).to_spatial()
     st = sk.Stack.reference(3)
