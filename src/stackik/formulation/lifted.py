@@ -29,11 +29,11 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from stackik.formulation.problem import Problem
 from stackik.kinematics import _planar_parts
+from stackik.sqp.sparse import csc
 from stackik.targets import PlanarTarget
 
 __all__ = ["LiftedPlanarNLP"]
@@ -42,10 +42,7 @@ FloatArray = NDArray[np.float64]
 
 
 def _csc(data: FloatArray, indices: Any, indptr: Any, shape: tuple[int, int]) -> Any:
-    M = sp.csc_matrix(shape)
-    M.data, M.indices, M.indptr = data, indices, indptr
-    M.has_sorted_indices = True
-    return M
+    return csc(data, indices, indptr, shape)
 
 
 class _Pattern:

@@ -254,7 +254,7 @@ class PlanarEvaluator:
         """:meth:`__call__` with the Jacobian as a CSC matrix: block diagonal (platform i's
         24 limits touch only its 3 variables), one fixed pattern of 72 n entries (explicit
         zeros kept), the same ``indptr``/``indices`` arrays at every call."""
-        import scipy.sparse as sp
+        from stackik.sqp.sparse import csc
 
         D = self._values(q)
         n = self.n
@@ -269,10 +269,7 @@ class PlanarEvaluator:
                 self.jscale.reshape(n, 24, 3).transpose(0, 2, 1).ravel(),
             )
         indptr, indices, scale = self._csc
-        J = sp.csc_matrix((24 * n, 3 * n))
-        J.data = D.transpose(0, 3, 1, 2).ravel() * scale
-        J.indices, J.indptr = indices, indptr
-        J.has_sorted_indices = True
+        J = csc(D.transpose(0, 3, 1, 2).ravel() * scale, indices, indptr, (24 * n, 3 * n))
         return self.c.ravel() * self.cscale, J
 
     def _values(self, q: FloatArray) -> FloatArray:

@@ -51,6 +51,7 @@ from .sparse import (
     StackedPattern,
     csc,
     diagonal_positions,
+    entry_cols,
     gram_structure,
     is_sparse,
     matvec,
@@ -70,6 +71,7 @@ ETA_BAD = 0.25  # poor step -> shrink radius, N&W Alg. 4.1
 SOC_BELOW = ETA_GOOD  # a second-order correction is tried when the ratio is below this
 BACKTRACK_STEPS = 2  # rejected steps: shorter steps along d tried before shrinking
 BACKTRACK_FACTOR = 0.5
+SCREEN_ROWS = True  # sparse mode: QPs without the inequality rows that cannot bind
 GAMMA_SHRINK = 0.25  # radius factor on poor/rejected steps, N&W Alg. 4.1
 GAMMA_GROW = 2.0  # radius factor on very successful boundary steps, N&W Alg. 4.1
 BOUNDARY_FRACTION = 0.8  # a step "hits the boundary" if ||d|| >= 0.8 radius
@@ -88,7 +90,6 @@ HESS_REG = 1e-8  # relative floor of the QP Hessian eigenvalues (convexity)
 HESS_FLOOR = 1e-4  # absolute eigenvalue floor of a modified exact Hessian (no LP-like QPs)
 BFGS_DAMP = 0.2  # Powell damping threshold, N&W Proc. 18.2
 BFGS_DAMP_THETA = 0.8  # Powell damping factor, N&W Proc. 18.2
-CONVEXIFY_SHIFT = False
 AUG_TAUS = (1.0, 1e2, 1e4)  # tried multipliers of J_A'J_A for exact-Hessian convexification
 ACTIVE_MULTIPLIER_TOL = 1e-6  # relative multiplier above which a row counts as active
 SCALE_MAX_GRADIENT = 100.0  # IPOPT nlp_scaling_max_gradient (Waechter & Biegler 2006, 3.8)
@@ -247,6 +248,7 @@ class _Engine:
         self.h_shift = 0.0  # last diagonal shift of the sparse convexification
         self._gram_maps: dict[int, GramMap] = {}
         self._row_subset: RowSubset | None = None
+        self.screen_backend: QPBackend | None = None  # QPs without the rows that cannot bind
         self.bfgs_first = True
         self.hess_modified = False  # the last exact Hessian needed convexification
         self.v = 0.0
@@ -396,10 +398,14 @@ class _Engine:
         n, mE, mI = self.n, self.mE, self.mI
         B, g, J = self.B, self.g, self.J
         t = time.perf_counter()
-        be = self.main_backend
-        if be is None:
-            be = self.main_backend = self._backend(self.qp_name, n, mE, mI)
-        sol = be.solve_sqp(B, g, J, c, lb, ub)
+        rows = self._binding_rows(c, lb, ub)
+        if rows is not None:
+            sol = self._qp_screened(rows, c, lb, ub)
+        else:
+            be = self.main_backend
+            if be is None:
+                be = self.main_backend = self._backend(self.qp_name, n, mE, mI)
+            sol = be.solve_sqp(B, g, J, c, lb, ub)
         if self.opts.qp_accuracy == "adaptive" and sol.status is QPStatus.SOLVED:
             # an inexact solve may leave the step outside the box by its tolerance
             sol = dataclasses.replace(sol, x=np.minimum(np.maximum(sol.x, lb), ub))
@@ -409,6 +415,42 @@ class _Engine:
         if sol.status is QPStatus.FAILED and fb is not None and fb != self.qp_name:
             sol = self._backend(fb, n, mE, mI).solve_sqp(B, g, J, c, lb, ub)
         return self._finish_qp(sol, t)
+
+    def _binding_rows(self, c: FloatArray, lb: FloatArray, ub: FloatArray) -> Any:
+        """Sparse mode: the rows that can bind in the box ``lb <= d <= ub`` (equalities and
+        the inequalities with ``c_i - sum_j |J_ij| max(-lb_j, ub_j) <= 0``; the others hold
+        for every step in the box, so the QP without them has the same solution), or None
+        when that is all of them."""
+        if not (self.sparse and SCREEN_ROWS and self.mI):
+            return None
+        J, mE = self.J, self.mE
+        r = np.maximum(-lb, ub)
+        reach = np.bincount(
+            J.indices, weights=np.abs(J.data) * r[entry_cols(J.indptr)], minlength=self.m
+        )
+        keep = c - reach <= 0.0
+        keep[:mE] = True
+        if keep.all():
+            return None
+        return np.flatnonzero(keep)
+
+    def _qp_screened(self, rows: Any, c: FloatArray, lb: FloatArray, ub: FloatArray) -> QPSolution:
+        """:meth:`_qp_sqp` on the rows ``rows`` only; multipliers of the others are 0."""
+        n, mE, mI = self.n, self.mE, self.mI
+        k = rows.size - mE
+        be = self.screen_backend
+        if be is None:
+            be = self.screen_backend = make_backend(self.qp_name, self.opts.qp_options)
+            be.deadline = self.t0 + self.opts.max_time
+        if (be.n, be.m_eq, be.m_ineq) != (n, mE, k):
+            be.setup(n, mE, k)
+        Js = RowSubset(self.J, rows)(self.J)
+        sol = be.solve_sqp(self.B, self.g, Js, c[rows], lb, ub)
+        if sol.status is not QPStatus.SOLVED:
+            return sol
+        y_ineq = np.zeros(mI)
+        y_ineq[rows[mE:] - mE] = sol.y_ineq[:k]
+        return dataclasses.replace(sol, y_ineq=y_ineq)
 
     def _violation(self, c: FloatArray) -> float:
         """Scaled l1 violation ``||c_E||_1 + ||min(c_I, 0)||_1`` of stacked ``c``, as
@@ -665,27 +707,23 @@ class _Engine:
         lam_max = float(np.abs(lam).max()) if lam.size else 0.0
         active = lam > ACTIVE_MULTIPLIER_TOL * max(1.0, lam_max)
         active[: self.mE] = True
-        JA = self.J[np.flatnonzero(active)] if self.sparse else self.J[active]
-        if JA.shape[0]:
-            JtJ = JA.T @ JA
-            if is_sparse(JtJ):
-                JtJ = JtJ.toarray()
+        if self.sparse:  # J'J of the active rows, gathered into the (full) pattern
+            self._ensure_gram_pattern()
+            n = self.n
+            JtJ = self._gram(self.J, active.astype(float)).reshape(n, n).T
+            n_active = int(active.sum())
+        else:
+            JA = self.J[active]
+            n_active = JA.shape[0]
+            if n_active:
+                JtJ = JA.T @ JA
+        if n_active:
             # max|JtJ| is on the diagonal of a Gram matrix.
             nj = max(float(JtJ.diagonal().max()), 1e-300)
             for tau in AUG_TAUS:
                 Ha = H + (tau * max(1.0, -w[0]) / nj) * JtJ
                 if self._pd_enough(Ha, math.sqrt(float(np.vdot(Ha, Ha)))):
                     return Ha
-        if CONVEXIFY_SHIFT:
-            Hb = H
-            if JA.shape[0]:
-                Hb = H + (AUG_TAUS[1] * max(1.0, -w[0]) / nj) * JtJ
-            delta = max(floor, 1e-4 * max(1.0, -w[0]))
-            while delta <= 2.0 * max(1.0, -w[0]):
-                Hd = Hb + delta * self.eye
-                if self._pd_enough(Hd, math.sqrt(float(np.vdot(Hd, Hd)))):
-                    return Hd
-                delta *= 4.0
         # Eigenvalue clipping.
         w, V, info = _dsyevd(H, compute_v=1, lower=1)
         if info != 0:  # pragma: no cover - LAPACK failure, retry through numpy
