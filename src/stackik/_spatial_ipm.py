@@ -411,7 +411,17 @@ def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
 
 @_jit
 def _cholesky(A: FloatArray) -> tuple[FloatArray, bool]:
+    """Lower Cholesky factor of ``A``; ``ok`` False when not positive definite."""
     k = A.shape[0]
+    if k >= 24:  # LAPACK pays off beyond small sizes
+        try:
+            L = np.linalg.cholesky(A)
+        except Exception:  # noqa: BLE001 - numba raises LinAlgError when not PD
+            return A, False
+        for i in range(k):
+            if not L[i, i] > 1e-7 * math.sqrt(abs(A[i, i]) + 1e-300):
+                return L, False
+        return L, True
     L = np.zeros((k, k))
     dmax = 0.0
     for i in range(k):
@@ -481,11 +491,11 @@ def _solve6(B: FloatArray) -> tuple[FloatArray, bool]:
 
 
 @_jit
-def _basis(AE: FloatArray, cE: FloatArray) -> tuple[FloatArray, FloatArray]:
+def _basis(AE: FloatArray, cE: FloatArray) -> tuple[FloatArray, FloatArray, bool]:
     """A null-space basis ``Z`` (N, K) of the 6 x N equality Jacobian and the particular
     step ``dxp`` with ``AE dxp = -cE``: ``Z = [-B^-1 C; I]`` from the first platform's six
     columns ``B`` (a translation block and three rotation axes: invertible away from
-    gimbal lock), else an orthonormal basis from the SVD."""
+    gimbal lock; ``structured`` True), else an orthonormal basis from the SVD."""
     N = AE.shape[1]
     K = N - 6
     Binv, ok = _solve6(AE[:, :6].copy())
@@ -504,7 +514,7 @@ def _basis(AE: FloatArray, cE: FloatArray) -> tuple[FloatArray, FloatArray]:
                 Z[i, a] = acc
         for a in range(K):
             Z[6 + a, a] = 1.0
-        return Z, dxp
+        return Z, dxp, True
     U, S, Vt = np.linalg.svd(AE)
     rank = 0
     for k in range(6):
@@ -515,7 +525,7 @@ def _basis(AE: FloatArray, cE: FloatArray) -> tuple[FloatArray, FloatArray]:
         coef = -(U[:, k] @ cE) / S[k]
         for a in range(N):
             dxp[a] += coef * Vt[k, a]
-    return Vt[rank:].T.copy(), dxp
+    return Vt[rank:].T.copy(), dxp, False
 
 
 @_jit
@@ -524,10 +534,32 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
     """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` for ``dx`` by a null-space method
     (:func:`_basis`), adding ``delta I`` to ``W`` until the reduced Hessian is positive
     definite (IPOPT's inertia correction)."""
-    Z, dxp = _basis(AE, cE)
-    WZ = W @ Z
-    Hz = Z.T @ WZ
-    rz = Z.T @ (rhs - W @ dxp)
+    Z, dxp, structured = _basis(AE, cE)
+    N = W.shape[0]
+    res = rhs - W @ dxp
+    if structured:  # Z = [E; I]: products in O(N^2 6) instead of O(N^3)
+        K = N - 6
+        E = Z[:6]
+        WZ = W[:, 6:].copy()
+        for i in range(N):
+            for j in range(6):
+                wij = W[i, j]
+                if wij != 0.0:
+                    for a in range(K):
+                        WZ[i, a] += wij * E[j, a]
+        Hz = WZ[6:].copy()
+        rz = res[6:].copy()
+        for j in range(6):
+            for a in range(K):
+                ea = E[j, a]
+                if ea != 0.0:
+                    rz[a] += ea * res[j]
+                    for b in range(K):
+                        Hz[a, b] += ea * WZ[j, b]
+    else:
+        WZ = W @ Z
+        Hz = Z.T @ WZ
+        rz = Z.T @ res
     K = Hz.shape[0]
     shift = 0.0
     L, ok = _cholesky(Hz)
