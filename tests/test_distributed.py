@@ -51,7 +51,7 @@ def client():
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
     )
     c = Client(cluster)
-    register_warm_up(c)
+    register_warm_up(c, kinds=("planar",))  # all the tests here solve planar targets
     yield c
     c.close()
     cluster.close()
@@ -106,7 +106,7 @@ def test_workers_loaded_the_kernels_when_they_started(client):
 
         return sorted(kernels._READY)
 
-    assert all(v == ["planar", "spatial"] for v in client.run(ready).values())
+    assert all("planar" in v for v in client.run(ready).values())
 
 
 def test_a_worker_killed_mid_batch_costs_only_its_chunk(client, serial, tmp_path):

@@ -174,8 +174,8 @@ def parse_scheduler(text: str) -> tuple[str, Any]:
     return "address", text
 
 
-def _pool_initializer(cache_dir: str | None) -> None:
-    _warm(("planar", "spatial"), cache_dir)
+def _pool_initializer(cache_dir: str | None, kinds: tuple[str, ...]) -> None:
+    _warm(kinds, cache_dir)
 
 
 @contextmanager
@@ -185,6 +185,7 @@ def connect(
     *,
     cache_dir: str | os.PathLike[str] | None = None,
     warm: bool = True,
+    kinds: tuple[str, ...] = ("planar", "spatial"),
 ) -> Iterator[Executor | Any | None]:
     """An executor for :mod:`stackik.batch` (closed on exit), or None for serial work.
 
@@ -203,6 +204,9 @@ def connect(
     warm : bool
         Load the kernels in every worker before returning (Dask: the plugin; pool: the
         initializer, run when a process starts).
+    kinds : tuple of str
+        Kernel sets to load (``("planar",)`` for planar work: the spatial kernels are
+        then loaded only by a worker that needs them).
     """
     cache = None if cache_dir is None else str(Path(cache_dir).expanduser().resolve())
     if scheduler is None:
@@ -210,7 +214,9 @@ def connect(
             yield None
             return
         if warm:
-            pool = ProcessPoolExecutor(workers, initializer=_pool_initializer, initargs=(cache,))
+            pool = ProcessPoolExecutor(
+                workers, initializer=_pool_initializer, initargs=(cache, tuple(kinds))
+            )
         else:
             pool = ProcessPoolExecutor(workers)
         with pool:
@@ -238,7 +244,7 @@ def connect(
         client = Client(value)
     try:
         if warm:
-            register_warm_up(client, cache)
+            register_warm_up(client, cache, kinds)
         yield client
     finally:
         client.close()

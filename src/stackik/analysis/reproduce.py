@@ -308,7 +308,7 @@ def reproduce(
         if executor is None and s.workers > 1:
             from stackik.distributed import connect
 
-            executor = cleanup.enter_context(connect(workers=s.workers))
+            executor = cleanup.enter_context(connect(workers=s.workers, kinds=("planar",)))
         # 1. poses --------------------------------------------------------------------
         tp = tuple(
             _spread(
@@ -681,7 +681,7 @@ def main_reproduce(
         if quick
         else ReproduceSettings(seed=seed, workers=workers)
     )
-    with connect(scheduler, workers) as executor:
+    with connect(scheduler, workers, kinds=("planar",)) as executor:
         res = reproduce(out, progress=progress, settings=settings, executor=executor)
     print(f"report: {Path(out) / 'report.md'}  ({res.elapsed:.1f} s)")
     for i, mc in enumerate(res.table1):

@@ -240,7 +240,7 @@ def executor_from_args(args: argparse.Namespace) -> Any:
     check_scale_args(args)
     from stackik.distributed import connect
 
-    return connect(args.scheduler, args.workers)
+    return connect(args.scheduler, args.workers, kinds=("planar",))  # planar commands
 
 
 def say_where(executor: Any, quiet: bool) -> None:
