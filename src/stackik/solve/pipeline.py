@@ -62,18 +62,20 @@ def solve_ik(
         the solver reaches from its start); ``"weighted"`` minimises ``trace(J C_x J^T)``
         with ``C_x = diag(sigma_t^2, ..., sigma_theta^2)`` (per platform if arrays).
     method : {"auto", "sqp", "ip", "slsqp", "trust-constr", "ipopt"}
-        ``"ip"``: stackik's compiled primal-dual interior-point solver (planar; see
-        :mod:`stackik._ipm`); ``"sqp"``: stackik's SQP engine (:mod:`stackik.sqp`, any QP
+        ``"ip"``: stackik's compiled primal-dual interior-point solver (planar:
+        :mod:`stackik._ipm`; spatial: :mod:`stackik._spatial_ipm`, exact second
+        derivatives); ``"sqp"``: stackik's SQP engine (:mod:`stackik.sqp`, any QP
         backend, planar and spatial); ``"auto"`` (default) picks ``"ip"`` for planar targets
         with the ``"frobenius"`` objective (or ``"weighted"`` with one ``sigma_theta``) and
-        ``"sqp"`` otherwise (see :func:`stackik.solve.policy.auto_method`). When every
+        for spatial targets with ``"frobenius"`` or ``"weighted"``, and ``"sqp"`` otherwise
+        (see :func:`stackik.solve.policy.auto_method`). When every
         interior-point start stalls far from feasibility (an unreachable target), the result
         is "infeasible" with a pose within every limit part of the way to the target
         (bisection from the upright pose; ``target_error`` is what is left); when no start
         passes the check otherwise, the SQP engine takes over (it reports infeasibility and
         the least-violation pose); the result's ``method`` says which produced the pose.
         ``"slsqp"``/``"trust-constr"``: scipy baselines given the same scaled derivatives;
-        ``"ipopt"``: IPOPT through CasADi (planar only; optional extra ``stackik[ipopt]``)
+        ``"ipopt"``: IPOPT through CasADi (planar and spatial; optional extra ``stackik[ipopt]``)
         with exact derivatives by automatic differentiation.
     qp_solver : str, optional
         QP backend of the SQP engine (default: its fastest installed one).
@@ -90,7 +92,9 @@ def solve_ik(
         5), 4 (n = 6-15), 5 (n = 16-31) or 3 (n >= 32) platforms
         (:func:`stackik.starts.fold_depth`, :func:`stackik.starts.fold_patterns`), plus five
         random ones from n = 32 (:func:`stackik.starts.tall_random_starts`); in spatial mode
-        the five structured starts and seven random ones; otherwise one. These find the best
+        the interior point's structured starts (:func:`stackik.starts.spatial_starts`: 5
+        up to n = 4, 13 from n = 5; folds, twists and leans), the SQP engine's five
+        structured and seven random ones; otherwise one. These find the best
         known FN on the benchmark targets (README). Extra starts perturb the first with
         Gaussian noise (``rng``). The best pose that passes the check is returned; when none
         does, up to three more starts (the convex start first) are tried.
