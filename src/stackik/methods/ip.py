@@ -229,6 +229,7 @@ class IPMethod(Method):
 
     name: ClassVar[str] = "ip"
     modes: ClassVar[frozenset[str]] = frozenset({"planar", "spatial"})
+    #: planar: no BLAS; the spatial kernels do use it, and ip_stage applies the limit
     uses_blas: ClassVar[bool] = False
 
     def supports(self, prob: Problem) -> str | None:

@@ -10,10 +10,12 @@ _BLAS: list[Any] = []
 
 
 class BlasLimit:
-    """The BLAS thread limit of one solve, applied on first need: the compiled
+    """The BLAS thread limit of one solve, applied on first need: the planar compiled
     interior-point path does not call BLAS on its small matrices, so it skips the
     threadpoolctl round trip (about 20 us, 5 % of an n = 4 solve); every other path
-    (SQP, scipy, IPOPT, the spatial chain) calls :meth:`apply` before it runs."""
+    (SQP, scipy, IPOPT, the spatial chain, the spatial interior point, whose KKT step
+    multiplies (6n)^2 matrices) calls :meth:`apply` before it runs. Multi-threaded
+    OpenBLAS on such small matrices on a loaded machine was measured 300x slower."""
 
     def __init__(self, threads: int | None) -> None:
         self.threads = threads
