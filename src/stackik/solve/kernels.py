@@ -21,7 +21,7 @@ from typing import Any
 __all__ = ["KERNEL_KINDS", "ensure_kernels", "kernels_cached", "warm_up"]
 
 #: The kernel sets, and the rough first-compile time of each on a 2-core machine [s].
-KERNEL_KINDS: dict[str, float] = {"planar": 30.0, "spatial": 40.0}
+KERNEL_KINDS: dict[str, float] = {"planar": 30.0, "spatial": 30.0}
 
 _READY: set[str] = set()
 _LOCK = threading.Lock()
