@@ -40,13 +40,20 @@ METHODS: dict[str, dict[str, Any]] = {
     "sqp/osqp": {"method": "sqp", "qp_solver": "osqp", "starts": 1},
     "sqp/clarabel": {"method": "sqp", "qp_solver": "clarabel", "starts": 1},
     "sqp/daqp": {"method": "sqp", "qp_solver": "daqp", "starts": 1},
+    # the opt-in interior start phase (SQPOptions.barrier_start): quality from one start
+    "sqp/clarabel+interior": {
+        "method": "sqp",
+        "qp_solver": "clarabel",
+        "starts": 1,
+        "options": {"barrier_start": True},
+    },
     "slsqp": {"method": "slsqp", "starts": 1},
     "ipopt": {"method": "ipopt", "starts": 1},
     "ip": {"method": "ip", "starts": 1},
     "default": {},
 }
 #: methods not timed beyond these sizes by default (minutes per solve)
-MAX_N = {"slsqp": 32, "sqp/daqp": 32}
+MAX_N = {"slsqp": 32, "sqp/daqp": 32, "sqp/clarabel+interior": 16}
 
 
 def _fit(ns: list[int], ts: list[float]) -> float | None:

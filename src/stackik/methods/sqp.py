@@ -16,10 +16,11 @@ from stackik.result import OptionError
 from stackik.sqp import NonlinearProgram, SQPOptions, default_qp_solver, solve
 from stackik.sqp.qp import SPARSE_BACKENDS
 
-#: ``options["formulation"]`` values (planar; spatial is always dense): ``"auto"`` (with a
-#: sparse QP backend ``"sparse"`` below :data:`LIFTED_FROM` platforms and ``"lifted"``
-#: from there, else ``"dense"``), ``"dense"`` (dense Jacobians), ``"sparse"`` (the reduced
-#: problem with its block-diagonal limit Jacobian; its exact Hessian is dense),
+#: ``options["formulation"]`` values (planar; spatial is always dense): ``"auto"``
+#: (``"sparse"`` with OSQP, with Clarabel ``"sparse"`` below :data:`LIFTED_FROM` platforms
+#: and ``"lifted"`` from there, else ``"dense"``), ``"dense"`` (dense Jacobians),
+#: ``"sparse"`` (the reduced problem with its block-diagonal limit Jacobian; its exact
+#: Hessian is dense),
 #: ``"lifted"`` (chain states as variables, :mod:`stackik.formulation.lifted`: every matrix
 #: O(n) sparse; the Hessian's 3x3 chain and limit blocks each made positive semidefinite),
 #: ``"lifted-exact"`` (the same with the exact Hessian, convexified by the engine).
@@ -85,8 +86,9 @@ class SQPMethod(Method):
         if form == "auto":
             if name not in SPARSE_BACKENDS:
                 form = "dense"
-            else:
-                form = "lifted" if prob.n >= LIFTED_FROM else "sparse"
+            else:  # OSQP's ADMM struggles with the lifted chain equalities (n = 64)
+                lift = name == "clarabel" and prob.n >= LIFTED_FROM
+                form = "lifted" if lift else "sparse"
         if name == "osqp" and "qp_options" not in opts:
             opts["qp_options"] = {"max_iter": OSQP_MAX_ITER}
         evaluate: Any = prob.evaluate

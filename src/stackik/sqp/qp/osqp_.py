@@ -184,7 +184,7 @@ class OSQPBackend(QPBackend):
         except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
             self._solver = None
             return self.failed(f"osqp raised {exc!r}")
-        return self._result(res)
+        return self._result(res, lb, ub)
 
     def solve_sqp(
         self,
@@ -230,9 +230,9 @@ class OSQPBackend(QPBackend):
         except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
             self._sp_solver = None
             return self.failed(f"osqp raised {exc!r}")
-        return self._result(res)
+        return self._result(res, lb, ub)
 
-    def _result(self, res: Any) -> QPSolution:
+    def _result(self, res: Any, lb: FloatArray, ub: FloatArray) -> QPSolution:
         me, mi = self.m_eq, self.m_ineq
         status = res.info.status_val
         # At the iteration limit the ADMM iterate is still an approximate solution: the
@@ -240,8 +240,9 @@ class OSQPBackend(QPBackend):
         # region, which makes the next QP easier), better than ending the run.
         if status in _SOLVED or status == _MAX_ITER:
             y = res.y
+            # ADMM meets the box rows to its tolerance only: project (the box is exact)
             return QPSolution(
-                np.array(res.x),
+                np.minimum(np.maximum(np.array(res.x), lb), ub),
                 y[:me].copy(),
                 y[me : me + mi].copy(),
                 y[me + mi :].copy(),
