@@ -14,7 +14,7 @@ from stackik.sqp.hs import PROBLEMS
 #: feasible KKT point with f = -0.0267 at x = (0.677, 0.726, 1.215, 1.751, 1.477)).
 LOCAL_ONLY = {2, 16, 20, 33, 47}
 #: Known backend-specific failures (honest xfails, see the report).
-KNOWN_FAIL = {("osqp", 10), ("clarabel", 32)}
+KNOWN_FAIL = {("clarabel", 32)}
 SOLVERS = ("daqp", "osqp", "clarabel")
 
 
