@@ -101,9 +101,7 @@ def _norm(value: Any) -> Any:
     return json.loads(json.dumps(value))
 
 
-def _load(
-    path: Path, count: int, key_of: Callable[[int], Any], keep: bool
-) -> dict[int, Any]:
+def _load(path: Path, count: int, key_of: Callable[[int], Any], keep: bool) -> dict[int, Any]:
     """Records of ``path``: index -> stored value (None when not ``keep``)."""
     if not path.exists():
         return {}
