@@ -316,7 +316,8 @@ def _drive(
     window: int | None,
     chunk_seconds: float,
     stats: BatchStats | None,
-) -> dict[int, R]:
+    reduce: Callable[[R], Any] | None = None,
+) -> dict[int, Any]:
     t_start = time.perf_counter()
     st = BatchStats() if stats is None else stats
     ilist = items if isinstance(items, list | tuple) else list(items)
@@ -329,10 +330,12 @@ def _drive(
         return _norm(key(ilist[i]))
 
     loaded = {} if path is None else _load(path, len(ilist), key_of, keep)
-    done: dict[int, R] = {}
+    done: dict[int, Any] = {}
     if keep:
         assert decode is not None
         done = {i: decode(v) for i, v in loaded.items()}
+        if reduce is not None:
+            done = {i: reduce(r) for i, r in done.items()}
     todo = [i for i in range(len(ilist)) if i not in loaded]
     st.total, st.resumed = len(ilist), len(loaded)
     del loaded
@@ -353,7 +356,8 @@ def _drive(
                 fh.write("\n".join(lines) + "\n")
                 fh.flush()
             if keep:
-                done.update(zip(idx, results, strict=True))
+                kept = results if reduce is None else [reduce(r) for r in results]
+                done.update(zip(idx, kept, strict=True))
             st.computed += len(idx)
             if bar is not None:
                 bar.update(len(idx))
@@ -401,7 +405,8 @@ def checkpointed_map(
     window: int | None = None,
     chunk_seconds: float = CHUNK_SECONDS,
     stats: BatchStats | None = None,
-) -> list[R]:
+    reduce: Callable[[R], Any] | None = None,
+) -> list[Any]:
     """``[fn(x) for x in items]``, with every finished result appended to ``checkpoint``.
 
     Parameters
@@ -424,11 +429,15 @@ def checkpointed_map(
         Worker-side seconds per chunk the adaptive size aims at.
     stats : BatchStats, optional
         Filled in with what the call did.
+    reduce : callable, optional
+        Applied (in this process) to every result, computed or read back, before it is
+        kept: the list holds ``reduce(r)`` instead of ``r`` (the checkpoint still gets
+        ``encode(r)``), so a large batch keeps only what its caller needs.
     """
     done = _drive(
         fn, items, key=key, encode=encode, decode=decode, checkpoint=checkpoint,
         executor=executor, progress=progress, desc=desc, chunksize=chunksize, window=window,
-        chunk_seconds=chunk_seconds, stats=stats,
+        chunk_seconds=chunk_seconds, stats=stats, reduce=reduce,
     )  # fmt: skip
     return [done[i] for i in range(len(done))]
 

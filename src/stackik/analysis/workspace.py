@@ -275,6 +275,12 @@ def nonoptimal_poses(
     return found
 
 
+def _essentials(r: IKResult) -> tuple[bool, FloatArray, float]:
+    """What the study keeps of a result: success (the non-optimal search keeps successes
+    only), pose and FN."""
+    return bool(r.success), np.array(r.q, dtype=float), float(r.frobenius_norm)
+
+
 def study_targets(
     stack: Stack,
     count: int,
@@ -432,6 +438,7 @@ def workspace_study(
     ckpt = None if checkpoint_dir is None else Path(checkpoint_dir)
     if ckpt is not None:
         ckpt.mkdir(parents=True, exist_ok=True)
+    # only (success, pose, FN) of every result stays in memory (the checkpoints hold it all)
     opt = solve_many(
         stack,
         tlist,
@@ -439,6 +446,7 @@ def workspace_study(
         progress=progress,
         executor=executor,
         checkpoint=None if ckpt is None else ckpt / "optimal.jsonl",
+        reduce=_essentials,
         **kw,
     )
     search = NonOptimalSearch(stack, 1, seed + 1, _triple(perturbation), max_attempts, kw)
@@ -452,6 +460,7 @@ def workspace_study(
         executor=executor,
         progress=progress,
         desc="non-optimal",
+        reduce=lambda rs: _essentials(rs[0]) if rs else (False, None, np.nan),
     )
 
     valid = np.zeros(m, dtype=bool)
@@ -460,11 +469,12 @@ def workspace_study(
     fn_opt, fn_non = np.full(m, np.nan), np.full(m, np.nan)
     med_opt, med_non = np.full(m, np.nan), np.full(m, np.nan)
     for i in range(m):
-        if opt[i].success and non[i]:
-            a, b = opt[i], non[i][0]
+        (ok_a, qa, fa), (ok_b, qb, fb) = opt[i], non[i]
+        if ok_a and ok_b:
             valid[i] = True
-            q_opt[i], q_non[i] = a.q, b.q
-            fn_opt[i], fn_non[i] = a.frobenius_norm, b.frobenius_norm
+            q_opt[i], q_non[i] = qa, qb
+            fn_opt[i], fn_non[i] = fa, fb
+    del opt, non
     rows = np.flatnonzero(valid)
     medians = checkpointed_map(
         MedianPair(int(n_samples), float(sigma_t), float(sigma_theta), seed + 2),

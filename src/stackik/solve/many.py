@@ -3,11 +3,11 @@ and optionally spread over a process pool or a Dask cluster (:mod:`stackik.batch
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar, overload
 
 from stackik.batch import BatchStats, checkpointed_map, checkpointed_run
 from stackik.geometry import Stack
@@ -17,6 +17,38 @@ from stackik.solve.pipeline import solve_ik
 from stackik.targets import PlanarTarget, Target, target_to_dict
 
 __all__ = ["solve_many", "solve_to_file"]
+
+T = TypeVar("T")
+
+
+@overload
+def solve_many(
+    stack: Stack,
+    targets: Iterable[Target],
+    *,
+    progress: bool = ...,
+    executor: Executor | Any | None = ...,
+    checkpoint: str | Path | None = ...,
+    chunksize: int | None = ...,
+    stats: BatchStats | None = ...,
+    reduce: None = ...,
+    **kwargs: Any,
+) -> list[IKResult]: ...
+
+
+@overload
+def solve_many(
+    stack: Stack,
+    targets: Iterable[Target],
+    *,
+    progress: bool = ...,
+    executor: Executor | Any | None = ...,
+    checkpoint: str | Path | None = ...,
+    chunksize: int | None = ...,
+    stats: BatchStats | None = ...,
+    reduce: Callable[[IKResult], T],
+    **kwargs: Any,
+) -> list[T]: ...
 
 
 def solve_many(
@@ -28,8 +60,9 @@ def solve_many(
     checkpoint: str | Path | None = None,
     chunksize: int | None = None,
     stats: BatchStats | None = None,
+    reduce: Callable[[IKResult], Any] | None = None,
     **kwargs: Any,
-) -> list[IKResult]:
+) -> list[Any]:
     """Solve :func:`solve_ik` for many targets (same keyword arguments).
 
     Parameters
@@ -56,11 +89,14 @@ def solve_many(
         target).
     stats : stackik.batch.BatchStats, optional
         Filled in with counts and worker-side wall and CPU seconds.
+    reduce : callable, optional
+        Keep ``reduce(result)`` instead of each IKResult (e.g. only the pose and FN of a
+        100,000-target study); the checkpoint still records the full results.
 
     Returns
     -------
     list of IKResult
-        In the order of ``targets``.
+        In the order of ``targets`` (``reduce`` of each with ``reduce``).
     """
     tlist = list(targets)
     return checkpointed_map(
@@ -75,6 +111,7 @@ def solve_many(
         desc="solve",
         chunksize=chunksize,
         stats=stats,
+        reduce=reduce,
     )
 
 
