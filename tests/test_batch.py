@@ -178,3 +178,38 @@ def test_workspace_study_resumes_from_checkpoint(tmp_path, monkeypatch):
     again = workspace_study(STACK, 4, checkpoint_dir=tmp_path, **kw)
     np.testing.assert_array_equal(first.fn_opt, again.fn_opt)
     np.testing.assert_array_equal(first.median_non, again.median_non)
+
+
+def test_chunk_sizes_follow_the_measured_time_and_keep_the_tail_balanced():
+    from stackik.batch import _Sizer
+
+    sizer = _Sizer(None, 0.5, slots=2)
+    assert sizer.next(1000) == 1  # nothing measured yet: one item
+    sizer.observe(1, 0.4)  # a fresh worker's slow first item ...
+    for _ in range(4):
+        sizer.observe(10, 0.1)  # ... then 10 ms per item: it soon stops counting
+    assert sizer.next(1000) == 50  # 0.5 s / 10 ms
+    assert sizer.next(60) == 15  # the rest still makes two chunks per slot
+    assert sizer.next(1) == 1
+    assert _Sizer(7, 0.5, slots=2).next(5) == 5  # a fixed size, capped by what is left
+
+
+def test_chunked_executor_run_streams_and_reduces(tmp_path):
+    from concurrent.futures import ThreadPoolExecutor
+
+    from stackik.batch import BatchStats, checkpointed_map, checkpointed_run
+
+    def square(x: int) -> int:
+        return x * x
+
+    kw = dict(key=lambda x: x, encode=lambda r: r)
+    ckpt = tmp_path / "sq.jsonl"
+    stats = BatchStats()
+    with ThreadPoolExecutor(2) as ex:
+        checkpointed_run(square, range(40), checkpoint=ckpt, executor=ex, stats=stats, **kw)
+    assert stats.computed == 40 and sum(stats.chunks) == 40 and len(stats.chunks) > 4
+    assert sorted(rec["index"] for rec in _lines(ckpt)) == list(range(40))
+    halves = checkpointed_map(
+        square, range(40), checkpoint=ckpt, decode=lambda r: r, reduce=lambda r: r / 2, **kw
+    )
+    assert halves == [x * x / 2 for x in range(40)]  # read back, then reduced
