@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import signal
 import statistics
 import subprocess
@@ -83,6 +84,17 @@ def _free_cores() -> float:
     return 2.0 * spin(1) / spin(2)
 
 
+def _machine_cpu() -> float:
+    """CPU seconds the whole machine has spent busy (all processes, /proc/stat)."""
+    try:
+        with open("/proc/stat") as fh:
+            f = [int(v) for v in fh.readline().split()[1:]]
+    except OSError:
+        return float("nan")
+    busy = f[0] + f[1] + f[2] + sum(f[5:8])  # user nice system irq softirq steal
+    return busy / os.sysconf("SC_CLK_TCK")
+
+
 def _worker_cpu(client: Any) -> float:
     return float(sum(client.run(time.process_time).values()))
 
@@ -105,11 +117,13 @@ def bench_solve_many(n: int, count: int, repeats: int) -> dict[str, Any]:
             for mode in ("serial", "dask") if r % 2 == 0 else ("dask", "serial"):
                 stats = BatchStats()
                 c0, w0 = time.process_time(), _worker_cpu(client) if mode == "dask" else 0.0
+                m0 = _machine_cpu()
                 t0 = time.perf_counter()
                 res = sk.solve_many(
                     stack, targets, executor=client if mode == "dask" else None, stats=stats
                 )
                 wall = time.perf_counter() - t0
+                machine = _machine_cpu() - m0
                 client_cpu = time.process_time() - c0
                 row[mode] = {
                     "wall_s": wall,
@@ -119,8 +133,10 @@ def bench_solve_many(n: int, count: int, repeats: int) -> dict[str, Any]:
                     # CPU / wall inside the solves: the share of a core the OS gave them
                     "cpu_share": stats.cpu / stats.busy,
                 }
+                ours = client_cpu
                 if mode == "dask":
                     workers_cpu = _worker_cpu(client) - w0
+                    ours += workers_cpu
                     row[mode].update(
                         {
                             "client_cpu_ms": 1e3 * client_cpu / count,
@@ -134,6 +150,8 @@ def bench_solve_many(n: int, count: int, repeats: int) -> dict[str, Any]:
                 else:
                     row[mode]["total_cpu_ms"] = 1e3 * client_cpu / count
                     serial_res = res
+                # cores the rest of the machine (other jobs) used meanwhile
+                row[mode]["other_cores"] = max(0.0, machine - ours) / wall
             identical &= _same(serial_res, dask_res)
             row["speedup"] = row["serial"]["wall_s"] / row["dask"]["wall_s"]
             row["cpu_ratio_in_solve"] = (
@@ -149,7 +167,8 @@ def bench_solve_many(n: int, count: int, repeats: int) -> dict[str, Any]:
                 f"ms, total {row['serial']['total_cpu_ms']:.1f} / "
                 f"{row['dask']['total_cpu_ms']:.1f} ms; core share serial "
                 f"{row['serial']['cpu_share']:.0%}, workers {row['dask']['cpu_share']:.0%}, "
-                f"worker slots busy {row['dask']['slot_utilisation']:.0%}",
+                f"worker slots busy {row['dask']['slot_utilisation']:.0%}; other jobs used "
+                f"{row['serial']['other_cores']:.2f} / {row['dask']['other_cores']:.2f} cores",
                 flush=True,
             )
     finally:
@@ -193,6 +212,7 @@ def bench_map(count: int, repeats: int, address: str | None = None) -> dict[str,
     if address is not None:  # a running cluster (dask scheduler / dask worker)
         modes["dask running cluster"] = ["--scheduler", address]
     times: dict[str, list[float]] = {m: [] for m in modes}
+    others: dict[str, list[float]] = {m: [] for m in modes}
     csv: dict[str, str] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(repeats):
@@ -200,15 +220,23 @@ def bench_map(count: int, repeats: int, address: str | None = None) -> dict[str,
             for mode in order:
                 out = Path(tmp) / f"{mode.replace(' ', '_').replace(':', '')}_{r}"
                 argv = ["stackik", "map", "--targets", str(count), "--quiet", "--out", str(out)]
+                ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+                m0 = _machine_cpu()
                 t0 = time.perf_counter()
                 subprocess.run([*argv, *modes[mode]], check=True, stdout=subprocess.DEVNULL)
-                times[mode].append(time.perf_counter() - t0)
+                wall = time.perf_counter() - t0
+                times[mode].append(wall)
+                ru1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+                ours = (ru1.ru_utime - ru0.ru_utime) + (ru1.ru_stime - ru0.ru_stime)
+                # the command and its local workers; a running cluster's workers count as
+                # "other" here
+                others[mode].append(max(0.0, _machine_cpu() - m0 - ours) / wall)
                 csv[mode] = (out / "workspace.csv").read_text()
             print(
                 "  rep "
                 + str(r + 1)
                 + ": "
-                + ", ".join(f"{m} {times[m][-1]:.1f} s" for m in modes),
+                + ", ".join(f"{m} {times[m][-1]:.1f} s ({others[m][-1]:.2f})" for m in modes),
                 flush=True,
             )
     med = {m: float(statistics.median(v)) for m, v in times.items()}
@@ -216,6 +244,7 @@ def bench_map(count: int, repeats: int, address: str | None = None) -> dict[str,
         "targets": count,
         "repeats": repeats,
         "wall_s": times,
+        "other_cores": others,
         "wall_s_median": med,
         "speedup_dask_median": med["serial"] / med["dask local:2"],
         "speedup_pool_median": med["serial"] / med["pool 2"],
@@ -359,8 +388,9 @@ def _markdown(res: dict[str, Any]) -> str:
             "",
             "| rep (free cores) | serial [s] | Dask [s] | speed-up | CPU/target in solves, "
             "serial / Dask [ms] | CPU/target total, serial / Dask [ms] | share of a core, "
-            "serial / each worker | worker slots busy | chunks |",
-            "|---|---|---|---|---|---|---|---|---|",
+            "serial / each worker | worker slots busy | other jobs' cores, serial / Dask "
+            "run | chunks |",
+            "|---|---|---|---|---|---|---|---|---|---|",
         ]
         for i, r in enumerate(s["runs"]):
             L.append(
@@ -371,7 +401,8 @@ def _markdown(res: dict[str, Any]) -> str:
                 f"{r['dask']['in_solve_cpu_ms']:.1f} | {r['serial']['total_cpu_ms']:.1f} / "
                 f"{r['dask']['total_cpu_ms']:.1f} | {r['serial']['cpu_share']:.0%} / "
                 f"{r['dask']['cpu_share']:.0%} | {r['dask']['slot_utilisation']:.0%} | "
-                f"{r['dask']['chunks']} |"
+                f"{r['serial'].get('other_cores', float('nan')):.2f} / "
+                f"{r['dask'].get('other_cores', float('nan')):.2f} | {r['dask']['chunks']} |"
             )
         L += [
             "",
@@ -390,14 +421,21 @@ def _markdown(res: dict[str, Any]) -> str:
             _when(mp),
             "",
             "Whole commands as subprocesses (imports, cluster start, target drawing, "
-            "figures, cluster shutdown).",
+            "figures, cluster shutdown); in brackets the cores other jobs used meanwhile "
+            "(for the running cluster they include its workers).",
             "",
             "| rep | " + " | ".join(mp["wall_s"]) + " |",
             "|---|" + "---|" * len(mp["wall_s"]),
         ]
         for i in range(mp["repeats"]):
+            oc = mp.get("other_cores", {})
             L.append(
-                f"| {i + 1} | " + " | ".join(f"{v[i]:.1f} s" for v in mp["wall_s"].values()) + " |"
+                f"| {i + 1} | "
+                + " | ".join(
+                    f"{v[i]:.1f} s ({oc[k][i]:.2f})" if k in oc else f"{v[i]:.1f} s"
+                    for k, v in mp["wall_s"].items()
+                )
+                + " |"
             )
         L += [
             "",
