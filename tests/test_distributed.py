@@ -47,8 +47,8 @@ TARGETS = [
 def client():
     from distributed import Client, LocalCluster
 
-    cluster = LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    cluster = LocalCluster(  # its HTTP server on any free port: other clusters may run
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
     )
     c = Client(cluster)
     register_warm_up(c, kinds=("planar",))  # all the tests here solve planar targets
@@ -128,12 +128,12 @@ def test_a_worker_killed_mid_batch_costs_only_its_chunk(client, serial, tmp_path
     batch.start()
     deadline = time.monotonic() + 60
     victim = None
-    while victim is None and time.monotonic() < deadline:
+    while victim is None and batch.is_alive() and time.monotonic() < deadline:
         if ckpt.exists() and len(_indices(ckpt)) >= 3:
             busy = [w for w, keys in client.processing().items() if keys]
             victim = busy[0] if busy else None
         time.sleep(0.02)
-    assert victim is not None
+    assert victim is not None, "the batch ended before a worker could be killed"
     done_at_kill = len(_indices(ckpt))
     os.kill(pids[victim], signal.SIGKILL)  # the worker process dies mid-chunk
     batch.join(timeout=120)
