@@ -54,7 +54,8 @@ def _use_cache_dir(cache_dir: str | os.PathLike[str] | None) -> bool:
         return True
     path = str(Path(cache_dir).expanduser().resolve())
     Path(path).mkdir(parents=True, exist_ok=True)
-    if any(m in sys.modules for m in ("stackik._ipm", "stackik._check", "stackik._spatial")):
+    kernels = ("stackik._ipm", "stackik._check", "stackik._spatial")  # and _spatial_ipm
+    if any(m.startswith(kernels) for m in list(sys.modules)):
         return os.environ.get("NUMBA_CACHE_DIR") == path
     os.environ["NUMBA_CACHE_DIR"] = path
     if "numba" in sys.modules:  # numba read its configuration at import: read it again
@@ -72,6 +73,15 @@ def _warm(kinds: tuple[str, ...], cache_dir: str | None) -> dict[str, Any]:
 
     t0 = time.perf_counter()
     shared = _use_cache_dir(cache_dir)
+    if not shared:
+        import logging
+
+        logging.getLogger(__name__).warning(
+            "stackik: kernels already imported in process %d: cache_dir %s not used "
+            "(set NUMBA_CACHE_DIR in the worker's environment instead)",
+            os.getpid(),
+            cache_dir,
+        )
     seconds = warm_up(kinds, notice=False)
     if "planar" in kinds:  # first solves import what a solve imports on first use
         from stackik.geometry import Stack
@@ -228,7 +238,9 @@ def connect(
     try:
         from distributed import Client, LocalCluster
     except ImportError as exc:
-        raise ImportError(f"--scheduler needs Dask: pip install 'stackik[dask]' ({exc})") from None
+        raise ImportError(
+            f"a Dask scheduler needs Dask: pip install 'stackik[dask]' ({exc})"
+        ) from None
     cluster = None
     if kind == "local":
         if cache is not None:
