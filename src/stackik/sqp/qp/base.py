@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
@@ -170,8 +171,20 @@ class QPBackend:
         multipliers are those of that form.  Backends may override it to avoid building
         ``A_eq``, ``G`` and ``h`` (the arrays must not be modified or kept).
         """
+        if self.sparse_sqp and any(sp.issparse(M) for M in (P, J)):
+            return self._solve_sparse(P, q, J, c, lb, ub)
         me = self.m_eq
         return self.solve(P, q, J[:me], -c[:me], -J[me:], c[me:], lb, ub)
+
+    #: True when the backend solves sparse ``P``/``J`` on fixed patterns
+    #: (:meth:`_solve_sparse`); dense backends get dense arrays.
+    sparse_sqp: bool = False
+
+    def _solve_sparse(
+        self, P: Any, q: FloatArray, J: Any, c: FloatArray, lb: FloatArray, ub: FloatArray
+    ) -> QPSolution:
+        """The SQP-form QP with sparse ``P`` and/or ``J`` (backends with ``sparse_sqp``)."""
+        raise NotImplementedError
 
     def failed(self, info: str, status: QPStatus = QPStatus.FAILED) -> QPSolution:
         """Return a failure solution of the current shape."""

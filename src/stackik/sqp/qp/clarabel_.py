@@ -46,6 +46,8 @@ def _status_name(status: Any) -> str:
 class ClarabelBackend(QPBackend):
     """Clarabel with a dense pattern and in-place ``update``."""
 
+    sparse_sqp = True
+
     name = "clarabel"
 
     def __init__(self, options: dict[str, Any] | None = None) -> None:
@@ -164,19 +166,6 @@ class ClarabelBackend(QPBackend):
             # stop an interior-point run that would outlast the SQP time budget
             solver.set_termination_callback(lambda _info: time.perf_counter() > self.deadline)
         return solver
-
-    def solve_sqp(
-        self,
-        P: Any,
-        q: FloatArray,
-        J: Any,
-        c: FloatArray,
-        lb: FloatArray,
-        ub: FloatArray,
-    ) -> QPSolution:
-        if any_sparse(P, J):
-            return self._solve_sparse(P, q, J, c, lb, ub)
-        return super().solve_sqp(P, q, J, c, lb, ub)
 
     def _solve_sparse(
         self, P: Any, q: FloatArray, J: Any, c: FloatArray, lb: FloatArray, ub: FloatArray

@@ -87,6 +87,8 @@ _MAX_ITER = osqp.SolverStatus.OSQP_MAX_ITER_REACHED.value
 class OSQPBackend(QPBackend):
     """OSQP with dense patterns and in-place data updates."""
 
+    sparse_sqp = True
+
     name = "osqp"
 
     def __init__(self, options: dict[str, Any] | None = None) -> None:
@@ -185,19 +187,6 @@ class OSQPBackend(QPBackend):
             self._solver = None
             return self.failed(f"osqp raised {exc!r}")
         return self._result(res, lb, ub)
-
-    def solve_sqp(
-        self,
-        P: Any,
-        q: FloatArray,
-        J: Any,
-        c: FloatArray,
-        lb: FloatArray,
-        ub: FloatArray,
-    ) -> QPSolution:
-        if any_sparse(P, J):
-            return self._solve_sparse(P, q, J, c, lb, ub)
-        return super().solve_sqp(P, q, J, c, lb, ub)
 
     def _solve_sparse(
         self, P: Any, q: FloatArray, J: Any, c: FloatArray, lb: FloatArray, ub: FloatArray
