@@ -120,8 +120,8 @@ def random_feasible_poses(
     Raises
     ------
     RuntimeError
-        If 10,000 rounds give too few feasible samples (a box that misses the feasible
-        set).
+        If after 10,000 rounds fewer than 1 in 10,000 candidates were feasible (a box that
+        misses the feasible set); otherwise sampling goes on until ``count`` are drawn.
     """
     gen = np.random.default_rng(rng)
     n = stack.n
@@ -134,9 +134,12 @@ def random_feasible_poses(
     have = np.zeros(n, dtype=int)
     maybe_feasible = _mean_leg_filter(stack, phi)
     alone = [Stack((stack[i],)) for i in range(n)]  # one platform's limits at a time
-    for _ in range(10_000):
-        if np.all(have >= count):
-            break
+    rounds = 0
+    while not np.all(have >= count):
+        rounds += 1
+        if rounds > 10_000 and have.min() < 1e-4 * batch * rounds:
+            # under 1 feasible in 10,000 candidates: a box that misses the feasible set
+            raise RuntimeError("random_feasible_poses: too few feasible samples in the box")
         cand = lo + (hi - lo) * gen.random((batch, n, 3))
         maybe = maybe_feasible(cand)  # (batch, n): a necessary condition, cheap
         for i in range(n):
@@ -146,8 +149,6 @@ def random_feasible_poses(
                 good = cand[rows[np.all(c >= 0.0, axis=-1)], i]
                 pools[i].append(good)
                 have[i] += good.shape[0]
-    else:  # pragma: no cover - only for a box that misses the feasible set
-        raise RuntimeError("random_feasible_poses: too few feasible samples in the box")
     return np.stack([np.concatenate(p)[:count] for p in pools], axis=1)
 
 
@@ -258,9 +259,9 @@ def uniform_reachable_targets(
     """Reachable planar targets spread evenly over the reachable ``(rho, z)`` region.
 
     ``pool`` random feasible poses (:func:`random_feasible_poses` in
-    :func:`platform_box`, default ``max(2000, 50 count)``) give reachable targets by
-    forward kinematics; the ``(rho, z)`` plane is cut into ``cell`` x ``cell`` mm squares
-    and targets are taken one per occupied square, the squares in a random order, round
+    :func:`platform_box`, default ``max(2000, min(50 count, 10 count + 500000))``) give
+    reachable targets by forward kinematics; the ``(rho, z)`` plane is cut into ``cell`` x
+    ``cell`` mm squares and targets are taken one per occupied square, the squares in a random order, round
     after round, until ``count`` are chosen. The result is close to uniform over the
     reachable region (at the resolution of ``cell``) instead of piling up where random
     poses land most often; theta keeps its distribution within a square.
@@ -289,7 +290,11 @@ def uniform_reachable_targets(
     if not cell > 0.0:
         raise ValueError("cell must be > 0")
     gen = np.random.default_rng(rng)
-    size = max(2000, 50 * count) if pool is None else max(int(pool), count)
+    # 50 candidate poses per target, at most 10 per target beyond 12,500 targets (a
+    # 100,000-target study draws 1.5 million poses, not 5 million)
+    size = (
+        max(2000, min(50 * count, 10 * count + 500_000)) if pool is None else max(int(pool), count)
+    )
     y = planar_forward(random_feasible_poses(stack, size, gen, phi, platform_box(stack)))
     perm = gen.permutation(size)
     key = np.floor(y[perm, :2] / cell).astype(np.int64)
