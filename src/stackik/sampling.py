@@ -258,13 +258,13 @@ def uniform_reachable_targets(
 ) -> list[PlanarTarget]:
     """Reachable planar targets spread evenly over the reachable ``(rho, z)`` region.
 
-    ``pool`` random feasible poses (:func:`random_feasible_poses` in
-    :func:`platform_box`, default ``max(2000, min(50 count, 10 count + 500000))``) give
-    reachable targets by forward kinematics; the ``(rho, z)`` plane is cut into ``cell`` x
-    ``cell`` mm squares and targets are taken one per occupied square, the squares in a random order, round
+    ``pool`` random feasible poses (:func:`random_feasible_poses` in :func:`platform_box`,
+    default ``max(2000, min(50 count, 10 count + 500000))``) give reachable targets by
+    forward kinematics; the ``(rho, z)`` plane is cut into ``cell`` x ``cell`` mm squares
+    and targets are taken one per occupied square, the squares in a random order, round
     after round, until ``count`` are chosen. The result is close to uniform over the
-    reachable region (at the resolution of ``cell``) instead of piling up where random
-    poses land most often; theta keeps its distribution within a square.
+    reachable region (at the resolution of ``cell``) instead of piling up where random poses
+    land most often; theta keeps its distribution within a square.
 
     Parameters
     ----------
