@@ -123,14 +123,14 @@ def stretch_toward(
     weights: tuple[FloatArray, FloatArray] | None,
     options: dict[str, Any],
     deadline: float,
-) -> tuple[Run | None, int, int]:
-    """A pose within every limit stretched toward a target beyond the reach bound.
+) -> tuple[Run | None, float, int, int]:
+    """A pose within every limit stretched toward an unreachable target.
 
     Planar targets: :func:`nearest_reachable`. Spatial targets: the same bisection in the
     vertical plane through the target position (``phi = atan2(y, x)``, ``theta = 0``), the
     planar pose lifted to 6 variables per platform and checked against the spatial target.
-    Returns the run (None when the upright pose itself is infeasible), the iterations and
-    the solves used.
+    Returns the run (None when the upright pose itself is infeasible), the fraction ``t``
+    of the segment it reaches, the iterations and the solves used.
     """
     from stackik.methods.ip import IP_DEFAULTS
     from stackik.rotations import euler_zyx_from_matrix
@@ -139,17 +139,16 @@ def stretch_toward(
     uniform = weights is None or float(np.ptp(weights[1])) == 0.0
     obj, w = (objective, weights) if uniform else ("frobenius", None)
     if isinstance(target, PlanarTarget):
-        run, _, nit, solves = nearest_reachable(stack, target, obj, w, ip_opts, deadline)
-        return run, nit, solves
+        return nearest_reachable(stack, target, obj, w, ip_opts, deadline)
     assert isinstance(target, SpatialTarget)
     P = target.position
     phi = float(np.arctan2(P[1], P[0])) if np.hypot(P[0], P[1]) > 0 else 0.0
     plane = PlanarTarget(float(np.hypot(P[0], P[1])), float(P[2]), 0.0, phi)
-    run, _, nit, solves = nearest_reachable(stack, plane, obj, w, ip_opts, deadline)
+    run, t, nit, solves = nearest_reachable(stack, plane, obj, w, ip_opts, deadline)
     if run is None:
-        return None, nit, solves
+        return None, t, nit, solves
     Pi, Ri = lift_planar(run.q, phi)
     q = np.column_stack([Pi, euler_zyx_from_matrix(Ri)])
     chk = check_pose(stack, target, q)
     value = Problem(stack, target, objective, weights).objective_value(q)
-    return Run(q, nit, RunStatus.NEAREST, chk, value, None, "nearest"), nit, solves
+    return Run(q, nit, RunStatus.NEAREST, chk, value, None, "nearest"), t, nit, solves

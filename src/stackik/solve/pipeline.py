@@ -158,7 +158,7 @@ def _run(req: Request) -> Verdict:
     if _beyond_reach(req.stack, req.target):
         # beyond the triangle-inequality bound of every platform: unreachable; answer with
         # a pose within every limit stretched toward it (never the raw first start)
-        run, nit, solves = stretch_toward(
+        run, _, nit, solves = stretch_toward(
             req.stack, req.target, req.objective, req.weights, req.options,
             req.t_start + req.max_time,
         )  # fmt: skip
@@ -180,7 +180,7 @@ def _result(req: Request, verdict: Verdict) -> IKResult:
     run = verdict.run
     q = req.q0 if run is None else run.q
     chk = check_pose(req.stack, req.target, q) if run is None else run.check
-    lifted = run.lifted if run is not None and run.lifted is not None else None
+    lifted = None if run is None else run.lifted
     P, R, legs = lifted if lifted is not None else req.mode.lift(req.stack, req.target, q)
     frobenius = (
         math.sqrt(run.obj)

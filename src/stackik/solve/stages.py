@@ -21,7 +21,6 @@ from stackik.solve.nearest import (
     NEAREST_MAX_T,
     NEAREST_MESSAGE,
     SPATIAL_NEAREST_MESSAGE,
-    nearest_reachable,
     stretch_toward,
 )
 from stackik.solve.policy import (
@@ -33,7 +32,6 @@ from stackik.solve.policy import (
     StartPlan,
 )
 from stackik.solve.request import Request
-from stackik.targets import PlanarTarget
 
 __all__ = ["Handover", "Tally", "Verdict", "ip_stage", "local_stage"]
 
@@ -128,7 +126,7 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
 
     A passing pose ends the solve. Otherwise an explicit ``method="ip"`` reports the
     least-violation pose; ``"auto"`` answers an unreachable target (every start stalled)
-    with the bisection's limit-respecting pose (:func:`nearest_reachable`), or hands over
+    with the bisection's limit-respecting pose (:func:`stretch_toward`), or hands over
     to the SQP engine with the options both engines take.
     """
     from stackik.methods.ip import IPMethod
@@ -146,29 +144,20 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         return Verdict(batch.least, _ip_status(batch.statuses), batch.nit, len(starts), "ip")
     stalled = all(s in (RunStatus.STALLED, RunStatus.SKIPPED) for s in batch.statuses)
     queue = plan.queue
-    if stalled and not isinstance(req.target, PlanarTarget):
-        # spatial: the same bisection in the vertical plane through the target position
-        # gives a pose within every limit stretched toward it
-        near_s, nit_near, n_near = stretch_toward(
+    if stalled:
+        # the bisection toward the target (spatial: in the vertical plane through its
+        # position) gives a pose within every limit stretched toward it
+        near, t_near, nit_near, n_near = stretch_toward(
             req.stack, req.target, req.objective, req.weights, req.options,
             req.t_start + req.max_time,
         )  # fmt: skip
-        if near_s is not None:
+        planar = req.mode.planar
+        if near is not None and (t_near <= NEAREST_MAX_T or not planar):
             n = len(starts) + n_near
             nit = batch.nit + nit_near
-            return Verdict(near_s, IKStatus.INFEASIBLE, nit, n, "ip", SPATIAL_NEAREST_MESSAGE)
-    elif stalled:
-        target = req.target
-        assert isinstance(target, PlanarTarget)
-        deadline = req.t_start + req.max_time
-        near, t_near, nit_near, n_near = nearest_reachable(
-            req.stack, target, req.objective, req.weights, req.options, deadline
-        )
-        if near is not None and t_near <= NEAREST_MAX_T:
-            n = len(starts) + n_near
-            nit = batch.nit + nit_near
-            return Verdict(near, IKStatus.INFEASIBLE, nit, n, "ip", NEAREST_MESSAGE)
-        if near is not None:  # nearly there: the SQP engine starts from that pose
+            message = NEAREST_MESSAGE if planar else SPATIAL_NEAREST_MESSAGE
+            return Verdict(near, IKStatus.INFEASIBLE, nit, n, "ip", message)
+        if near is not None:  # planar, nearly there: the SQP engine starts from that pose
             queue.insert(0, near.q)
     shared = {key: v for key, v in req.options.items() if key in SHARED_OPTIONS}
     return Handover(queue, batch.least, batch.nit, len(starts), stalled, shared)
