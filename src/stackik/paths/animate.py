@@ -12,7 +12,6 @@ current waypoint's target and the blue line the end effector's trail.
 
 from __future__ import annotations
 
-import math
 import shutil
 import textwrap
 from pathlib import Path
@@ -68,13 +67,9 @@ def _plate_outlines(stack: Stack, nd: dict[str, FloatArray]) -> list[FloatArray]
 
 def _target_points(result: PathResult) -> FloatArray:
     """End-effector target positions (m, 3) [mm]."""
-    pts = []
-    for t in result.targets:
-        if isinstance(t, PlanarTarget):
-            pts.append([t.rho * math.cos(t.phi), t.rho * math.sin(t.phi), t.z])
-        else:
-            pts.append(t.position.tolist())
-    return np.array(pts)
+    return np.array(
+        [(t.to_spatial() if isinstance(t, PlanarTarget) else t).position for t in result.targets]
+    )
 
 
 def default_caption(result: PathResult) -> str:
@@ -202,10 +197,12 @@ def animate_path(
     if planar:
         t0 = result.targets[0]
         assert isinstance(t0, PlanarTarget)
-        e_phi = np.array([math.cos(t0.phi), math.sin(t0.phi), 0.0])
+        from stackik.analysis.figures import _project
+
+        phi = t0.phi
 
         def proj(p: FloatArray) -> FloatArray:
-            return np.stack([p @ e_phi, p[..., 2]], axis=-1)  # type: ignore[no-any-return]
+            return _project(p, phi)
 
     else:
 

@@ -130,21 +130,24 @@ class Tracker:
         self, q: FloatArray, target: Target, max_time: float = math.inf
     ) -> FloatArray | None:
         """The least-FN pose of ``target`` within one jump of ``q`` (checked), or None."""
-        self.counts.bounded += 1
-        qb = bounded_step(self.stack, target, q, self.scale, max_time=max_time)
-        if qb is not None and self.ratio(q, qb) <= 1.0 and check_pose(self.stack, target, qb).ok:
-            return qb
-        self.counts.bounded_failed += 1
-        return None
+        return self._checked_step("bounded", q, target, max_time=max_time)
 
     def transit(self, q: FloatArray, target: Target, goal: FloatArray) -> FloatArray | None:
         """The pose of ``target`` within one jump of ``q`` nearest ``goal`` (checked), or
         None: one step of a path moving towards a better basin."""
-        self.counts.transit += 1
-        qb = bounded_step(self.stack, target, q, self.scale, goal=goal)
+        return self._checked_step("transit", q, target, goal=goal)
+
+    def _checked_step(
+        self, rung: str, q: FloatArray, target: Target, **kw: Any
+    ) -> FloatArray | None:
+        """:func:`bounded_step` accepted when within one jump of ``q`` and checked; counts
+        the attempt (and a failure) under ``rung``."""
+        setattr(self.counts, rung, getattr(self.counts, rung) + 1)
+        qb = bounded_step(self.stack, target, q, self.scale, **kw)
         if qb is not None and self.ratio(q, qb) <= 1.0 and check_pose(self.stack, target, qb).ok:
             return qb
-        self.counts.transit_failed += 1
+        failed = f"{rung}_failed"
+        setattr(self.counts, failed, getattr(self.counts, failed) + 1)
         return None
 
     # --- the ladder -------------------------------------------------------------------

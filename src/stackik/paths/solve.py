@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from stackik.check import check_pose
 from stackik.geometry import Stack
-from stackik.kinematics import planar_plate_origins, spatial_chain
+from stackik.kinematics import planar_fn2, spatial_chain
 from stackik.paths.checkpoint import PathCheckpoint
 from stackik.paths.continuation import Step, Tracker
 from stackik.paths.interpolate import _pair, as_waypoints, lerp_target
@@ -252,13 +252,10 @@ def path_arrays(stack: Stack, targets: Sequence[Target], q: ArrayLike) -> dict[s
             "margins": np.zeros((0, n, len(MARGIN_NAMES))),
         }
     t0 = targets[0]
+    fn = _frobenius_norms(isinstance(t0, PlanarTarget), Q)
     if isinstance(t0, PlanarTarget):
-        O = planar_plate_origins(Q)  # (m, n+1, 2)
-        d = O[:, -1:, :] - O[:, 1:-1, :]
-        fn = np.sqrt(3 * n + np.sum(d**2, axis=(1, 2)))
         l, Rn, _, _ = planar_legs(stack, Q, t0.phi)
     else:
-        fn = np.array([math.sqrt(spatial_chain(qk).weighted_norm2()) for qk in Q])
         l, Rn, _, _ = spatial_legs(stack, Q)
     norms = np.linalg.norm(l, axis=-1)  # (m, n, 6)
     joint_min = np.arcsin(stack.sin_joint_min)[None, :]
@@ -594,8 +591,18 @@ class _Cand:
                    gd, bool(r[6]))  # fmt: skip
 
 
+def _frobenius_norms(planar: bool, Q: FloatArray) -> FloatArray:
+    """FN of each pose of ``Q`` (m, n, 3|6)."""
+    if planar:
+        return np.sqrt(planar_fn2(Q))  # type: ignore[no-any-return]
+    return np.array([math.sqrt(spatial_chain(qk).weighted_norm2()) for qk in Q])
+
+
 def _fn2(req: _Request, q: FloatArray) -> float:
-    return float(path_arrays(req.stack, req.targets[:1], q[None])["frobenius_norm"][0] ** 2)
+    """FN^2 of one pose (as squared from :func:`path_arrays`' FN: same rounding), without
+    the legs and margins path_arrays also computes: it runs for every candidate."""
+    planar = isinstance(req.targets[0], PlanarTarget)
+    return float(_frobenius_norms(planar, q[None])[0] ** 2)
 
 
 #: Global mode: a default pose that no candidate reaches within max_jump is approached by
