@@ -98,15 +98,25 @@ def initial_starts(
     """
     out = [q0]
     if structured and stack.n >= 2:
-        a = 0.75 * float(np.mean(stack.leg_max - stack.leg_min))
+        a = fold_offset(stack)
         # planar: the in-plane axis; spatial: both horizontal axes (4 folded starts)
         for axis in mode_of(target).fold_axes:
             for sign in (1.0, -1.0):
-                q = q0.copy()
-                q[-2, axis] += sign * a
-                q[-1, axis] -= sign * a
-                out.append(q)
+                out.append(_fold_top_two(q0, axis, sign * a))
     return out
+
+
+def fold_offset(stack: Stack) -> float:
+    """The sideways offset of the folded starts: ``0.75`` of the mean leg range [mm]."""
+    return 0.75 * float(np.mean(stack.leg_max - stack.leg_min))
+
+
+def _fold_top_two(q0: FloatArray, axis: int, offset: float) -> FloatArray:
+    """``q0`` with its top two platforms offset by ``+-offset`` along column ``axis``."""
+    q = q0.copy()
+    q[-2, axis] += offset
+    q[-1, axis] -= offset
+    return q
 
 
 def fold_depth(n: int) -> int:
@@ -146,7 +156,7 @@ def fold_patterns(stack: Stack, q0: FloatArray, depth: int) -> list[FloatArray]:
     m = min(depth, n)
     if m <= 0:
         return []
-    a = 0.75 * float(np.mean(stack.leg_max - stack.leg_min))
+    a = fold_offset(stack)
     out = []
     for code in range(2**m):
         signs = np.array([1.0 if (code >> j) & 1 else -1.0 for j in range(m)])
@@ -187,13 +197,10 @@ def spatial_starts(stack: Stack, q0: FloatArray) -> list[FloatArray]:
     twists and the pitch leans: 13 starts in all (9 for n = 2).
     """
     n = stack.n
-    a = 0.75 * float(np.mean(stack.leg_max - stack.leg_min))
+    a = fold_offset(stack)
 
     def fold(axis: int, sign: float) -> FloatArray:
-        q = q0.copy()
-        q[-2, axis] += sign * a
-        q[-1, axis] -= sign * a
-        return q
+        return _fold_top_two(q0, axis, sign * a)
 
     def twist(yaw: float) -> FloatArray:
         q = q0.copy()

@@ -504,18 +504,11 @@ class _Engine:
         return stat, compl
 
     # ------------------------------------------------------------------ Hessian -------
-    def _exact_hessian(
-        self, lam: FloatArray, extra: Any = None, lam_active: FloatArray | None = None
-    ) -> Any:
-        """The convexified exact Hessian of the (scaled) Lagrangian at ``lam``, plus
-        ``extra`` (a positive semidefinite term, e.g. the barrier's) before convexifying;
-        ``lam_active`` (default ``lam``) decides the rows of the augmentation."""
+    def _exact_hessian(self, lam: FloatArray) -> Any:
+        """The convexified exact Hessian of the (scaled) Lagrangian at ``lam``."""
         H = self._lagrangian_hessian(lam)
         t = time.perf_counter()
-        if extra is not None:
-            H = self._add_psd(H, extra)
-        la = lam if lam_active is None else lam_active
-        B = self._convexify_sparse(H, la) if self.sparse else self._convexify(H, la)
+        B = self._convexify_sparse(H, lam) if self.sparse else self._convexify(H, lam)
         self.timer.build += time.perf_counter() - t
         return B
 
@@ -543,19 +536,6 @@ class _Engine:
         H *= 0.5 * self.sf
         self.timer.build += time.perf_counter() - t
         return H
-
-    def _add_psd(self, H: Any, E: Any) -> Any:
-        """``H + E`` in ``H``'s representation (``E`` dense or sparse, pattern within H's
-        when sparse: the fixed pattern includes that of ``J'J``)."""
-        if self.sparse:
-            if not is_sparse(H):
-                H = self._fit_hessian(H)
-            Ef = self.h_pat.fit(E if not is_sparse(E) else E.tocsc())
-            if self._sync_pattern():
-                H = self.h_pat.fit(H)
-                Ef = self.h_pat.fit(E if not is_sparse(E) else E.tocsc())
-            return csc(H.data + Ef.data, H.indices, H.indptr, H.shape)
-        return H + (E.toarray() if is_sparse(E) else E)
 
     # ------------------------------------------------------- sparse Hessians -------
     def _fit_hessian(self, Hraw: Any) -> Any:
@@ -889,7 +869,8 @@ class _Engine:
 
     # ------------------------------------------------------------ interior start -----
     def _tr_box(self, delta: float) -> tuple[FloatArray, FloatArray]:
-        """Trust-region box intersected with the bounds, around the current x."""
+        """Trust-region box intersected with the bounds, around the current x:
+        ``lb = min(max(lower - x, -D xs), 0)``, ``ub = max(min(upper - x, D xs), 0)``."""
         n, x = self.n, self.x
         dvec: Any = delta if self.unit_xs else delta * self.xs
         if self.any_bounds:
@@ -1307,14 +1288,7 @@ class _Engine:
             x_changed = False
             # ---- QP subproblem
             t = time.perf_counter()
-            # lb = min(max(lower - x, -D xs), 0), ub = max(min(upper - x, D xs), 0).
-            dvec: Any = delta if self.unit_xs else delta * self.xs
-            if self.any_bounds:
-                lb = np.maximum(np.minimum(self.lower - x, 0.0), -dvec)
-                ub = np.minimum(np.maximum(self.upper - x, 0.0), dvec)
-            else:
-                ub = np.full(n, delta) if self.unit_xs else dvec
-                lb = -ub
+            lb, ub = self._tr_box(delta)  # around x (= self.x)
             self.timer.build += time.perf_counter() - t
             if adaptive:
                 # tolerance from the optimality measure, and from the last step's length:
@@ -1435,18 +1409,11 @@ class _Engine:
                 if self.strategy == "bfgs":
                     gL_old = self._grad_lagrangian(lam)
                 x_old = x
-                x = self.x = x_t
+                x = x_t
                 x_changed = True
-                self.f = f_t
-                self._set_c(c_t)
-                self.v = v_t
-                if ev_t is None and self.nlp.evaluate is not None:
-                    ev_t = self._eval_full(x)
-                self._derivs(x, ev_t)
-                if not (_all_finite(self.g) and _all_finite(_values(self.J))):
+                if not self._move_to(x_t, f_t, c_t, v_t, ev_t):
                     status = SQPStatus.NUMERICAL_ERROR
                     break
-                self._new_point()
                 if self.strategy == "exact":
                     self.B = self._exact_hessian(lam)
                 elif self.strategy == "gauss-newton":

@@ -133,18 +133,7 @@ class ClarabelBackend(QPBackend):
                 A_ptr = np.arange(0, m * n + 1, m, dtype=np.int64)
                 A_idx = np.tile(np.arange(m, dtype=np.int64), n)
                 A_csc = sp.csc_matrix((Ax, A_idx, A_ptr), shape=(m, n))
-                cones = []
-                if me:
-                    cones.append(clarabel.ZeroConeT(me))
-                cones.append(clarabel.NonnegativeConeT(mi + 2 * n))
-                self._solver = clarabel.DefaultSolver(
-                    P_csc, q, A_csc, b, cones, self._make_settings()
-                )
-                if math.isfinite(self.deadline):
-                    # stop an interior-point run that would outlast the SQP time budget
-                    self._solver.set_termination_callback(
-                        lambda _info: time.perf_counter() > self.deadline
-                    )
+                self._solver = self._new_solver(P_csc, q, A_csc, b)
             else:
                 self._solver.update(P=Px, q=q, A=Ax, b=b)
             sol = self._solver.solve()
