@@ -47,6 +47,26 @@ def ipopt_available() -> bool:
     return True
 
 
+def _casadi() -> Any:
+    """The casadi module, or a ValueError saying how to install it."""
+    try:
+        import casadi
+    except ImportError:
+        raise ValueError(
+            'method "ipopt" needs CasADi: pip install "stackik[ipopt]" (or casadi)'
+        ) from None
+    return casadi
+
+
+def _nlpsol(ca: Any, name: str, nlp: dict[str, Any], user: tuple[tuple[str, Any], ...]) -> Any:
+    """``casadi.nlpsol`` with IPOPT; options IPOPT rejects become an OptionError."""
+    try:
+        return ca.nlpsol(name, "ipopt", nlp, _ipopt_options(user))
+    except RuntimeError as exc:  # e.g. "No such IPOPT option"
+        msg = str(exc).strip().splitlines()[-1]
+        raise OptionError(f"options: IPOPT rejected them ({msg})") from None
+
+
 @lru_cache(maxsize=32)
 def _solver(
     stack: Stack,
@@ -55,12 +75,7 @@ def _solver(
     xs: tuple[float, ...],
     user: tuple[tuple[str, Any], ...] = (),
 ) -> Any:
-    try:
-        import casadi as ca
-    except ImportError:
-        raise ValueError(
-            'method "ipopt" needs CasADi: pip install "stackik[ipopt]" (or casadi)'
-        ) from None
+    ca = _casadi()
     n = stack.n
     L = float(stack.leg_max.max())
     e_phi = np.array([math.cos(phi), math.sin(phi), 0.0])
@@ -105,11 +120,7 @@ def _solver(
         g_in += rows[0] + rows[1] + rows[2] + rows[3]
     g = ca.vertcat(g_eq, *g_in)
     nlp = {"x": u, "p": p, "f": f, "g": g}
-    try:
-        solver = ca.nlpsol("stackik_ipopt", "ipopt", nlp, _ipopt_options(user))  # type: ignore[arg-type]
-    except RuntimeError as exc:  # e.g. "No such IPOPT option"
-        msg = str(exc).strip().splitlines()[-1]
-        raise OptionError(f"options: IPOPT rejected them ({msg})") from None
+    solver = _nlpsol(ca, "stackik_ipopt", nlp, user)
     lbg = np.concatenate([np.zeros(3), np.zeros(24 * n)])
     ubg = np.concatenate([np.zeros(3), np.full(24 * n, np.inf)])
     return solver, lbg, ubg
@@ -139,12 +150,7 @@ def _spatial_solver(
 ) -> Any:
     """IPOPT for the scaled spatial problem; parameters ``p = (P_target (3),
     R_target.ravel() (9), per-platform angle weights w_th (n), c0, fscale)``."""
-    try:
-        import casadi as ca
-    except ImportError:
-        raise ValueError(
-            'method "ipopt" needs CasADi: pip install "stackik[ipopt]" (or casadi)'
-        ) from None
+    ca = _casadi()
     n = stack.n
     L = float(stack.leg_max.max())
     u = ca.SX.sym("u", 6 * n)
@@ -206,11 +212,7 @@ def _spatial_solver(
             acc = acc + w_th[i] * ca.dot(r_a, r_a)
         f = (c0 + acc) / fscale
     nlp = {"x": u, "p": p, "f": f, "g": ca.vertcat(g_eq, *g_in)}
-    try:
-        solver = ca.nlpsol("stackik_ipopt_spatial", "ipopt", nlp, _ipopt_options(user))  # type: ignore[arg-type]
-    except RuntimeError as exc:  # e.g. "No such IPOPT option"
-        msg = str(exc).strip().splitlines()[-1]
-        raise OptionError(f"options: IPOPT rejected them ({msg})") from None
+    solver = _nlpsol(ca, "stackik_ipopt_spatial", nlp, user)
     lbg = np.zeros(6 + 24 * n)
     ubg = np.concatenate([np.zeros(6), np.full(24 * n, np.inf)])
     return solver, lbg, ubg
