@@ -17,6 +17,16 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 
 
+def _new_sparse_pattern(key: tuple[Any, ...] | None, M: Any) -> bool:
+    """True unless ``key`` records the CSC pattern arrays of ``M`` (the same objects or
+    equal arrays)."""
+    return (
+        key is None
+        or key[0] != "sparse"
+        or not (_same(key[1], M.indptr) and _same(key[2], M.indices))
+    )
+
+
 def _same(a: Any, b: Any) -> bool:
     return a is b or (
         a is not None and b is not None and a.shape == b.shape and bool(np.array_equal(a, b))
@@ -37,12 +47,7 @@ class TriuLayout:
         """``(data, changed)``: the triangle's values; changed: a new pattern."""
         changed = False
         if sp.issparse(P):
-            key = self.key
-            if (
-                key is None
-                or key[0] != "sparse"
-                or not (_same(key[1], P.indptr) and _same(key[2], P.indices))
-            ):
+            if _new_sparse_pattern(self.key, P):
                 n = P.shape[0]
                 cols = np.repeat(np.arange(n), np.diff(P.indptr))
                 keep = P.indices <= cols
@@ -110,12 +115,7 @@ class StackLayout:
         m, n = J.shape
         changed = False
         if sp.issparse(J):
-            key = self.key
-            if (
-                key is None
-                or key[0] != "sparse"
-                or not (_same(key[1], J.indptr) and _same(key[2], J.indices))
-            ):
+            if _new_sparse_pattern(self.key, J):
                 self._build(J.indptr, J.indices, m, n)
                 self.key = ("sparse", J.indptr, J.indices)
                 changed = True
