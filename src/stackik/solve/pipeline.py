@@ -142,9 +142,10 @@ def _beyond_reach(stack: Stack, target: Target) -> bool:
 
 
 def _kernels_needed(stack: object, target: object, method: object) -> tuple[str, ...]:
-    """The compiled kernels a request will call: the planar interior point for planar
-    targets with ``"auto"`` or ``"ip"`` and for any target beyond the reach bound (the
-    stretched pose), the spatial evaluation for spatial targets."""
+    """The compiled kernels a request may call: the spatial set (evaluation and interior
+    point) for spatial targets; the planar interior point for ``"auto"`` or ``"ip"`` of
+    either kind (planar solves, and the stretched pose of an unreachable target, which is
+    a planar bisection) and for any target beyond the reach bound."""
     if not isinstance(stack, Stack) or not isinstance(target, PlanarTarget | SpatialTarget):
         return ()  # the request's validation reports it
     out: tuple[str, ...] = ("spatial",) if isinstance(target, SpatialTarget) else ()
