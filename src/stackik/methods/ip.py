@@ -77,6 +77,11 @@ def problem_arrays(prob: Any) -> tuple[Any, ...]:
     )
 
 
+#: Worst scaled violation up to which a finished run is ranked by its objective alone
+#: (:func:`ip_starts`): the runs that converged (to ``constr_tol``, or nearly, before the
+#: polish) compete on FN; farther ones rank after them and are not checked.
+RANK_VIOLATION = 1e-6
+
 #: Default options of :func:`ip_solve`.
 IP_DEFAULTS: dict[str, float] = {
     "tol": 1e-7,
@@ -184,8 +189,8 @@ def ip_starts(
     prob: Problem, starts: list[FloatArray], options: dict[str, Any], max_time: float
 ) -> IPBatch:
     """Interior-point runs from every start in one compiled call; the best that passes
-    the independent check (tried in order of objective among those the solver reports
-    feasible), or the least-violation run when none passes."""
+    the independent check (tried in order of objective among the runs within
+    :data:`RANK_VIOLATION` of feasibility), or the least-violation run when none passes."""
     from stackik._check import planar_check
     from stackik.check import check_pose
 
@@ -198,7 +203,7 @@ def ip_starts(
     except Exception:  # noqa: BLE001 - e.g. a LAPACK failure on absurd input: no run
         return IPBatch(None, None, 0, [])
     statuses = [run_status(t) for t in texts]
-    order = sorted(range(len(starts)), key=lambda j: (not viols[j] <= 1e-10, objs[j]))
+    order = sorted(range(len(starts)), key=lambda j: (not viols[j] <= RANK_VIOLATION, objs[j]))
     least: Run | None = None
     total = int(np.sum(nits))
     for j in order:
@@ -218,7 +223,7 @@ def ip_starts(
             return IPBatch(run, least, total, statuses)
         if least is None or chk.max_violation_mm < least.check.max_violation_mm:
             least = run
-        if viols[j] > 1e-6:  # the rest are farther off: stop checking
+        if viols[j] > RANK_VIOLATION:  # the rest are farther off: stop checking
             break
     return IPBatch(None, least, total, statuses)
 
