@@ -7,6 +7,7 @@ executes them.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -121,7 +122,8 @@ def plan_starts(req: Any) -> StartPlan:
     spatial_ip = not req.mode.planar and req.method.name == "ip" and req.stack.n >= 2
     if spatial_ip and req.structured:
         # spatial interior point: folds, twists and leans (stackik.starts.spatial_starts)
-        queue = spatial_starts(req.stack, req.q0)
+        pos = req.target.position
+        queue = spatial_starts(req.stack, req.q0, math.atan2(pos[1], pos[0]))
         if starts is None:
             k = min(len(queue), spatial_start_count(req.stack.n))
             return StartPlan(queue, k, k, True)
