@@ -376,6 +376,18 @@ def _limit_rows(z: FloatArray, n: int) -> FloatArray:
 
 
 @_jit
+def _lagrangian_hessian_ext(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
+                            wq: float) -> FloatArray:  # fmt: skip
+    """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem (``z``: 24 n or, with
+    a box, 30 n multipliers): the box rows are linear, the distance term adds ``2 wq I``."""
+    H = _lagrangian_hessian(u, yE, _limit_rows(z, P[7].shape[0]), P)
+    if wq > 0.0:
+        for a in range(H.shape[0]):
+            H[a, a] += 2.0 * wq
+    return H
+
+
+@_jit
 def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
     """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (N, N)."""
     (xs, cs, es, yt, fscale, c0, w, tf, tz, bf, bz, ls, lmin2, lmax2, sj, feasible) = P
@@ -704,13 +716,10 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             mu = max(mu_min, min(0.2 * mu, mu**1.5))
             nfilt = 0
         # --- Newton step -----------------------------------------------------------
-        W = _lagrangian_hessian(x, yE, _limit_rows(z, n), P)
+        W = _lagrangian_hessian_ext(x, yE, z, P, wq)
         if not (np.all(np.isfinite(W)) and np.all(np.isfinite(g)) and np.all(np.isfinite(AE))):
             status = IP_NONFINITE
             break
-        if wq > 0.0:
-            for a in range(N):
-                W[a, a] += 2.0 * wq
         Sig = z / s
         for i in range(n):
             for a in range(3):

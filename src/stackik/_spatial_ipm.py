@@ -364,6 +364,26 @@ def _limit_rows(z: FloatArray, n: int) -> FloatArray:
 
 
 @_jit
+def _hessian_ext(parts: Any, yE: FloatArray, z: FloatArray, P: Any, wq: float) -> FloatArray:
+    """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem from its kinematic
+    parts (``z``: 24 n or, with a box, 36 n multipliers): the box rows are linear, the
+    distance term adds ``2 wq I``."""
+    H = _hessian(parts, yE, _limit_rows(z, P[8].shape[0]), P)
+    if wq > 0.0:
+        for a in range(H.shape[0]):
+            H[a, a] += 2.0 * wq
+    return H
+
+
+@_jit
+def lagrangian_hessian_ext(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
+                           lo: FloatArray, hi: FloatArray, ug: FloatArray,
+                           wq: float) -> FloatArray:  # fmt: skip
+    """:func:`_hessian_ext` at ``u`` (for the tests)."""
+    return _hessian_ext(_evaluate_ext(u, P, lo, hi, ug, wq)[6], yE, z, P, wq)
+
+
+@_jit
 def lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
     """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (6n, 6n)."""
     return _hessian(_evaluate(u, P)[6], yE, z, P)
@@ -714,13 +734,10 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
                 break
             mu = max(mu_min, min(0.2 * mu, mu**1.5))
             nfilt = 0
-        W = _hessian(parts, yE, _limit_rows(z, n), P)
+        W = _hessian_ext(parts, yE, z, P, wq)
         if not (np.all(np.isfinite(W)) and np.all(np.isfinite(g)) and np.all(np.isfinite(AE))):
             status = IP_NONFINITE
             break
-        if wq > 0.0:
-            for a in range(W.shape[0]):
-                W[a, a] += 2.0 * wq
         Sig = z / s
         for i in range(n):
             for a in range(6):
