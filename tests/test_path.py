@@ -237,14 +237,23 @@ def test_global_mode_moves_to_a_better_branch(stack4):
     assert glob.info["transit"] >= 1
 
 
-def test_fast_mode_leaves_a_branch_that_ends_at_a_limit_wall(tmp_path):
-    # n = 8: the branch the fast path follows ends at a joint limit before waypoint 45;
-    # the path reaches that waypoint's default pose by transit steps walked back from it
-    # (a spliced detour) instead of breaking; resuming after the splice gives the same
+def test_fast_mode_leaves_a_branch_that_ends_at_a_limit_wall(tmp_path, monkeypatch):
+    # n = 8: the branch the fast path follows ends at a joint limit before waypoint 45,
+    # where the bounded step of the SQP engine finds no continuation (the compiled
+    # interior point's does: monkeypatched away here, so that the SQP engine takes every
+    # bounded and transit step); the path reaches that waypoint's default pose by transit
+    # steps walked back from it (a spliced detour) instead of breaking; resuming after the
+    # splice gives the same
+    import stackik.paths.continuation as continuation
+
     stack = Stack.reference(8)
     a = PlanarTarget(1390.7857889700388, 1760.292531041743, -2.023119966011402)
     b = PlanarTarget(178.77968731850942, 2078.076457656921, -0.022992853149510606)
     pts = interpolate_targets([a, b], steps=59)
+    ip = solve_path(stack, pts, max_jump=MAX_JUMP)  # the compiled bounded step gets through
+    assert ip.success and ip.info["how"].get("rejoin", 0) == 0 and ip.info["bounded"] >= 1
+    assert_valid_path(stack, ip)
+    monkeypatch.setattr(continuation, "bounded_ip", lambda *a, **k: None)
     ck = tmp_path / "ck.jsonl"
     r = solve_path(stack, pts, max_jump=MAX_JUMP, checkpoint=ck)
     assert r.success, r.message

@@ -117,3 +117,51 @@ def planar_check(stack: Any, target: Any, q: FloatArray) -> tuple[Any, ...]:
     ok = pose_ok(float(pos_err), float(ang_err), float(v_mm), bool(finite))
     chk = PoseCheck(bool(ok), float(pos_err), float(ang_err), float(max_v), float(v_mm), C)
     return chk, P, R, legs
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _planar_check_many(Q: FloatArray, phi: float, base: FloatArray, top: FloatArray,
+                       leg_min: FloatArray, leg_max: FloatArray, sin_joint: FloatArray,
+                       targets: FloatArray) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`_planar_check` of poses ``Q`` (m, n, 3) against targets (m, 3): position
+    and angle errors, worst violations [mm] and finiteness per pose."""
+    m = Q.shape[0]
+    pos = np.empty(m)
+    ang = np.empty(m)
+    v_mm = np.empty(m)
+    finite = np.empty(m, dtype=np.bool_)
+    for j in range(m):
+        p, a, _, v, f, _, _, _, _ = _planar_check(
+            Q[j], phi, base, top, leg_min, leg_max, sin_joint, targets[j]
+        )
+        pos[j], ang[j], v_mm[j], finite[j] = p, a, v, f
+    return pos, ang, v_mm, finite
+
+
+def planar_check_many(stack: Any, targets: Any, Q: FloatArray) -> list[bool]:
+    """Whether each planar pose ``Q[j]`` (m, n, 3) passes the acceptance rule
+    (:func:`stackik.check.pose_ok`) for ``targets[j]`` (one plane ``phi``): the same
+    verdicts as :func:`planar_check` pose by pose, in one compiled call."""
+    from stackik._arrays import readonly
+    from stackik.check import pose_ok
+
+    if len(targets) == 0:
+        return []
+    phi = float(targets[0].phi)
+    if any(float(t.phi) != phi for t in targets):
+        raise ValueError("targets: planar targets in one plane phi expected")
+    Y = np.array([[t.rho, t.z, t.theta] for t in targets], dtype=float)
+    pos, ang, v_mm, finite = _planar_check_many(
+        readonly(np.ascontiguousarray(Q, dtype=float)),
+        phi,
+        readonly(stack.base_nodes),
+        readonly(stack.top_nodes),
+        readonly(stack.leg_min),
+        readonly(stack.leg_max),
+        readonly(stack.sin_joint_min),
+        readonly(Y),
+    )
+    return [
+        bool(pose_ok(float(p), float(a), float(v), bool(f)))
+        for p, a, v, f in zip(pos, ang, v_mm, finite)
+    ]

@@ -329,6 +329,65 @@ def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
 
 
 @_jit
+def _evaluate_ext(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+                  wq: float) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`_evaluate` with the extensions of a path step: the objective plus
+    ``wq |u - ug|^2`` (when ``wq > 0``), and, when ``lo`` is not empty, the box
+    ``lo <= u <= hi`` as 6 more limit rows per platform (rows 24-26: ``u - lo``, rows
+    27-29: ``hi - u``), so that ``c_I`` has ``30 n`` rows and ``D`` is (n, 30, 3). Without
+    extensions it returns :func:`_evaluate`'s values unchanged."""
+    f, g, cE, AE, cI, D = _evaluate(u, P)
+    if wq > 0.0:
+        acc = 0.0
+        for a in range(u.size):
+            d = u[a] - ug[a]
+            acc += d * d
+            g[a] += 2.0 * wq * d
+        f += wq * acc
+    if lo.size == 0:
+        return f, g, cE, AE, cI, D
+    n = D.shape[0]
+    cB = np.empty(30 * n)
+    DB = np.zeros((n, 30, 3))
+    for i in range(n):
+        for r in range(24):
+            cB[30 * i + r] = cI[24 * i + r]
+            for k in range(3):
+                DB[i, r, k] = D[i, r, k]
+        for k in range(3):
+            cB[30 * i + 24 + k] = u[3 * i + k] - lo[3 * i + k]
+            cB[30 * i + 27 + k] = hi[3 * i + k] - u[3 * i + k]
+            DB[i, 24 + k, k] = 1.0
+            DB[i, 27 + k, k] = -1.0
+    return f, g, cE, AE, cB, DB
+
+
+@_jit
+def _limit_rows(z: FloatArray, n: int) -> FloatArray:
+    """The multipliers of the 24 n limit rows among the 30 n rows of a boxed problem
+    (``z`` itself without a box): the box is linear, so only these enter the Hessian."""
+    if z.size == 24 * n:
+        return z
+    out = np.empty(24 * n)
+    for i in range(n):
+        for r in range(24):
+            out[24 * i + r] = z[30 * i + r]
+    return out
+
+
+@_jit
+def _lagrangian_hessian_ext(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
+                            wq: float) -> FloatArray:  # fmt: skip
+    """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem (``z``: 24 n or, with
+    a box, 30 n multipliers): the box rows are linear, the distance term adds ``2 wq I``."""
+    H = _lagrangian_hessian(u, yE, _limit_rows(z, P[7].shape[0]), P)
+    if wq > 0.0:
+        for a in range(H.shape[0]):
+            H[a, a] += 2.0 * wq
+    return H
+
+
+@_jit
 def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
     """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (N, N)."""
     (xs, cs, es, yt, fscale, c0, w, tf, tz, bf, bz, ls, lmin2, lmax2, sj, feasible) = P
@@ -362,12 +421,13 @@ def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) ->
 
 @_jit
 def _AI_dot(D: FloatArray, dx: FloatArray) -> FloatArray:
-    """``A_I dx`` (24n,) from the block-diagonal limit Jacobian's blocks ``D`` (n, 24, 3)."""
-    n = D.shape[0]
-    out = np.empty(24 * n)
+    """``A_I dx`` (R n,) from the block-diagonal limit Jacobian's blocks ``D`` (n, R, 3)
+    (R = 24 limit rows per platform, 30 with a box)."""
+    n, R = D.shape[0], D.shape[1]
+    out = np.empty(R * n)
     for i in range(n):
-        for r in range(24):
-            out[24 * i + r] = (
+        for r in range(R):
+            out[R * i + r] = (
                 D[i, r, 0] * dx[3 * i] + D[i, r, 1] * dx[3 * i + 1] + D[i, r, 2] * dx[3 * i + 2]
             )
     return out
@@ -375,12 +435,12 @@ def _AI_dot(D: FloatArray, dx: FloatArray) -> FloatArray:
 
 @_jit
 def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
-    """``A_I^T v`` (3n,) from the blocks ``D`` (n, 24, 3) of the limit Jacobian."""
-    n = D.shape[0]
+    """``A_I^T v`` (3n,) from the blocks ``D`` (n, R, 3) of the limit Jacobian."""
+    n, R = D.shape[0], D.shape[1]
     out = np.zeros(3 * n)
     for i in range(n):
-        for r in range(24):
-            vr = v[24 * i + r]
+        for r in range(R):
+            vr = v[R * i + r]
             for k in range(3):
                 out[3 * i + k] += D[i, r, k] * vr
     return out
@@ -586,12 +646,17 @@ def _now() -> float:
 # =========================================================================================
 @_jit
 def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
-             max_iter: int, deadline: float) -> tuple[FloatArray, int, int]:  # fmt: skip
+             max_iter: int, deadline: float, lo: FloatArray, hi: FloatArray,
+             ug: FloatArray, wq: float) -> tuple[FloatArray, int, int]:  # fmt: skip
+    """The barrier method from ``u0``; ``lo``/``hi`` (empty: none) add the box
+    ``lo <= u <= hi`` as limit rows and ``wq |u - ug|^2`` is added to the objective
+    (:func:`_evaluate_ext`; a path step's extensions)."""
     n = P0[7].shape[0]
-    m = 24 * n
+    R = 24 if lo.size == 0 else 30
+    m = R * n
     N = 3 * n
     x = u0.copy()
-    f, g, cE, AE, cI, D = _evaluate(x, P0)
+    f, g, cE, AE, cI, D = _evaluate_ext(x, P0, lo, hi, ug, wq)
     if not (np.all(np.isfinite(cI)) and np.all(np.isfinite(cE)) and math.isfinite(f)):
         return x, IP_NONFINITE, 0
     # objective scaling as IPOPT's gradient-based rule: max |grad f(x0)| <= OBJ_MAX_GRAD
@@ -600,6 +665,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     P = (P0[0], P0[1], P0[2], P0[3], P0[4] / fs, P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
          P0[11], P0[12], P0[13], P0[14], P0[15])  # fmt: skip
     f, g = f * fs, g * fs
+    wq = wq * fs
     mu = mu0
     mu_min = min(tol, constr_tol) / 10.0
     s = np.maximum(cI, 1e-2)
@@ -650,7 +716,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             mu = max(mu_min, min(0.2 * mu, mu**1.5))
             nfilt = 0
         # --- Newton step -----------------------------------------------------------
-        W = _lagrangian_hessian(x, yE, z, P)
+        W = _lagrangian_hessian_ext(x, yE, z, P, wq)
         if not (np.all(np.isfinite(W)) and np.all(np.isfinite(g)) and np.all(np.isfinite(AE))):
             status = IP_NONFINITE
             break
@@ -659,8 +725,8 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             for a in range(3):
                 for b in range(3):
                     acc = 0.0
-                    for r in range(24):
-                        acc += D[i, r, a] * Sig[24 * i + r] * D[i, r, b]
+                    for r in range(R):
+                        acc += D[i, r, a] * Sig[R * i + r] * D[i, r, b]
                     W[3 * i + a, 3 * i + b] += acc
         v = np.empty(m)
         for r in range(m):
@@ -709,7 +775,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             st = np.empty(m)
             for r in range(m):
                 st[r] = s[r] + alpha * ds[r]
-            ft, gt, cEt, AEt, cIt, Dt = _evaluate(xt, P)
+            ft, gt, cEt, AEt, cIt, Dt = _evaluate_ext(xt, P, lo, hi, ug, wq)
             theta_t = abs(cEt[0]) + abs(cEt[1]) + abs(cEt[2])
             logsum_t = 0.0
             for r in range(m):
@@ -752,7 +818,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             alpha = min(alpha, 1e-8)
             xt = x + alpha * dx
             st = s + alpha * ds
-            ft, gt, cEt, AEt, cIt, Dt = _evaluate(xt, P)
+            ft, gt, cEt, AEt, cIt, Dt = _evaluate_ext(xt, P, lo, hi, ug, wq)
             if not (math.isfinite(ft) and np.all(np.isfinite(cIt))):
                 status = IP_NONFINITE
                 break
@@ -822,11 +888,14 @@ def _ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatA
     nit = np.zeros(k, dtype=np.int64)
     obj = np.full(k, np.inf)
     viol = np.full(k, np.inf)
+    none = np.empty(0)
     for j in range(k):
         X[j] = U0[j]
         if j > 0 and _now() > deadline:
             break
-        x, st, it = _ip_loop(U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline)
+        x, st, it = _ip_loop(
+            U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline, none, none, none, 0.0
+        )
         if st == IP_NONFINITE or not np.all(np.isfinite(x)):
             x = U0[j].copy()
         x = _polish(x, P, 3, reach, margin)
@@ -839,3 +908,56 @@ def _ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatA
         if j + 1 == GIVE_UP_AFTER and viol[: j + 1].min() > GIVE_UP_VIOLATION:
             break  # likely unreachable: the caller's SQP fallback decides, quickly
     return X, status, nit, obj, viol
+
+
+# =========================================================================================
+# Path steps (stackik.paths): a boxed / goal-seeking solve, and many warm steps in one call
+# =========================================================================================
+@_jit
+def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray, wq: float,
+           tol: float, constr_tol: float, mu0: float, max_iter: int, reach: float,
+           margin: float) -> tuple[FloatArray, int, int]:  # fmt: skip
+    """One barrier solve inside the box ``lo <= u <= hi`` (scaled) with ``wq |u - ug|^2``
+    added to the objective (``wq = 0``: none), then :func:`_polish`. Returns the point,
+    the status and the iteration count; the caller checks the pose and the box."""
+    x, st, it = _ip_loop(u0, P, tol, constr_tol, mu0, max_iter, 1e300, lo, hi, ug, wq)
+    if st == IP_NONFINITE or not np.all(np.isfinite(x)):
+        return u0.copy(), IP_NONFINITE, it
+    return _polish(x, P, 3, reach, margin), st, it
+
+
+@_jit
+def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol: float,
+            constr_tol: float, mu0: float, max_iter: int, reach: float, margin: float,
+            pos_tol: float, ang_tol: float) -> tuple[FloatArray, int]:  # fmt: skip
+    """Warm-started steps along targets ``(m, 3)`` (raw rho, z, theta), each from the
+    previous point (the first from ``u0``): :func:`_ip_loop` with initial barrier ``mu0``
+    and :func:`_polish`, exactly as :func:`_ip_multi` with that one start. Stops before
+    the first step whose point misses its target (``pos_tol`` [mm], ``ang_tol`` [rad],
+    from the scaled equalities), violates a limit (scaled) or moves some variable by more
+    than ``jump`` (scaled, per variable). Returns the points (m, N) and the number of
+    steps taken; the caller re-checks every point with the independent check."""
+    m = targets.shape[0]
+    N = u0.size
+    X = np.empty((m, N))
+    none = np.empty(0)
+    es = P0[2]
+    x = u0.copy()
+    for k in range(m):
+        yt = targets[k]
+        P = (P0[0], P0[1], P0[2], yt, P0[4], P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
+             P0[11], P0[12], P0[13], P0[14], P0[15])  # fmt: skip
+        xn, st, _ = _ip_loop(x, P, tol, constr_tol, mu0, max_iter, 1e300, none, none, none, 0.0)
+        if st == IP_NONFINITE or not np.all(np.isfinite(xn)):
+            return X, k
+        xn = _polish(xn, P, 3, reach, margin)
+        f, g, cE, AE, cI, D = _evaluate(xn, P)
+        if not (math.hypot(cE[0] / es[0], cE[1] / es[1]) <= pos_tol
+                and abs(cE[2] / es[2]) <= ang_tol and cI.min() >= -1e-12):  # fmt: skip
+            return X, k
+        for a in range(N):
+            if not abs(xn[a] - x[a]) <= jump[a]:
+                return X, k
+        X[k] = xn
+        x = xn
+    return X, m

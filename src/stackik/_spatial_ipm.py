@@ -318,6 +318,72 @@ def evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
 
 
 @_jit
+def _evaluate_ext(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+                  wq: float) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`_evaluate` with a path step's extensions: ``wq |u - ug|^2`` added to the
+    objective (when ``wq > 0``) and, when ``lo`` is not empty, the box ``lo <= u <= hi``
+    as 12 more limit rows per platform (rows 24-29: ``u - lo``, 30-35: ``hi - u``):
+    ``c_I`` (36 n,), ``D`` (n, 36, 6). Without extensions, :func:`_evaluate`'s values."""
+    f, g, cE, AE, cI, D, parts = _evaluate(u, P)
+    if wq > 0.0:
+        acc = 0.0
+        for a in range(u.size):
+            d = u[a] - ug[a]
+            acc += d * d
+            g[a] += 2.0 * wq * d
+        f += wq * acc
+    if lo.size == 0:
+        return f, g, cE, AE, cI, D, parts
+    n = D.shape[0]
+    cB = np.empty(36 * n)
+    DB = np.zeros((n, 36, 6))
+    for i in range(n):
+        for r in range(24):
+            cB[36 * i + r] = cI[24 * i + r]
+            for k in range(6):
+                DB[i, r, k] = D[i, r, k]
+        for k in range(6):
+            cB[36 * i + 24 + k] = u[6 * i + k] - lo[6 * i + k]
+            cB[36 * i + 30 + k] = hi[6 * i + k] - u[6 * i + k]
+            DB[i, 24 + k, k] = 1.0
+            DB[i, 30 + k, k] = -1.0
+    return f, g, cE, AE, cB, DB, parts
+
+
+@_jit
+def _limit_rows(z: FloatArray, n: int) -> FloatArray:
+    """The multipliers of the 24 n limit rows among the 36 n rows of a boxed problem
+    (``z`` itself without a box): the box is linear and has no Hessian."""
+    if z.size == 24 * n:
+        return z
+    out = np.empty(24 * n)
+    for i in range(n):
+        for r in range(24):
+            out[24 * i + r] = z[36 * i + r]
+    return out
+
+
+@_jit
+def _hessian_ext(parts: Any, yE: FloatArray, z: FloatArray, P: Any, wq: float) -> FloatArray:
+    """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem from its kinematic
+    parts (``z``: 24 n or, with a box, 36 n multipliers): the box rows are linear, the
+    distance term adds ``2 wq I``."""
+    H = _hessian(parts, yE, _limit_rows(z, P[8].shape[0]), P)
+    if wq > 0.0:
+        for a in range(H.shape[0]):
+            H[a, a] += 2.0 * wq
+    return H
+
+
+@_jit
+def lagrangian_hessian_ext(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
+                           lo: FloatArray, hi: FloatArray, ug: FloatArray,
+                           wq: float) -> FloatArray:  # fmt: skip
+    """:func:`_hessian_ext` at ``u`` (for the tests)."""
+    return _hessian_ext(_evaluate_ext(u, P, lo, hi, ug, wq)[6], yE, z, P, wq)
+
+
+@_jit
 def lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
     """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (6n, 6n)."""
     return _hessian(_evaluate(u, P)[6], yE, z, P)
@@ -386,24 +452,25 @@ def _hessian(parts: Any, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
 # =========================================================================================
 @_jit
 def _AI_dot(D: FloatArray, dx: FloatArray) -> FloatArray:
-    n = D.shape[0]
-    out = np.empty(24 * n)
+    """``A_I dx`` (R n,) from the blocks ``D`` (n, R, 6) (R = 24, 36 with a box)."""
+    n, R = D.shape[0], D.shape[1]
+    out = np.empty(R * n)
     for i in range(n):
-        for r in range(24):
+        for r in range(R):
             acc = 0.0
             for k in range(6):
                 acc += D[i, r, k] * dx[6 * i + k]
-            out[24 * i + r] = acc
+            out[R * i + r] = acc
     return out
 
 
 @_jit
 def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
-    n = D.shape[0]
+    n, R = D.shape[0], D.shape[1]
     out = np.zeros(6 * n)
     for i in range(n):
-        for r in range(24):
-            vr = v[24 * i + r]
+        for r in range(R):
+            vr = v[R * i + r]
             for k in range(6):
                 out[6 * i + k] += D[i, r, k] * vr
     return out
@@ -609,17 +676,22 @@ def _with_fscale(P0: Any, fscale: float) -> Any:
 
 @_jit
 def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
-            max_iter: int, deadline: float) -> tuple[FloatArray, int, int]:  # fmt: skip
+            max_iter: int, deadline: float, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+            wq: float) -> tuple[FloatArray, int, int]:  # fmt: skip
+    """The barrier method from ``u0``; ``lo``/``hi`` (empty: none) add a box and ``wq``
+    a distance term (:func:`_evaluate_ext`)."""
     n = P0[8].shape[0]
-    m = 24 * n
+    R = 24 if lo.size == 0 else 36
+    m = R * n
     x = u0.copy()
-    f, g, cE, AE, cI, D, parts = _evaluate(x, P0)
+    f, g, cE, AE, cI, D, parts = _evaluate_ext(x, P0, lo, hi, ug, wq)
     if not (np.all(np.isfinite(cI)) and np.all(np.isfinite(cE)) and math.isfinite(f)):
         return x, IP_NONFINITE, 0
     gmax = np.abs(g).max()
     fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
     P = _with_fscale(P0, P0[5] / fs)
     f, g = f * fs, g * fs
+    wq = wq * fs
     mu = mu0
     mu_min = min(tol, constr_tol) / 10.0
     s = np.maximum(cI, 1e-2)
@@ -662,7 +734,7 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
                 break
             mu = max(mu_min, min(0.2 * mu, mu**1.5))
             nfilt = 0
-        W = _hessian(parts, yE, z, P)
+        W = _hessian_ext(parts, yE, z, P, wq)
         if not (np.all(np.isfinite(W)) and np.all(np.isfinite(g)) and np.all(np.isfinite(AE))):
             status = IP_NONFINITE
             break
@@ -671,8 +743,8 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             for a in range(6):
                 for b in range(6):
                     acc = 0.0
-                    for r in range(24):
-                        acc += D[i, r, a] * Sig[24 * i + r] * D[i, r, b]
+                    for r in range(R):
+                        acc += D[i, r, a] * Sig[R * i + r] * D[i, r, b]
                     W[6 * i + a, 6 * i + b] += acc
         v = np.empty(m)
         for r in range(m):
@@ -715,7 +787,7 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         for _ in range(40):
             xt = x + alpha * dx
             st = s + alpha * ds
-            ft, gt, cEt, AEt, cIt, Dt, parts_t = _evaluate(xt, P)
+            ft, gt, cEt, AEt, cIt, Dt, parts_t = _evaluate_ext(xt, P, lo, hi, ug, wq)
             theta_t = np.abs(cEt).sum()
             logsum_t = 0.0
             for r in range(m):
@@ -757,7 +829,7 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             alpha = min(alpha, 1e-8)
             xt = x + alpha * dx
             st = s + alpha * ds
-            ft, gt, cEt, AEt, cIt, Dt, parts_t = _evaluate(xt, P)
+            ft, gt, cEt, AEt, cIt, Dt, parts_t = _evaluate_ext(xt, P, lo, hi, ug, wq)
             if not (math.isfinite(ft) and np.all(np.isfinite(cIt))):
                 status = IP_NONFINITE
                 break
@@ -789,11 +861,14 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
     nit = np.zeros(k, dtype=np.int64)
     obj = np.full(k, np.inf)
     viol = np.full(k, np.inf)
+    none = np.empty(0)
     for j in range(k):
         X[j] = U0[j]
         if j > 0 and _now() > deadline:
             break
-        x, st, it = ip_loop(U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline)
+        x, st, it = ip_loop(
+            U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline, none, none, none, 0.0
+        )
         if st == IP_NONFINITE or not np.all(np.isfinite(x)):
             x = U0[j].copy()
         X[j] = x
@@ -805,3 +880,16 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
         if j + 1 == GIVE_UP_AFTER and viol[: j + 1].min() > GIVE_UP_VIOLATION:
             break
     return X, status, nit, obj, viol
+
+
+@_jit
+def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray, wq: float,
+           tol: float, constr_tol: float, mu0: float,
+           max_iter: int) -> tuple[FloatArray, int, int]:  # fmt: skip
+    """One barrier solve of a path step inside the box ``lo <= u <= hi`` (scaled) with
+    ``wq |u - ug|^2`` added to the objective (``wq = 0``: none). Returns the point, the
+    status and the iteration count; the caller polishes and checks the pose."""
+    x, st, it = ip_loop(u0, P, tol, constr_tol, mu0, max_iter, 1e300, lo, hi, ug, wq)
+    if st == IP_NONFINITE or not np.all(np.isfinite(x)):
+        return u0.copy(), IP_NONFINITE, it
+    return x, st, it

@@ -25,13 +25,22 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from stackik._arrays import readonly
 from stackik.formulation import Problem
 from stackik.geometry import Stack
 from stackik.sqp import NonlinearProgram, SQPOptions
 from stackik.sqp import solve as sqp_solve
 from stackik.targets import Target
 
-__all__ = ["BOUNDED_OPTIONS", "BOX_SHRINK", "TRANSIT_WEIGHT", "bounded_step"]
+__all__ = [
+    "BOUNDED_OPTIONS",
+    "BOX_SHRINK",
+    "IP_BOX_SHRINK",
+    "IP_BOX_MU0",
+    "TRANSIT_WEIGHT",
+    "bounded_ip",
+    "bounded_step",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -41,6 +50,84 @@ BOUNDED_OPTIONS = {"tol": 1e-7, "constr_tol": 1e-10, "max_iter": 200, "initial_t
 BOX_SHRINK = 1e-9
 #: Weight of the distance to the goal against FN in a transit step (both relative).
 TRANSIT_WEIGHT = 1.0
+#: The compiled interior point's box is ``max_jump * (1 - IP_BOX_SHRINK)``: its polish
+#: (Newton corrections of the target equalities, ~1e-9 scaled) may move the pose a little.
+IP_BOX_SHRINK = 1e-6
+#: Initial barrier parameter of the boxed interior point (the start, the previous pose,
+#: sits on its active limits at the centre of the box).
+IP_BOX_MU0 = 1e-3
+
+
+def _box(prob: Problem, q_prev: FloatArray, max_jump: FloatArray, shrink: float) -> tuple[
+    FloatArray, FloatArray
+]:  # fmt: skip
+    box = np.tile(max_jump * (1.0 - shrink), q_prev.shape[0])
+    x_prev = q_prev.ravel()
+    return (x_prev - box) / prob.xs, (x_prev + box) / prob.xs
+
+
+def _transit_terms(prob: Problem, q_prev: FloatArray, goal: FloatArray) -> tuple[
+    float, float, FloatArray
+]:  # fmt: skip
+    """``f0`` and ``d0`` of the transit objective ``f / f0 + |u - u_goal|^2 / d0`` (both
+    relative to the previous pose) and ``u_goal``."""
+    ug, u_prev = prob.u_of(goal), prob.u_of(q_prev)
+    f0 = max(float(prob.evaluate(u_prev)[0]), 1e-12)
+    d0 = max(float(np.sum((u_prev - ug) ** 2)), 1e-12) / TRANSIT_WEIGHT
+    return f0, d0, ug
+
+
+def bounded_ip(
+    stack: Stack,
+    target: Target,
+    q_prev: FloatArray,
+    max_jump: FloatArray,
+    *,
+    goal: FloatArray | None = None,
+) -> FloatArray | None:
+    """:func:`bounded_step`'s problem (the same objective, box and transit objective) on
+    the compiled interior point (:func:`stackik._ipm.ip_box`,
+    :func:`stackik._spatial_ipm.ip_box`, exact Hessians) instead of the SQP engine: a few
+    hundred microseconds instead of tens of milliseconds. Starts at ``q_prev``, the
+    centre of the box. Returns the pose (polished) or None when the solver failed; the
+    caller checks it."""
+    from stackik.formulation import POLISH_MARGIN, POLISH_REACH, polish
+    from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
+
+    prob = Problem(stack, target, "frobenius", None)
+    lo, hi = _box(prob, q_prev, max_jump, IP_BOX_SHRINK)
+    ug, wq, f0 = np.zeros(0), 0.0, 1.0
+    if goal is not None:
+        f0, d0, ug = _transit_terms(prob, q_prev, goal)
+        wq = 1.0 / d0
+    lo, hi, ug = readonly(lo), readonly(hi), readonly(ug)
+    u0 = readonly(prob.u_of(q_prev))
+    tol, ctol = float(IP_DEFAULTS["tol"]), float(IP_DEFAULTS["constr_tol"])
+    max_iter = int(IP_DEFAULTS["max_iter"])
+    try:
+        if prob.planar:
+            from stackik import _ipm
+
+            P = problem_arrays(prob)
+            P = P[:4] + (P[4] * f0,) + P[5:]
+            u, st, _ = _ipm.ip_box(u0, P, lo, hi, ug, wq, tol, ctol, IP_BOX_MU0, max_iter,
+                                   POLISH_REACH, POLISH_MARGIN)  # fmt: skip
+        else:
+            from stackik import _spatial_ipm
+
+            P = spatial_problem_arrays(prob)
+            P = P[:5] + (P[5] * f0,) + P[6:]
+            u, st, _ = _spatial_ipm.ip_box(u0, P, lo, hi, ug, wq, tol, ctol, IP_BOX_MU0,
+                                           max_iter)  # fmt: skip
+            u = polish(prob, u)
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    if st == _IP_NONFINITE or not np.all(np.isfinite(u)):
+        return None
+    return prob.q_of(u)
+
+
+_IP_NONFINITE = 3  # stackik._ipm.IP_NONFINITE (the module compiles on first import)
 
 
 def bounded_step(
@@ -80,15 +167,12 @@ def bounded_step(
         The pose the SQP engine ends at (the caller checks it), or None when the engine
         stopped on bad numbers.
     """
-    n = q_prev.shape[0]
     prob = Problem(stack, target, "frobenius", None)
     exact = prob.fast is not None
     evaluate, hessian = prob.evaluate, prob.lagrangian_hessian
     if goal is not None:
         # FN^2 and the squared distance to the goal, each relative to its value at q_prev
-        ug, u_prev = prob.u_of(goal), prob.u_of(q_prev)
-        f0 = max(float(prob.evaluate(u_prev)[0]), 1e-12)
-        d0 = max(float(np.sum((u_prev - ug) ** 2)), 1e-12) / TRANSIT_WEIGHT
+        f0, d0, ug = _transit_terms(prob, q_prev, goal)
 
         def evaluate(u: FloatArray) -> tuple[Any, ...]:
             f, g, ceq, Jeq, cin, Jin = prob.evaluate(u)
@@ -100,9 +184,7 @@ def bounded_step(
             H = prob.lagrangian_hessian(u, y_eq, y_in) - H_f  # constraint part
             return H + H_f / f0 + (2.0 / d0) * np.eye(H.shape[0])  # type: ignore[no-any-return]
 
-    box = np.tile(max_jump * (1.0 - BOX_SHRINK), n)
-    x_prev = q_prev.ravel()
-    lower, upper = (x_prev - box) / prob.xs, (x_prev + box) / prob.xs
+    lower, upper = _box(prob, q_prev, max_jump, BOX_SHRINK)
     nlp = NonlinearProgram(
         objective=None,
         evaluate=evaluate,

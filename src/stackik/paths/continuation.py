@@ -25,12 +25,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from stackik import check
+from stackik._arrays import readonly
 from stackik.check import check_pose
 from stackik.geometry import Stack
-from stackik.paths.bounded import bounded_step
+from stackik.paths.bounded import bounded_ip, bounded_step
 from stackik.paths.interpolate import lerp_target
 from stackik.solve import solve_ik
-from stackik.targets import Target
+from stackik.targets import PlanarTarget, Target
 
 __all__ = ["WARM_MU0", "Step", "StepCounts", "Tracker", "jump_scale"]
 
@@ -62,6 +64,7 @@ class StepCounts:
     bounded_failed: int = 0
     transit: int = 0
     transit_failed: int = 0
+    sqp_fallback: int = 0  # bounded/transit steps the compiled interior point missed
 
     def as_dict(self) -> dict[str, int]:
         return dict(self.__dict__)
@@ -115,6 +118,41 @@ class Tracker:
             return r.q
         return None
 
+    def warm_many(self, q: FloatArray, targets: list[Target]) -> list[FloatArray]:
+        """The warm rung's first solve (initial barrier ``WARM_MU0``) along ``targets``,
+        each from the pose before, in one compiled call (planar paths): the poses of the
+        leading targets that it reaches, as :meth:`warm` would accept them (checked, each
+        within one jump of the one before). Stops at the first it does not reach there;
+        the caller takes that one through the ladder (:meth:`step`)."""
+        if not self.planar or not targets:
+            return []
+        from stackik import _ipm
+        from stackik._check import planar_check_many
+        from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
+        from stackik.methods.ip import IP_DEFAULTS, problem_arrays
+
+        prob = Problem(self.stack, targets[0], "frobenius", None)
+        Y = np.empty((len(targets), 3))
+        for j, t in enumerate(targets):
+            assert isinstance(t, PlanarTarget)
+            Y[j] = (t.rho, t.z, t.theta)
+        jump = np.tile(self.scale, self.stack.n) / prob.xs
+        X, reached = _ipm.ip_path(
+            readonly(prob.u_of(q)), readonly(Y), problem_arrays(prob), readonly(jump),
+            float(IP_DEFAULTS["tol"]), float(IP_DEFAULTS["constr_tol"]), WARM_MU0,
+            int(IP_DEFAULTS["max_iter"]), POLISH_REACH, POLISH_MARGIN,
+            check.TARGET_POS_TOL, check.TARGET_ANGLE_TOL,
+        )  # fmt: skip
+        Q = [prob.q_of(X[j]) for j in range(int(reached))]
+        out: list[FloatArray] = []
+        for qk, ok in zip(Q, planar_check_many(self.stack, targets[: len(Q)], np.array(Q))):
+            if not ok or self.ratio(q, qk) > 1.0:
+                break
+            out.append(qk)
+            q = qk
+        self.counts.warm += len(out)
+        return out
+
     def _subdivide(self, q: FloatArray, ta: Target, tb: Target, depth: int) -> FloatArray | None:
         qb = self.warm(q, tb)
         if qb is not None or depth >= self.max_depth:
@@ -143,6 +181,11 @@ class Tracker:
         """:func:`bounded_step` accepted when within one jump of ``q`` and checked; counts
         the attempt (and a failure) under ``rung``."""
         setattr(self.counts, rung, getattr(self.counts, rung) + 1)
+        goal = kw.get("goal")
+        qb = bounded_ip(self.stack, target, q, self.scale, goal=goal)
+        if qb is not None and self.ratio(q, qb) <= 1.0 and check_pose(self.stack, target, qb).ok:
+            return qb
+        self.counts.sqp_fallback += 1  # the SQP engine: slower, keeps its iterates in the box
         qb = bounded_step(self.stack, target, q, self.scale, **kw)
         if qb is not None and self.ratio(q, qb) <= 1.0 and check_pose(self.stack, target, qb).ok:
             return qb

@@ -440,34 +440,52 @@ def _fast(
     ]
     pending += refined
     status, message = PathStatus.SUCCESS, PATH_MESSAGES[PathStatus.SUCCESS]
+
+    def accept(q: FloatArray, how: str) -> None:
+        """Append the pose of the pending top; reanchor when due; checkpoint."""
+        nonlocal goal
+        tb, sb, _ = pending.pop()
+        tl.append(tb)
+        sl.append(sb)
+        ql.append(q)
+        hows.append(how)
+        k = len(ql) - 1
+        if goal is None and req.reanchor_every and pending and k % req.reanchor_every == 0:
+            goal = _reanchor(req, tracker, k, tb, q, info)
+        top = [(target_to_dict(t), s, d) for t, s, d in pending if d > 0]
+        ck.put(
+            "fast",
+            k,
+            {
+                "target": target_to_dict(tb),
+                "source": sb,
+                "q": q.tolist(),
+                "how": how,
+                "pending": top,
+                "goal": None if goal is None else goal.record(),
+            },
+        )
+
+    ladder_at = -1  # the waypoint a run of warm steps stopped before: the ladder's
     while pending:
+        if (goal is None and req.planar and hows[-1] not in _OFF_OPTIMUM
+                and len(ql) != ladder_at):  # fmt: skip
+            # warm steps along the next waypoints in one compiled call, up to the next
+            # reanchoring; the first it does not reach goes through the ladder below
+            run = _warm_run_length(len(ql), req.reanchor_every, len(pending))
+            poses = tracker.warm_many(ql[-1], [t for t, _, _ in pending[::-1][:run]])
+            for q in poses:
+                accept(q, "warm")
+            if len(poses) < run:
+                ladder_at = len(ql)
+            continue
         tb, sb, depth = pending[-1]
         step, goal = _towards(tracker, goal, ql[-1], tb, info) if goal else (None, None)
         if step is None:
             off = hows[-1] in ("bounded", "transit")  # off the optimum: no bisection
             step = tracker.step(ql[-1], tl[-1], tb, subdivide=not off)
         if step is not None:
-            pending.pop()
-            tl.append(tb)
-            sl.append(sb)
-            ql.append(step.q)
-            hows.append(step.how)
-            k = len(ql) - 1
-            if goal is None and req.reanchor_every and pending and k % req.reanchor_every == 0:
-                goal = _reanchor(req, tracker, k, tb, step.q, info)
-            top = [(target_to_dict(t), s, d) for t, s, d in pending if d > 0]
-            ck.put(
-                "fast",
-                k,
-                {
-                    "target": target_to_dict(tb),
-                    "source": sb,
-                    "q": step.q.tolist(),
-                    "how": step.how,
-                    "pending": top,
-                    "goal": None if goal is None else goal.record(),
-                },
-            )
+            accept(step.q, step.how)
             continue
         splice = _rejoin_fast(req, tracker, tl, ql, tb, info)
         if splice is not None:  # the followed branch ended: leave it earlier
@@ -492,6 +510,22 @@ def _fast(
     rest_src = [float(i) for i in range(m) if i > sl[-1]]
     info["how"] = {h: hows.count(h) for h in sorted(set(hows))}
     return tl + rest, sl + rest_src, ql, hows, status, message, info
+
+
+#: Fast mode: after these steps the path is off its optimum and a warm step often fails;
+#: the next step goes through the ladder directly, not through a run of warm steps.
+_OFF_OPTIMUM = ("bounded", "transit", "rejoin")
+#: Fast mode: most warm steps solved in one compiled call.
+WARM_RUN = 256
+
+
+def _warm_run_length(k: int, reanchor_every: int, pending: int) -> int:
+    """Waypoints of the next run of warm steps: to the next reanchoring index (a multiple
+    of ``reanchor_every`` >= ``k``, inclusive), at most WARM_RUN and what is pending."""
+    run = WARM_RUN
+    if reanchor_every:
+        run = (reanchor_every - k % reanchor_every) % reanchor_every + 1
+    return min(run, WARM_RUN, pending)
 
 
 def _rejoin_fast(

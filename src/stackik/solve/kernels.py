@@ -31,10 +31,48 @@ def _dispatchers(kind: str) -> list[Any]:
     if kind == "planar":
         from stackik import _check, _ipm
 
-        return [_ipm._ip_multi, _check._planar_check]
+        return [_ipm._ip_multi, _ipm.ip_box, _ipm.ip_path, _check._planar_check,
+                _check._planar_check_many]  # fmt: skip
     from stackik import _spatial, _spatial_ipm
 
-    return [_spatial.spatial_parts, _spatial.block_jacobian, _spatial_ipm.ip_multi]
+    return [_spatial.spatial_parts, _spatial.block_jacobian, _spatial_ipm.ip_multi,
+            _spatial_ipm.ip_box]  # fmt: skip
+
+
+def _warm_path_kernels(planar: bool) -> None:
+    """Run the path kernels (:mod:`stackik.paths`: the boxed and goal-seeking step, the
+    run of warm steps, the batch check) once on a small problem, with the argument
+    types the paths pass (read-only arrays), so that a path's clock sees no loading."""
+    import numpy as np
+
+    from stackik import _ipm, _spatial_ipm
+    from stackik._arrays import readonly
+    from stackik._check import planar_check_many
+    from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
+    from stackik.geometry import Stack
+    from stackik.methods.ip import problem_arrays, spatial_problem_arrays
+    from stackik.starts import paper_initial_guess
+    from stackik.targets import PlanarTarget
+
+    stack = Stack.reference(2)
+    pt = PlanarTarget(0.0, 700.0, 0.0)
+    target = pt if planar else pt.to_spatial()
+    prob = Problem(stack, target, "frobenius", None)
+    q0 = paper_initial_guess(stack, target)
+    u0 = readonly(prob.u_of(q0))
+    lo, hi = readonly(u0 - 0.1), readonly(u0 + 0.1)
+    for ug, wq in ((readonly(np.zeros(0)), 0.0), (u0, 1.0)):
+        if planar:
+            _ipm.ip_box(u0, problem_arrays(prob), lo, hi, ug, wq, 1e-7, 1e-9, 1e-3, 3,
+                        POLISH_REACH, POLISH_MARGIN)  # fmt: skip
+        else:
+            _spatial_ipm.ip_box(u0, spatial_problem_arrays(prob), lo, hi, ug, wq, 1e-7,
+                                1e-9, 1e-3, 3)  # fmt: skip
+    if planar:
+        Y = readonly([[pt.rho, pt.z, pt.theta]])
+        _ipm.ip_path(u0, Y, problem_arrays(prob), readonly(np.ones(u0.size)), 1e-7, 1e-9,
+                     1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8)  # fmt: skip
+        planar_check_many(stack, [pt], q0[None])
 
 
 def kernels_cached(kind: str) -> bool | None:
@@ -51,6 +89,7 @@ def _warm(kind: str) -> None:
         from stackik.methods.ip import warm_up as planar_warm_up
 
         planar_warm_up()
+        _warm_path_kernels(True)
         return
     import numpy as np
 
@@ -66,6 +105,7 @@ def _warm(kind: str) -> None:
     prob = Problem(stack, target, "frobenius", None)
     prob.evaluate(prob.u_of(paper_initial_guess(stack, target)))
     ip_starts(prob, [paper_initial_guess(stack, target)], {}, math.inf)  # spatial IP
+    _warm_path_kernels(False)
 
 
 def ensure_kernels(kind: str, *, notice: bool = True) -> float:

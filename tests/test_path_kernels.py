@@ -1,0 +1,143 @@
+"""The compiled kernels of path steps: the box and distance extensions of the interior
+point (derivatives by finite differences, tests/fd.py), the boxed solve, the run of warm
+steps (the same points as the one-start solve) and the batch check."""
+
+from __future__ import annotations
+
+import fd
+import numpy as np
+import pytest
+
+from stackik import _ipm, _spatial_ipm
+from stackik._arrays import readonly
+from stackik._check import planar_check, planar_check_many
+from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
+from stackik.geometry import Stack
+from stackik.methods.ip import problem_arrays, spatial_problem_arrays
+from stackik.paths import interpolate_targets
+from stackik.sampling import random_reachable_targets, random_spatial_targets
+from stackik.solve import solve_ik
+from stackik.starts import paper_initial_guess
+
+
+def _planar(n: int, seed: int):
+    stack = Stack.reference(n)
+    t = random_reachable_targets(stack, 1, rng=seed)[0]
+    prob = Problem(stack, t, "frobenius", None)
+    rng = np.random.default_rng(seed)
+    q = paper_initial_guess(stack, t)
+    q[:, :2] += rng.normal(0, 40, (n, 2))
+    q[:, 2] += rng.normal(0, 0.2, n)
+    return prob, prob.u_of(q), problem_arrays(prob), rng
+
+
+def _spatial(n: int, seed: int):
+    stack = Stack.reference(n)
+    t = random_spatial_targets(stack, 1, seed)[0]
+    prob = Problem(stack, t, "frobenius", None)
+    rng = np.random.default_rng(seed)
+    q = paper_initial_guess(stack, t)
+    q = q + rng.normal(size=q.shape) * np.array([30, 30, 30, 0.3, 0.3, 0.3])
+    return prob, prob.u_of(q), spatial_problem_arrays(prob), rng
+
+
+def _dense(D: np.ndarray) -> np.ndarray:
+    """Blocks (n, R, k) -> the dense (R n, k n) Jacobian."""
+    n, R, k = D.shape
+    full = np.zeros((n, R, n, k))
+    full[np.arange(n), :, np.arange(n), :] = D
+    return full.reshape(R * n, k * n)
+
+
+@pytest.mark.derivatives
+@pytest.mark.parametrize(("planar", "n", "seed"), [(True, 2, 1), (True, 5, 2), (False, 2, 3)])
+def test_extended_problem_derivatives_by_finite_differences(planar, n, seed):
+    """Gradient of the distance term, the box rows' Jacobian and the extended Lagrangian
+    Hessian (box multipliers included, which must not enter it) against central
+    differences; scales from the terms (fd.term_scale), as the spatial IP's test."""
+    prob, u, P, rng = (_planar if planar else _spatial)(n, seed)
+    k = 3 if planar else 6
+    R = 24 + 2 * k
+    mod = _ipm if planar else _spatial_ipm
+    ev = mod._evaluate_ext
+    lo, hi = readonly(u - 0.05), readonly(u + 0.07)
+    ug = readonly(u + rng.normal(0, 0.1, u.size))
+    wq = 3.7
+
+    def parts(v):
+        out = ev(v, P, lo, hi, ug, wq)
+        return out[0], out[1], out[2], out[3], out[4], _dense(out[5])
+
+    f, g, cE, AE, cI, AI = parts(u)
+    assert cI.shape == (R * n,) and AI.shape == (R * n, k * n)
+    # without extensions: the base evaluation, unchanged
+    base = ev(u, P, readonly(np.zeros(0)), readonly(np.zeros(0)), readonly(np.zeros(0)), 0.0)
+    np.testing.assert_array_equal(base[4], mod._evaluate(u, P)[4])
+    assert base[0] == mod._evaluate(u, P)[0]
+    num = fd.central(lambda v: parts(v)[0], u)
+    fd.assert_derivative_close(g, num, f_scale=fd.term_scale(f, num), what="grad f + distance")
+    num = fd.central(lambda v: parts(v)[4], u)
+    fd.assert_derivative_close(AI, num, f_scale=fd.term_scale(cI, num), what="A_I with box")
+    yE = rng.normal(size=3 if planar else 6)
+    z = rng.uniform(0, 2, size=R * n)
+
+    def lag_grad(v):
+        f_, g_, cE_, AE_, cI_, AI_ = parts(v)
+        return g_ - AE_.T @ yE - AI_.T @ z
+
+    if planar:
+        H = _ipm._lagrangian_hessian_ext(u, yE, z, P, wq)
+    else:
+        H = _spatial_ipm.lagrangian_hessian_ext(u, yE, z, P, lo, hi, ug, wq)
+    num = fd.central(lag_grad, u)
+    fd.assert_derivative_close(H, num, f_scale=fd.term_scale(lag_grad(u), num), what="W ext")
+
+
+def test_ip_box_stays_in_its_box_and_ip_path_repeats_the_one_start_solve():
+    stack = Stack.reference(4)
+    a, b = random_reachable_targets(stack, 2, rng=5)
+    pts = interpolate_targets([a, b], steps=12)
+    q0 = solve_ik(stack, pts[0]).q
+    prob = Problem(stack, pts[0], "frobenius", None)
+    P = problem_arrays(prob)
+    # the run of warm steps: the points of _ip_multi from the previous point, bit for bit
+    Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:]])
+    X, reached = _ipm.ip_path(
+        readonly(prob.u_of(q0)), Y, P, readonly(np.full(12, np.inf)), 1e-7, 1e-9, 1e-3, 300,
+        POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8,
+    )  # fmt: skip
+    assert reached >= 1
+    u = prob.u_of(q0)
+    for j in range(reached):
+        Pj = problem_arrays(Problem(stack, pts[j + 1], "frobenius", None))
+        Xj = _ipm._ip_multi(np.atleast_2d(u), Pj, 1e-7, 1e-9, np.array([1e-3]), 300, 1e300,
+                            POLISH_REACH, POLISH_MARGIN)[0]  # fmt: skip
+        np.testing.assert_array_equal(X[j], Xj[0])
+        u = Xj[0]
+    # a box around q0 for the next target: the converged solve lies inside it (an
+    # unconverged one need not: the caller checks the jump), on its wall for a tight box
+    prob1 = Problem(stack, pts[1], "frobenius", None)
+    u0 = readonly(prob1.u_of(q0))
+    none = readonly(np.zeros(0))
+    walls = []
+    for half in (0.1, 0.02):
+        box = half * np.array([1.0, 1.0, 3.0] * 4) / prob1.xs * prob1.xs[0]
+        lo, hi = readonly(u0 - box), readonly(u0 + box)
+        x, st, _ = _ipm.ip_box(u0, problem_arrays(prob1), lo, hi, none, 0.0, 1e-7, 1e-9,
+                               1e-3, 300, POLISH_REACH, POLISH_MARGIN)  # fmt: skip
+        if st == _ipm.IP_SUCCESS:
+            assert np.all(x >= lo - 1e-9) and np.all(x <= hi + 1e-9)
+            walls.append(float(np.min(np.minimum(x - lo, hi - x))))
+    assert walls and walls[0] > 0.0
+
+
+def test_batch_check_matches_the_check_pose_by_pose():
+    stack = Stack.reference(3)
+    ts = random_reachable_targets(stack, 4, rng=8, phi=0.4)
+    Q = np.stack([solve_ik(stack, t).q for t in ts])
+    Q[2, 1, 0] += 1.0  # misses its target
+    Q[3] = Q[0]  # another target's pose
+    ok = planar_check_many(stack, ts, Q)
+    assert ok == [planar_check(stack, t, q)[0].ok for t, q in zip(ts, Q)]
+    assert ok[:2] == [True, True] and ok[2:] == [False, False]
+    assert planar_check_many(stack, [], np.zeros((0, 3, 3))) == []
