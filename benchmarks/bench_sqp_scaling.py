@@ -47,13 +47,32 @@ METHODS: dict[str, dict[str, Any]] = {
         "starts": 1,
         "options": {"barrier_start": True},
     },
+    # the opt-in verified working-set step (SQPOptions.qp_working_set)
+    "sqp/osqp+ws": {
+        "method": "sqp",
+        "qp_solver": "osqp",
+        "starts": 1,
+        "options": {"qp_working_set": True},
+    },
+    "sqp/clarabel+ws": {
+        "method": "sqp",
+        "qp_solver": "clarabel",
+        "starts": 1,
+        "options": {"qp_working_set": True},
+    },
     "slsqp": {"method": "slsqp", "starts": 1},
     "ipopt": {"method": "ipopt", "starts": 1},
     "ip": {"method": "ip", "starts": 1},
     "default": {},
 }
 #: methods not timed beyond these sizes by default (minutes per solve)
-MAX_N = {"slsqp": 32, "sqp/daqp": 32, "sqp/clarabel+interior": 16}
+MAX_N = {
+    "slsqp": 32,
+    "sqp/daqp": 32,
+    "sqp/clarabel+interior": 16,
+    "sqp/osqp+ws": 16,
+    "sqp/clarabel+ws": 16,
+}
 
 
 def _fit(ns: list[int], ts: list[float]) -> float | None:

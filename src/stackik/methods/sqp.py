@@ -32,6 +32,11 @@ LIFTED_FROM = 48
 #: OSQP's ADMM iteration cap in this method (the engine's default is 10,000): past it the
 #: approximate solution is used as a step and judged by the ratio test.
 OSQP_MAX_ITER = 4000
+#: Clarabel settings of this method: no iterative refinement of its KKT solves (the IK
+#: subproblems are well conditioned: ~25 % less per QP at n = 16 with the same SQP
+#: iterates; the engine's default keeps it, which Hock-Schittkowski needs: 62 -> 58 of 67
+#: without it).
+CLARABEL_OPTIONS = {"iterative_refinement_enable": False}
 
 __all__ = ["SQPMethod", "sqp_options"]
 
@@ -91,6 +96,8 @@ class SQPMethod(Method):
                 form = "lifted" if lift else "sparse"
         if name == "osqp" and "qp_options" not in opts:
             opts["qp_options"] = {"max_iter": OSQP_MAX_ITER}
+        if name == "clarabel" and "qp_options" not in opts:
+            opts["qp_options"] = dict(CLARABEL_OPTIONS)
         evaluate: Any = prob.evaluate
         hessian: Any = prob.lagrangian_hessian
         gauss_newton: Any = None if prob.objective == "feasible" else prob.gauss_newton

@@ -59,6 +59,16 @@ class SQPOptions:
         ``"adaptive"``: inexact SQP, the backends' tolerances follow the SQP's own
         optimality measure (loose far from a solution, the backend's defaults near it;
         iterative backends only: OSQP, Clarabel).
+    qp_working_set : bool
+        Verified working-set step (:mod:`stackik.sqp.working_set`): each plain QP (and
+        second-order correction) is first solved as the equality-constrained QP on the
+        working set of the last solved QP, one linear KKT solve, and that solution is
+        used only if it is verified optimal for the convex QP (every row feasible,
+        multipliers of the right signs); otherwise the backend solves it. The counts are
+        in :attr:`SQPResult.qp_working_set_solves` and ``qp_backend_solves``. Off by
+        default: on the planar IK problem its misses (degenerate vertices where several
+        limits meet, active sets that change far from the solution) cost more than its
+        hits save (benchmarks/results/sqp_scaling.md).
     """
 
     tol: float = 1e-6
@@ -74,6 +84,7 @@ class SQPOptions:
     scaling: bool = True
     barrier_start: bool = False
     qp_accuracy: str = "fixed"
+    qp_working_set: bool = False
 
     def __post_init__(self) -> None:
         _positive("tol", self.tol)
@@ -106,6 +117,10 @@ class SQPOptions:
             raise ValueError(f"SQPOptions.scaling must be a bool, got {self.scaling!r}")
         if not isinstance(self.barrier_start, bool):
             raise ValueError(f"SQPOptions.barrier_start must be a bool, got {self.barrier_start!r}")
+        if not isinstance(self.qp_working_set, bool):
+            raise ValueError(
+                f"SQPOptions.qp_working_set must be a bool, got {self.qp_working_set!r}"
+            )
         if self.qp_accuracy not in QP_ACCURACIES:
             raise ValueError(
                 f"SQPOptions.qp_accuracy must be one of {QP_ACCURACIES}, got {self.qp_accuracy!r}"

@@ -75,6 +75,10 @@ class SQPResult:
     time_eval, time_qp_build, time_qp_solve, time_total : float
         Wall time in seconds spent in user callbacks, QP assembly (including Hessian
         modification), QP backends, and in total.
+    qp_backend_solves : int
+        QPs passed to the backend (elastic ones included).
+    qp_working_set_solves : int
+        QPs solved by the verified working-set step (:attr:`SQPOptions.qp_working_set`).
     """
 
     x: FloatArray
@@ -95,3 +99,5 @@ class SQPResult:
     time_qp_build: float
     time_qp_solve: float
     time_total: float
+    qp_backend_solves: int = 0
+    qp_working_set_solves: int = 0

@@ -59,6 +59,7 @@ from .sparse import (
     rmatvec,
     transpose_permutation,
 )
+from .working_set import WorkingSetStep
 
 BoolArray = NDArray[np.bool_]
 #: (lam, g, J, c_I, at_lower, at_upper) of one KKT evaluation.
@@ -249,6 +250,9 @@ class _Engine:
         self._gram_maps: dict[int, GramMap] = {}
         self._row_subset: RowSubset | None = None
         self.screen_backend: QPBackend | None = None  # QPs without the rows that cannot bind
+        self.ws: WorkingSetStep | None = None  # SQPOptions.qp_working_set
+        self.n_backend = 0  # QPs passed to a backend
+        self.qp_eps: float | None = None  # QP tolerance of the inexact mode (None: fixed)
         self.bfgs_first = True
         self.hess_modified = False  # the last exact Hessian needed convexification
         self.v = 0.0
@@ -366,8 +370,9 @@ class _Engine:
             return True
         return not bool((x >= lb - 1e-6 * (1.0 + np.abs(lb))).all())
 
-    def _finish_qp(self, sol: QPSolution, t: float) -> QPSolution:
+    def _finish_qp(self, sol: QPSolution, t: float, backend: bool = True) -> QPSolution:
         self.timer.qp += time.perf_counter() - t
+        self.n_backend += backend
         self.last_qp_info = sol.info
         return sol
 
@@ -398,6 +403,11 @@ class _Engine:
         n, mE, mI = self.n, self.mE, self.mI
         B, g, J = self.B, self.g, self.J
         t = time.perf_counter()
+        ws = self.ws
+        if ws is not None:
+            sol = ws.solve(B, g, J, c, lb, ub)
+            if sol is not None:
+                return self._finish_qp(sol, t, backend=False)
         rows = self._binding_rows(c, lb, ub)
         if rows is not None:
             sol = self._qp_screened(rows, c, lb, ub)
@@ -405,6 +415,8 @@ class _Engine:
             be = self.main_backend
             if be is None:
                 be = self.main_backend = self._backend(self.qp_name, n, mE, mI)
+            if self.qp_eps is not None:
+                be.set_accuracy(self.qp_eps)
             sol = be.solve_sqp(B, g, J, c, lb, ub)
         if self.opts.qp_accuracy == "adaptive" and sol.status is QPStatus.SOLVED:
             # an inexact solve may leave the step outside the box by its tolerance
@@ -414,6 +426,8 @@ class _Engine:
         fb = self.opts.fallback_qp_solver
         if sol.status is QPStatus.FAILED and fb is not None and fb != self.qp_name:
             sol = self._backend(fb, n, mE, mI).solve_sqp(B, g, J, c, lb, ub)
+        if ws is not None and sol.status is QPStatus.SOLVED:
+            ws.record(sol)
         return self._finish_qp(sol, t)
 
     def _binding_rows(self, c: FloatArray, lb: FloatArray, ub: FloatArray) -> Any:
@@ -444,6 +458,8 @@ class _Engine:
             be.deadline = self.t0 + self.opts.max_time
         if (be.n, be.m_eq, be.m_ineq) != (n, mE, k):
             be.setup(n, mE, k)
+        if self.qp_eps is not None:  # the inexact mode's tolerance, as the main backend's
+            be.set_accuracy(self.qp_eps)
         Js = RowSubset(self.J, rows)(self.J)
         sol = be.solve_sqp(self.B, self.g, Js, c[rows], lb, ub)
         if sol.status is not QPStatus.SOLVED:
@@ -1103,6 +1119,7 @@ class _Engine:
             if ratio < ETA_GOOD and rows.size and pred > 0 and math.isfinite(f_t):
                 # second-order correction (N&W Sec. 15.5): the same QP at c(x + d) - J d
                 sol_c = be.solve_sqp(B, gphi, J_ev, c_t[rows] - matvec(J_ev, d), lb, ub)
+                self.n_backend += 1
                 if sol_c.status is QPStatus.SOLVED:
                     d_c = sol_c.x
                     JBd = matvec(self.JI, d_c)[barrier]
@@ -1213,6 +1230,8 @@ class _Engine:
         self.f = self.sf * f_raw
         self._set_c(self._stack_c(cE_raw, cI_raw))
         self._derivs(x, ev)
+        if opts.qp_working_set:
+            self.ws = WorkingSetStep(n, mE, mI)
         if self.any_bounds:
             self.bound_tol = opts.constr_tol * (1.0 + np.minimum(np.abs(self.lower), 1e300))
             self.lo_tol = self.lower + self.bound_tol
@@ -1297,9 +1316,7 @@ class _Engine:
                 if have_lam:
                     st_, co_ = self._kkt(self._kkt_args(lam))
                     opt = min(opt, max(st_, co_, viol_u))
-                self._backend(self.qp_name, n, self.mE, self.mI).set_accuracy(
-                    min(QP_ACC_MAX, QP_ACC_FACTOR * opt)
-                )
+                self.qp_eps = min(QP_ACC_MAX, QP_ACC_FACTOR * opt)
             nit += 1
             sol, d, elastic, infeasible = self._subproblem(lb, ub, delta)
             if sol is None:
@@ -1477,6 +1494,8 @@ class _Engine:
             time_qp_build=self.timer.build,
             time_qp_solve=self.timer.qp,
             time_total=total,
+            qp_backend_solves=self.n_backend,
+            qp_working_set_solves=0 if self.ws is None else self.ws.hits,
         )
 
 
