@@ -15,7 +15,7 @@ from stackik.geometry import Stack
 from stackik.result import IKStatus
 from stackik.sampling import random_spatial_targets
 from stackik.solve import solve_ik, solve_many
-from stackik.starts import paper_initial_guess, spatial_start_count
+from stackik.starts import paper_initial_guess, spatial_hop_count, spatial_start_count
 from stackik.targets import SpatialTarget
 
 try:
@@ -185,6 +185,31 @@ def test_spatial_starts_order_and_leans() -> None:
     # the bottom platform tilts toward the lean (pitch about y negative toward +x)
     assert a[i_t][0, 4] < 0.0 and abs(a[i_t][0, 5]) < 1e-12
     assert np.all(a[i_t][[0, 3]][:, :3] == 0.0)
+
+
+def test_spatial_hops_turn_the_top_platforms_only() -> None:
+    from stackik.starts import SPATIAL_HOPS, spatial_hop_count, spatial_hops
+
+    stack = Stack.reference(6)
+    q = np.arange(36.0).reshape(6, 6)
+    hops = spatial_hops(stack, q)
+    assert len(hops) == len(SPATIAL_HOPS) == spatial_hop_count(6)
+    assert spatial_hop_count(4) == 0
+    for h in hops:
+        d = h - q
+        assert np.all(d[:, [0, 1, 2, 4, 5]] == 0.0) and np.all(d[:3] == 0.0)
+        assert np.count_nonzero(d) in (1, 2)
+    assert len(spatial_hops(Stack.reference(2), q[:2])) == len(SPATIAL_HOPS) - 2
+
+
+def test_spatial_default_hops_from_its_best_pose() -> None:
+    # n >= 5: the default's pose is at least as good as its starts' best, hops included
+    stack = Stack.reference(5)
+    target = random_spatial_targets(stack, 1, 9605)[0]
+    r = solve_ik(stack, target)
+    assert r.success and r.n_starts == spatial_start_count(5) + spatial_hop_count(5)
+    no_hops = solve_ik(stack, target, starts=spatial_start_count(5))
+    assert r.frobenius_norm <= no_hops.frobenius_norm * (1 + 1e-9)
 
 
 def test_spatial_weighted_objective() -> None:

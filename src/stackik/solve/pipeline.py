@@ -92,8 +92,9 @@ def solve_ik(
         5), 4 (n = 6-15), 5 (n = 16-31) or 3 (n >= 32) platforms
         (:func:`stackik.starts.fold_depth`, :func:`stackik.starts.fold_patterns`), plus five
         random ones from n = 32 (:func:`stackik.starts.tall_random_starts`); in spatial mode
-        the interior point's structured starts (:func:`stackik.starts.spatial_starts`: 5
-        up to n = 4, 13 from n = 5; folds, twists and leans), the SQP engine's five
+        the interior point's structured starts (:func:`stackik.starts.spatial_starts`: 8
+        up to n = 4, 18 from n = 5; twists, leans and folds; from n = 5 then 12 hops from
+        the best pose, :func:`stackik.starts.spatial_hops`), the SQP engine's five
         structured and seven random ones; otherwise one. These find the best
         known FN on the benchmark targets (README). Extra starts perturb the first with
         Gaussian noise (``rng``). The best pose that passes the check is returned; when none

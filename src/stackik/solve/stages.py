@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,6 +33,10 @@ from stackik.solve.policy import (
     StartPlan,
 )
 from stackik.solve.request import Request
+from stackik.starts import spatial_hop_count, spatial_hops
+
+if TYPE_CHECKING:
+    from stackik.methods.ip import IPMethod
 
 __all__ = ["Handover", "Tally", "Verdict", "ip_stage", "local_stage"]
 
@@ -139,7 +144,10 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     left = req.time_left(time.perf_counter())
     batch = method.run_many(req.problem, starts, req.options, left)
     if batch.best is not None:
-        return Verdict(batch.best, IKStatus.SUCCESS, batch.nit, len(starts), "ip")
+        best, nit, tried = batch.best, batch.nit, len(starts)
+        if plan.spatial_default and spatial_hop_count(req.stack.n) > 0:
+            best, nit, tried = _hop(req, method, best, nit, tried)
+        return Verdict(best, IKStatus.SUCCESS, nit, tried, "ip")
     if not req.auto:
         return Verdict(batch.least, _ip_status(batch.statuses), batch.nit, len(starts), "ip")
     stalled = all(s in (RunStatus.STALLED, RunStatus.SKIPPED) for s in batch.statuses)
@@ -161,6 +169,19 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
             queue.insert(0, near.q)
     shared = {key: v for key, v in req.options.items() if key in SHARED_OPTIONS}
     return Handover(queue, batch.least, batch.nit, len(starts), stalled, shared)
+
+
+def _hop(req: Request, method: IPMethod, best: Run, nit: int, tried: int) -> tuple[Run, int, int]:
+    """The spatial default's hops from its best pose (:func:`stackik.starts.spatial_hops`):
+    one more compiled batch; a passing run with a lower FN replaces ``best``."""
+    hops = spatial_hops(req.stack, best.q)[: spatial_hop_count(req.stack.n)]
+    left = req.time_left(time.perf_counter())
+    if not hops or left <= 0.0:
+        return best, nit, tried
+    batch = method.run_many(req.problem, hops, req.options, left)
+    if batch.best is not None and batch.best.obj < best.obj - 1e-12 * abs(best.obj):
+        best = batch.best
+    return best, nit + batch.nit, tried + len(hops)
 
 
 def _screen(req: Request, method: Method, queue: list[FloatArray], tally: Tally) -> None:
