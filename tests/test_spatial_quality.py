@@ -212,6 +212,19 @@ def test_spatial_default_hops_from_its_best_pose() -> None:
     assert r.frobenius_norm <= no_hops.frobenius_norm * (1 + 1e-9)
 
 
+def test_spatial_single_start_recentres_from_its_pose() -> None:
+    # starts=1 from the paper's guess: restarts from its own pose never make it worse; an
+    # explicit x0 is one plain run (paths rely on that to stay in the basin they follow)
+    stack = Stack.reference(4)
+    for target in random_spatial_targets(stack, 3, 9611):
+        q0 = paper_initial_guess(stack, target)
+        one = solve_ik(stack, target, starts=1)
+        plain = solve_ik(stack, target, method="ip", x0=q0, starts=1)
+        assert one.success and plain.success and one.n_starts == 1
+        assert one.frobenius_norm <= plain.frobenius_norm * (1 + 1e-9)
+        assert one.nit > plain.nit
+
+
 def test_spatial_weighted_objective() -> None:
     from stackik.kinematics import spatial_chain
 

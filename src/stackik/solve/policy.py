@@ -25,6 +25,7 @@ from stackik.starts import (
 )
 
 __all__ = [
+    "RECENTRE_MU0",
     "SCREEN_FEAS_MM",
     "SCREEN_OPTIONS",
     "SHARED_OPTIONS",
@@ -46,6 +47,9 @@ SHARED_OPTIONS = ("tol", "constr_tol", "max_iter", "max_time")
 #: SPATIAL_GIVE_UP_MM from satisfying the target and the limits.
 SPATIAL_GIVE_UP = 3
 SPATIAL_GIVE_UP_MM = 1.0
+#: Spatial ``starts=1`` from the paper's guess: initial barriers of the interior point's
+#: runs from its own pose after the first (:func:`stackik.solve.stages.ip_stage`).
+RECENTRE_MU0 = (0.1, 1.0)
 
 
 def auto_method(

@@ -25,6 +25,7 @@ from stackik.solve.nearest import (
     stretch_toward,
 )
 from stackik.solve.policy import (
+    RECENTRE_MU0,
     SCREEN_FEAS_MM,
     SCREEN_OPTIONS,
     SHARED_OPTIONS,
@@ -147,6 +148,8 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         best, nit, tried = batch.best, batch.nit, len(starts)
         if plan.spatial_default and spatial_hop_count(req.stack.n) > 0:
             best, nit, tried = _hop(req, method, best, nit, tried)
+        elif plan.starts == 1 and req.structured and not req.mode.planar:
+            best, nit = _recentre(req, method, best, nit)
         return Verdict(best, IKStatus.SUCCESS, nit, tried, "ip")
     if not req.auto:
         return Verdict(batch.least, _ip_status(batch.statuses), batch.nit, len(starts), "ip")
@@ -182,6 +185,24 @@ def _hop(req: Request, method: IPMethod, best: Run, nit: int, tried: int) -> tup
     if batch.best is not None and batch.best.obj < best.obj - 1e-12 * abs(best.obj):
         best = batch.best
     return best, nit + batch.nit, tried + len(hops)
+
+
+def _recentre(req: Request, method: IPMethod, best: Run, nit: int) -> tuple[Run, int]:
+    """Spatial ``starts=1`` from the paper's guess: the interior point again from its own
+    pose with the barriers of :data:`RECENTRE_MU0` in turn (each from the best so far);
+    a passing run with a lower FN replaces ``best``. A larger barrier lifts the pose off
+    its active limits, and it settles in the lower of the neighbouring minima more often
+    than not (on 85 random n = 4, 6, 8 targets: FN below one IPOPT run's from the same
+    start on 35, above on 4; without: 19 / 18)."""
+    for mu0 in RECENTRE_MU0:
+        left = req.time_left(time.perf_counter())
+        if left <= 0.0:
+            break
+        batch = method.run_many(req.problem, [best.q], {**req.options, "mu0": mu0}, left)
+        nit += batch.nit
+        if batch.best is not None and batch.best.obj < best.obj - 1e-12 * abs(best.obj):
+            best = batch.best
+    return best, nit
 
 
 def _screen(req: Request, method: Method, queue: list[FloatArray], tally: Tally) -> None:
