@@ -70,6 +70,8 @@ ETA_ACCEPT = 1e-4  # eta: step acceptance threshold on ared/pred, N&W Alg. 18.4 
 ETA_GOOD = 0.75  # very successful step -> enlarge radius, N&W Alg. 4.1
 ETA_BAD = 0.25  # poor step -> shrink radius, N&W Alg. 4.1
 SOC_BELOW = ETA_GOOD  # a second-order correction is tried when the ratio is below this
+SOC_MIN_NORM = True  # try the least-norm correction (no QP) before the QP correction
+SOC_REG = 1e-10  # relative regularisation of J_A J_A' in the least-norm correction
 BACKTRACK_STEPS = 2  # rejected steps: shorter steps along d tried before shrinking
 BACKTRACK_FACTOR = 0.5
 SCREEN_ROWS = True  # sparse mode: QPs without the inequality rows that cannot bind
@@ -467,6 +469,35 @@ class _Engine:
         y_ineq = np.zeros(mI)
         y_ineq[rows[mE:] - mE] = sol.y_ineq[:k]
         return dataclasses.replace(sol, y_ineq=y_ineq)
+
+    def _soc_min_norm(self, c_t: FloatArray, lam: FloatArray, d: FloatArray) -> Any:
+        """Least-norm second-order correction (N&W eq. 15.35): ``d - J_A'(J_A J_A')^-1
+        c_A(x + d)`` over the equalities and the inequalities the QP left active (positive
+        multiplier), i.e. the step back onto the linearised working set at ``x + d``: one
+        small linear solve instead of a QP.  ``J_A J_A'`` is regularised (planar limits come
+        in identical pairs).  None when there is no working set or the solve fails."""
+        lam_max = float(np.abs(lam).max()) if lam.size else 0.0
+        act = lam > ACTIVE_MULTIPLIER_TOL * max(1.0, lam_max)
+        act[: self.mE] = True
+        rows = np.flatnonzero(act)
+        if rows.size == 0:
+            return None
+        r = c_t[rows]
+        try:
+            if self.sparse:
+                JA = self.J.tocsr()[rows]
+                G = (JA @ JA.T).toarray()
+            else:
+                JA = self.J[rows]
+                G = JA @ JA.T
+            G[np.diag_indices_from(G)] += SOC_REG * max(1.0, float(G.diagonal().max()))
+            y = np.linalg.solve(G, -r)
+        except (np.linalg.LinAlgError, ValueError):
+            return None
+        dc = d + (JA.T @ y)
+        if not _all_finite(dc):
+            return None
+        return np.asarray(dc, dtype=float).ravel()
 
     def _violation(self, c: FloatArray) -> float:
         """Scaled l1 violation ``||c_E||_1 + ||min(c_I, 0)||_1`` of stacked ``c``, as
@@ -1375,7 +1406,25 @@ class _Engine:
             guard = ROUNDOFF_GUARD * max(1.0, abs(phi0))
             ratio = (phi0 - phi_t + guard) / (pred + guard) if ok and pred > -guard else -math.inf
             kind = "elastic" if elastic else "qp"
-            if ratio < SOC_BELOW and not elastic and m and ok and pred > 0:
+            soc_done = False
+            if ratio < SOC_BELOW and not elastic and m and ok and pred > 0 and SOC_MIN_NORM:
+                # Least-norm second-order correction first (no QP).
+                t = time.perf_counter()
+                d_m = self._soc_min_norm(c_t, lam, d)
+                self.timer.build += time.perf_counter() - t
+                if d_m is not None:
+                    x_c = self._project(x + d_m)
+                    f_c, c_c, ev_c = self._eval_values(x_c)
+                    v_c = self._violation(c_c)
+                    phi_c = f_c + nu * v_c
+                    ratio_c = (phi0 - phi_c + guard) / (pred + guard)
+                    if math.isfinite(phi_c) and ratio_c >= ETA_ACCEPT and ratio_c > ratio:
+                        x_t, f_t, c_t, v_t, ev_t = x_c, f_c, c_c, v_c, ev_c
+                        ratio = ratio_c
+                        kind = "soc-ln"
+                        d = d_m
+                        soc_done = True
+            if ratio < SOC_BELOW and not elastic and m and ok and pred > 0 and not soc_done:
                 # Second-order correction (N&W Sec. 15.5 / Alg. 18.4).
                 sol_c = self._qp_sqp(c_t - Jd, lb, ub)
                 if sol_c.status is QPStatus.SOLVED:
