@@ -81,7 +81,7 @@ BOUNDARY_FRACTION = 0.8  # a step "hits the boundary" if ||d|| >= 0.8 radius
 RHO_PENALTY = 0.1  # rho in N&W eq. (18.36) for the penalty lower bound
 PENALTY_MARGIN = 1.1  # nu >= 1.1 ||y||_inf (exactness of the l1 penalty, N&W Thm. 17.3)
 NU_INIT = 1.0  # initial penalty parameter
-NU_DECREASE_RATIO = 10.0  # nu is lowered to this multiple of 1.1 ||y||_inf when far above it
+NU_DECREASE_RATIO = 1.0  # nu is lowered to this multiple of 1.1 ||y||_inf when above it
 NU_MAX = 1e10  # cap on the penalty parameter
 NU_STEER_FACTOR = 10.0  # penalty increase during steering, Byrd-Nocedal-Waltz 2008
 NU_STEER_MAX_TRIES = 6
