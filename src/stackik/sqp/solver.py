@@ -75,6 +75,7 @@ SOC_REG = 1e-10  # relative regularisation of J_A J_A' in the least-norm correct
 BACKTRACK_STEPS = 2  # rejected steps: shorter steps along d tried before shrinking
 BACKTRACK_FACTOR = 0.5
 SCREEN_ROWS = True  # sparse mode: QPs without the inequality rows that cannot bind
+SCREEN_KEEP = 2.0  # ... keeping rows screened in before, up to this many times those needed
 GAMMA_SHRINK = 0.25  # radius factor on poor/rejected steps, N&W Alg. 4.1
 GAMMA_GROW = 2.0  # radius factor on very successful boundary steps, N&W Alg. 4.1
 BOUNDARY_FRACTION = 0.8  # a step "hits the boundary" if ||d|| >= 0.8 radius
@@ -252,6 +253,8 @@ class _Engine:
         self._gram_maps: dict[int, GramMap] = {}
         self._row_subset: RowSubset | None = None
         self.screen_backend: QPBackend | None = None  # QPs without the rows that cannot bind
+        self._screen_subset: RowSubset | None = None  # rows of the screened QPs' pattern
+        self._screen_rows: Any = None
         self.ws: WorkingSetStep | None = None  # SQPOptions.qp_working_set
         self.n_backend = 0  # QPs passed to a backend
         self.qp_eps: float | None = None  # QP tolerance of the inexact mode (None: fixed)
@@ -453,6 +456,27 @@ class _Engine:
     def _qp_screened(self, rows: Any, c: FloatArray, lb: FloatArray, ub: FloatArray) -> QPSolution:
         """:meth:`_qp_sqp` on the rows ``rows`` only; multipliers of the others are 0."""
         n, mE, mI = self.n, self.mE, self.mI
+        # The QP keeps the union of the rows screened in so far (a row screened out now
+        # cannot bind either, so the solution is the same): the backend's solver, and
+        # its factorisation's symbolic analysis, are rebuilt only when that union grows.
+        # Started afresh when it exceeds SCREEN_KEEP times the rows needed now.
+        sub = self._screen_subset
+        if sub is not None and sub.matches(self.J):
+            held = self._screen_rows
+            inside = np.zeros(self.m, dtype=bool)
+            inside[held] = True
+            if inside[rows].all() and held.size <= SCREEN_KEEP * rows.size:
+                rows = held
+            else:
+                if held.size + rows.size <= SCREEN_KEEP * rows.size:
+                    inside[rows] = True
+                    rows = np.flatnonzero(inside)
+                sub = None
+        else:
+            sub = None
+        if sub is None:
+            sub = self._screen_subset = RowSubset(self.J, rows)
+            self._screen_rows = rows
         k = rows.size - mE
         be = self.screen_backend
         if be is None:
@@ -462,7 +486,7 @@ class _Engine:
             be.setup(n, mE, k)
         if self.qp_eps is not None:  # the inexact mode's tolerance, as the main backend's
             be.set_accuracy(self.qp_eps)
-        Js = RowSubset(self.J, rows)(self.J)
+        Js = sub(self.J)
         sol = be.solve_sqp(self.B, self.g, Js, c[rows], lb, ub)
         if sol.status is not QPStatus.SOLVED:
             return sol
