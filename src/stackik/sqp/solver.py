@@ -11,13 +11,19 @@ Byrd, Nocedal & Waltz 2008 penalty steering), in the scaled problem
    are added to every equality and to the inequalities violated at ``x`` (only those are
    needed: ``d = 0`` is then feasible), i.e. the Sl1QP subproblem.
 2. **Penalty.**  After a consistent QP, ``nu >= max(1.1 ||y||_inf, (g'd + d'Bd/2) /
-   ((1 - rho) ||c||_1))`` (N&W eq. 18.36).  After an elastic QP, ``nu`` is steered (x10)
+   ((1 - rho) ||c||_1))`` (N&W eq. 18.36); it is lowered to that bound when the
+   multipliers have come down (a large early multiplier would otherwise charge the
+   second-order violation of every later step along curved constraints several times
+   over, and the trust region would crawl).  After an elastic QP, ``nu`` is steered (x10)
    until the step achieves a fair share of the best achievable reduction of the linearised
    violation (Byrd, Nocedal & Waltz 2008, conditions (3.3)-(3.4)); that best reduction also
    serves to detect local infeasibility.
 3. **Ratio test** on the l1 merit ``phi = f + nu (||c_E||_1 + ||min(c_I, 0)||_1)``, with a
-   second-order correction against the Maratos effect (N&W Alg. 18.4 / Sec. 15.5), radius
-   update as in N&W Alg. 4.1 (with the step norm when shrinking).
+   second-order correction against the Maratos effect (N&W Alg. 18.4 / Sec. 15.5): first
+   the least-norm correction onto the QP's working set at ``x + d`` (eq. 15.35: one small
+   linear solve), and only if that fails the correction QP; then backtracking along the
+   step (evaluations only), radius update as in N&W Alg. 4.1 (with the step norm when
+   shrinking).
 4. **Hessian.**  Exact (``hessian``) made positive definite by adding ``tau J_A'J_A`` for the
    equalities and previously active inequalities (which leaves the QP solution unchanged
    when the reduced Hessian is positive definite), else by eigenvalue clipping;
