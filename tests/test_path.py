@@ -239,12 +239,19 @@ def test_global_mode_moves_to_a_better_branch(stack4):
 
 def test_fast_mode_leaves_a_branch_that_ends_at_a_limit_wall(tmp_path, monkeypatch):
     # n = 8: the branch the fast path follows ends at a joint limit before waypoint 45,
-    # where the bounded step of the SQP engine finds no continuation (the compiled
-    # interior point's does: monkeypatched away here, so that the SQP engine takes every
-    # bounded and transit step); the path reaches that waypoint's default pose by transit
-    # steps walked back from it (a spliced detour) instead of breaking; resuming after the
+    # where a bounded step that finds no continuation leaves the path there (the compiled
+    # interior point's bounded step gets through: monkeypatched away here, and so are the
+    # SQP engine's bounded steps, which since issue 14 (penalty following the multipliers,
+    # least-norm second-order correction) get through as well; the SQP engine still takes
+    # every transit step); the path reaches that waypoint's default pose by transit steps
+    # walked back from it (a spliced detour) instead of breaking; resuming after the
     # splice gives the same
     import stackik.paths.continuation as continuation
+
+    sqp_step = continuation.bounded_step
+
+    def transit_only(*args, **kw):
+        return None if kw.get("goal") is None else sqp_step(*args, **kw)
 
     stack = Stack.reference(8)
     a = PlanarTarget(1390.7857889700388, 1760.292531041743, -2.023119966011402)
@@ -254,6 +261,7 @@ def test_fast_mode_leaves_a_branch_that_ends_at_a_limit_wall(tmp_path, monkeypat
     assert ip.success and ip.info["how"].get("rejoin", 0) == 0 and ip.info["bounded"] >= 1
     assert_valid_path(stack, ip)
     monkeypatch.setattr(continuation, "bounded_ip", lambda *a, **k: None)
+    monkeypatch.setattr(continuation, "bounded_step", transit_only)
     ck = tmp_path / "ck.jsonl"
     r = solve_path(stack, pts, max_jump=MAX_JUMP, checkpoint=ck)
     assert r.success, r.message

@@ -314,3 +314,35 @@ def test_backend_solve_sqp_matches_solve() -> None:
             assert np.allclose(sol.y_ineq, exp.y_ineq, atol=1e-5), name
             assert np.all(J[me:] @ sol.x + c[me:] >= -1e-6), name
             assert np.allclose(J[:me] @ sol.x + c[:me], 0.0, atol=1e-6), name
+
+
+@pytest.mark.parametrize("sparse", [False, True])
+def test_least_norm_second_order_correction(sparse: bool) -> None:
+    """The least-norm correction lands on the linearised working set at x + d (equalities
+    and positive-multiplier inequalities, duplicated rows included) and moves no further."""
+    import scipy.sparse as sps
+
+    from stackik.sqp.solver import _Engine
+
+    rng = np.random.default_rng(3)
+    n = 6
+    J = rng.standard_normal((5, n))
+    J[3] = J[2]  # an identical pair of inequality rows
+    eng = _Engine(
+        NonlinearProgram(lambda x: 0.0, lambda x: np.zeros(n)), np.zeros(n), SQPOptions(), "daqp"
+    )
+    eng.mE, eng.mI, eng.m = 1, 4, 5
+    eng.sparse = sparse
+    eng.J = sps.csc_matrix(J) if sparse else J
+    lam = np.array([-2.0, 0.0, 1.0, 1.0, 0.0])  # rows 0 (equality), 2 and 3 active
+    d = rng.standard_normal(n)
+    c_t = rng.standard_normal(5)
+    c_t[3] = c_t[2]
+    dc = eng._soc_min_norm(c_t, lam, d)
+    assert dc is not None
+    rows = [0, 2, 3]
+    assert np.allclose(c_t[rows] + J[rows] @ (dc - d), 0.0, atol=1e-8)
+    # least norm: the correction lies in the row space of the working set
+    corr = dc - d
+    basis = np.linalg.qr(J[[0, 2]].T)[0]
+    assert np.allclose(basis @ (basis.T @ corr), corr, atol=1e-10)

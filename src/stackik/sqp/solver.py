@@ -11,13 +11,19 @@ Byrd, Nocedal & Waltz 2008 penalty steering), in the scaled problem
    are added to every equality and to the inequalities violated at ``x`` (only those are
    needed: ``d = 0`` is then feasible), i.e. the Sl1QP subproblem.
 2. **Penalty.**  After a consistent QP, ``nu >= max(1.1 ||y||_inf, (g'd + d'Bd/2) /
-   ((1 - rho) ||c||_1))`` (N&W eq. 18.36).  After an elastic QP, ``nu`` is steered (x10)
+   ((1 - rho) ||c||_1))`` (N&W eq. 18.36); it is lowered to that bound when the
+   multipliers have come down (a large early multiplier would otherwise charge the
+   second-order violation of every later step along curved constraints several times
+   over, and the trust region would crawl).  After an elastic QP, ``nu`` is steered (x10)
    until the step achieves a fair share of the best achievable reduction of the linearised
    violation (Byrd, Nocedal & Waltz 2008, conditions (3.3)-(3.4)); that best reduction also
    serves to detect local infeasibility.
 3. **Ratio test** on the l1 merit ``phi = f + nu (||c_E||_1 + ||min(c_I, 0)||_1)``, with a
-   second-order correction against the Maratos effect (N&W Alg. 18.4 / Sec. 15.5), radius
-   update as in N&W Alg. 4.1 (with the step norm when shrinking).
+   second-order correction against the Maratos effect (N&W Alg. 18.4 / Sec. 15.5): first
+   the least-norm correction onto the QP's working set at ``x + d`` (eq. 15.35: one small
+   linear solve), and only if that fails the correction QP; then backtracking along the
+   step (evaluations only), radius update as in N&W Alg. 4.1 (with the step norm when
+   shrinking).
 4. **Hessian.**  Exact (``hessian``) made positive definite by adding ``tau J_A'J_A`` for the
    equalities and previously active inequalities (which leaves the QP solution unchanged
    when the reduced Hessian is positive definite), else by eigenvalue clipping;
@@ -70,16 +76,19 @@ ETA_ACCEPT = 1e-4  # eta: step acceptance threshold on ared/pred, N&W Alg. 18.4 
 ETA_GOOD = 0.75  # very successful step -> enlarge radius, N&W Alg. 4.1
 ETA_BAD = 0.25  # poor step -> shrink radius, N&W Alg. 4.1
 SOC_BELOW = ETA_GOOD  # a second-order correction is tried when the ratio is below this
+SOC_MIN_NORM = True  # try the least-norm correction (no QP) before the QP correction
+SOC_REG = 1e-10  # relative regularisation of J_A J_A' in the least-norm correction
 BACKTRACK_STEPS = 2  # rejected steps: shorter steps along d tried before shrinking
 BACKTRACK_FACTOR = 0.5
 SCREEN_ROWS = True  # sparse mode: QPs without the inequality rows that cannot bind
+SCREEN_KEEP = 2.0  # ... keeping rows screened in before, up to this many times those needed
 GAMMA_SHRINK = 0.25  # radius factor on poor/rejected steps, N&W Alg. 4.1
 GAMMA_GROW = 2.0  # radius factor on very successful boundary steps, N&W Alg. 4.1
 BOUNDARY_FRACTION = 0.8  # a step "hits the boundary" if ||d|| >= 0.8 radius
 RHO_PENALTY = 0.1  # rho in N&W eq. (18.36) for the penalty lower bound
 PENALTY_MARGIN = 1.1  # nu >= 1.1 ||y||_inf (exactness of the l1 penalty, N&W Thm. 17.3)
 NU_INIT = 1.0  # initial penalty parameter
-NU_DECREASE_RATIO = 10.0  # nu is lowered to this multiple of 1.1 ||y||_inf when far above it
+NU_DECREASE_RATIO = 1.0  # nu is lowered to this multiple of 1.1 ||y||_inf when above it
 NU_MAX = 1e10  # cap on the penalty parameter
 NU_STEER_FACTOR = 10.0  # penalty increase during steering, Byrd-Nocedal-Waltz 2008
 NU_STEER_MAX_TRIES = 6
@@ -250,6 +259,8 @@ class _Engine:
         self._gram_maps: dict[int, GramMap] = {}
         self._row_subset: RowSubset | None = None
         self.screen_backend: QPBackend | None = None  # QPs without the rows that cannot bind
+        self._screen_subset: RowSubset | None = None  # rows of the screened QPs' pattern
+        self._screen_rows: Any = None
         self.ws: WorkingSetStep | None = None  # SQPOptions.qp_working_set
         self.n_backend = 0  # QPs passed to a backend
         self.qp_eps: float | None = None  # QP tolerance of the inexact mode (None: fixed)
@@ -451,6 +462,27 @@ class _Engine:
     def _qp_screened(self, rows: Any, c: FloatArray, lb: FloatArray, ub: FloatArray) -> QPSolution:
         """:meth:`_qp_sqp` on the rows ``rows`` only; multipliers of the others are 0."""
         n, mE, mI = self.n, self.mE, self.mI
+        # The QP keeps the union of the rows screened in so far (a row screened out now
+        # cannot bind either, so the solution is the same): the backend's solver, and
+        # its factorisation's symbolic analysis, are rebuilt only when that union grows.
+        # Started afresh when it exceeds SCREEN_KEEP times the rows needed now.
+        sub = self._screen_subset
+        if sub is not None and sub.matches(self.J):
+            held = self._screen_rows
+            inside = np.zeros(self.m, dtype=bool)
+            inside[held] = True
+            if inside[rows].all() and held.size <= SCREEN_KEEP * rows.size:
+                rows = held
+            else:
+                if held.size + rows.size <= SCREEN_KEEP * rows.size:
+                    inside[rows] = True
+                    rows = np.flatnonzero(inside)
+                sub = None
+        else:
+            sub = None
+        if sub is None:
+            sub = self._screen_subset = RowSubset(self.J, rows)
+            self._screen_rows = rows
         k = rows.size - mE
         be = self.screen_backend
         if be is None:
@@ -460,13 +492,42 @@ class _Engine:
             be.setup(n, mE, k)
         if self.qp_eps is not None:  # the inexact mode's tolerance, as the main backend's
             be.set_accuracy(self.qp_eps)
-        Js = RowSubset(self.J, rows)(self.J)
+        Js = sub(self.J)
         sol = be.solve_sqp(self.B, self.g, Js, c[rows], lb, ub)
         if sol.status is not QPStatus.SOLVED:
             return sol
         y_ineq = np.zeros(mI)
         y_ineq[rows[mE:] - mE] = sol.y_ineq[:k]
         return dataclasses.replace(sol, y_ineq=y_ineq)
+
+    def _soc_min_norm(self, c_t: FloatArray, lam: FloatArray, d: FloatArray) -> Any:
+        """Least-norm second-order correction (N&W eq. 15.35): ``d - J_A'(J_A J_A')^-1
+        c_A(x + d)`` over the equalities and the inequalities the QP left active (positive
+        multiplier), i.e. the step back onto the linearised working set at ``x + d``: one
+        small linear solve instead of a QP.  ``J_A J_A'`` is regularised (planar limits come
+        in identical pairs).  None when there is no working set or the solve fails."""
+        lam_max = float(np.abs(lam).max()) if lam.size else 0.0
+        act = lam > ACTIVE_MULTIPLIER_TOL * max(1.0, lam_max)
+        act[: self.mE] = True
+        rows = np.flatnonzero(act)
+        if rows.size == 0:
+            return None
+        r = c_t[rows]
+        try:
+            if self.sparse:
+                JA = self.J.tocsr()[rows]
+                G = (JA @ JA.T).toarray()
+            else:
+                JA = self.J[rows]
+                G = JA @ JA.T
+            G[np.diag_indices_from(G)] += SOC_REG * max(1.0, float(G.diagonal().max()))
+            y = np.linalg.solve(G, -r)
+        except (np.linalg.LinAlgError, ValueError):
+            return None
+        dc = d + (JA.T @ y)
+        if not _all_finite(dc):
+            return None
+        return np.asarray(dc, dtype=float).ravel()
 
     def _violation(self, c: FloatArray) -> float:
         """Scaled l1 violation ``||c_E||_1 + ||min(c_I, 0)||_1`` of stacked ``c``, as
@@ -1375,7 +1436,25 @@ class _Engine:
             guard = ROUNDOFF_GUARD * max(1.0, abs(phi0))
             ratio = (phi0 - phi_t + guard) / (pred + guard) if ok and pred > -guard else -math.inf
             kind = "elastic" if elastic else "qp"
-            if ratio < SOC_BELOW and not elastic and m and ok and pred > 0:
+            soc_done = False
+            if ratio < SOC_BELOW and not elastic and m and ok and pred > 0 and SOC_MIN_NORM:
+                # Least-norm second-order correction first (no QP).
+                t = time.perf_counter()
+                d_m = self._soc_min_norm(c_t, lam, d)
+                self.timer.build += time.perf_counter() - t
+                if d_m is not None:
+                    x_c = self._project(x + d_m)
+                    f_c, c_c, ev_c = self._eval_values(x_c)
+                    v_c = self._violation(c_c)
+                    phi_c = f_c + nu * v_c
+                    ratio_c = (phi0 - phi_c + guard) / (pred + guard)
+                    if math.isfinite(phi_c) and ratio_c >= ETA_ACCEPT and ratio_c > ratio:
+                        x_t, f_t, c_t, v_t, ev_t = x_c, f_c, c_c, v_c, ev_c
+                        ratio = ratio_c
+                        kind = "soc-ln"
+                        d = d_m
+                        soc_done = True
+            if ratio < SOC_BELOW and not elastic and m and ok and pred > 0 and not soc_done:
                 # Second-order correction (N&W Sec. 15.5 / Alg. 18.4).
                 sol_c = self._qp_sqp(c_t - Jd, lb, ub)
                 if sol_c.status is QPStatus.SOLVED:
