@@ -58,3 +58,16 @@ def test_compiled_check_flags_non_finite_and_misses():
     bad = q.copy()
     bad[0, 0] = 1e200
     assert not planar_check(st, t, bad)[0].ok
+
+
+def test_planar_check_many_rejects_mismatched_shapes() -> None:
+    from stackik._check import planar_check_many
+    from stackik.geometry import Stack
+    from stackik.targets import PlanarTarget
+
+    stack = Stack.reference(3)
+    targets = [PlanarTarget(0.0, 900.0, 0.0)]
+    with pytest.raises(ValueError, match="shape"):
+        planar_check_many(stack, targets, np.zeros((4, 3, 3)))
+    with pytest.raises(ValueError, match="shape"):
+        planar_check_many(stack, targets, np.zeros((1, 2, 3)))

@@ -203,26 +203,50 @@ def test_spatial_hops_turn_the_top_platforms_only() -> None:
 
 
 def test_spatial_default_hops_from_its_best_pose() -> None:
-    # n >= 5: the default's pose is at least as good as its starts' best, hops included
+    # n >= 5: the default's pose is at least as good as its starts' best, hops included,
+    # and on this target the hops find a lower minimum than all 18 starts
     stack = Stack.reference(5)
-    target = random_spatial_targets(stack, 1, 9605)[0]
-    r = solve_ik(stack, target)
-    assert r.success and r.n_starts == spatial_start_count(5) + spatial_hop_count(5)
-    no_hops = solve_ik(stack, target, starts=spatial_start_count(5))
-    assert r.frobenius_norm <= no_hops.frobenius_norm * (1 + 1e-9)
+    targets = random_spatial_targets(stack, 2, 9605)
+    for k, target in enumerate(targets):
+        r = solve_ik(stack, target)
+        assert r.success and r.n_starts == spatial_start_count(5) + spatial_hop_count(5)
+        no_hops = solve_ik(stack, target, starts=spatial_start_count(5))
+        assert no_hops.n_starts == spatial_start_count(5)
+        assert r.frobenius_norm <= no_hops.frobenius_norm * (1 + 1e-9)
+        if k == 1:
+            assert r.frobenius_norm < no_hops.frobenius_norm * (1 - 1e-4)
+
+
+def test_spatial_hops_and_recentring_respect_max_time() -> None:
+    # past the budget no hop batch and no re-centring run starts
+    target5 = random_spatial_targets(Stack.reference(5), 1, 9605)[0]
+    r = solve_ik(Stack.reference(5), target5, max_time=1e-9)
+    assert r.n_starts <= spatial_start_count(5)
+    stack = Stack.reference(4)
+    target = random_spatial_targets(stack, 1, 9611)[0]
+    quick = solve_ik(stack, target, starts=1, max_time=1e-9)
+    plain = solve_ik(stack, target, method="ip", x0=paper_initial_guess(stack, target), starts=1)
+    assert quick.nit == plain.nit
 
 
 def test_spatial_single_start_recentres_from_its_pose() -> None:
-    # starts=1 from the paper's guess: restarts from its own pose never make it worse; an
-    # explicit x0 is one plain run (paths rely on that to stay in the basin they follow)
+    # starts=1 from the paper's guess: restarts from its own pose never make it worse (and
+    # on the seventh target find a lower minimum); an explicit x0 or mu0 is one plain run
+    # (paths rely on that to stay in the basin they follow)
     stack = Stack.reference(4)
-    for target in random_spatial_targets(stack, 3, 9611):
+    targets = random_spatial_targets(stack, 7, 9611)
+    for k in (0, 1, 6):
+        target = targets[k]
         q0 = paper_initial_guess(stack, target)
         one = solve_ik(stack, target, starts=1)
         plain = solve_ik(stack, target, method="ip", x0=q0, starts=1)
         assert one.success and plain.success and one.n_starts == 1
         assert one.frobenius_norm <= plain.frobenius_norm * (1 + 1e-9)
         assert one.nit > plain.nit
+        if k == 6:
+            assert one.frobenius_norm < plain.frobenius_norm * (1 - 1e-3)
+    own_mu = solve_ik(stack, targets[6], starts=1, options={"mu0": 0.1})
+    assert own_mu.nit == plain.nit and own_mu.frobenius_norm == plain.frobenius_norm
 
 
 def test_spatial_weighted_objective() -> None:

@@ -151,8 +151,14 @@ def planar_check_many(stack: Any, targets: Any, Q: FloatArray) -> list[bool]:
     if any(float(t.phi) != phi for t in targets):
         raise ValueError("targets: planar targets in one plane phi expected")
     Y = np.array([[t.rho, t.z, t.theta] for t in targets], dtype=float)
+    Qa = np.ascontiguousarray(Q, dtype=float)
+    if Qa.shape != (len(targets), stack.n, 3):
+        raise ValueError(
+            f"Q: shape (len(targets), n, 3) = ({len(targets)}, {stack.n}, 3) expected, "
+            f"got {Qa.shape}"
+        )
     pos, ang, v_mm, finite = _planar_check_many(
-        readonly(np.ascontiguousarray(Q, dtype=float)),
+        readonly(Qa),
         phi,
         readonly(stack.base_nodes),
         readonly(stack.top_nodes),

@@ -95,10 +95,14 @@ def solve_ik(
         the interior point's structured starts (:func:`stackik.starts.spatial_starts`: 8
         up to n = 4, 18 from n = 5; twists, leans and folds; from n = 5 then 12 hops from
         the best pose, :func:`stackik.starts.spatial_hops`), the SQP engine's five
-        structured and seven random ones; otherwise one. These find the best
-        known FN on the benchmark targets (README). Extra starts perturb the first with
-        Gaussian noise (``rng``). The best pose that passes the check is returned; when none
-        does, up to three more starts (the convex start first) are tried.
+        structured and seven random ones; otherwise one. ``starts=K`` in spatial mode
+        takes the first K of :func:`stackik.starts.spatial_starts`; spatial ``starts=1``
+        without ``x0`` (and without ``options["mu0"]``) re-runs the interior point twice
+        from its own pose with a larger barrier and keeps the lower FN (``n_starts`` 1).
+        These find the best known FN on the benchmark targets (README). Extra starts
+        perturb the first with Gaussian noise (``rng``). The best pose that passes the
+        check is returned; when none does, up to three more starts (the convex start
+        first) are tried.
     rng : Generator, int or None
         Randomness of the extra (random) starts, including the fallback ones; None uses a
         fixed seed, so that the same call always returns the same pose.

@@ -148,7 +148,7 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         best, nit, tried = batch.best, batch.nit, len(starts)
         if plan.spatial_default and spatial_hop_count(req.stack.n) > 0:
             best, nit, tried = _hop(req, method, best, nit, tried)
-        elif plan.starts == 1 and req.structured and not req.mode.planar:
+        elif plan.starts == 1 and req.structured and _recentres(req):
             best, nit = _recentre(req, method, best, nit)
         return Verdict(best, IKStatus.SUCCESS, nit, tried, "ip")
     if not req.auto:
@@ -174,30 +174,43 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     return Handover(queue, batch.least, batch.nit, len(starts), stalled, shared)
 
 
+def _out_of_time(req: Request) -> bool:
+    return time.perf_counter() - req.t_start >= req.max_time
+
+
 def _hop(req: Request, method: IPMethod, best: Run, nit: int, tried: int) -> tuple[Run, int, int]:
     """The spatial default's hops from its best pose (:func:`stackik.starts.spatial_hops`):
-    one more compiled batch; a passing run with a lower FN replaces ``best``."""
+    one more compiled batch (within what is left of ``max_time``); a passing run with a
+    lower FN replaces ``best``. ``tried`` counts the hops that ran."""
     hops = spatial_hops(req.stack, best.q)[: spatial_hop_count(req.stack.n)]
-    left = req.time_left(time.perf_counter())
-    if not hops or left <= 0.0:
+    if not hops or _out_of_time(req):
         return best, nit, tried
+    left = req.time_left(time.perf_counter())
     batch = method.run_many(req.problem, hops, req.options, left)
     if batch.best is not None and batch.best.obj < best.obj - 1e-12 * abs(best.obj):
         best = batch.best
-    return best, nit + batch.nit, tried + len(hops)
+    ran = sum(st is not RunStatus.SKIPPED for st in batch.statuses)
+    return best, nit + batch.nit, tried + ran
+
+
+def _recentres(req: Request) -> bool:
+    """Spatial ``starts=1`` from the paper's guess re-centres (:func:`_recentre`) unless
+    the caller set the barrier (``options["mu0"]``) or the stack has one platform."""
+    return not req.mode.planar and req.stack.n >= 2 and "mu0" not in req.options
 
 
 def _recentre(req: Request, method: IPMethod, best: Run, nit: int) -> tuple[Run, int]:
     """Spatial ``starts=1`` from the paper's guess: the interior point again from its own
-    pose with the barriers of :data:`RECENTRE_MU0` in turn (each from the best so far);
-    a passing run with a lower FN replaces ``best``. A larger barrier lifts the pose off
-    its active limits, and it settles in the lower of the neighbouring minima more often
-    than not (on 85 random n = 4, 6, 8 targets: FN below one IPOPT run's from the same
-    start on 35, above on 4; without: 19 / 18)."""
+    pose with the barriers of :data:`RECENTRE_MU0` in turn (each from the best so far,
+    within what is left of ``max_time``); a passing run with a lower FN replaces
+    ``best``. A larger barrier lifts the pose off its active limits, and it settles in the
+    lower of the neighbouring minima more often than not (on 85 random n = 4, 6, 8
+    targets: FN below one IPOPT run's from the same start on 35, above on 4; without:
+    19 / 18). The runs are not starts: ``n_starts`` stays 1, ``nit`` counts them."""
     for mu0 in RECENTRE_MU0:
-        left = req.time_left(time.perf_counter())
-        if left <= 0.0:
+        if _out_of_time(req):
             break
+        left = req.time_left(time.perf_counter())
         batch = method.run_many(req.problem, [best.q], {**req.options, "mu0": mu0}, left)
         nit += batch.nit
         if batch.best is not None and batch.best.obj < best.obj - 1e-12 * abs(best.obj):
