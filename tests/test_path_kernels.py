@@ -102,11 +102,11 @@ def test_ip_box_stays_in_its_box_and_ip_path_repeats_the_one_start_solve():
     P = problem_arrays(prob)
     # the run of warm steps: the points of _ip_multi from the previous point, bit for bit
     Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:]])
-    X, reached = _ipm.ip_path(
+    X, reached, how = _ipm.ip_path(
         readonly(prob.u_of(q0)), Y, P, readonly(np.full(12, np.inf)), 1e-7, 1e-9, 1e-3, 300,
-        POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8,
+        POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, False,
     )  # fmt: skip
-    assert reached >= 1
+    assert reached >= 1 and not how.any()
     u = prob.u_of(q0)
     for j in range(reached):
         Pj = problem_arrays(Problem(stack, pts[j + 1], "frobenius", None))
@@ -141,3 +141,39 @@ def test_batch_check_matches_the_check_pose_by_pose():
     assert ok == [planar_check(stack, t, q)[0].ok for t, q in zip(ts, Q)]
     assert ok[:2] == [True, True] and ok[2:] == [False, False]
     assert planar_check_many(stack, [], np.zeros((0, 3, 3))) == []
+
+
+@pytest.mark.parametrize(("n", "seed"), [(4, 5), (8, 11)])
+def test_ip_path_continuation_steps_are_verified_kkt_points_near_the_barrier_solve(n, seed):
+    """The predictor-corrector steps (pc=True): most steps of a straight path are made by
+    them; every point reaches its target within the limits (the independent check) with
+    the objective of the barrier solve from the previous point (the same KKT point, or a
+    neighbouring one that the continuation follows where the barrier solve slides to
+    the other), and the run is deterministic."""
+    stack = Stack.reference(n)
+    a, b = random_reachable_targets(stack, 2, rng=seed)
+    pts = interpolate_targets([a, b], max_step=(15.0, 0.03))
+    q0 = solve_ik(stack, pts[0]).q
+    prob = Problem(stack, pts[0], "frobenius", None)
+    P = problem_arrays(prob)
+    Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:]])
+    args = (readonly(prob.u_of(q0)), Y, P, readonly(np.full(3 * n, np.inf)), 1e-7, 1e-9,
+            1e-3, 300, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True)  # fmt: skip
+    X, reached, how = _ipm.ip_path(*args)
+    X2, reached2, how2 = _ipm.ip_path(*args)
+    assert reached == reached2 and np.array_equal(X[:reached], X2[:reached])
+    assert np.array_equal(how, how2)
+    assert reached >= 5 and how[:reached].sum() >= reached // 2
+    Q = np.array([prob.q_of(X[j]) for j in range(reached)])
+    assert all(planar_check_many(stack, pts[1 : reached + 1], Q))
+    u = prob.u_of(q0)
+    for j in range(reached):
+        Pj = problem_arrays(Problem(stack, pts[j + 1], "frobenius", None))
+        if how[j]:
+            Xj = _ipm._ip_multi(np.atleast_2d(u), Pj, 1e-7, 1e-9, np.array([1e-3]), 300,
+                                1e300, POLISH_REACH, POLISH_MARGIN)  # fmt: skip
+            f_pc = _ipm._evaluate(X[j], Pj)[0]
+            # the same local minimum, or (where the barrier solve slides to a neighbouring
+            # one) a KKT point whose FN^2 differs by a fraction of a per mille
+            assert abs(f_pc - Xj[3][0]) <= 1e-3 * abs(Xj[3][0])
+        u = X[j]

@@ -65,6 +65,7 @@ class StepCounts:
     transit: int = 0
     transit_failed: int = 0
     sqp_fallback: int = 0  # bounded/transit steps the compiled interior point missed
+    pc: int = 0  # warm steps made by the predictor-corrector step (no barrier solve)
 
     def as_dict(self) -> dict[str, int]:
         return dict(self.__dict__)
@@ -96,6 +97,7 @@ class Tracker:
     planar: bool
     max_jump: tuple[float, float]
     max_depth: int = 1
+    pc: bool = True
     counts: StepCounts = field(default_factory=StepCounts)
 
     def __post_init__(self) -> None:
@@ -137,11 +139,11 @@ class Tracker:
             assert isinstance(t, PlanarTarget)
             Y[j] = (t.rho, t.z, t.theta)
         jump = np.tile(self.scale, self.stack.n) / prob.xs
-        X, reached = _ipm.ip_path(
+        X, reached, how = _ipm.ip_path(
             readonly(prob.u_of(q)), readonly(Y), problem_arrays(prob), readonly(jump),
             float(IP_DEFAULTS["tol"]), float(IP_DEFAULTS["constr_tol"]), WARM_MU0,
             int(IP_DEFAULTS["max_iter"]), POLISH_REACH, POLISH_MARGIN,
-            check.TARGET_POS_TOL, check.TARGET_ANGLE_TOL,
+            check.TARGET_POS_TOL, check.TARGET_ANGLE_TOL, self.pc,
         )  # fmt: skip
         Q = [prob.q_of(X[j]) for j in range(int(reached))]
         out: list[FloatArray] = []
@@ -151,6 +153,7 @@ class Tracker:
             out.append(qk)
             q = qk
         self.counts.warm += len(out)
+        self.counts.pc += int(np.sum(how[: len(out)]))
         return out
 
     def _subdivide(self, q: FloatArray, ta: Target, tb: Target, depth: int) -> FloatArray | None:

@@ -71,7 +71,7 @@ def _warm_path_kernels(planar: bool) -> None:
     if planar:
         Y = readonly([[pt.rho, pt.z, pt.theta]])
         _ipm.ip_path(u0, Y, problem_arrays(prob), readonly(np.ones(u0.size)), 1e-7, 1e-9,
-                     1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8)  # fmt: skip
+                     1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True)  # fmt: skip
         planar_check_many(stack, [pt], q0[None])
 
 
