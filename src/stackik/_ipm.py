@@ -938,6 +938,9 @@ PC_CHANGES = 3
 #: on the feasible side as the barrier solve's points are (slacks ~ mu / z there), so
 #: that rounding never leaves them violated for the polish to move.
 PC_OFFSET = 1e-10
+#: ... and converges its equality and active-limit residuals (scaled) to this, below
+#: the polish's threshold (1e-13), where the barrier solve's own test asks constr_tol.
+PC_PRIMAL_TOL = 1e-13
 
 
 @_jit
@@ -979,11 +982,13 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     when the stationarity error (scaled as :func:`_ip_loop` scales it, objective
     scaling included), the complementarity ``c_A zA`` and the equality and active-limit
     residuals are within ``tol`` / ``constr_tol`` (:func:`_ip_loop`'s termination
-    test). A converged point with a negative active multiplier releases the most
-    negative one's limit; one that violates other limits adds them; Newton then goes on
-    (at most ``max_changes`` such changes, ``max_newton`` iterations in all). Verified
-    when converged with every active multiplier >= 0 and every other limit holding
-    (``c_I >= 0``): a KKT point of the original problem to the barrier solve's
+    test; the equality and active-limit residuals to ``PC_PRIMAL_TOL``, so that the polish
+    has nothing left to move). A converged point releases the limit with the most
+    negative multiplier, or else adds the other limits that it violates or nearly meets
+    (closer than ``PC_OFFSET / 2``); Newton then goes on. A set with more limits than
+    the freedom ``N - 3`` (degenerate) loses its weakest (least multiplier) first. (at most ``max_changes`` such changes, ``max_newton`` iterations
+    in all). Verified when converged with every active multiplier >= 0 and every other
+    limit holding (``c_I >= PC_OFFSET / 2``): a KKT point of the original problem to the barrier solve's
     tolerances. Active rows that copy an earlier active row (mirror legs, :func:`_twins`)
     enter once, with the multipliers of the copies summed onto that row. Returns
     ``(x, ok, yE, z, active, iterations)`` (multipliers of ``P0``'s problem, ``z`` zero
@@ -1014,8 +1019,18 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
                 zf[r] = 0.0
         idx = np.nonzero(act & (parent < 0))[0]
         na = idx.size
-        if 3 + na > N:
-            break
+        while 3 + na > N:  # more limits than freedom (degenerate): the weakest go
+            rj = idx[0]
+            for j in range(na):
+                if zf[idx[j]] < zf[rj]:
+                    rj = idx[j]
+            act[rj] = False
+            zf[rj] = 0.0
+            for r in range(m):
+                if parent[r] == rj:
+                    act[r] = False
+            idx = np.nonzero(act & (parent < 0))[0]
+            na = idx.size
         zA = np.empty(na)
         for j in range(na):
             zA[j] = zf[idx[j]]
@@ -1039,7 +1054,7 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             for j in range(na):
                 e_pr = max(e_pr, abs(cI[idx[j]] - PC_OFFSET))
                 comp = max(comp, abs(cI[idx[j]] * zA[j]))
-            if e_du <= tol and comp / sd <= tol and e_pr <= constr_tol:
+            if e_du <= tol and comp / sd <= tol and e_pr <= min(constr_tol, PC_PRIMAL_TOL):
                 conv = True
                 break
             if it >= max_newton:
@@ -1082,12 +1097,13 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
         for j in range(na):
             if zA[j] < 0.0 and (jmin < 0 or zA[j] < zA[jmin]):
                 jmin = j
-        # ... or add every other limit that the point violates
-        viol = False
+        # ... or add the other limits that the point violates or nearly meets (closer
+        # than half the offset: within rounding of it)
+        nadd = 0
         for r in range(m):
-            if not act[r] and not cI[r] >= 0.0:
-                viol = True
-        if jmin < 0 and not viol:
+            if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
+                nadd += 1
+        if jmin < 0 and nadd == 0:
             ok = True
             break
         if changes >= max_changes:
@@ -1102,9 +1118,8 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
                     act[r] = False
         else:
             for r in range(m):
-                if not act[r] and not cI[r] >= 0.0:
+                if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
                     act[r] = True
-                    zf[r] = 0.0
     return x, ok, yE / fs, zf / fs, act, it
 
 

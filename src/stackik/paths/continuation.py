@@ -145,13 +145,15 @@ class Tracker:
             int(IP_DEFAULTS["max_iter"]), POLISH_REACH, POLISH_MARGIN,
             check.TARGET_POS_TOL, check.TARGET_ANGLE_TOL, self.pc,
         )  # fmt: skip
-        Q = [prob.q_of(X[j]) for j in range(int(reached))]
+        Q = (X[: int(reached)] * prob.xs).reshape(int(reached), self.stack.n, 3)
+        # the jump of every step at once: each pose against the one before
+        prev = np.concatenate([q[None], Q[:-1]])
+        jumps = np.max(np.abs(Q - prev) / self.scale, axis=(1, 2)) if len(Q) else []
         out: list[FloatArray] = []
-        for qk, ok in zip(Q, planar_check_many(self.stack, targets[: len(Q)], np.array(Q))):
-            if not ok or self.ratio(q, qk) > 1.0:
+        for qk, ok, jr in zip(Q, planar_check_many(self.stack, targets[: len(Q)], Q), jumps):
+            if not ok or jr > 1.0:
                 break
             out.append(qk)
-            q = qk
         self.counts.warm += len(out)
         self.counts.pc += int(np.sum(how[: len(out)]))
         return out

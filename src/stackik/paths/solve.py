@@ -452,7 +452,7 @@ def _fast(
         k = len(ql) - 1
         if goal is None and req.reanchor_every and pending and k % req.reanchor_every == 0:
             goal = _reanchor(req, tracker, k, tb, q, info)
-        top = [(target_to_dict(t), s, d) for t, s, d in pending if d > 0]
+        top = [(target_to_dict(t), s, d) for t, s, d in pending if d > 0] if req.refine else []
         ck.put(
             "fast",
             k,
