@@ -975,24 +975,28 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
 
     Newton's method on the KKT conditions of the problem with the active limits as
     equalities, ``g - AE^T yE - AA^T zA = 0``, ``c_E = 0``, ``c_A = PC_OFFSET`` (on the
-    feasible side by a rounding-sized margin), exact Hessian.
-    The target enters only ``c_E``, so the first iteration, with the KKT matrix of the
-    previous solution, is the tangent predictor (``x0`` plus the sensitivity of the
-    solution to the target change, times the change); the next ones correct. Converged
-    when the stationarity error (scaled as :func:`_ip_loop` scales it, objective
-    scaling included), the complementarity ``c_A zA`` and the equality and active-limit
-    residuals are within ``tol`` / ``constr_tol`` (:func:`_ip_loop`'s termination
-    test; the equality and active-limit residuals to ``PC_PRIMAL_TOL``, so that the polish
-    has nothing left to move). A converged point releases the limit with the most
-    negative multiplier, or else adds the other limits that it violates or nearly meets
-    (closer than ``PC_OFFSET / 2``); Newton then goes on. A set with more limits than
-    the freedom ``N - 3`` (degenerate) loses its weakest (least multiplier) first. (at most ``max_changes`` such changes, ``max_newton`` iterations
-    in all). Verified when converged with every active multiplier >= 0 and every other
-    limit holding (``c_I >= PC_OFFSET / 2``): a KKT point of the original problem to the barrier solve's
-    tolerances. Active rows that copy an earlier active row (mirror legs, :func:`_twins`)
-    enter once, with the multipliers of the copies summed onto that row. Returns
-    ``(x, ok, yE, z, active, iterations)`` (multipliers of ``P0``'s problem, ``z`` zero
-    off the active set); the caller polishes and checks ``x``."""
+    feasible side by a rounding-sized margin), exact Hessian. The target enters only
+    ``c_E``, so the first iteration, with the KKT matrix of the previous solution, is
+    the tangent predictor (``x0`` plus the sensitivity of the solution to the target
+    change, times the change); the next ones correct.
+
+    Converged when the stationarity error and the complementarity ``c_A zA`` (scaled as
+    :func:`_ip_loop` scales them, objective scaling included) are within ``tol`` and
+    the equality and active-limit residuals within ``min(constr_tol, PC_PRIMAL_TOL)``
+    (:func:`_ip_loop`'s termination test, the residuals tighter so that the polish has
+    nothing left to move). A converged point releases the limit with the most negative
+    multiplier, or else adds the other limits that it violates or nearly meets (closer
+    than ``PC_OFFSET / 2``), and Newton goes on: at most ``max_changes`` changes and
+    ``max_newton`` iterations in all. A set with more limits than the freedom ``N - 3``
+    (degenerate) loses its weakest (least multiplier) first. Active rows that copy an
+    earlier active row (mirror legs, :func:`_twins`) enter once, with the multipliers of
+    the copies summed onto that row.
+
+    Verified (``ok``) when converged with every active multiplier >= 0 and every other
+    limit at ``c_I >= PC_OFFSET / 2``: a KKT point of the original problem to the barrier
+    solve's tolerances. Returns ``(x, ok, yE, z, active, iterations)`` (multipliers of
+    ``P0``'s problem, ``z`` zero off the active set); the caller polishes and checks
+    ``x``."""
     n = P0[7].shape[0]
     N = 3 * n
     m = 24 * n
