@@ -32,7 +32,7 @@ from stackik.geometry import Stack
 from stackik.paths.bounded import bounded_ip, bounded_step
 from stackik.paths.interpolate import lerp_target
 from stackik.solve import solve_ik
-from stackik.targets import PlanarTarget, Target
+from stackik.targets import Target
 
 __all__ = ["WARM_MU0", "Step", "StepCounts", "Tracker", "jump_scale"]
 
@@ -121,36 +121,48 @@ class Tracker:
         return None
 
     def warm_many(self, q: FloatArray, targets: list[Target]) -> list[FloatArray]:
-        """The warm rung's first solve (initial barrier ``WARM_MU0``) along ``targets``,
-        each from the pose before, in one compiled call (planar paths): the poses of the
-        leading targets that it reaches, as :meth:`warm` would accept them (checked, each
-        within one jump of the one before). Stops at the first it does not reach there;
-        the caller takes that one through the ladder (:meth:`step`)."""
-        if not self.planar or not targets:
+        """The warm rung along ``targets``, each from the pose before, in one compiled
+        call (:func:`stackik._ipm.ip_path`, :func:`stackik._spatial_ipm.ip_path`): the
+        continuation step (``pc``) where it is verified, else the warm rung's first solve
+        (initial barrier ``WARM_MU0``). Returns the poses of the leading targets that it
+        reaches, as :meth:`warm` would accept them (checked by the compiled twin of
+        ``check_pose``, each within one jump of the one before). Stops at the first it
+        does not reach; the caller takes that one through the ladder (:meth:`step`)."""
+        if not targets:
             return []
-        from stackik import _ipm
-        from stackik._check import planar_check_many
+        from stackik import _ipm, _spatial_ipm
+        from stackik._check import planar_check_many, spatial_check_many
         from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
-        from stackik.methods.ip import IP_DEFAULTS, problem_arrays
+        from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
         prob = Problem(self.stack, targets[0], "frobenius", None)
-        Y = np.empty((len(targets), 3))
-        for j, t in enumerate(targets):
-            assert isinstance(t, PlanarTarget)
-            Y[j] = (t.rho, t.z, t.theta)
-        jump = np.tile(self.scale, self.stack.n) / prob.xs
-        X, reached, how = _ipm.ip_path(
-            readonly(prob.u_of(q)), readonly(Y), problem_arrays(prob), readonly(jump),
-            float(IP_DEFAULTS["tol"]), float(IP_DEFAULTS["constr_tol"]), WARM_MU0,
-            int(IP_DEFAULTS["max_iter"]), POLISH_REACH, POLISH_MARGIN,
-            check.TARGET_POS_TOL, check.TARGET_ANGLE_TOL, self.pc,
-        )  # fmt: skip
-        Q = (X[: int(reached)] * prob.xs).reshape(int(reached), self.stack.n, 3)
+        jump = readonly(np.tile(self.scale, self.stack.n) / prob.xs)
+        tol, ctol = float(IP_DEFAULTS["tol"]), float(IP_DEFAULTS["constr_tol"])
+        max_iter = int(IP_DEFAULTS["max_iter"])
+        tail = (POLISH_REACH, POLISH_MARGIN, check.TARGET_POS_TOL, check.TARGET_ANGLE_TOL,
+                self.pc)  # fmt: skip
+        if self.planar:
+            Y = np.array([(t.rho, t.z, t.theta) for t in targets])  # type: ignore[union-attr]
+            X, reached, how = _ipm.ip_path(
+                readonly(prob.u_of(q)), readonly(Y), problem_arrays(prob), jump, tol, ctol,
+                WARM_MU0, max_iter, *tail,
+            )  # fmt: skip
+            check_many = planar_check_many
+        else:
+            pos = np.array([t.position for t in targets])  # type: ignore[union-attr]
+            rot = np.array([t.rotation for t in targets])  # type: ignore[union-attr]
+            X, reached, how = _spatial_ipm.ip_path(
+                readonly(prob.u_of(q)), readonly(pos), readonly(rot),
+                spatial_problem_arrays(prob), jump, tol, ctol, WARM_MU0, max_iter, *tail,
+            )  # fmt: skip
+            check_many = spatial_check_many
+        k = 3 if self.planar else 6
+        Q = (X[: int(reached)] * prob.xs).reshape(int(reached), self.stack.n, k)
         # the jump of every step at once: each pose against the one before
         prev = np.concatenate([q[None], Q[:-1]])
         jumps = np.max(np.abs(Q - prev) / self.scale, axis=(1, 2)) if len(Q) else []
         out: list[FloatArray] = []
-        for qk, ok, jr in zip(Q, planar_check_many(self.stack, targets[: len(Q)], Q), jumps):
+        for qk, ok, jr in zip(Q, check_many(self.stack, targets[: len(Q)], Q), jumps):
             if not ok or jr > 1.0:
                 break
             out.append(qk)

@@ -406,8 +406,10 @@ def _fast(
         if req.start is not None:
             q0, how = req.start, "start"
         else:
+            t0 = time.perf_counter()
             r0 = req.default_solve(pts[0], 0)
             info["default"] += 1
+            info["first_solve_s"] = time.perf_counter() - t0  # the rest: the path's steps
             if not r0.success:
                 msg = (
                     f"the path breaks at index 0 (waypoint 0): no pose reaches it within the "
@@ -468,7 +470,7 @@ def _fast(
 
     ladder_at = -1  # the waypoint a run of warm steps stopped before: the ladder's
     while pending:
-        if (goal is None and req.planar and hows[-1] not in _OFF_OPTIMUM
+        if (goal is None and hows[-1] not in _OFF_OPTIMUM
                 and len(ql) != ladder_at):  # fmt: skip
             # warm steps along the next waypoints in one compiled call, up to the next
             # reanchoring; the first it does not reach goes through the ladder below

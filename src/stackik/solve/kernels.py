@@ -33,10 +33,11 @@ def _dispatchers(kind: str) -> list[Any]:
 
         return [_ipm._ip_multi, _ipm.ip_box, _ipm.ip_path, _check._planar_check,
                 _check._planar_check_many]  # fmt: skip
-    from stackik import _spatial, _spatial_ipm
+    from stackik import _check, _spatial, _spatial_ipm
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _spatial_ipm.ip_multi,
-            _spatial_ipm.ip_box]  # fmt: skip
+            _spatial_ipm.ip_box, _spatial_ipm.ip_path, _check._spatial_check,
+            _check._spatial_check_many]  # fmt: skip
 
 
 def _warm_path_kernels(planar: bool) -> None:
@@ -47,7 +48,7 @@ def _warm_path_kernels(planar: bool) -> None:
 
     from stackik import _ipm, _spatial_ipm
     from stackik._arrays import readonly
-    from stackik._check import planar_check_many
+    from stackik._check import planar_check_many, spatial_check_many
     from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
     from stackik.geometry import Stack
     from stackik.methods.ip import problem_arrays, spatial_problem_arrays
@@ -73,6 +74,13 @@ def _warm_path_kernels(planar: bool) -> None:
         _ipm.ip_path(u0, Y, problem_arrays(prob), readonly(np.ones(u0.size)), 1e-7, 1e-9,
                      1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True)  # fmt: skip
         planar_check_many(stack, [pt], q0[None])
+    else:
+        st = pt.to_spatial()
+        _spatial_ipm.ip_path(u0, readonly([st.position]), readonly([st.rotation]),
+                             spatial_problem_arrays(prob), readonly(np.ones(u0.size)), 1e-7,
+                             1e-9, 1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8,
+                             True)  # fmt: skip
+        spatial_check_many(stack, [st], q0[None])
 
 
 def kernels_cached(kind: str) -> bool | None:
