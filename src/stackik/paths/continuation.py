@@ -108,12 +108,15 @@ class Tracker:
         return float(np.max(np.abs(qb - qa) / self.scale))
 
     # --- rungs ----------------------------------------------------------------------
-    def warm(self, q: FloatArray, target: Target) -> FloatArray | None:
-        """Warm-started solve from ``q``; the pose if checked and within one jump."""
-        self.counts.warm += 1
-        r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options={"mu0": WARM_MU0})
-        if r.success:  # kept its basin, or left it: the default barrier would too
-            return r.q if self.ratio(q, r.q) <= 1.0 else None
+    def warm(self, q: FloatArray, target: Target, *, tried: bool = False) -> FloatArray | None:
+        """Warm-started solve from ``q``; the pose if checked and within one jump.
+        ``tried``: the first solve (initial barrier ``WARM_MU0``) was made and failed
+        (a run of :meth:`warm_many` stopped here): only the retry remains."""
+        if not tried:
+            self.counts.warm += 1
+            r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options={"mu0": WARM_MU0})
+            if r.success:  # kept its basin, or left it: the default barrier would too
+                return r.q if self.ratio(q, r.q) <= 1.0 else None
         self.counts.warm_retry += 1
         r = solve_ik(self.stack, target, x0=q, starts=1, method="ip")
         if r.success and self.ratio(q, r.q) <= 1.0:
@@ -219,6 +222,7 @@ class Tracker:
         *,
         subdivide: bool = True,
         bounded: bool = True,
+        warm_tried: bool = False,
     ) -> Step | None:
         """A pose of ``tb`` within ``max_jump`` of ``q`` (a pose of ``ta``), or None.
 
@@ -229,8 +233,11 @@ class Tracker:
             off its optimum and bisecting rarely brings a warm start back within reach).
         bounded : bool
             Try the bounded rung.
+        warm_tried : bool
+            The warm rung's first solve from ``q`` to ``tb`` was made and failed (a run
+            of :meth:`warm_many` stopped before ``tb``): the rung starts at its retry.
         """
-        qb = self.warm(q, tb)
+        qb = self.warm(q, tb, tried=warm_tried)
         if qb is not None:
             return Step(qb, "warm")
         if subdivide and self.max_depth > 0:

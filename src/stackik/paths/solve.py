@@ -486,7 +486,9 @@ def _fast(
         step, goal = _towards(tracker, goal, ql[-1], tb, info) if goal else (None, None)
         if step is None:
             off = hows[-1] in ("bounded", "transit")  # off the optimum: no bisection
-            step = tracker.step(ql[-1], tl[-1], tb, subdivide=not off)
+            # where a run of warm steps stopped, it made the warm rung's first solve
+            tried = len(ql) == ladder_at and depth == 0
+            step = tracker.step(ql[-1], tl[-1], tb, subdivide=not off, warm_tried=tried)
         if step is not None:
             accept(step.q, step.how)
             continue
@@ -500,6 +502,7 @@ def _fast(
                 items.append((j, {**old, "q": q.tolist(), "how": "rejoin", "goal": None}))
             ck.put_many("fast", items)
             goal = None
+            ladder_at = -1  # a new pose: its warm solve is not made yet
             continue  # the next step from the new pose before tb
         if req.refine and depth < REFINE_DEPTH:
             sa = sl[-1]
