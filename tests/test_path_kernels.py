@@ -20,6 +20,9 @@ from stackik.sampling import random_reachable_targets, random_spatial_targets
 from stackik.solve import solve_ik
 from stackik.starts import paper_initial_guess
 
+#: No carried state: the arguments of a run from a point that is not a solved one.
+_NO_STATE3 = (np.zeros(3), np.zeros(0), np.zeros(0, dtype=bool), False)
+
 
 def _planar(n: int, seed: int):
     stack = Stack.reference(n)
@@ -105,8 +108,8 @@ def test_ip_box_stays_in_its_box_and_ip_path_repeats_the_one_start_solve():
     Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:]])
     X, reached, how = _ipm.ip_path(
         readonly(prob.u_of(q0)), Y, P, readonly(np.full(12, np.inf)), 1e-7, 1e-9, 1e-3, 300,
-        POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, False,
-    )  # fmt: skip
+        POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, False, *_NO_STATE3,
+    )[:3]  # fmt: skip
     assert reached >= 1 and not how.any()
     u = prob.u_of(q0)
     for j in range(reached):
@@ -159,12 +162,20 @@ def test_ip_path_continuation_steps_are_verified_kkt_points_near_the_barrier_sol
     P = problem_arrays(prob)
     Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:]])
     args = (readonly(prob.u_of(q0)), Y, P, readonly(np.full(3 * n, np.inf)), 1e-7, 1e-9,
-            1e-3, 300, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True)  # fmt: skip
-    X, reached, how = _ipm.ip_path(*args)
-    X2, reached2, how2 = _ipm.ip_path(*args)
+            1e-3, 300, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, *_NO_STATE3)  # fmt: skip
+    X, reached, how, *state = _ipm.ip_path(*args)
+    X2, reached2, how2, *_ = _ipm.ip_path(*args)
     assert reached == reached2 and np.array_equal(X[:reached], X2[:reached])
     assert np.array_equal(how, how2)
     assert reached >= 5 and how[:reached].sum() >= reached // 2
+    # two runs, the second from the first's last point with its state: the same points
+    h = reached // 2
+    Xa, ra, _, *end = _ipm.ip_path(args[0], readonly(Y[:h]), *args[2:13], *_NO_STATE3)
+    assert ra == h and end[3]
+    Xb, rb, howb, *_ = _ipm.ip_path(readonly(Xa[h - 1]), readonly(Y[h:reached]), *args[2:13],
+                                    *end)  # fmt: skip
+    assert rb == reached - h and howb[0] == how[h]
+    np.testing.assert_array_equal(np.concatenate([Xa[:h], Xb[:rb]]), X[:reached])
     Q = np.array([prob.q_of(X[j]) for j in range(reached)])
     assert all(planar_check_many(stack, pts[1 : reached + 1], Q))
     u = prob.u_of(q0)
@@ -225,9 +236,10 @@ def test_spatial_ip_path_steps_are_checked_and_deterministic():
     pos = readonly([t.position for t in pts[1:]])
     rot = readonly([t.rotation for t in pts[1:]])
     args = (readonly(prob.u_of(q0)), pos, rot, P, readonly(jump / prob.xs), 1e-7, 1e-9, 1e-3,
-            300, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True)  # fmt: skip
-    X, reached, how = _spatial_ipm.ip_path(*args)
-    X2, reached2, how2 = _spatial_ipm.ip_path(*args)
+            300, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, np.zeros(6), np.zeros(0),
+            np.zeros(0, dtype=bool), False)  # fmt: skip
+    X, reached, how, *_ = _spatial_ipm.ip_path(*args)
+    X2, reached2, how2, *_ = _spatial_ipm.ip_path(*args)
     assert reached == reached2 and np.array_equal(X[:reached], X2[:reached])
     assert np.array_equal(how, how2)
     assert reached >= 10 and how[:reached].sum() >= 3

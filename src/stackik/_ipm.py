@@ -1147,7 +1147,8 @@ def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: f
 @_jit
 def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol: float,
             constr_tol: float, mu0: float, max_iter: int, reach: float, margin: float,
-            pos_tol: float, ang_tol: float, pc: bool) -> tuple[Any, ...]:  # fmt: skip
+            pos_tol: float, ang_tol: float, pc: bool, yE0: FloatArray, z0: FloatArray,
+            act0: FloatArray, have0: bool) -> tuple[Any, ...]:  # fmt: skip
     """Warm-started steps along targets ``(m, 3)`` (raw rho, z, theta), each from the
     previous point (the first from ``u0``).
 
@@ -1157,24 +1158,27 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
     the previous solution's multipliers and active set carried, tangent predictor,
     Newton correctors, verified as a KKT point), polished and tested as below; when it
     is not verified or fails the test, the step is the barrier solve as without ``pc``
-    (whose final multipliers and active set, ``z > s``, the next step carries).
+    (whose final multipliers and active set, ``z > s``, the next step carries). The
+    first step carries ``yE0``, ``z0``, ``act0`` when ``have0`` (the state of ``u0`` that
+    the previous run returned; empty arrays and False otherwise).
 
     Stops before the first step whose point misses its target (``pos_tol`` [mm],
     ``ang_tol`` [rad], from the scaled equalities), violates a limit (scaled) or moves
     some variable by more than ``jump`` (scaled, per variable). Returns the points
-    (m, N), the number of steps taken and, per step, 1 when the continuation step made
-    it, 0 when the barrier solve did; the caller re-checks every point with the
-    independent check."""
+    (m, N), the number of steps taken, per step 1 when the continuation step made it
+    and 0 when the barrier solve did, and the state of the last point reached
+    (``yE, z, active, have``, for the next run from it); the caller re-checks every
+    point with the independent check."""
     m = targets.shape[0]
     N = u0.size
     X = np.empty((m, N))
     how = np.zeros(m, dtype=np.int64)
     none = np.empty(0)
     x = u0.copy()
-    have = False
-    yE = np.zeros(3)
-    z = np.zeros(0)
-    active = np.zeros(0, dtype=np.bool_)
+    have = have0  # the state of u0 (multipliers, active set) when it is a solved point
+    yE = yE0.copy()
+    z = z0.copy()
+    active = act0.copy()
     for k in range(m):
         yt = targets[k]
         P = (P0[0], P0[1], P0[2], yt, P0[4], P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
@@ -1190,16 +1194,16 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
                     how[k] = 1
                     x, yE, z, active = xn, yE1, z1, act1
                     continue
-        xn, st, _, s, z, yE = _ip_loop(
+        xn, st, _, s1, z1, yE1 = _ip_loop(
             x, P, tol, constr_tol, mu0, max_iter, 1e300, none, none, none, 0.0
         )
         if st == IP_NONFINITE or not np.all(np.isfinite(xn)):
-            return X, k, how
+            return X, k, how, yE, z, active, have
         xn = _polish(xn, P, 3, reach, margin)
         if not _reaches(xn, x, P, jump, pos_tol, ang_tol):
-            return X, k, how
+            return X, k, how, yE, z, active, have
         X[k] = xn
-        x = xn
-        active = z > s
+        x, yE, z = xn, yE1, z1
+        active = z1 > s1
         have = st == IP_SUCCESS
-    return X, m, how
+    return X, m, how, yE, z, active, have

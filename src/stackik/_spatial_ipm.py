@@ -1118,25 +1118,27 @@ def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: f
 @_jit
 def ip_path(u0: FloatArray, pos: FloatArray, rot: FloatArray, P0: Any, jump: FloatArray,
             tol: float, constr_tol: float, mu0: float, max_iter: int, reach: float,
-            margin: float, pos_tol: float, ang_tol: float,
-            pc: bool) -> tuple[Any, ...]:  # fmt: skip
+            margin: float, pos_tol: float, ang_tol: float, pc: bool, yE0: FloatArray,
+            z0: FloatArray, act0: FloatArray, have0: bool) -> tuple[Any, ...]:  # fmt: skip
     """:func:`stackik._ipm.ip_path` for spatial targets (positions ``pos`` (m, 3) [mm],
     rotations ``rot`` (m, 3, 3)): each step from the previous point, the continuation
     step first (``pc``) and the barrier solve (initial barrier ``mu0``) when it is not
     verified, then :func:`polish`; stops before the first step whose point misses its
-    target, violates a limit or jumps (:func:`_reaches`). Returns the points (m, N), the
-    number of steps taken and per step 1 (continuation step) or 0 (barrier solve); the
-    caller re-checks every point with the independent check."""
+    target, violates a limit or jumps (:func:`_reaches`). The first step carries the
+    state ``yE0, z0, act0`` of ``u0`` when ``have0``. Returns the points (m, N), the
+    number of steps taken, per step 1 (continuation step) or 0 (barrier solve), and the
+    state of the last point reached (``yE, z, active, have``); the caller re-checks
+    every point with the independent check."""
     m = pos.shape[0]
     N = u0.size
     X = np.empty((m, N))
     how = np.zeros(m, dtype=np.int64)
     none = np.empty(0)
     x = u0.copy()
-    have = False
-    yE = np.zeros(6)
-    z = np.zeros(0)
-    active = np.zeros(0, dtype=np.bool_)
+    have = have0  # the state of u0 (multipliers, active set) when it is a solved point
+    yE = yE0.copy()
+    z = z0.copy()
+    active = act0.copy()
     for k in range(m):
         P = (P0[0], P0[1], P0[2], pos[k], rot[k], P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
              P0[11], P0[12], P0[13])  # fmt: skip
@@ -1151,15 +1153,15 @@ def ip_path(u0: FloatArray, pos: FloatArray, rot: FloatArray, P0: Any, jump: Flo
                     how[k] = 1
                     x, yE, z, active = xn, yE1, z1, act1
                     continue
-        xn, st, _, s, z, yE = ip_loop(x, P, tol, constr_tol, mu0, max_iter, 1e300, none, none,
-                                      none, 0.0)  # fmt: skip
+        xn, st, _, s1, z1, yE1 = ip_loop(x, P, tol, constr_tol, mu0, max_iter, 1e300, none,
+                                         none, none, 0.0)  # fmt: skip
         if st == IP_NONFINITE or not np.all(np.isfinite(xn)):
-            return X, k, how
+            return X, k, how, yE, z, active, have
         xn = polish(xn, P, 3, reach, margin)
         if not _reaches(xn, x, P, jump, pos_tol, ang_tol):
-            return X, k, how
+            return X, k, how, yE, z, active, have
         X[k] = xn
-        x = xn
-        active = z > s
+        x, yE, z = xn, yE1, z1
+        active = z1 > s1
         have = st == IP_SUCCESS
-    return X, m, how
+    return X, m, how, yE, z, active, have

@@ -102,6 +102,8 @@ class Tracker:
 
     def __post_init__(self) -> None:
         self.scale = jump_scale(self.max_jump, 3 if self.planar else 6)
+        #: (last pose of the last run, target class, its state: yE, z, active, have)
+        self._carry: tuple[Any, ...] | None = None
 
     def ratio(self, qa: FloatArray, qb: FloatArray) -> float:
         """Largest per-variable change from ``qa`` to ``qb`` in units of ``max_jump``."""
@@ -142,11 +144,15 @@ class Tracker:
         jump = readonly(np.tile(self.scale, self.stack.n) / prob.xs)
         tol, ctol = float(IP_DEFAULTS["tol"]), float(IP_DEFAULTS["constr_tol"])
         max_iter = int(IP_DEFAULTS["max_iter"])
+        # the multipliers and active set of q when the last run ended at q (its last pose)
+        carry = self._carry
+        same = carry is not None and carry[0] is q and carry[1] == targets[0].__class__
+        state = carry[2] if same and carry is not None else self._no_state()
         tail = (POLISH_REACH, POLISH_MARGIN, check.TARGET_POS_TOL, check.TARGET_ANGLE_TOL,
-                self.pc)  # fmt: skip
+                self.pc, *state)  # fmt: skip
         if self.planar:
             Y = np.array([(t.rho, t.z, t.theta) for t in targets])  # type: ignore[union-attr]
-            X, reached, how = _ipm.ip_path(
+            X, reached, how, *end = _ipm.ip_path(
                 readonly(prob.u_of(q)), readonly(Y), problem_arrays(prob), jump, tol, ctol,
                 WARM_MU0, max_iter, *tail,
             )  # fmt: skip
@@ -154,7 +160,7 @@ class Tracker:
         else:
             pos = np.array([t.position for t in targets])  # type: ignore[union-attr]
             rot = np.array([t.rotation for t in targets])  # type: ignore[union-attr]
-            X, reached, how = _spatial_ipm.ip_path(
+            X, reached, how, *end = _spatial_ipm.ip_path(
                 readonly(prob.u_of(q)), readonly(pos), readonly(rot),
                 spatial_problem_arrays(prob), jump, tol, ctol, WARM_MU0, max_iter, *tail,
             )  # fmt: skip
@@ -171,7 +177,14 @@ class Tracker:
             out.append(qk)
         self.counts.warm += len(out)
         self.counts.pc += int(np.sum(how[: len(out)]))
+        self._carry = None
+        if out and len(out) == int(reached):
+            self._carry = (out[-1], targets[0].__class__, tuple(end))
         return out
+
+    def _no_state(self) -> tuple[Any, ...]:
+        ne = 3 if self.planar else 6
+        return (np.zeros(ne), np.zeros(0), np.zeros(0, dtype=bool), False)
 
     def _subdivide(self, q: FloatArray, ta: Target, tb: Target, depth: int) -> FloatArray | None:
         qb = self.warm(q, tb)

@@ -72,14 +72,16 @@ def _warm_path_kernels(planar: bool) -> None:
     if planar:
         Y = readonly([[pt.rho, pt.z, pt.theta]])
         _ipm.ip_path(u0, Y, problem_arrays(prob), readonly(np.ones(u0.size)), 1e-7, 1e-9,
-                     1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True)  # fmt: skip
+                     1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, np.zeros(3),
+                     np.zeros(0), np.zeros(0, dtype=bool), False)  # fmt: skip
         planar_check_many(stack, [pt], q0[None])
     else:
         st = pt.to_spatial()
         _spatial_ipm.ip_path(u0, readonly([st.position]), readonly([st.rotation]),
                              spatial_problem_arrays(prob), readonly(np.ones(u0.size)), 1e-7,
                              1e-9, 1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8,
-                             True)  # fmt: skip
+                             True, np.zeros(6), np.zeros(0), np.zeros(0, dtype=bool),
+                             False)  # fmt: skip
         spatial_check_many(stack, [st], q0[None])
 
 
