@@ -102,8 +102,12 @@ class Tracker:
 
     def __post_init__(self) -> None:
         self.scale = jump_scale(self.max_jump, 3 if self.planar else 6)
-        #: (last pose of the last run, target class, its state: yE, z, active, have)
+        #: (last pose of the last run, its state: yE, z, active, have)
         self._carry: tuple[Any, ...] | None = None
+        #: the pose from which the last run's warm solve to its next target failed (in
+        #: the kernel: a pose the Python check rejects may come from a continuation step,
+        #: with no warm solve made), else None
+        self.tried_from: FloatArray | None = None
 
     def ratio(self, qa: FloatArray, qb: FloatArray) -> float:
         """Largest per-variable change from ``qa`` to ``qb`` in units of ``max_jump``."""
@@ -146,8 +150,7 @@ class Tracker:
         max_iter = int(IP_DEFAULTS["max_iter"])
         # the multipliers and active set of q when the last run ended at q (its last pose)
         carry = self._carry
-        same = carry is not None and carry[0] is q and carry[1] == targets[0].__class__
-        state = carry[2] if same and carry is not None else self._no_state()
+        state = carry[1] if carry is not None and carry[0] is q else self._no_state()
         tail = (POLISH_REACH, POLISH_MARGIN, check.TARGET_POS_TOL, check.TARGET_ANGLE_TOL,
                 self.pc, *state)  # fmt: skip
         if self.planar:
@@ -178,8 +181,11 @@ class Tracker:
         self.counts.warm += len(out)
         self.counts.pc += int(np.sum(how[: len(out)]))
         self._carry = None
+        self.tried_from = None
         if out and len(out) == int(reached):
-            self._carry = (out[-1], targets[0].__class__, tuple(end))
+            self._carry = (out[-1], tuple(end))
+        if len(out) == int(reached) < len(targets):  # the kernel's warm solve failed
+            self.tried_from = out[-1] if out else q
         return out
 
     def _no_state(self) -> tuple[Any, ...]:

@@ -486,8 +486,9 @@ def _fast(
         step, goal = _towards(tracker, goal, ql[-1], tb, info) if goal else (None, None)
         if step is None:
             off = hows[-1] in ("bounded", "transit")  # off the optimum: no bisection
-            # where a run of warm steps stopped, it made the warm rung's first solve
-            tried = len(ql) == ladder_at and depth == 0
+            # where a run of warm steps stopped in its kernel, it made the warm rung's
+            # first solve from this pose to this waypoint
+            tried = len(ql) == ladder_at and depth == 0 and tracker.tried_from is ql[-1]
             step = tracker.step(ql[-1], tl[-1], tb, subdivide=not off, warm_tried=tried)
         if step is not None:
             accept(step.q, step.how)
