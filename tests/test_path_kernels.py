@@ -10,7 +10,8 @@ import pytest
 
 from stackik import _ipm, _spatial_ipm
 from stackik._arrays import readonly
-from stackik._check import planar_check, planar_check_many
+from stackik._check import _spatial_check, planar_check, planar_check_many, spatial_check_many
+from stackik.check import check_pose
 from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
 from stackik.geometry import Stack
 from stackik.methods.ip import problem_arrays, spatial_problem_arrays
@@ -18,6 +19,9 @@ from stackik.paths import interpolate_targets
 from stackik.sampling import random_reachable_targets, random_spatial_targets
 from stackik.solve import solve_ik
 from stackik.starts import paper_initial_guess
+
+#: No carried state: the arguments of a run from a point that is not a solved one.
+_NO_STATE3 = (np.zeros(3), np.zeros(0), np.zeros(0, dtype=bool), False)
 
 
 def _planar(n: int, seed: int):
@@ -102,11 +106,11 @@ def test_ip_box_stays_in_its_box_and_ip_path_repeats_the_one_start_solve():
     P = problem_arrays(prob)
     # the run of warm steps: the points of _ip_multi from the previous point, bit for bit
     Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:]])
-    X, reached = _ipm.ip_path(
+    X, reached, how = _ipm.ip_path(
         readonly(prob.u_of(q0)), Y, P, readonly(np.full(12, np.inf)), 1e-7, 1e-9, 1e-3, 300,
-        POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8,
-    )  # fmt: skip
-    assert reached >= 1
+        POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, False, *_NO_STATE3,
+    )[:3]  # fmt: skip
+    assert reached >= 1 and not how.any()
     u = prob.u_of(q0)
     for j in range(reached):
         Pj = problem_arrays(Problem(stack, pts[j + 1], "frobenius", None))
@@ -141,3 +145,116 @@ def test_batch_check_matches_the_check_pose_by_pose():
     assert ok == [planar_check(stack, t, q)[0].ok for t, q in zip(ts, Q)]
     assert ok[:2] == [True, True] and ok[2:] == [False, False]
     assert planar_check_many(stack, [], np.zeros((0, 3, 3))) == []
+
+
+@pytest.mark.parametrize(("n", "seed"), [(4, 5), (8, 11)])
+def test_ip_path_continuation_steps_are_verified_kkt_points_near_the_barrier_solve(n, seed):
+    """The predictor-corrector steps (pc=True): most steps of a straight path are made by
+    them; every point reaches its target within the limits (the independent check) with
+    the objective of the barrier solve from the previous point (the same KKT point, or a
+    neighbouring one that the continuation follows where the barrier solve slides to
+    the other), and the run is deterministic."""
+    stack = Stack.reference(n)
+    a, b = random_reachable_targets(stack, 2, rng=seed)
+    pts = interpolate_targets([a, b], max_step=(15.0, 0.03))
+    q0 = solve_ik(stack, pts[0]).q
+    prob = Problem(stack, pts[0], "frobenius", None)
+    P = problem_arrays(prob)
+    Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:]])
+    args = (readonly(prob.u_of(q0)), Y, P, readonly(np.full(3 * n, np.inf)), 1e-7, 1e-9,
+            1e-3, 300, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, *_NO_STATE3)  # fmt: skip
+    X, reached, how, *state = _ipm.ip_path(*args)
+    X2, reached2, how2, *_ = _ipm.ip_path(*args)
+    assert reached == reached2 and np.array_equal(X[:reached], X2[:reached])
+    assert np.array_equal(how, how2)
+    assert reached >= 5 and how[:reached].sum() >= reached // 2
+    # two runs, the second from the first's last point with its state: the same points
+    h = reached // 2
+    Xa, ra, _, *end = _ipm.ip_path(args[0], readonly(Y[:h]), *args[2:13], *_NO_STATE3)
+    assert ra == h and end[3]
+    Xb, rb, howb, *_ = _ipm.ip_path(readonly(Xa[h - 1]), readonly(Y[h:reached]), *args[2:13],
+                                    *end)  # fmt: skip
+    assert rb == reached - h and howb[0] == how[h]
+    np.testing.assert_array_equal(np.concatenate([Xa[:h], Xb[:rb]]), X[:reached])
+    Q = np.array([prob.q_of(X[j]) for j in range(reached)])
+    assert all(planar_check_many(stack, pts[1 : reached + 1], Q))
+    u = prob.u_of(q0)
+    for j in range(reached):
+        Pj = problem_arrays(Problem(stack, pts[j + 1], "frobenius", None))
+        if how[j]:
+            Xj = _ipm._ip_multi(np.atleast_2d(u), Pj, 1e-7, 1e-9, np.array([1e-3]), 300,
+                                1e300, POLISH_REACH, POLISH_MARGIN)  # fmt: skip
+            f_pc = _ipm._evaluate(X[j], Pj)[0]
+            # the same local minimum, or (where the barrier solve slides to a neighbouring
+            # one) a KKT point whose FN^2 differs by a fraction of a per mille
+            assert abs(f_pc - Xj[3][0]) <= 1e-3 * abs(Xj[3][0])
+        u = X[j]
+
+
+def test_spatial_batch_check_matches_the_check_pose():
+    """The compiled spatial check: the values of check_pose (to rounding) and its verdicts,
+    on solved poses and poses moved off them by 1e-12 .. 1 times a typical step."""
+    stack = Stack.reference(3)
+    rng = np.random.default_rng(4)
+    ts, Q = [], []
+    for t in random_spatial_targets(stack, 3, 6):
+        q = solve_ik(stack, t).q
+        for e in (0.0, *10.0 ** rng.uniform(-12, 0, 7)):
+            ts.append(t)
+            Q.append(q + e * rng.normal(size=q.shape) * np.array([30, 30, 30, 0.3, 0.3, 0.3]))
+    Q = np.array(Q)
+    oks = spatial_check_many(stack, ts, Q)
+    assert any(oks) and not all(oks)
+    for t, q, ok in zip(ts, Q, oks):
+        c = check_pose(stack, t, q)
+        assert ok == c.ok
+        pe, ae, mv, vmm, fin = _spatial_check(
+            readonly(q), readonly(stack.base_nodes), readonly(stack.top_nodes),
+            readonly(stack.leg_min), readonly(stack.leg_max), readonly(stack.sin_joint_min),
+            readonly(t.position), readonly(t.rotation),
+        )  # fmt: skip
+        assert fin
+        np.testing.assert_allclose([pe, ae], [c.position_error, c.angle_error], rtol=1e-6,
+                                   atol=1e-11)  # fmt: skip
+        np.testing.assert_allclose([mv, vmm], [c.max_violation, c.max_violation_mm],
+                                   rtol=1e-9, atol=1e-9)  # fmt: skip
+    assert spatial_check_many(stack, [], np.zeros((0, 3, 6))) == []
+
+
+def test_spatial_ip_path_steps_are_checked_and_deterministic():
+    """The spatial run (continuation steps, barrier solves where they are not verified):
+    continuation steps on a finely sampled path, every point passes the check and is
+    within its jump, the objective of a continuation step is that of the barrier solve
+    from the previous point (a per mille), deterministic."""
+    stack = Stack.reference(3)
+    a, b = random_spatial_targets(stack, 2, 8)
+    pts = interpolate_targets([a, b], steps=40)
+    q0 = solve_ik(stack, pts[0]).q
+    prob = Problem(stack, pts[0], "frobenius", None)
+    P = spatial_problem_arrays(prob)
+    jump = np.tile([60.0, 60, 60, 0.3, 0.3, 0.3], 3)
+    pos = readonly([t.position for t in pts[1:]])
+    rot = readonly([t.rotation for t in pts[1:]])
+    args = (readonly(prob.u_of(q0)), pos, rot, P, readonly(jump / prob.xs), 1e-7, 1e-9, 1e-3,
+            300, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, np.zeros(6), np.zeros(0),
+            np.zeros(0, dtype=bool), False)  # fmt: skip
+    X, reached, how, *_ = _spatial_ipm.ip_path(*args)
+    X2, reached2, how2, *_ = _spatial_ipm.ip_path(*args)
+    assert reached == reached2 and np.array_equal(X[:reached], X2[:reached])
+    assert np.array_equal(how, how2)
+    assert reached >= 10 and how[:reached].sum() >= 3
+    Q = np.array([prob.q_of(X[j]) for j in range(reached)])
+    assert all(spatial_check_many(stack, pts[1 : reached + 1], Q))
+    steps = np.abs(np.diff(np.concatenate([q0[None], Q]), axis=0)) / jump.reshape(3, 6)
+    assert steps.max() <= 1.0
+    u = prob.u_of(q0)
+    none = np.empty(0)
+    for j in range(reached):
+        Pj = spatial_problem_arrays(Problem(stack, pts[j + 1], "frobenius", None))
+        if how[j]:
+            x = _spatial_ipm.ip_loop(readonly(u), Pj, 1e-7, 1e-9, 1e-3, 300, 1e300, none, none,
+                                     none, 0.0)[0]  # fmt: skip
+            f_ip = _spatial_ipm.evaluate(x, Pj)[0]
+            f_pc = _spatial_ipm.evaluate(X[j], Pj)[0]
+            assert abs(f_pc - f_ip) <= 1e-3 * abs(f_ip)
+        u = X[j]

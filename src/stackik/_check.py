@@ -171,3 +171,108 @@ def planar_check_many(stack: Any, targets: Any, Q: FloatArray) -> list[bool]:
         bool(pose_ok(float(p), float(a), float(v), bool(f)))
         for p, a, v, f in zip(pos, ang, v_mm, finite)
     ]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _spatial_check(q: FloatArray, base: FloatArray, top: FloatArray, leg_min: FloatArray,
+                   leg_max: FloatArray, sin_joint: FloatArray, p_t: FloatArray,
+                   R_t: FloatArray) -> tuple[Any, ...]:  # fmt: skip
+    """A spatial pose ``q`` (n, 6) ``[x, y, z, yaw, pitch, roll]`` against a target:
+    position error [mm], rotation angle of ``R_t^T R_ee`` [rad], worst violation raw and
+    as a length [mm] (as :func:`stackik.check.check_pose`), finiteness. Written from
+    DESIGN §1-2 (``R = Rz Ry Rx``, leg ``l = R t + p - b`` in the platform's base frame,
+    top normal ``R e_z``), sharing no code with the spatial solver."""
+    n = q.shape[0]
+    A = np.eye(3)
+    P = np.zeros(3)
+    max_v = 0.0
+    v_mm = 0.0
+    finite = True
+    for i in range(n):
+        for a in range(3):
+            P[a] += A[a, 0] * q[i, 0] + A[a, 1] * q[i, 1] + A[a, 2] * q[i, 2]
+        cy, sy = math.cos(q[i, 3]), math.sin(q[i, 3])
+        cp, sp = math.cos(q[i, 4]), math.sin(q[i, 4])
+        cr, sr = math.cos(q[i, 5]), math.sin(q[i, 5])
+        R = np.array([
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ])  # fmt: skip
+        A = A @ R
+        for k in range(6):
+            l0 = R[0, 0] * top[i, k, 0] + R[0, 1] * top[i, k, 1] + R[0, 2] * top[i, k, 2]
+            l1 = R[1, 0] * top[i, k, 0] + R[1, 1] * top[i, k, 1] + R[1, 2] * top[i, k, 2]
+            l2 = R[2, 0] * top[i, k, 0] + R[2, 1] * top[i, k, 1] + R[2, 2] * top[i, k, 2]
+            l0 += q[i, 0] - base[i, k, 0]
+            l1 += q[i, 1] - base[i, k, 1]
+            l2 += q[i, 2] - base[i, k, 2]
+            sq = l0 * l0 + l1 * l1 + l2 * l2
+            nrm = math.sqrt(sq)
+            c = (sq - leg_min[i] ** 2, leg_max[i] ** 2 - sq, l2 - nrm * sin_joint[i],
+                 l0 * R[0, 2] + l1 * R[1, 2] + l2 * R[2, 2] - nrm * sin_joint[i])  # fmt: skip
+            for b in range(4):
+                if not math.isfinite(c[b]):
+                    finite = False
+                v = max(-c[b], 0.0)
+                max_v = max(max_v, v)
+                if b == 0:
+                    vm = leg_min[i] - math.sqrt(max(leg_min[i] ** 2 - v, 0.0))
+                elif b == 1:
+                    vm = math.sqrt(leg_max[i] ** 2 + v) - leg_max[i]
+                else:
+                    vm = v
+                v_mm = max(v_mm, vm)
+    pos_err = math.sqrt((P[0] - p_t[0]) ** 2 + (P[1] - p_t[1]) ** 2 + (P[2] - p_t[2]) ** 2)
+    E = R_t.T @ A
+    sx = 0.5 * (E[2, 1] - E[1, 2])
+    sy_ = 0.5 * (E[0, 2] - E[2, 0])
+    sz = 0.5 * (E[1, 0] - E[0, 1])
+    ang_err = math.atan2(math.sqrt(sx * sx + sy_ * sy_ + sz * sz),
+                         0.5 * (E[0, 0] + E[1, 1] + E[2, 2] - 1.0))  # fmt: skip
+    return pos_err, ang_err, max_v, v_mm, finite
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _spatial_check_many(Q: FloatArray, base: FloatArray, top: FloatArray, leg_min: FloatArray,
+                        leg_max: FloatArray, sin_joint: FloatArray, pos: FloatArray,
+                        rot: FloatArray) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`_spatial_check` of poses ``Q`` (m, n, 6) against targets ``pos`` (m, 3),
+    ``rot`` (m, 3, 3)."""
+    m = Q.shape[0]
+    pe = np.empty(m)
+    ae = np.empty(m)
+    v_mm = np.empty(m)
+    finite = np.empty(m, dtype=np.bool_)
+    for j in range(m):
+        p, a, _, v, f = _spatial_check(Q[j], base, top, leg_min, leg_max, sin_joint, pos[j],
+                                       rot[j])  # fmt: skip
+        pe[j], ae[j], v_mm[j], finite[j] = p, a, v, f
+    return pe, ae, v_mm, finite
+
+
+def spatial_check_many(stack: Any, targets: Any, Q: FloatArray) -> list[bool]:
+    """Whether each spatial pose ``Q[j]`` (m, n, 6) passes the acceptance rule
+    (:func:`stackik.check.pose_ok`) for ``targets[j]``: the verdicts of
+    :func:`stackik.check.check_pose`, in one compiled call."""
+    from stackik._arrays import readonly
+    from stackik.check import pose_ok
+
+    if len(targets) == 0:
+        return []
+    pos = np.array([t.position for t in targets], dtype=float)
+    rot = np.array([t.rotation for t in targets], dtype=float)
+    pe, ae, v_mm, finite = _spatial_check_many(
+        readonly(np.ascontiguousarray(Q, dtype=float)),
+        readonly(stack.base_nodes),
+        readonly(stack.top_nodes),
+        readonly(stack.leg_min),
+        readonly(stack.leg_max),
+        readonly(stack.sin_joint_min),
+        readonly(pos),
+        readonly(rot),
+    )
+    return [
+        bool(pose_ok(float(p), float(a), float(v), bool(f)))
+        for p, a, v, f in zip(pe, ae, v_mm, finite)
+    ]

@@ -647,10 +647,13 @@ def _now() -> float:
 @_jit
 def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
              max_iter: int, deadline: float, lo: FloatArray, hi: FloatArray,
-             ug: FloatArray, wq: float) -> tuple[FloatArray, int, int]:  # fmt: skip
+             ug: FloatArray, wq: float) -> tuple[Any, ...]:  # fmt: skip
     """The barrier method from ``u0``; ``lo``/``hi`` (empty: none) add the box
     ``lo <= u <= hi`` as limit rows and ``wq |u - ug|^2`` is added to the objective
-    (:func:`_evaluate_ext`; a path step's extensions)."""
+    (:func:`_evaluate_ext`; a path step's extensions). Returns the point, the status,
+    the iteration count and the final slacks ``s`` and multipliers ``z``, ``yE``
+    (multipliers of the problem as ``P0`` states it, i.e. without the objective scaling
+    the loop applies: a continuation step starts from them, :func:`_pc_step`)."""
     n = P0[7].shape[0]
     R = 24 if lo.size == 0 else 30
     m = R * n
@@ -658,7 +661,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     x = u0.copy()
     f, g, cE, AE, cI, D = _evaluate_ext(x, P0, lo, hi, ug, wq)
     if not (np.all(np.isfinite(cI)) and np.all(np.isfinite(cE)) and math.isfinite(f)):
-        return x, IP_NONFINITE, 0
+        return x, IP_NONFINITE, 0, cI, np.ones(m), np.zeros(3)
     # objective scaling as IPOPT's gradient-based rule: max |grad f(x0)| <= OBJ_MAX_GRAD
     gmax = np.abs(g).max()
     fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
@@ -836,7 +839,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
         f, g, cE, AE, cI, D = ft, gt, cEt, AEt, cIt, Dt
         yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
-    return x, status, it + 1 if status != IP_SUCCESS else it
+    return x, status, it + 1 if status != IP_SUCCESS else it, s, z / fs, yE / fs
 
 
 @_jit
@@ -893,7 +896,7 @@ def _ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatA
         X[j] = U0[j]
         if j > 0 and _now() > deadline:
             break
-        x, st, it = _ip_loop(
+        x, st, it, _, _, _ = _ip_loop(
             U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline, none, none, none, 0.0
         )
         if st == IP_NONFINITE or not np.all(np.isfinite(x)):
@@ -920,44 +923,287 @@ def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArra
     """One barrier solve inside the box ``lo <= u <= hi`` (scaled) with ``wq |u - ug|^2``
     added to the objective (``wq = 0``: none), then :func:`_polish`. Returns the point,
     the status and the iteration count; the caller checks the pose and the box."""
-    x, st, it = _ip_loop(u0, P, tol, constr_tol, mu0, max_iter, 1e300, lo, hi, ug, wq)
+    x, st, it, _, _, _ = _ip_loop(u0, P, tol, constr_tol, mu0, max_iter, 1e300, lo, hi, ug, wq)
     if st == IP_NONFINITE or not np.all(np.isfinite(x)):
         return u0.copy(), IP_NONFINITE, it
     return _polish(x, P, 3, reach, margin), st, it
 
 
+#: Newton iterations of a continuation step (:func:`_pc_step`), all active sets
+#: together, and active-set changes (a limit added or released) it may make; a step that
+#: has not converged by then goes to the barrier solve.
+PC_NEWTON = 8
+PC_CHANGES = 3
+#: The continuation step holds its active limits at this scaled value rather than at 0,
+#: on the feasible side as the barrier solve's points are (slacks ~ mu / z there), so
+#: that rounding never leaves them violated for the polish to move.
+PC_OFFSET = 1e-10
+#: ... and converges its equality and active-limit residuals (scaled) to this, below
+#: the polish's threshold (1e-13), where the barrier solve's own test asks constr_tol.
+PC_PRIMAL_TOL = 1e-13
+
+
+@_jit
+def _twins(act: FloatArray, cI: FloatArray, D: FloatArray) -> FloatArray:
+    """For each limit row of the set ``act``: -1 when it enters the Newton system, else
+    the earlier row of the set it copies (mirror legs: the same value and gradient to
+    rounding, i.e. the same function)."""
+    m = cI.size
+    parent = np.full(m, -1)
+    for r in range(m):
+        if not act[r]:
+            continue
+        i = r // 24
+        for r2 in range(24 * i, r):
+            same = act[r2] and parent[r2] < 0 and abs(cI[r2] - cI[r]) <= 1e-12
+            for k in range(3):
+                dk = D[i, r % 24, k]
+                same = same and abs(D[i, r2 % 24, k] - dk) <= 1e-9 * (1.0 + abs(dk))
+            if same:
+                parent[r] = r2
+                break
+    return parent
+
+
+@_jit
+def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: FloatArray,
+             tol: float, constr_tol: float, max_newton: int,
+             max_changes: int) -> tuple[Any, ...]:  # fmt: skip
+    """Predictor-corrector continuation step from the solution ``x0`` of the previous
+    target (multipliers ``yE0``, ``z0`` of ``P0``'s problem, ``active``: boolean mask of
+    the limit rows active there) to the solution for ``P0``'s target.
+
+    Newton's method on the KKT conditions of the problem with the active limits as
+    equalities, ``g - AE^T yE - AA^T zA = 0``, ``c_E = 0``, ``c_A = PC_OFFSET`` (on the
+    feasible side by a rounding-sized margin), exact Hessian. The target enters only
+    ``c_E``, so the first iteration, with the KKT matrix of the previous solution, is
+    the tangent predictor (``x0`` plus the sensitivity of the solution to the target
+    change, times the change); the next ones correct.
+
+    Converged when the stationarity error and the complementarity ``c_A zA`` (scaled as
+    :func:`_ip_loop` scales them, objective scaling included) are within ``tol`` and
+    the equality and active-limit residuals within ``min(constr_tol, PC_PRIMAL_TOL)``
+    (:func:`_ip_loop`'s termination test, the residuals tighter so that the polish has
+    nothing left to move). A converged point releases the limit with the most negative
+    multiplier, or else adds the other limits that it violates or nearly meets (closer
+    than ``PC_OFFSET / 2``), and Newton goes on: at most ``max_changes`` changes and
+    ``max_newton`` iterations in all. A set with more limits than the freedom ``N - 3``
+    (degenerate) loses its weakest (least multiplier) first. Active rows that copy an
+    earlier active row (mirror legs, :func:`_twins`) enter once, with the multipliers of
+    the copies summed onto that row.
+
+    Verified (``ok``) when converged with every active multiplier >= 0 and every other
+    limit at ``c_I >= PC_OFFSET / 2``: a KKT point of the original problem to the barrier
+    solve's tolerances. Returns ``(x, ok, yE, z, active, iterations)`` (multipliers of
+    ``P0``'s problem, ``z`` zero off the active set); the caller polishes and checks
+    ``x``."""
+    n = P0[7].shape[0]
+    N = 3 * n
+    m = 24 * n
+    f, g, cE, AE, cI, D = _evaluate(x0, P0)
+    gmax = np.abs(g).max()
+    fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
+    P = (P0[0], P0[1], P0[2], P0[3], P0[4] / fs, P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
+         P0[11], P0[12], P0[13], P0[14], P0[15])  # fmt: skip
+    g = g * fs
+    x = x0.copy()
+    yE = yE0 * fs
+    zf = z0 * fs  # full multipliers; only the rows of the Newton system are used
+    act = active.copy()
+    ok = False
+    it = 0
+    changes = 0
+    while True:
+        parent = _twins(act, cI, D)
+        for r in range(m):
+            if act[r] and parent[r] >= 0:
+                zf[parent[r]] += zf[r]
+                zf[r] = 0.0
+            elif not act[r]:
+                zf[r] = 0.0
+        idx = np.nonzero(act & (parent < 0))[0]
+        na = idx.size
+        while 3 + na > N:  # more limits than freedom (degenerate): the weakest go
+            rj = idx[0]
+            for j in range(na):
+                if zf[idx[j]] < zf[rj]:
+                    rj = idx[j]
+            act[rj] = False
+            zf[rj] = 0.0
+            for r in range(m):
+                if parent[r] == rj:
+                    act[r] = False
+            idx = np.nonzero(act & (parent < 0))[0]
+            na = idx.size
+        zA = np.empty(na)
+        for j in range(na):
+            zA[j] = zf[idx[j]]
+        K = np.zeros((N + 3 + na, N + 3 + na))
+        rhs = np.empty(N + 3 + na)
+        conv = False
+        while True:
+            if not (np.all(np.isfinite(g)) and np.all(np.isfinite(cE))
+                    and np.all(np.isfinite(cI))):  # fmt: skip
+                break
+            for j in range(na):
+                zf[idx[j]] = zA[j]
+            rd = g - _AET_dot(AE, yE) - _AIT_dot(D, zf)
+            sd_acc = abs(yE[0]) + abs(yE[1]) + abs(yE[2])
+            for j in range(na):
+                sd_acc += abs(zA[j])
+            sd = max(100.0, sd_acc / (m + 3)) / 100.0
+            e_du = np.abs(rd).max() / sd
+            e_pr = max(abs(cE[0]), max(abs(cE[1]), abs(cE[2])))
+            comp = 0.0
+            for j in range(na):
+                e_pr = max(e_pr, abs(cI[idx[j]] - PC_OFFSET))
+                comp = max(comp, abs(cI[idx[j]] * zA[j]))
+            if e_du <= tol and comp / sd <= tol and e_pr <= min(constr_tol, PC_PRIMAL_TOL):
+                conv = True
+                break
+            if it >= max_newton:
+                break
+            it += 1
+            W = _lagrangian_hessian(x, yE, zf, P)
+            K[:] = 0.0
+            K[:N, :N] = W
+            for a in range(N):
+                for r in range(3):
+                    K[a, N + r] = -AE[r, a]
+                    K[N + r, a] = AE[r, a]
+                rhs[a] = -rd[a]
+            for r in range(3):
+                rhs[N + r] = -cE[r]
+            for j in range(na):
+                i = idx[j] // 24
+                for k in range(3):
+                    K[3 * i + k, N + 3 + j] = -D[i, idx[j] % 24, k]
+                    K[N + 3 + j, 3 * i + k] = D[i, idx[j] % 24, k]
+                rhs[N + 3 + j] = PC_OFFSET - cI[idx[j]]
+            if not np.all(np.isfinite(K)):
+                break
+            try:
+                sol = np.linalg.solve(K, rhs)
+            except Exception:  # noqa: BLE001 - singular KKT matrix: the barrier solve decides
+                break
+            if not np.all(np.isfinite(sol)):
+                break
+            x = x + sol[:N]
+            for r in range(3):
+                yE[r] += sol[N + r]
+            for j in range(na):
+                zA[j] += sol[N + 3 + j]
+            f, g, cE, AE, cI, D = _evaluate(x, P)
+        if not conv:
+            break
+        # release the limit with the most negative multiplier (and its copies) ...
+        jmin = -1
+        for j in range(na):
+            if zA[j] < 0.0 and (jmin < 0 or zA[j] < zA[jmin]):
+                jmin = j
+        # ... or add the other limits that the point violates or nearly meets (closer
+        # than half the offset: within rounding of it)
+        nadd = 0
+        for r in range(m):
+            if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
+                nadd += 1
+        if jmin < 0 and nadd == 0:
+            ok = True
+            break
+        if changes >= max_changes:
+            break
+        changes += 1
+        if jmin >= 0:
+            rj = idx[jmin]
+            act[rj] = False
+            zf[rj] = 0.0
+            for r in range(m):
+                if parent[r] == rj:
+                    act[r] = False
+        else:
+            for r in range(m):
+                if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
+                    act[r] = True
+    return x, ok, yE / fs, zf / fs, act, it
+
+
+@_jit
+def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: float,
+             ang_tol: float) -> bool:  # fmt: skip
+    """Whether the polished point ``xn`` reaches ``P``'s target (``pos_tol`` [mm],
+    ``ang_tol`` [rad], from the scaled equalities), violates no limit (scaled) and moves
+    no variable from ``x`` by more than ``jump`` (scaled, per variable)."""
+    es = P[2]
+    f, g, cE, AE, cI, D = _evaluate(xn, P)
+    if not (math.hypot(cE[0] / es[0], cE[1] / es[1]) <= pos_tol
+            and abs(cE[2] / es[2]) <= ang_tol and cI.min() >= -1e-12):  # fmt: skip
+        return False
+    for a in range(x.size):
+        if not abs(xn[a] - x[a]) <= jump[a]:
+            return False
+    return True
+
+
 @_jit
 def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol: float,
             constr_tol: float, mu0: float, max_iter: int, reach: float, margin: float,
-            pos_tol: float, ang_tol: float) -> tuple[FloatArray, int]:  # fmt: skip
+            pos_tol: float, ang_tol: float, pc: bool, yE0: FloatArray, z0: FloatArray,
+            act0: FloatArray, have0: bool) -> tuple[Any, ...]:  # fmt: skip
     """Warm-started steps along targets ``(m, 3)`` (raw rho, z, theta), each from the
-    previous point (the first from ``u0``): :func:`_ip_loop` with initial barrier ``mu0``
-    and :func:`_polish`, exactly as :func:`_ip_multi` with that one start. Stops before
-    the first step whose point misses its target (``pos_tol`` [mm], ``ang_tol`` [rad],
-    from the scaled equalities), violates a limit (scaled) or moves some variable by more
-    than ``jump`` (scaled, per variable). Returns the points (m, N) and the number of
-    steps taken; the caller re-checks every point with the independent check."""
+    previous point (the first from ``u0``).
+
+    With ``pc`` False every step is :func:`_ip_loop` with initial barrier ``mu0`` and
+    :func:`_polish`, exactly as :func:`_ip_multi` with that one start. With ``pc`` True a
+    step after a solved one is first the predictor-corrector step (:func:`_pc_step`:
+    the previous solution's multipliers and active set carried, tangent predictor,
+    Newton correctors, verified as a KKT point), polished and tested as below; when it
+    is not verified or fails the test, the step is the barrier solve as without ``pc``
+    (whose final multipliers and active set, ``z > s``, the next step carries). The
+    first step carries ``yE0``, ``z0``, ``act0`` when ``have0`` (the state of ``u0`` that
+    the previous run returned; empty arrays and False otherwise).
+
+    Stops before the first step whose point misses its target (``pos_tol`` [mm],
+    ``ang_tol`` [rad], from the scaled equalities), violates a limit (scaled) or moves
+    some variable by more than ``jump`` (scaled, per variable). Returns the points
+    (m, N), the number of steps taken, per step 1 when the continuation step made it
+    and 0 when the barrier solve did, and the state of the last point reached
+    (``yE, z, active, have``, for the next run from it); the caller re-checks every
+    point with the independent check."""
     m = targets.shape[0]
     N = u0.size
     X = np.empty((m, N))
+    how = np.zeros(m, dtype=np.int64)
     none = np.empty(0)
-    es = P0[2]
     x = u0.copy()
+    have = have0  # the state of u0 (multipliers, active set) when it is a solved point
+    yE = yE0.copy()
+    z = z0.copy()
+    active = act0.copy()
     for k in range(m):
         yt = targets[k]
         P = (P0[0], P0[1], P0[2], yt, P0[4], P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
              P0[11], P0[12], P0[13], P0[14], P0[15])  # fmt: skip
-        xn, st, _ = _ip_loop(x, P, tol, constr_tol, mu0, max_iter, 1e300, none, none, none, 0.0)
+        if pc and have:
+            xn, ok, yE1, z1, act1, _ = _pc_step(
+                x, P, yE, z, active, tol, constr_tol, PC_NEWTON, PC_CHANGES
+            )
+            if ok:
+                xn = _polish(xn, P, 3, reach, margin)
+                if _reaches(xn, x, P, jump, pos_tol, ang_tol):
+                    X[k] = xn
+                    how[k] = 1
+                    x, yE, z, active = xn, yE1, z1, act1
+                    continue
+        xn, st, _, s1, z1, yE1 = _ip_loop(
+            x, P, tol, constr_tol, mu0, max_iter, 1e300, none, none, none, 0.0
+        )
         if st == IP_NONFINITE or not np.all(np.isfinite(xn)):
-            return X, k
+            return X, k, how, yE, z, active, have
         xn = _polish(xn, P, 3, reach, margin)
-        f, g, cE, AE, cI, D = _evaluate(xn, P)
-        if not (math.hypot(cE[0] / es[0], cE[1] / es[1]) <= pos_tol
-                and abs(cE[2] / es[2]) <= ang_tol and cI.min() >= -1e-12):  # fmt: skip
-            return X, k
-        for a in range(N):
-            if not abs(xn[a] - x[a]) <= jump[a]:
-                return X, k
+        if not _reaches(xn, x, P, jump, pos_tol, ang_tol):
+            return X, k, how, yE, z, active, have
         X[k] = xn
-        x = xn
-    return X, m
+        x, yE, z = xn, yE1, z1
+        active = z1 > s1
+        have = st == IP_SUCCESS
+    return X, m, how, yE, z, active, have

@@ -677,16 +677,19 @@ def _with_fscale(P0: Any, fscale: float) -> Any:
 @_jit
 def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             max_iter: int, deadline: float, lo: FloatArray, hi: FloatArray, ug: FloatArray,
-            wq: float) -> tuple[FloatArray, int, int]:  # fmt: skip
+            wq: float) -> tuple[Any, ...]:  # fmt: skip
     """The barrier method from ``u0``; ``lo``/``hi`` (empty: none) add a box and ``wq``
-    a distance term (:func:`_evaluate_ext`)."""
+    a distance term (:func:`_evaluate_ext`). Returns the point, the status, the
+    iteration count and the final slacks ``s`` and multipliers ``z``, ``yE`` (of the
+    problem as ``P0`` states it, without the loop's objective scaling; a continuation
+    step starts from them, :func:`_pc_step`)."""
     n = P0[8].shape[0]
     R = 24 if lo.size == 0 else 36
     m = R * n
     x = u0.copy()
     f, g, cE, AE, cI, D, parts = _evaluate_ext(x, P0, lo, hi, ug, wq)
     if not (np.all(np.isfinite(cI)) and np.all(np.isfinite(cE)) and math.isfinite(f)):
-        return x, IP_NONFINITE, 0
+        return x, IP_NONFINITE, 0, cI, np.ones(m), np.zeros(6)
     gmax = np.abs(g).max()
     fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
     P = _with_fscale(P0, P0[5] / fs)
@@ -846,7 +849,7 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
         f, g, cE, AE, cI, D, parts = ft, gt, cEt, AEt, cIt, Dt, parts_t
         yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
-    return x, status, it + 1 if status != IP_SUCCESS else it
+    return x, status, it + 1 if status != IP_SUCCESS else it, s, z / fs, yE / fs
 
 
 @_jit
@@ -866,7 +869,7 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
         X[j] = U0[j]
         if j > 0 and _now() > deadline:
             break
-        x, st, it = ip_loop(
+        x, st, it, _, _, _ = ip_loop(
             U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline, none, none, none, 0.0
         )
         if st == IP_NONFINITE or not np.all(np.isfinite(x)):
@@ -889,7 +892,276 @@ def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArra
     """One barrier solve of a path step inside the box ``lo <= u <= hi`` (scaled) with
     ``wq |u - ug|^2`` added to the objective (``wq = 0``: none). Returns the point, the
     status and the iteration count; the caller polishes and checks the pose."""
-    x, st, it = ip_loop(u0, P, tol, constr_tol, mu0, max_iter, 1e300, lo, hi, ug, wq)
+    x, st, it, _, _, _ = ip_loop(u0, P, tol, constr_tol, mu0, max_iter, 1e300, lo, hi, ug, wq)
     if st == IP_NONFINITE or not np.all(np.isfinite(x)):
         return u0.copy(), IP_NONFINITE, it
     return x, st, it
+
+
+# =========================================================================================
+# Path runs: continuation steps and warm steps in one call (as stackik._ipm.ip_path)
+# =========================================================================================
+#: As :mod:`stackik._ipm`: Newton iterations and active-set changes of a continuation
+#: step, the offset its active limits are held at, and its residual tolerance.
+PC_NEWTON = 8
+PC_CHANGES = 3
+PC_OFFSET = 1e-10
+PC_PRIMAL_TOL = 1e-13
+
+
+@_jit
+def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> FloatArray:
+    """:func:`stackik.formulation.polish` compiled: min-norm Newton corrections of the
+    end-effector equalities and of the limits violated by less than ``reach`` (scaled),
+    put at ``margin``."""
+    n = P[8].shape[0]
+    N = 6 * n
+    for _ in range(iters):
+        f, g, cE, AE, cI, D = evaluate(u, P)
+        nv = 0
+        for r in range(cI.size):
+            if -reach < cI[r] < 0.0:
+                nv += 1
+        if np.abs(cE).max() < 1e-13 and nv == 0:
+            break
+        A = np.zeros((6 + nv, N))
+        rr = np.empty(6 + nv)
+        A[:6] = AE
+        rr[:6] = cE
+        k = 6
+        for r in range(cI.size):
+            if -reach < cI[r] < 0.0:
+                i = r // 24
+                A[k, 6 * i : 6 * i + 6] = D[i, r % 24]
+                rr[k] = cI[r] - margin
+                k += 1
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(rr))):
+            break
+        u = u - np.linalg.lstsq(A, rr)[0]
+    return u
+
+
+@_jit
+def _twins(act: FloatArray, cI: FloatArray, D: FloatArray) -> FloatArray:
+    """As :func:`stackik._ipm._twins` (6 variables per platform)."""
+    m = cI.size
+    parent = np.full(m, -1)
+    for r in range(m):
+        if not act[r]:
+            continue
+        i = r // 24
+        for r2 in range(24 * i, r):
+            same = act[r2] and parent[r2] < 0 and abs(cI[r2] - cI[r]) <= 1e-12
+            for k in range(6):
+                dk = D[i, r % 24, k]
+                same = same and abs(D[i, r2 % 24, k] - dk) <= 1e-9 * (1.0 + abs(dk))
+            if same:
+                parent[r] = r2
+                break
+    return parent
+
+
+@_jit
+def _release(act: FloatArray, zf: FloatArray, parent: FloatArray, rj: int) -> None:
+    act[rj] = False
+    zf[rj] = 0.0
+    for r in range(act.size):
+        if parent[r] == rj:
+            act[r] = False
+
+
+@_jit
+def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: FloatArray,
+             tol: float, constr_tol: float, max_newton: int,
+             max_changes: int) -> tuple[Any, ...]:  # fmt: skip
+    """The continuation step of :func:`stackik._ipm._pc_step` for the spatial problem
+    (6 equalities, 6 variables per platform): Newton on the KKT conditions with the
+    active limits held at ``PC_OFFSET``, the first iteration the tangent predictor, the
+    active set corrected (most negative multiplier released, else violated or nearly met
+    limits added; the weakest dropped while the set exceeds the freedom ``N - 6``), and
+    verified as a KKT point to the barrier solve's tolerances. Returns
+    ``(x, ok, yE, z, active, iterations)``."""
+    n = P0[8].shape[0]
+    N = 6 * n
+    m = 24 * n
+    f, g, cE, AE, cI, D = evaluate(x0, P0)
+    gmax = np.abs(g).max()
+    fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
+    P = _with_fscale(P0, P0[5] / fs)
+    g = g * fs
+    x = x0.copy()
+    yE = yE0 * fs
+    zf = z0 * fs
+    act = active.copy()
+    ok = False
+    it = 0
+    changes = 0
+    while True:
+        parent = _twins(act, cI, D)
+        for r in range(m):
+            if act[r] and parent[r] >= 0:
+                zf[parent[r]] += zf[r]
+                zf[r] = 0.0
+            elif not act[r]:
+                zf[r] = 0.0
+        idx = np.nonzero(act & (parent < 0))[0]
+        while 6 + idx.size > N:  # degenerate: the weakest limits go
+            rj = idx[0]
+            for j in range(idx.size):
+                if zf[idx[j]] < zf[rj]:
+                    rj = idx[j]
+            _release(act, zf, parent, rj)
+            idx = np.nonzero(act & (parent < 0))[0]
+        na = idx.size
+        zA = np.empty(na)
+        for j in range(na):
+            zA[j] = zf[idx[j]]
+        K = np.zeros((N + 6 + na, N + 6 + na))
+        rhs = np.empty(N + 6 + na)
+        conv = False
+        while True:
+            if not (np.all(np.isfinite(g)) and np.all(np.isfinite(cE))
+                    and np.all(np.isfinite(cI))):  # fmt: skip
+                break
+            for j in range(na):
+                zf[idx[j]] = zA[j]
+            rd = g - AE.T @ yE - _AIT_dot(D, zf)
+            sd_acc = np.abs(yE).sum()
+            for j in range(na):
+                sd_acc += abs(zA[j])
+            sd = max(100.0, sd_acc / (m + 6)) / 100.0
+            e_du = np.abs(rd).max() / sd
+            e_pr = np.abs(cE).max()
+            comp = 0.0
+            for j in range(na):
+                e_pr = max(e_pr, abs(cI[idx[j]] - PC_OFFSET))
+                comp = max(comp, abs(cI[idx[j]] * zA[j]))
+            if e_du <= tol and comp / sd <= tol and e_pr <= min(constr_tol, PC_PRIMAL_TOL):
+                conv = True
+                break
+            if it >= max_newton:
+                break
+            it += 1
+            W = lagrangian_hessian(x, yE, zf, P)
+            K[:] = 0.0
+            K[:N, :N] = W
+            for a in range(N):
+                for r in range(6):
+                    K[a, N + r] = -AE[r, a]
+                    K[N + r, a] = AE[r, a]
+                rhs[a] = -rd[a]
+            for r in range(6):
+                rhs[N + r] = -cE[r]
+            for j in range(na):
+                i = idx[j] // 24
+                for k in range(6):
+                    K[6 * i + k, N + 6 + j] = -D[i, idx[j] % 24, k]
+                    K[N + 6 + j, 6 * i + k] = D[i, idx[j] % 24, k]
+                rhs[N + 6 + j] = PC_OFFSET - cI[idx[j]]
+            if not np.all(np.isfinite(K)):
+                break
+            try:
+                sol = np.linalg.solve(K, rhs)
+            except Exception:  # noqa: BLE001 - singular KKT matrix: the barrier solve decides
+                break
+            if not np.all(np.isfinite(sol)):
+                break
+            x = x + sol[:N]
+            for r in range(6):
+                yE[r] += sol[N + r]
+            for j in range(na):
+                zA[j] += sol[N + 6 + j]
+            f, g, cE, AE, cI, D = evaluate(x, P)
+        if not conv:
+            break
+        jmin = -1
+        for j in range(na):
+            if zA[j] < 0.0 and (jmin < 0 or zA[j] < zA[jmin]):
+                jmin = j
+        nadd = 0
+        for r in range(m):
+            if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
+                nadd += 1
+        if jmin < 0 and nadd == 0:
+            ok = True
+            break
+        if changes >= max_changes:
+            break
+        changes += 1
+        if jmin >= 0:
+            _release(act, zf, parent, idx[jmin])
+        else:
+            for r in range(m):
+                if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
+                    act[r] = True
+    return x, ok, yE / fs, zf / fs, act, it
+
+
+@_jit
+def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: float,
+             ang_tol: float) -> bool:  # fmt: skip
+    """Whether the polished point ``xn`` reaches ``P``'s target (``pos_tol`` [mm]; the
+    orientation error's sine from the scaled equalities within ``ang_tol``), violates no
+    limit (scaled) and moves no variable from ``x`` by more than ``jump`` (scaled)."""
+    es = P[2]
+    f, g, cE, AE, cI, D = evaluate(xn, P)
+    pe = math.sqrt((cE[0] / es[0]) ** 2 + (cE[1] / es[1]) ** 2 + (cE[2] / es[2]) ** 2)
+    ae = math.sqrt((cE[3] / es[3]) ** 2 + (cE[4] / es[4]) ** 2 + (cE[5] / es[5]) ** 2)
+    if not (pe <= pos_tol and ae <= ang_tol and cI.min() >= -1e-12):
+        return False
+    for a in range(x.size):
+        if not abs(xn[a] - x[a]) <= jump[a]:
+            return False
+    return True
+
+
+@_jit
+def ip_path(u0: FloatArray, pos: FloatArray, rot: FloatArray, P0: Any, jump: FloatArray,
+            tol: float, constr_tol: float, mu0: float, max_iter: int, reach: float,
+            margin: float, pos_tol: float, ang_tol: float, pc: bool, yE0: FloatArray,
+            z0: FloatArray, act0: FloatArray, have0: bool) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`stackik._ipm.ip_path` for spatial targets (positions ``pos`` (m, 3) [mm],
+    rotations ``rot`` (m, 3, 3)): each step from the previous point, the continuation
+    step first (``pc``) and the barrier solve (initial barrier ``mu0``) when it is not
+    verified, then :func:`polish`; stops before the first step whose point misses its
+    target, violates a limit or jumps (:func:`_reaches`). The first step carries the
+    state ``yE0, z0, act0`` of ``u0`` when ``have0``. Returns the points (m, N), the
+    number of steps taken, per step 1 (continuation step) or 0 (barrier solve), and the
+    state of the last point reached (``yE, z, active, have``); the caller re-checks
+    every point with the independent check."""
+    m = pos.shape[0]
+    N = u0.size
+    X = np.empty((m, N))
+    how = np.zeros(m, dtype=np.int64)
+    none = np.empty(0)
+    x = u0.copy()
+    have = have0  # the state of u0 (multipliers, active set) when it is a solved point
+    yE = yE0.copy()
+    z = z0.copy()
+    active = act0.copy()
+    for k in range(m):
+        P = (P0[0], P0[1], P0[2], pos[k], rot[k], P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
+             P0[11], P0[12], P0[13])  # fmt: skip
+        if pc and have:
+            xn, ok, yE1, z1, act1, _ = _pc_step(
+                x, P, yE, z, active, tol, constr_tol, PC_NEWTON, PC_CHANGES
+            )
+            if ok:
+                xn = polish(xn, P, 3, reach, margin)
+                if _reaches(xn, x, P, jump, pos_tol, ang_tol):
+                    X[k] = xn
+                    how[k] = 1
+                    x, yE, z, active = xn, yE1, z1, act1
+                    continue
+        xn, st, _, s1, z1, yE1 = ip_loop(x, P, tol, constr_tol, mu0, max_iter, 1e300, none,
+                                         none, none, 0.0)  # fmt: skip
+        if st == IP_NONFINITE or not np.all(np.isfinite(xn)):
+            return X, k, how, yE, z, active, have
+        xn = polish(xn, P, 3, reach, margin)
+        if not _reaches(xn, x, P, jump, pos_tol, ang_tol):
+            return X, k, how, yE, z, active, have
+        X[k] = xn
+        x, yE, z = xn, yE1, z1
+        active = z1 > s1
+        have = st == IP_SUCCESS
+    return X, m, how, yE, z, active, have

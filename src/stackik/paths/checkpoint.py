@@ -35,11 +35,12 @@ class PathCheckpoint:
 
     def __init__(self, path: str | Path | None, key: dict[str, Any]) -> None:
         self.path = None if path is None else Path(path)
+        self.records: dict[tuple[str, int], Any] = {}
+        if self.path is None:  # nothing to match: no fingerprint (its JSON costs ~0.5 ms)
+            self.fingerprint = ""
+            return
         text = json.dumps(key, sort_keys=True)
         self.fingerprint = hashlib.sha256(text.encode()).hexdigest()
-        self.records: dict[tuple[str, int], Any] = {}
-        if self.path is None:
-            return
         if self.path.exists():
             self._load()
         else:

@@ -32,7 +32,7 @@ from stackik.geometry import Stack
 from stackik.paths.bounded import bounded_ip, bounded_step
 from stackik.paths.interpolate import lerp_target
 from stackik.solve import solve_ik
-from stackik.targets import PlanarTarget, Target
+from stackik.targets import Target
 
 __all__ = ["WARM_MU0", "Step", "StepCounts", "Tracker", "jump_scale"]
 
@@ -65,6 +65,7 @@ class StepCounts:
     transit: int = 0
     transit_failed: int = 0
     sqp_fallback: int = 0  # bounded/transit steps the compiled interior point missed
+    pc: int = 0  # warm steps made by the predictor-corrector step (no barrier solve)
 
     def as_dict(self) -> dict[str, int]:
         return dict(self.__dict__)
@@ -96,22 +97,32 @@ class Tracker:
     planar: bool
     max_jump: tuple[float, float]
     max_depth: int = 1
+    pc: bool = True
     counts: StepCounts = field(default_factory=StepCounts)
 
     def __post_init__(self) -> None:
         self.scale = jump_scale(self.max_jump, 3 if self.planar else 6)
+        #: (last pose of the last run, its state: yE, z, active, have)
+        self._carry: tuple[Any, ...] | None = None
+        #: the pose from which the last run's warm solve to its next target failed (in
+        #: the kernel: a pose the Python check rejects may come from a continuation step,
+        #: with no warm solve made), else None
+        self.tried_from: FloatArray | None = None
 
     def ratio(self, qa: FloatArray, qb: FloatArray) -> float:
         """Largest per-variable change from ``qa`` to ``qb`` in units of ``max_jump``."""
         return float(np.max(np.abs(qb - qa) / self.scale))
 
     # --- rungs ----------------------------------------------------------------------
-    def warm(self, q: FloatArray, target: Target) -> FloatArray | None:
-        """Warm-started solve from ``q``; the pose if checked and within one jump."""
-        self.counts.warm += 1
-        r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options={"mu0": WARM_MU0})
-        if r.success:  # kept its basin, or left it: the default barrier would too
-            return r.q if self.ratio(q, r.q) <= 1.0 else None
+    def warm(self, q: FloatArray, target: Target, *, tried: bool = False) -> FloatArray | None:
+        """Warm-started solve from ``q``; the pose if checked and within one jump.
+        ``tried``: the first solve (initial barrier ``WARM_MU0``) was made and failed
+        (a run of :meth:`warm_many` stopped here): only the retry remains."""
+        if not tried:
+            self.counts.warm += 1
+            r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options={"mu0": WARM_MU0})
+            if r.success:  # kept its basin, or left it: the default barrier would too
+                return r.q if self.ratio(q, r.q) <= 1.0 else None
         self.counts.warm_retry += 1
         r = solve_ik(self.stack, target, x0=q, starts=1, method="ip")
         if r.success and self.ratio(q, r.q) <= 1.0:
@@ -119,39 +130,67 @@ class Tracker:
         return None
 
     def warm_many(self, q: FloatArray, targets: list[Target]) -> list[FloatArray]:
-        """The warm rung's first solve (initial barrier ``WARM_MU0``) along ``targets``,
-        each from the pose before, in one compiled call (planar paths): the poses of the
-        leading targets that it reaches, as :meth:`warm` would accept them (checked, each
-        within one jump of the one before). Stops at the first it does not reach there;
-        the caller takes that one through the ladder (:meth:`step`)."""
-        if not self.planar or not targets:
+        """The warm rung along ``targets``, each from the pose before, in one compiled
+        call (:func:`stackik._ipm.ip_path`, :func:`stackik._spatial_ipm.ip_path`): the
+        continuation step (``pc``) where it is verified, else the warm rung's first solve
+        (initial barrier ``WARM_MU0``). Returns the poses of the leading targets that it
+        reaches, as :meth:`warm` would accept them (checked by the compiled twin of
+        ``check_pose``, each within one jump of the one before). Stops at the first it
+        does not reach; the caller takes that one through the ladder (:meth:`step`)."""
+        if not targets:
             return []
-        from stackik import _ipm
-        from stackik._check import planar_check_many
+        from stackik import _ipm, _spatial_ipm
+        from stackik._check import planar_check_many, spatial_check_many
         from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
-        from stackik.methods.ip import IP_DEFAULTS, problem_arrays
+        from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
         prob = Problem(self.stack, targets[0], "frobenius", None)
-        Y = np.empty((len(targets), 3))
-        for j, t in enumerate(targets):
-            assert isinstance(t, PlanarTarget)
-            Y[j] = (t.rho, t.z, t.theta)
-        jump = np.tile(self.scale, self.stack.n) / prob.xs
-        X, reached = _ipm.ip_path(
-            readonly(prob.u_of(q)), readonly(Y), problem_arrays(prob), readonly(jump),
-            float(IP_DEFAULTS["tol"]), float(IP_DEFAULTS["constr_tol"]), WARM_MU0,
-            int(IP_DEFAULTS["max_iter"]), POLISH_REACH, POLISH_MARGIN,
-            check.TARGET_POS_TOL, check.TARGET_ANGLE_TOL,
-        )  # fmt: skip
-        Q = [prob.q_of(X[j]) for j in range(int(reached))]
+        jump = readonly(np.tile(self.scale, self.stack.n) / prob.xs)
+        tol, ctol = float(IP_DEFAULTS["tol"]), float(IP_DEFAULTS["constr_tol"])
+        max_iter = int(IP_DEFAULTS["max_iter"])
+        # the multipliers and active set of q when the last run ended at q (its last pose)
+        carry = self._carry
+        state = carry[1] if carry is not None and carry[0] is q else self._no_state()
+        tail = (POLISH_REACH, POLISH_MARGIN, check.TARGET_POS_TOL, check.TARGET_ANGLE_TOL,
+                self.pc, *state)  # fmt: skip
+        if self.planar:
+            Y = np.array([(t.rho, t.z, t.theta) for t in targets])  # type: ignore[union-attr]
+            X, reached, how, *end = _ipm.ip_path(
+                readonly(prob.u_of(q)), readonly(Y), problem_arrays(prob), jump, tol, ctol,
+                WARM_MU0, max_iter, *tail,
+            )  # fmt: skip
+            check_many = planar_check_many
+        else:
+            pos = np.array([t.position for t in targets])  # type: ignore[union-attr]
+            rot = np.array([t.rotation for t in targets])  # type: ignore[union-attr]
+            X, reached, how, *end = _spatial_ipm.ip_path(
+                readonly(prob.u_of(q)), readonly(pos), readonly(rot),
+                spatial_problem_arrays(prob), jump, tol, ctol, WARM_MU0, max_iter, *tail,
+            )  # fmt: skip
+            check_many = spatial_check_many
+        k = 3 if self.planar else 6
+        Q = (X[: int(reached)] * prob.xs).reshape(int(reached), self.stack.n, k)
+        # the jump of every step at once: each pose against the one before
+        prev = np.concatenate([q[None], Q[:-1]])
+        jumps = np.max(np.abs(Q - prev) / self.scale, axis=(1, 2)) if len(Q) else []
         out: list[FloatArray] = []
-        for qk, ok in zip(Q, planar_check_many(self.stack, targets[: len(Q)], np.array(Q))):
-            if not ok or self.ratio(q, qk) > 1.0:
+        for qk, ok, jr in zip(Q, check_many(self.stack, targets[: len(Q)], Q), jumps):
+            if not ok or jr > 1.0:
                 break
             out.append(qk)
-            q = qk
         self.counts.warm += len(out)
+        self.counts.pc += int(np.sum(how[: len(out)]))
+        self._carry = None
+        self.tried_from = None
+        if out and len(out) == int(reached):
+            self._carry = (out[-1], tuple(end))
+        if len(out) == int(reached) < len(targets):  # the kernel's warm solve failed
+            self.tried_from = out[-1] if out else q
         return out
+
+    def _no_state(self) -> tuple[Any, ...]:
+        ne = 3 if self.planar else 6
+        return (np.zeros(ne), np.zeros(0), np.zeros(0, dtype=bool), False)
 
     def _subdivide(self, q: FloatArray, ta: Target, tb: Target, depth: int) -> FloatArray | None:
         qb = self.warm(q, tb)
@@ -202,6 +241,7 @@ class Tracker:
         *,
         subdivide: bool = True,
         bounded: bool = True,
+        warm_tried: bool = False,
     ) -> Step | None:
         """A pose of ``tb`` within ``max_jump`` of ``q`` (a pose of ``ta``), or None.
 
@@ -212,8 +252,11 @@ class Tracker:
             off its optimum and bisecting rarely brings a warm start back within reach).
         bounded : bool
             Try the bounded rung.
+        warm_tried : bool
+            The warm rung's first solve from ``q`` to ``tb`` was made and failed (a run
+            of :meth:`warm_many` stopped before ``tb``): the rung starts at its retry.
         """
-        qb = self.warm(q, tb)
+        qb = self.warm(q, tb, tried=warm_tried)
         if qb is not None:
             return Step(qb, "warm")
         if subdivide and self.max_depth > 0:

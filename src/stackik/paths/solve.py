@@ -52,6 +52,7 @@ from stackik.paths.result import MARGIN_NAMES, PATH_MESSAGES, PathResult, PathSt
 from stackik.paths.timing import time_parameterize
 from stackik.platform import planar_legs, spatial_legs
 from stackik.solve import solve_ik
+from stackik.solve.blas import BlasLimit
 from stackik.targets import PlanarTarget, Target, target_from_dict, target_to_dict
 
 __all__ = [
@@ -406,8 +407,10 @@ def _fast(
         if req.start is not None:
             q0, how = req.start, "start"
         else:
+            t0 = time.perf_counter()
             r0 = req.default_solve(pts[0], 0)
             info["default"] += 1
+            info["first_solve_s"] = time.perf_counter() - t0  # the rest: the path's steps
             if not r0.success:
                 msg = (
                     f"the path breaks at index 0 (waypoint 0): no pose reaches it within the "
@@ -452,7 +455,7 @@ def _fast(
         k = len(ql) - 1
         if goal is None and req.reanchor_every and pending and k % req.reanchor_every == 0:
             goal = _reanchor(req, tracker, k, tb, q, info)
-        top = [(target_to_dict(t), s, d) for t, s, d in pending if d > 0]
+        top = [(target_to_dict(t), s, d) for t, s, d in pending if d > 0] if req.refine else []
         ck.put(
             "fast",
             k,
@@ -468,7 +471,7 @@ def _fast(
 
     ladder_at = -1  # the waypoint a run of warm steps stopped before: the ladder's
     while pending:
-        if (goal is None and req.planar and hows[-1] not in _OFF_OPTIMUM
+        if (goal is None and hows[-1] not in _OFF_OPTIMUM
                 and len(ql) != ladder_at):  # fmt: skip
             # warm steps along the next waypoints in one compiled call, up to the next
             # reanchoring; the first it does not reach goes through the ladder below
@@ -483,7 +486,10 @@ def _fast(
         step, goal = _towards(tracker, goal, ql[-1], tb, info) if goal else (None, None)
         if step is None:
             off = hows[-1] in ("bounded", "transit")  # off the optimum: no bisection
-            step = tracker.step(ql[-1], tl[-1], tb, subdivide=not off)
+            # where a run of warm steps stopped in its kernel, it made the warm rung's
+            # first solve from this pose to this waypoint
+            tried = len(ql) == ladder_at and depth == 0 and tracker.tried_from is ql[-1]
+            step = tracker.step(ql[-1], tl[-1], tb, subdivide=not off, warm_tried=tried)
         if step is not None:
             accept(step.q, step.how)
             continue
@@ -497,6 +503,7 @@ def _fast(
                 items.append((j, {**old, "q": q.tolist(), "how": "rejoin", "goal": None}))
             ck.put_many("fast", items)
             goal = None
+            ladder_at = -1  # a new pose: its warm solve is not made yet
             continue  # the next step from the new pose before tb
         if req.refine and depth < REFINE_DEPTH:
             sa = sl[-1]
@@ -1016,7 +1023,20 @@ def solve_path(
         stack, targets, max_jump, mode, motion_weight, refine, max_depth, start,
         leg_speed, leg_accel, max_candidates, rng, reanchor_every,
     )  # fmt: skip
-    ck = PathCheckpoint(checkpoint, req.key())
+    ck = PathCheckpoint(checkpoint, req.key() if checkpoint is not None else {})
+    # one BLAS thread, as solve_ik's: the path kernels (the spatial interior point and
+    # continuation step, the planar continuation step's solve) call BLAS on small
+    # matrices, where multi-threaded OpenBLAS on a loaded machine is up to 300x slower
+    # (a spatial n = 16 warm step: 0.4 s instead of 20 ms)
+    blas = BlasLimit(1)
+    blas.apply()
+    try:
+        return _solve(req, ck, t_start)
+    finally:
+        blas.restore()
+
+
+def _solve(req: _Request, ck: PathCheckpoint, t_start: float) -> PathResult:
     tracker = Tracker(req.stack, req.planar, req.max_jump, req.max_depth)
     if req.mode == "fast" or req.refine:
         tl, sl, ql, _, status, message, info = _fast(req, ck, tracker, t_start)

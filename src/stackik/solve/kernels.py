@@ -20,8 +20,10 @@ from typing import Any
 
 __all__ = ["KERNEL_KINDS", "ensure_kernels", "kernels_cached", "warm_up"]
 
-#: The kernel sets, and the rough first-compile time of each on a 2-core machine [s].
-KERNEL_KINDS: dict[str, float] = {"planar": 30.0, "spatial": 30.0}
+#: The kernel sets, and the rough first-compile time of each on a 2-core machine [s]
+#: (measured with an empty NUMBA_CACHE_DIR under load 2.5 from other jobs, path kernels
+#: included: planar 59 s, spatial 51 s).
+KERNEL_KINDS: dict[str, float] = {"planar": 60.0, "spatial": 50.0}
 
 _READY: set[str] = set()
 _LOCK = threading.Lock()
@@ -33,10 +35,11 @@ def _dispatchers(kind: str) -> list[Any]:
 
         return [_ipm._ip_multi, _ipm.ip_box, _ipm.ip_path, _check._planar_check,
                 _check._planar_check_many]  # fmt: skip
-    from stackik import _spatial, _spatial_ipm
+    from stackik import _check, _spatial, _spatial_ipm
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _spatial_ipm.ip_multi,
-            _spatial_ipm.ip_box]  # fmt: skip
+            _spatial_ipm.ip_box, _spatial_ipm.ip_path, _check._spatial_check,
+            _check._spatial_check_many]  # fmt: skip
 
 
 def _warm_path_kernels(planar: bool) -> None:
@@ -47,7 +50,7 @@ def _warm_path_kernels(planar: bool) -> None:
 
     from stackik import _ipm, _spatial_ipm
     from stackik._arrays import readonly
-    from stackik._check import planar_check_many
+    from stackik._check import planar_check_many, spatial_check_many
     from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
     from stackik.geometry import Stack
     from stackik.methods.ip import problem_arrays, spatial_problem_arrays
@@ -71,8 +74,17 @@ def _warm_path_kernels(planar: bool) -> None:
     if planar:
         Y = readonly([[pt.rho, pt.z, pt.theta]])
         _ipm.ip_path(u0, Y, problem_arrays(prob), readonly(np.ones(u0.size)), 1e-7, 1e-9,
-                     1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8)  # fmt: skip
+                     1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, np.zeros(3),
+                     np.zeros(0), np.zeros(0, dtype=bool), False)  # fmt: skip
         planar_check_many(stack, [pt], q0[None])
+    else:
+        st = pt.to_spatial()
+        _spatial_ipm.ip_path(u0, readonly([st.position]), readonly([st.rotation]),
+                             spatial_problem_arrays(prob), readonly(np.ones(u0.size)), 1e-7,
+                             1e-9, 1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8,
+                             True, np.zeros(6), np.zeros(0), np.zeros(0, dtype=bool),
+                             False)  # fmt: skip
+        spatial_check_many(stack, [st], q0[None])
 
 
 def kernels_cached(kind: str) -> bool | None:
