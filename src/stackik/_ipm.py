@@ -923,7 +923,10 @@ def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArra
     """One barrier solve inside the box ``lo <= u <= hi`` (scaled) with ``wq |u - ug|^2``
     added to the objective (``wq = 0``: none), then :func:`_polish`. Returns the point,
     the status and the iteration count; the caller checks the pose and the box."""
-    x, st, it, _, _, _ = _ip_loop(u0, P, tol, constr_tol, mu0, max_iter, 1e300, lo, hi, ug, wq)
+    # copies: the barrier loop sees writable arrays whatever the caller passes, as from
+    # _ip_multi (one compiled specialisation of the loop, not one per array flag)
+    x, st, it, _, _, _ = _ip_loop(u0.copy(), P, tol, constr_tol, mu0, max_iter, 1e300,
+                                  lo.copy(), hi.copy(), ug.copy(), wq)  # fmt: skip
     if st == IP_NONFINITE or not np.all(np.isfinite(x)):
         return u0.copy(), IP_NONFINITE, it
     return _polish(x, P, 3, reach, margin), st, it
