@@ -127,7 +127,7 @@ def bounded_ip(
     return prob.q_of(u)
 
 
-_IP_NONFINITE = 3  # stackik._ipm.IP_NONFINITE (the module compiles on first import)
+_IP_NONFINITE = 3  # the kernels' IP_NONFINITE (both use 3); read here without importing them
 
 
 def bounded_step(

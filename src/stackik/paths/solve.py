@@ -469,7 +469,7 @@ def _fast(
             },
         )
 
-    ladder_at = -1  # the waypoint a run of warm steps stopped before: the ladder's
+    ladder_at = -1  # the waypoint a run of warm steps stopped before (the ladder takes it)
     while pending:
         if (goal is None and hows[-1] not in _OFF_OPTIMUM
                 and len(ql) != ladder_at):  # fmt: skip
