@@ -21,9 +21,9 @@ from typing import Any
 __all__ = ["KERNEL_KINDS", "ensure_kernels", "kernels_cached", "warm_up"]
 
 #: The kernel sets, and the rough first-compile time of each on a 2-core machine [s]
-#: (measured with an empty NUMBA_CACHE_DIR under load 2.5 from other jobs, path kernels
-#: included: planar 59 s, spatial 51 s).
-KERNEL_KINDS: dict[str, float] = {"planar": 60.0, "spatial": 50.0}
+#: (measured with an empty NUMBA_CACHE_DIR at load ~2 from other jobs, path kernels
+#: included: the first planar command 42 s in all, a first spatial solve 86 s with both).
+KERNEL_KINDS: dict[str, float] = {"planar": 40.0, "spatial": 45.0}
 
 _READY: set[str] = set()
 _LOCK = threading.Lock()
