@@ -32,6 +32,17 @@ LIFTED_FROM = 48
 #: OSQP's ADMM iteration cap in this method (the engine's default is 10,000): past it the
 #: approximate solution is used as a step and judged by the ratio test.
 OSQP_MAX_ITER = 4000
+#: OSQP settings of this method (with ``max_iter``): each QP is first solved to 1e-4 and
+#: kept when OSQP's polishing succeeds (the polished solution is the exact one on the
+#: active set ADMM found), else ADMM continues to the engine's 1e-6
+#: (:data:`stackik.sqp.qp.osqp_.POLISH_FIRST`); no duality-gap termination test. At n = 16
+#: (6 targets) ~1.5-2x less time with the same iterates' FN on every target
+#: (benchmarks/results/sqp_profile.md).
+OSQP_OPTIONS: dict[str, Any] = {
+    "max_iter": OSQP_MAX_ITER,
+    "polish_first": 1e-4,
+    "check_dualgap": False,
+}
 #: Clarabel settings of this method: no iterative refinement of its KKT solves (the IK
 #: subproblems are well conditioned: ~25 % less per QP at n = 16 with the same SQP
 #: iterates; the engine's default keeps it, which Hock-Schittkowski needs: 62 -> 58 of 67
@@ -95,7 +106,7 @@ class SQPMethod(Method):
                 lift = name == "clarabel" and prob.n >= LIFTED_FROM
                 form = "lifted" if lift else "sparse"
         if name == "osqp" and "qp_options" not in opts:
-            opts["qp_options"] = {"max_iter": OSQP_MAX_ITER}
+            opts["qp_options"] = dict(OSQP_OPTIONS)
         if name == "clarabel" and "qp_options" not in opts:
             opts["qp_options"] = dict(CLARABEL_OPTIONS)
         evaluate: Any = prob.evaluate

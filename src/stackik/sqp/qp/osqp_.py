@@ -82,6 +82,13 @@ def _quiet_c_stdout(active: bool) -> Iterator[None]:
 
 
 _MAX_ITER = osqp.SolverStatus.OSQP_MAX_ITER_REACHED.value
+#: ``qp_options`` key of this backend, not an OSQP setting: ``{"polish_first": eps}`` solves
+#: every QP first to ``eps_abs = eps_rel = eps`` and keeps that solution when OSQP's
+#: polishing succeeds (an equality-constrained solve on the guessed active set, accepted
+#: by OSQP only when it improves the residuals: accurate wherever ADMM has found the active
+#: set); otherwise ADMM continues, warm-started, to the tight tolerances.
+POLISH_FIRST = "polish_first"
+_POLISH_OK = 1
 
 
 class OSQPBackend(QPBackend):
@@ -93,6 +100,10 @@ class OSQPBackend(QPBackend):
 
     def __init__(self, options: dict[str, Any] | None = None) -> None:
         super().__init__(options)
+        opts = dict(self.options)
+        loose = opts.pop(POLISH_FIRST, None)
+        self.options = opts
+        self.loose_eps: float | None = None if loose is None else float(loose)
         self.settings = {**DEFAULT_SETTINGS, **self.options}
         self._solver: Any = None
         self._sp_solver: Any = None
@@ -181,8 +192,7 @@ class OSQPBackend(QPBackend):
             else:
                 # OSQP warm-starts from its previous solution (warm_starting=True).
                 self._solver.update(Px=Px, Ax=Ax, q=q, l=l, u=u)
-            with _quiet_c_stdout(not self.settings.get("verbose", False)):
-                res = self._solver.solve(raise_error=False)
+            res = self._run(self._solver)
         except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
             self._solver = None
             return self.failed(f"osqp raised {exc!r}")
@@ -214,12 +224,31 @@ class OSQPBackend(QPBackend):
                 )
             else:
                 self._sp_solver.update(Px=Px, Ax=Ax, q=q, l=l, u=u)
-            with _quiet_c_stdout(not self.settings.get("verbose", False)):
-                res = self._sp_solver.solve(raise_error=False)
+            res = self._run(self._sp_solver)
         except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
             self._sp_solver = None
             return self.failed(f"osqp raised {exc!r}")
         return self._result(res, lb, ub)
+
+    def _run(self, solver: Any) -> Any:
+        """``solver.solve()``, first to the loose tolerance when ``polish_first`` is set
+        (:data:`POLISH_FIRST`)."""
+        quiet = not self.settings.get("verbose", False)
+        loose = self.loose_eps
+        tight = {"eps_abs": self.settings["eps_abs"], "eps_rel": self.settings["eps_rel"]}
+        if loose is None or loose <= max(tight.values()):
+            with _quiet_c_stdout(quiet):
+                return solver.solve(raise_error=False)
+        solver.update_settings(eps_abs=max(loose, tight["eps_abs"]), eps_rel=loose)
+        try:
+            with _quiet_c_stdout(quiet):
+                res = solver.solve(raise_error=False)
+            if res.info.status_polish == _POLISH_OK or res.info.status_val not in _SOLVED:
+                return res
+        finally:
+            solver.update_settings(**tight)
+        with _quiet_c_stdout(quiet):  # warm-started from the loose solution
+            return solver.solve(raise_error=False)
 
     def _result(self, res: Any, lb: FloatArray, ub: FloatArray) -> QPSolution:
         me, mi = self.m_eq, self.m_ineq
