@@ -82,6 +82,10 @@ def _quiet_c_stdout(active: bool) -> Iterator[None]:
 
 
 _MAX_ITER = osqp.SolverStatus.OSQP_MAX_ITER_REACHED.value
+#: OSQP's default linear-algebra module, looked up once: ``osqp.OSQP()`` otherwise tries
+#: to import the CUDA and MKL modules on every construction (~0.3 ms each when missing;
+#: the screened QPs construct a solver whenever their row set grows).
+_ALGEBRA: str = osqp.default_algebra()
 #: ``qp_options`` key of this backend, not an OSQP setting: ``{"polish_first": eps}`` solves
 #: every QP first to ``eps_abs = eps_rel = eps`` and keeps that solution when OSQP's
 #: polishing succeeds (an equality-constrained solve on the guessed active set, accepted
@@ -187,7 +191,7 @@ class OSQPBackend(QPBackend):
             if self._solver is None:
                 indptr = np.concatenate(([0], np.cumsum(np.arange(1, n + 1)))).astype(np.int64)
                 P_csc = sp.csc_matrix((Px, self._triu_rows.astype(np.int64), indptr), shape=(n, n))
-                self._solver = osqp.OSQP()
+                self._solver = osqp.OSQP(algebra=_ALGEBRA)
                 self._solver.setup(P_csc, q, self._dense_csc(A), l, u, **self.settings)
             else:
                 # OSQP warm-starts from its previous solution (warm_starting=True).
@@ -213,7 +217,7 @@ class OSQPBackend(QPBackend):
         Ax, new_a = self._stack.values(J)
         try:
             if self._sp_solver is None or new_p or new_a:
-                self._sp_solver = osqp.OSQP()
+                self._sp_solver = osqp.OSQP(algebra=_ALGEBRA)
                 self._sp_solver.setup(
                     self._triu.matrix(Px, n),
                     q,
