@@ -494,6 +494,7 @@ class _Engine:
         if self.qp_eps is not None:  # the inexact mode's tolerance, as the main backend's
             be.set_accuracy(self.qp_eps)
         Js = sub(self.J)
+        be.ineq_ids = rows[mE:]
         sol = be.solve_sqp(self.B, self.g, Js, c[rows], lb, ub)
         if sol.status is not QPStatus.SOLVED:
             return sol

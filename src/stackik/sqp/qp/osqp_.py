@@ -111,6 +111,7 @@ class OSQPBackend(QPBackend):
         self.settings = {**DEFAULT_SETTINGS, **self.options}
         self._solver: Any = None
         self._sp_solver: Any = None
+        self._last: tuple[int, int, FloatArray, FloatArray, Any] | None = None
 
     def set_accuracy(self, eps: float | None) -> None:
         """Solve the next QPs to ``eps_abs = eps_rel = eps`` (None: the settings' values,
@@ -226,13 +227,35 @@ class OSQPBackend(QPBackend):
                     u,
                     **self.settings,
                 )
+                self._warm_rebuilt(me, mi, n)
             else:
                 self._sp_solver.update(Px=Px, Ax=Ax, q=q, l=l, u=u)
             res = self._run(self._sp_solver)
+            if res.info.status_val in _SOLVED:
+                self._last = (me, n, np.array(res.x), np.array(res.y), self.ineq_ids)
         except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
             self._sp_solver = None
             return self.failed(f"osqp raised {exc!r}")
         return self._result(res, lb, ub)
+
+    def _warm_rebuilt(self, me: int, mi: int, n: int) -> None:
+        """A rebuilt solver (new pattern, e.g. another screened row set) starts from the
+        last solution: ``x``, and ``y`` of the equality and box rows, which keep their
+        positions, and of the inequality rows by their ids where the engine gave them
+        (:attr:`QPBackend.ineq_ids`), else from 0)."""
+        last = self._last
+        if last is None or last[0] != me or last[1] != n:
+            return
+        _, _, x, y, ids = last
+        y0 = np.zeros(me + mi + n)
+        y0[:me] = y[:me]
+        y0[me + mi :] = y[y.size - n :]
+        now = self.ineq_ids
+        if ids is not None and now is not None and len(now) == mi and ids.size:
+            at = np.minimum(np.searchsorted(ids, now), ids.size - 1)
+            hit = ids[at] == now
+            y0[me : me + mi][hit] = y[me + at[hit]]
+        self._sp_solver.warm_start(x=x, y=y0)
 
     def _run(self, solver: Any) -> Any:
         """``solver.solve()``, first to the loose tolerance when ``polish_first`` is set
