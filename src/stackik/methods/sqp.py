@@ -11,6 +11,7 @@ import numpy as np
 from stackik.formulation import Problem
 from stackik.formulation.lifted import LiftedPlanarNLP
 from stackik.formulation.structured import ReducedPlanarNLP
+from stackik.methods._sqp_planar import CompiledPlanarNLP, compiled_supported
 from stackik.methods.base import FloatArray, Method
 from stackik.result import OptionError
 from stackik.sqp import NonlinearProgram, SQPOptions, default_qp_solver, solve
@@ -115,8 +116,11 @@ class SQPMethod(Method):
         lifted: LiftedPlanarNLP | None = None
         x0 = u0
         if form == "sparse" and prob.fast is not None:
-            # planar: the limit Jacobian as CSC, block diagonal by platform
-            structured = ReducedPlanarNLP(prob)
+            # planar: the limit Jacobian as CSC, block diagonal by platform; values and
+            # Hessian from the compiled kernels where they apply (one FN weight)
+            structured: CompiledPlanarNLP | ReducedPlanarNLP = (
+                CompiledPlanarNLP(prob) if compiled_supported(prob) else ReducedPlanarNLP(prob)
+            )
             evaluate, hessian = structured.evaluate, structured.hessian
         elif form.startswith("lifted") and prob.fast is not None and exact:
             lifted = LiftedPlanarNLP(prob, psd_blocks=form == "lifted")
