@@ -48,8 +48,9 @@ class CompiledPlanarNLP:
         n = prob.n
         self.n = n
         cols = np.arange(3 * n)
-        self.indptr = (24 * np.arange(3 * n + 1)).astype(np.int32)
-        self.indices = (24 * (cols // 3)[:, None] + np.arange(24)[None, :]).ravel()
+        # int32 like ReducedPlanarNLP's pattern (what scipy picks for this size)
+        self.indptr: Any = (24 * np.arange(3 * n + 1)).astype(np.int32)
+        self.indices: Any = (24 * (cols // 3)[:, None] + np.arange(24)[None, :]).ravel()
         self.indices = self.indices.astype(np.int32)
         self._u: FloatArray | None = None
         self._out: tuple[Any, ...] = ()
