@@ -643,8 +643,10 @@ class _Engine:
         n = self.n
         pat = self.h_pat
         if pat.indices is None:
+            if not is_sparse(Hraw):  # a dense Hessian: the full pattern, nothing to add
+                pat.include(Hraw)
             pat.include(sp.identity(n, format="csc"))
-            if self.m:
+            if self.m and not pat.full:
                 pat.include(gram_structure(self.J))
         H = pat.fit(Hraw)
         if self._sync_pattern():
@@ -658,7 +660,8 @@ class _Engine:
         seen = getattr(self, "_gram_src", None)
         if seen is not None and seen[0] is key[0] and seen[1] is key[1]:
             return
-        self.h_pat.include(gram_structure(self.J))
+        if not self.h_pat.full:
+            self.h_pat.include(gram_structure(self.J))
         self._sync_pattern()
         self._gram_src = key
 
