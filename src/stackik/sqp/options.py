@@ -44,7 +44,8 @@ class SQPOptions:
     fallback_qp_solver : str or None
         QP backend tried when the main one fails on a subproblem.
     qp_options : dict
-        Settings passed straight through to the QP backend (override its SQP defaults).
+        Settings passed straight through to the QP backend (override its SQP defaults);
+        OSQP also takes ``polish_first`` (:data:`stackik.sqp.qp.osqp_.POLISH_FIRST`).
     scaling : bool
         Automatic objective/constraint scaling from gradient norms at ``x0`` (IPOPT rule:
         a function whose gradient max-norm exceeds 100 is scaled down to 100).
