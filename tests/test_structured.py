@@ -173,3 +173,25 @@ def test_compiled_planar_nlp_equals_reduced(objective: str, n: int) -> None:
     np.testing.assert_allclose(
         nlp.hessian(u, y_eq, y_in), ref.hessian(u, y_eq, y_in), rtol=1e-12, atol=1e-12
     )
+
+
+def test_qp_screening_off_gives_the_same_pose() -> None:
+    # SQPOptions.qp_screening: screened QPs (rows that cannot bind left out) and full QPs
+    # have the same solutions; the IK method turns screening off for Clarabel below
+    # CLARABEL_SCREEN_FROM platforms
+    from stackik.methods.sqp import CLARABEL_SCREEN_FROM
+    from stackik.sqp import SQPOptions
+
+    assert CLARABEL_SCREEN_FROM > 4
+    with pytest.raises(ValueError, match="qp_screening"):
+        SQPOptions(qp_screening=1)  # type: ignore[arg-type]
+    stack = Stack.reference(4)
+    target = PlanarTarget(600.0, 1000.0, -1.57)
+    runs = [
+        solve_ik(stack, target, method="sqp", qp_solver=qp, starts=1, options=opts)
+        for qp in ("clarabel", "osqp")
+        for opts in ({"qp_screening": True}, {"qp_screening": False})
+    ]
+    for r in runs:
+        assert r.success
+        assert r.frobenius_norm == pytest.approx(runs[0].frobenius_norm, rel=1e-6)

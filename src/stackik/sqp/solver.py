@@ -447,7 +447,7 @@ class _Engine:
         the inequalities with ``c_i - sum_j |J_ij| max(-lb_j, ub_j) <= 0``; the others hold
         for every step in the box, so the QP without them has the same solution), or None
         when that is all of them."""
-        if not (self.sparse and SCREEN_ROWS and self.mI):
+        if not (self.sparse and SCREEN_ROWS and self.opts.qp_screening and self.mI):
             return None
         J, mE = self.J, self.mE
         r = np.maximum(-lb, ub)
