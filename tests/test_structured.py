@@ -145,3 +145,53 @@ def test_sqp_formulation_option_checked() -> None:
             method="sqp",
             options={"formulation": "nope"},
         )
+
+
+@pytest.mark.parametrize("objective", ["frobenius", "feasible"])
+@pytest.mark.parametrize("n", [2, 5])
+def test_compiled_planar_nlp_equals_reduced(objective: str, n: int) -> None:
+    # the SQP method's compiled evaluation (stackik._ipm kernels) has ReducedPlanarNLP's
+    # values, sparsity pattern and Hessian
+    from stackik.methods._sqp_planar import CompiledPlanarNLP, compiled_supported
+
+    stack = Stack.reference(n)
+    target = random_planar_targets(stack, 1, rng=3)[0]
+    prob = Problem(stack, target, objective, None)
+    assert compiled_supported(prob)
+    ref, nlp = ReducedPlanarNLP(prob), CompiledPlanarNLP(prob)
+    rng = np.random.default_rng(1)
+    u = prob.u_of(paper_initial_guess(stack, target)) + 0.01 * rng.normal(size=3 * n)
+    a, b = ref.evaluate(u), nlp.evaluate(u)
+    assert b[0] == pytest.approx(a[0], rel=1e-13)
+    for k in (1, 2, 3, 4):
+        np.testing.assert_allclose(b[k], a[k], rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(b[5].toarray(), a[5].toarray(), rtol=1e-12, atol=1e-14)
+    assert b[5].nnz == 72 * n
+    J2 = nlp.evaluate(u + 1e-3)[5]
+    assert J2.indices is b[5].indices and J2.indptr is b[5].indptr
+    y_eq, y_in = rng.normal(size=3), rng.random(24 * n)
+    np.testing.assert_allclose(
+        nlp.hessian(u, y_eq, y_in), ref.hessian(u, y_eq, y_in), rtol=1e-12, atol=1e-12
+    )
+
+
+def test_qp_screening_off_gives_the_same_pose() -> None:
+    # SQPOptions.qp_screening: screened QPs (rows that cannot bind left out) and full QPs
+    # have the same solutions; the IK method turns screening off for Clarabel below
+    # CLARABEL_SCREEN_FROM platforms
+    from stackik.methods.sqp import CLARABEL_SCREEN_FROM
+    from stackik.sqp import SQPOptions
+
+    assert CLARABEL_SCREEN_FROM > 4
+    with pytest.raises(ValueError, match="qp_screening"):
+        SQPOptions(qp_screening=1)  # type: ignore[arg-type]
+    stack = Stack.reference(4)
+    target = PlanarTarget(600.0, 1000.0, -1.57)
+    runs = [
+        solve_ik(stack, target, method="sqp", qp_solver=qp, starts=1, options=opts)
+        for qp in ("clarabel", "osqp")
+        for opts in ({"qp_screening": True}, {"qp_screening": False})
+    ]
+    for r in runs:
+        assert r.success
+        assert r.frobenius_norm == pytest.approx(runs[0].frobenius_norm, rel=1e-6)

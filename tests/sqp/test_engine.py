@@ -346,3 +346,31 @@ def test_least_norm_second_order_correction(sparse: bool) -> None:
     corr = dc - d
     basis = np.linalg.qr(J[[0, 2]].T)[0]
     assert np.allclose(basis @ (basis.T @ corr), corr, atol=1e-10)
+
+
+@pytest.mark.parametrize("sparse_form", [False, True])
+def test_osqp_polish_first_solves_the_same_qp(sparse_form: bool) -> None:
+    # polish_first (not an OSQP setting): a loose solve kept only when polishing succeeds,
+    # else ADMM continues to the tight tolerances; either way the QP's solution
+    import scipy.sparse as sp
+
+    rng = np.random.default_rng(3)
+    n, me, mi = 6, 2, 5
+    M = rng.standard_normal((n, n))
+    P = M @ M.T + 0.1 * np.eye(n)
+    q = rng.standard_normal(n)
+    A, b = rng.standard_normal((me, n)), rng.standard_normal(me)
+    G, h = rng.standard_normal((mi, n)), 0.1 * np.ones(mi)
+    lb, ub = -np.ones(n), np.ones(n)
+    if sparse_form:
+        P, A, G = sp.csc_matrix(P), sp.csc_matrix(A), sp.csc_matrix(G)
+    sols = []
+    for opts in ({}, {"polish_first": 1e-3}):
+        be = make_backend("osqp", opts)
+        assert "polish_first" not in be.settings
+        be.setup(n, me, mi)
+        for _ in range(2):  # the second solve goes through the update path
+            sols.append(be.solve(P, q, A, b, G, h, lb, ub))
+    for s in sols:
+        assert s.status is QPStatus.SOLVED
+        np.testing.assert_allclose(s.x, sols[0].x, atol=1e-5)

@@ -11,6 +11,7 @@ import numpy as np
 from stackik.formulation import Problem
 from stackik.formulation.lifted import LiftedPlanarNLP
 from stackik.formulation.structured import ReducedPlanarNLP
+from stackik.methods._sqp_planar import CompiledPlanarNLP, compiled_supported
 from stackik.methods.base import FloatArray, Method
 from stackik.result import OptionError
 from stackik.sqp import NonlinearProgram, SQPOptions, default_qp_solver, solve
@@ -32,11 +33,28 @@ LIFTED_FROM = 48
 #: OSQP's ADMM iteration cap in this method (the engine's default is 10,000): past it the
 #: approximate solution is used as a step and judged by the ratio test.
 OSQP_MAX_ITER = 4000
+#: OSQP settings of this method (with ``max_iter``): each QP is first solved to 1e-4 and
+#: kept when OSQP's polishing succeeds (the polished solution is the exact one on the
+#: active set ADMM found), else ADMM continues to the engine's 1e-6
+#: (:data:`stackik.sqp.qp.osqp_.POLISH_FIRST`); no duality-gap termination test. At n = 16
+#: (6 targets) ~1.5-2x less time with the same iterates' FN on every target
+#: (benchmarks/results/sqp_profile.md).
+OSQP_OPTIONS: dict[str, Any] = {
+    "max_iter": OSQP_MAX_ITER,
+    "polish_first": 1e-4,
+    "check_dualgap": False,
+}
 #: Clarabel settings of this method: no iterative refinement of its KKT solves (the IK
 #: subproblems are well conditioned: ~25 % less per QP at n = 16 with the same SQP
 #: iterates; the engine's default keeps it, which Hock-Schittkowski needs: 62 -> 58 of 67
 #: without it).
 CLARABEL_OPTIONS = {"iterative_refinement_enable": False}
+#: With Clarabel, the QPs keep every limit row below this many platforms
+#: (``SQPOptions.qp_screening=False``): one solver updated in place instead of one rebuilt
+#: whenever the screened row set grows (21 of 59 QPs at n = 4): ~10 % less time at
+#: n = 4, ~8 % at n = 8, while from n = 16 the smaller screened QPs win (3-5 % at n = 16,
+#: 10-15 % at n = 32; benchmarks/results/sqp_profile.md).
+CLARABEL_SCREEN_FROM = 12
 
 __all__ = ["SQPMethod", "sqp_options"]
 
@@ -95,17 +113,22 @@ class SQPMethod(Method):
                 lift = name == "clarabel" and prob.n >= LIFTED_FROM
                 form = "lifted" if lift else "sparse"
         if name == "osqp" and "qp_options" not in opts:
-            opts["qp_options"] = {"max_iter": OSQP_MAX_ITER}
+            opts["qp_options"] = dict(OSQP_OPTIONS)
         if name == "clarabel" and "qp_options" not in opts:
             opts["qp_options"] = dict(CLARABEL_OPTIONS)
+        if name == "clarabel" and prob.n < CLARABEL_SCREEN_FROM:
+            opts.setdefault("qp_screening", False)
         evaluate: Any = prob.evaluate
         hessian: Any = prob.lagrangian_hessian
         gauss_newton: Any = None if prob.objective == "feasible" else prob.gauss_newton
         lifted: LiftedPlanarNLP | None = None
         x0 = u0
         if form == "sparse" and prob.fast is not None:
-            # planar: the limit Jacobian as CSC, block diagonal by platform
-            structured = ReducedPlanarNLP(prob)
+            # planar: the limit Jacobian as CSC, block diagonal by platform; values and
+            # Hessian from the compiled kernels where they apply (one FN weight)
+            structured: CompiledPlanarNLP | ReducedPlanarNLP = (
+                CompiledPlanarNLP(prob) if compiled_supported(prob) else ReducedPlanarNLP(prob)
+            )
             evaluate, hessian = structured.evaluate, structured.hessian
         elif form.startswith("lifted") and prob.fast is not None and exact:
             lifted = LiftedPlanarNLP(prob, psd_blocks=form == "lifted")

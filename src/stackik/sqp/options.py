@@ -44,7 +44,8 @@ class SQPOptions:
     fallback_qp_solver : str or None
         QP backend tried when the main one fails on a subproblem.
     qp_options : dict
-        Settings passed straight through to the QP backend (override its SQP defaults).
+        Settings passed straight through to the QP backend (override its SQP defaults);
+        OSQP also takes ``polish_first`` (:data:`stackik.sqp.qp.osqp_.POLISH_FIRST`).
     scaling : bool
         Automatic objective/constraint scaling from gradient norms at ``x0`` (IPOPT rule:
         a function whose gradient max-norm exceeds 100 is scaled down to 100).
@@ -69,6 +70,10 @@ class SQPOptions:
         default: on the planar IK problem its misses (degenerate vertices where several
         limits meet, active sets that change far from the solution) cost more than its
         hits save (benchmarks/results/sqp_scaling.md).
+    qp_screening : bool
+        Sparse mode: QPs without the inequality rows that cannot bind in the trust region
+        (the same solution, smaller QPs; the backend's solver is rebuilt when that row set
+        grows). Off: every row in every QP, one solver updated in place throughout.
     """
 
     tol: float = 1e-6
@@ -85,6 +90,7 @@ class SQPOptions:
     barrier_start: bool = False
     qp_accuracy: str = "fixed"
     qp_working_set: bool = False
+    qp_screening: bool = True
 
     def __post_init__(self) -> None:
         _positive("tol", self.tol)
@@ -121,6 +127,8 @@ class SQPOptions:
             raise ValueError(
                 f"SQPOptions.qp_working_set must be a bool, got {self.qp_working_set!r}"
             )
+        if not isinstance(self.qp_screening, bool):
+            raise ValueError(f"SQPOptions.qp_screening must be a bool, got {self.qp_screening!r}")
         if self.qp_accuracy not in QP_ACCURACIES:
             raise ValueError(
                 f"SQPOptions.qp_accuracy must be one of {QP_ACCURACIES}, got {self.qp_accuracy!r}"

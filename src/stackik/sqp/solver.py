@@ -78,6 +78,7 @@ ETA_BAD = 0.25  # poor step -> shrink radius, N&W Alg. 4.1
 SOC_BELOW = ETA_GOOD  # a second-order correction is tried when the ratio is below this
 SOC_MIN_NORM = True  # try the least-norm correction (no QP) before the QP correction
 SOC_REG = 1e-10  # relative regularisation of J_A J_A' in the least-norm correction
+SOC_DENSE_MAX = 1 << 16  # sparse J: a dense J_A (rows x columns) up to this size
 BACKTRACK_STEPS = 2  # rejected steps: shorter steps along d tried before shrinking
 BACKTRACK_FACTOR = 0.5
 SCREEN_ROWS = True  # sparse mode: QPs without the inequality rows that cannot bind
@@ -446,7 +447,7 @@ class _Engine:
         the inequalities with ``c_i - sum_j |J_ij| max(-lb_j, ub_j) <= 0``; the others hold
         for every step in the box, so the QP without them has the same solution), or None
         when that is all of them."""
-        if not (self.sparse and SCREEN_ROWS and self.mI):
+        if not (self.sparse and SCREEN_ROWS and self.opts.qp_screening and self.mI):
             return None
         J, mE = self.J, self.mE
         r = np.maximum(-lb, ub)
@@ -493,6 +494,7 @@ class _Engine:
         if self.qp_eps is not None:  # the inexact mode's tolerance, as the main backend's
             be.set_accuracy(self.qp_eps)
         Js = sub(self.J)
+        be.ineq_ids = rows[mE:]
         sol = be.solve_sqp(self.B, self.g, Js, c[rows], lb, ub)
         if sol.status is not QPStatus.SOLVED:
             return sol
@@ -514,7 +516,10 @@ class _Engine:
             return None
         r = c_t[rows]
         try:
-            if self.sparse:
+            if self.sparse and rows.size * self.n <= SOC_DENSE_MAX:
+                JA = self._dense_rows(rows)
+                G = JA @ JA.T
+            elif self.sparse:
                 JA = self.J.tocsr()[rows]
                 G = (JA @ JA.T).toarray()
             else:
@@ -528,6 +533,22 @@ class _Engine:
         if not _all_finite(dc):
             return None
         return np.asarray(dc, dtype=float).ravel()
+
+    def _dense_rows(self, rows: Any) -> FloatArray:
+        """Rows ``rows`` (sorted) of the sparse ``J`` as a dense array, gathered from its
+        entries (no CSR conversion or sparse row slicing: ~10x faster at n = 16)."""
+        J = self.J
+        pos = np.full(self.m, -1, dtype=np.int64)
+        pos[rows] = np.arange(rows.size)
+        at = pos[J.indices]
+        sel = at >= 0
+        JA = np.zeros((rows.size, self.n))
+        idx = (at[sel], entry_cols(J.indptr)[sel])
+        if J.has_canonical_format:  # no duplicate entries: plain assignment
+            JA[idx] = J.data[sel]
+        else:
+            np.add.at(JA, idx, J.data[sel])
+        return JA
 
     def _violation(self, c: FloatArray) -> float:
         """Scaled l1 violation ``||c_E||_1 + ||min(c_I, 0)||_1`` of stacked ``c``, as
@@ -622,8 +643,10 @@ class _Engine:
         n = self.n
         pat = self.h_pat
         if pat.indices is None:
+            if not is_sparse(Hraw):  # a dense Hessian: the full pattern, nothing to add
+                pat.include(Hraw)
             pat.include(sp.identity(n, format="csc"))
-            if self.m:
+            if self.m and not pat.full:
                 pat.include(gram_structure(self.J))
         H = pat.fit(Hraw)
         if self._sync_pattern():
@@ -637,7 +660,8 @@ class _Engine:
         seen = getattr(self, "_gram_src", None)
         if seen is not None and seen[0] is key[0] and seen[1] is key[1]:
             return
-        self.h_pat.include(gram_structure(self.J))
+        if not self.h_pat.full:
+            self.h_pat.include(gram_structure(self.J))
         self._sync_pattern()
         self._gram_src = key
 

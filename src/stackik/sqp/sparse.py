@@ -128,8 +128,15 @@ class FixedPattern:
     def nnz(self) -> int:
         return 0 if self.indices is None else int(self.indices.size)
 
+    @property
+    def full(self) -> bool:
+        """Whether the pattern holds every entry (nothing can grow it)."""
+        return self.indices is not None and self.indices.size == self.shape[0] * self.shape[1]
+
     def include(self, M: Any) -> None:
         """Grow the pattern to contain the structure of ``M`` (sparse or dense: all)."""
+        if self.full:
+            return
         m, n = self.shape
         if is_sparse(M):
             A = sp.csc_matrix(M, copy=True)

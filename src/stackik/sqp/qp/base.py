@@ -98,6 +98,10 @@ class QPBackend:
         self.n = 0
         self.m_eq = 0
         self.m_ineq = 0
+        #: Optional identity (sorted integer ids) of the inequality rows of the next QP,
+        #: set by the SQP engine when it passes a subset of its rows (screening): a
+        #: backend may use it to carry multipliers over to a QP with another row set.
+        self.ineq_ids: Any = None
 
     def setup(self, n: int, m_eq: int, m_ineq: int) -> None:
         """Prepare for QPs with ``n`` variables, ``m_eq`` equalities, ``m_ineq`` inequalities."""

@@ -82,6 +82,17 @@ def _quiet_c_stdout(active: bool) -> Iterator[None]:
 
 
 _MAX_ITER = osqp.SolverStatus.OSQP_MAX_ITER_REACHED.value
+#: OSQP's default linear-algebra module, looked up once: ``osqp.OSQP()`` otherwise tries
+#: to import the CUDA and MKL modules on every construction (~0.3 ms each when missing;
+#: the screened QPs construct a solver whenever their row set grows).
+_ALGEBRA: str = osqp.default_algebra()
+#: ``qp_options`` key of this backend, not an OSQP setting: ``{"polish_first": eps}`` solves
+#: every QP first to ``eps_abs = eps_rel = eps`` and keeps that solution when OSQP's
+#: polishing succeeds (an equality-constrained solve on the guessed active set, accepted
+#: by OSQP only when it improves the residuals: accurate wherever ADMM has found the active
+#: set); otherwise ADMM continues, warm-started, to the tight tolerances.
+POLISH_FIRST = "polish_first"
+_POLISH_OK = 1
 
 
 class OSQPBackend(QPBackend):
@@ -93,9 +104,14 @@ class OSQPBackend(QPBackend):
 
     def __init__(self, options: dict[str, Any] | None = None) -> None:
         super().__init__(options)
+        opts = dict(self.options)
+        loose = opts.pop(POLISH_FIRST, None)
+        self.options = opts
+        self.loose_eps: float | None = None if loose is None else float(loose)
         self.settings = {**DEFAULT_SETTINGS, **self.options}
         self._solver: Any = None
         self._sp_solver: Any = None
+        self._last: tuple[int, int, FloatArray, FloatArray, Any] | None = None
 
     def set_accuracy(self, eps: float | None) -> None:
         """Solve the next QPs to ``eps_abs = eps_rel = eps`` (None: the settings' values,
@@ -176,13 +192,12 @@ class OSQPBackend(QPBackend):
             if self._solver is None:
                 indptr = np.concatenate(([0], np.cumsum(np.arange(1, n + 1)))).astype(np.int64)
                 P_csc = sp.csc_matrix((Px, self._triu_rows.astype(np.int64), indptr), shape=(n, n))
-                self._solver = osqp.OSQP()
+                self._solver = osqp.OSQP(algebra=_ALGEBRA)
                 self._solver.setup(P_csc, q, self._dense_csc(A), l, u, **self.settings)
             else:
                 # OSQP warm-starts from its previous solution (warm_starting=True).
                 self._solver.update(Px=Px, Ax=Ax, q=q, l=l, u=u)
-            with _quiet_c_stdout(not self.settings.get("verbose", False)):
-                res = self._solver.solve(raise_error=False)
+            res = self._run(self._solver)
         except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
             self._solver = None
             return self.failed(f"osqp raised {exc!r}")
@@ -203,7 +218,7 @@ class OSQPBackend(QPBackend):
         Ax, new_a = self._stack.values(J)
         try:
             if self._sp_solver is None or new_p or new_a:
-                self._sp_solver = osqp.OSQP()
+                self._sp_solver = osqp.OSQP(algebra=_ALGEBRA)
                 self._sp_solver.setup(
                     self._triu.matrix(Px, n),
                     q,
@@ -212,14 +227,55 @@ class OSQPBackend(QPBackend):
                     u,
                     **self.settings,
                 )
+                self._warm_rebuilt(me, mi, n)
             else:
                 self._sp_solver.update(Px=Px, Ax=Ax, q=q, l=l, u=u)
-            with _quiet_c_stdout(not self.settings.get("verbose", False)):
-                res = self._sp_solver.solve(raise_error=False)
+            res = self._run(self._sp_solver)
+            if res.info.status_val in _SOLVED:
+                self._last = (me, n, np.array(res.x), np.array(res.y), self.ineq_ids)
         except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
             self._sp_solver = None
             return self.failed(f"osqp raised {exc!r}")
         return self._result(res, lb, ub)
+
+    def _warm_rebuilt(self, me: int, mi: int, n: int) -> None:
+        """A rebuilt solver (new pattern, e.g. another screened row set) starts from the
+        last solution: ``x``, and ``y`` of the equality and box rows, which keep their
+        positions, and of the inequality rows by their ids where the engine gave them
+        (:attr:`QPBackend.ineq_ids`), else from 0)."""
+        last = self._last
+        if last is None or last[0] != me or last[1] != n:
+            return
+        _, _, x, y, ids = last
+        y0 = np.zeros(me + mi + n)
+        y0[:me] = y[:me]
+        y0[me + mi :] = y[y.size - n :]
+        now = self.ineq_ids
+        if ids is not None and now is not None and len(now) == mi and ids.size:
+            at = np.minimum(np.searchsorted(ids, now), ids.size - 1)
+            hit = ids[at] == now
+            y0[me : me + mi][hit] = y[me + at[hit]]
+        self._sp_solver.warm_start(x=x, y=y0)
+
+    def _run(self, solver: Any) -> Any:
+        """``solver.solve()``, first to the loose tolerance when ``polish_first`` is set
+        (:data:`POLISH_FIRST`)."""
+        quiet = not self.settings.get("verbose", False)
+        loose = self.loose_eps
+        tight = {"eps_abs": self.settings["eps_abs"], "eps_rel": self.settings["eps_rel"]}
+        if loose is None or loose <= max(tight.values()):
+            with _quiet_c_stdout(quiet):
+                return solver.solve(raise_error=False)
+        solver.update_settings(eps_abs=max(loose, tight["eps_abs"]), eps_rel=loose)
+        try:
+            with _quiet_c_stdout(quiet):
+                res = solver.solve(raise_error=False)
+            if res.info.status_polish == _POLISH_OK or res.info.status_val not in _SOLVED:
+                return res
+        finally:
+            solver.update_settings(**tight)
+        with _quiet_c_stdout(quiet):  # warm-started from the loose solution
+            return solver.solve(raise_error=False)
 
     def _result(self, res: Any, lb: FloatArray, ub: FloatArray) -> QPSolution:
         me, mi = self.m_eq, self.m_ineq
