@@ -413,3 +413,19 @@ def test_convex_start_falls_back_when_socp_infeasible():
         sk.convex_start(STACK4, t)
     r = sk.solve_ik(STACK4, t, start="convex", max_time=5.0)
     assert not r.success and r.status is IKStatus.INFEASIBLE
+
+
+def test_planar_interior_point_limits_blas_threads_on_tall_stacks(monkeypatch):
+    # from 32 platforms the planar kernels' matrix products reach sizes where OpenBLAS
+    # starts threads (CPU time 2x wall at n = 48-64); below, the limit's round trip is skipped
+    from stackik.sampling import random_planar_targets
+    from stackik.solve import blas, stages
+
+    applied = []
+    real = blas.BlasLimit.apply
+    monkeypatch.setattr(blas.BlasLimit, "apply", lambda self: (applied.append(1), real(self)))
+    for n, expect in ((4, False), (stages.PLANAR_BLAS_N, True)):
+        applied.clear()
+        stack = sk.Stack.reference(n)
+        r = sk.solve_ik(stack, random_planar_targets(stack, 1, rng=n)[0], starts=1)
+        assert r.success and bool(applied) is expect

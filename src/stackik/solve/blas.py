@@ -11,7 +11,7 @@ _BLAS: list[Any] = []
 
 class BlasLimit:
     """The BLAS thread limit of one solve, applied on first need: the planar compiled
-    interior-point path does not call BLAS on its small matrices, so it skips the
+    interior-point path below 32 platforms does not call threaded BLAS, so it skips the
     threadpoolctl round trip (about 20 us, 5 % of an n = 4 solve); every other path
     (SQP, scipy, IPOPT, the spatial chain, the spatial interior point, whose KKT step
     multiplies (6n)^2 matrices) calls :meth:`apply` before it runs. Multi-threaded

@@ -39,7 +39,10 @@ from stackik.starts import spatial_hop_count, spatial_hops
 if TYPE_CHECKING:
     from stackik.methods.ip import IPMethod
 
-__all__ = ["Handover", "Tally", "Verdict", "ip_stage", "local_stage"]
+__all__ = ["PLANAR_BLAS_N", "Handover", "Tally", "Verdict", "ip_stage", "local_stage"]
+
+#: Planar stacks from this size get the solve's BLAS thread limit in the interior point.
+PLANAR_BLAS_N = 32
 
 FloatArray = NDArray[np.float64]
 
@@ -140,7 +143,9 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     method = req.method
     assert isinstance(method, IPMethod)
     starts = plan.batch(req.sampler, req.structured, req.stack.n)
-    if not req.mode.planar:  # the spatial kernels call LAPACK/BLAS on (6n)^2 matrices
+    if not req.mode.planar or req.stack.n >= PLANAR_BLAS_N:
+        # the spatial kernels call LAPACK/BLAS on (6n)^2 matrices, the planar ones on
+        # (3n)^2 from n = 48 on, where OpenBLAS starts threads (CPU 2x wall at n = 48-64)
         req.blas.apply()
     left = req.time_left(time.perf_counter())
     batch = method.run_many(req.problem, starts, req.options, left)
