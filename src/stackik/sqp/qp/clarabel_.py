@@ -79,18 +79,26 @@ class ClarabelBackend(QPBackend):
     def setup(self, n: int, m_eq: int, m_ineq: int) -> None:
         super().setup(n, m_eq, m_ineq)
         self._solver = None
-        m = m_eq + m_ineq + 2 * n
-        rows, cols = np.triu_indices(n)
-        order = np.lexsort((rows, cols))
-        self._triu_rows, self._triu_cols = rows[order], cols[order]
-        self._A = np.zeros((m, n))
-        self._A[m_eq + m_ineq : m_eq + m_ineq + n] = np.eye(n)
-        self._A[m_eq + m_ineq + n :] = -np.eye(n)
-        self._b = np.empty(m)
+        # the dense path's arrays are made on its first QP (sparse QPs never use them; the
+        # engine's screening calls setup whenever its row set changes)
+        self._dense_ready = False
+        self._b = np.empty(m_eq + m_ineq + 2 * n)
         # sparse path: rows [J_E; -J_I; I; -I]
         self._sp_solver = None
         self._triu = TriuLayout()
         self._stack = StackLayout(np.r_[np.ones(m_eq), -np.ones(m_ineq)], (1.0, -1.0))
+
+    def _dense_setup(self) -> None:
+        """The dense path's constraint matrix (identity blocks filled) and ``P``'s upper
+        triangle in column order."""
+        n, me, mi = self.n, self.m_eq, self.m_ineq
+        rows, cols = np.triu_indices(n)
+        order = np.lexsort((rows, cols))
+        self._triu_rows, self._triu_cols = rows[order], cols[order]
+        self._A = np.zeros((me + mi + 2 * n, n))
+        self._A[me + mi : me + mi + n] = np.eye(n)
+        self._A[me + mi + n :] = -np.eye(n)
+        self._dense_ready = True
 
     def _make_settings(self) -> Any:
         st = clarabel.DefaultSettings()
@@ -116,6 +124,8 @@ class ClarabelBackend(QPBackend):
             J, c = sqp_form(A_eq, b_eq, G, h)
             return self._solve_sparse(P, q, J, c, lb, ub)
         n, me, mi = self.n, self.m_eq, self.m_ineq
+        if not self._dense_ready:
+            self._dense_setup()
         A, b = self._A, self._b
         A[:me] = A_eq
         A[me : me + mi] = G
