@@ -502,6 +502,22 @@ class _Engine:
         y_ineq[rows[mE:] - mE] = sol.y_ineq[:k]
         return dataclasses.replace(sol, y_ineq=y_ineq)
 
+    def _corrected(
+        self, x: FloatArray, d_c: FloatArray, nu: float, phi0: float, pred: float,
+        guard: float, ratio: float,
+    ) -> tuple[FloatArray, float, FloatArray, float, Evaluation | None, float] | None:  # fmt: skip
+        """The trial point of a corrected step ``x + d_c`` (projected), with its merit ratio
+        against the uncorrected step's prediction ``pred``; None unless it is finite, passes
+        ``ETA_ACCEPT`` and beats ``ratio``."""
+        x_c = self._project(x + d_c)
+        f_c, c_c, ev_c = self._eval_values(x_c)
+        v_c = self._violation(c_c)
+        phi_c = f_c + nu * v_c
+        ratio_c = (phi0 - phi_c + guard) / (pred + guard)
+        if math.isfinite(phi_c) and ratio_c >= ETA_ACCEPT and ratio_c > ratio:
+            return x_c, f_c, c_c, v_c, ev_c, ratio_c
+        return None
+
     def _soc_min_norm(self, c_t: FloatArray, lam: FloatArray, d: FloatArray) -> Any:
         """Least-norm second-order correction (N&W eq. 15.35): ``d - J_A'(J_A J_A')^-1
         c_A(x + d)`` over the equalities and the inequalities the QP left active (positive
@@ -1466,30 +1482,21 @@ class _Engine:
                 t = time.perf_counter()
                 d_m = self._soc_min_norm(c_t, lam, d)
                 self.timer.build += time.perf_counter() - t
-                if d_m is not None:
-                    x_c = self._project(x + d_m)
-                    f_c, c_c, ev_c = self._eval_values(x_c)
-                    v_c = self._violation(c_c)
-                    phi_c = f_c + nu * v_c
-                    ratio_c = (phi0 - phi_c + guard) / (pred + guard)
-                    if math.isfinite(phi_c) and ratio_c >= ETA_ACCEPT and ratio_c > ratio:
-                        x_t, f_t, c_t, v_t, ev_t = x_c, f_c, c_c, v_c, ev_c
-                        ratio = ratio_c
-                        kind = "soc-ln"
-                        d = d_m
-                        soc_done = True
+                trial = (
+                    None if d_m is None else self._corrected(x, d_m, nu, phi0, pred, guard, ratio)
+                )
+                if trial is not None:
+                    x_t, f_t, c_t, v_t, ev_t, ratio = trial
+                    kind = "soc-ln"
+                    d = d_m
+                    soc_done = True
             if ratio < SOC_BELOW and not elastic and m and ok and pred > 0 and not soc_done:
                 # Second-order correction (N&W Sec. 15.5 / Alg. 18.4).
                 sol_c = self._qp_sqp(c_t - Jd, lb, ub)
                 if sol_c.status is QPStatus.SOLVED:
-                    x_c = self._project(x + sol_c.x)
-                    f_c, c_c, ev_c = self._eval_values(x_c)
-                    v_c = self._violation(c_c)
-                    phi_c = f_c + nu * v_c
-                    ratio_c = (phi0 - phi_c + guard) / (pred + guard)
-                    if math.isfinite(phi_c) and ratio_c >= ETA_ACCEPT and ratio_c > ratio:
-                        x_t, f_t, c_t, v_t, ev_t = x_c, f_c, c_c, v_c, ev_c
-                        ratio = ratio_c
+                    trial = self._corrected(x, sol_c.x, nu, phi0, pred, guard, ratio)
+                    if trial is not None:
+                        x_t, f_t, c_t, v_t, ev_t, ratio = trial
                         kind = "soc"
                         d = sol_c.x
             bt_alpha = 0.0
