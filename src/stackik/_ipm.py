@@ -969,6 +969,16 @@ def _twins(act: FloatArray, cI: FloatArray, D: FloatArray) -> FloatArray:
 
 
 @_jit
+def _release(act: FloatArray, zf: FloatArray, parent: FloatArray, rj: int) -> None:
+    """Release limit ``rj`` from the active set, with the limits that mirror it."""
+    act[rj] = False
+    zf[rj] = 0.0
+    for r in range(act.size):
+        if parent[r] == rj:
+            act[r] = False
+
+
+@_jit
 def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: FloatArray,
              tol: float, constr_tol: float, max_newton: int,
              max_changes: int) -> tuple[Any, ...]:  # fmt: skip
@@ -1031,11 +1041,7 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             for j in range(na):
                 if zf[idx[j]] < zf[rj]:
                     rj = idx[j]
-            act[rj] = False
-            zf[rj] = 0.0
-            for r in range(m):
-                if parent[r] == rj:
-                    act[r] = False
+            _release(act, zf, parent, rj)
             idx = np.nonzero(act & (parent < 0))[0]
             na = idx.size
         zA = np.empty(na)
@@ -1117,12 +1123,7 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             break
         changes += 1
         if jmin >= 0:
-            rj = idx[jmin]
-            act[rj] = False
-            zf[rj] = 0.0
-            for r in range(m):
-                if parent[r] == rj:
-                    act[r] = False
+            _release(act, zf, parent, idx[jmin])
         else:
             for r in range(m):
                 if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
