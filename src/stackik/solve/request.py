@@ -6,6 +6,7 @@ Bad input gets a ``ValueError`` that names the argument (or an
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -60,6 +61,10 @@ class Request:
     def time_left(self, now: float) -> float:
         """Seconds left of the budget at ``now`` (at least 1 ms)."""
         return max(self.max_time - (now - self.t_start), 1e-3)
+
+    def out_of_time(self) -> bool:
+        """Whether the budget is spent (:meth:`time_left` never says so: it keeps 1 ms)."""
+        return time.perf_counter() - self.t_start > self.max_time
 
 
 def sigma_weights(

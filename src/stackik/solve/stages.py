@@ -76,6 +76,11 @@ class Handover:
     options: dict[str, object]
 
 
+def _lower(run: Run, best: Run) -> bool:
+    """``run``'s objective is below ``best``'s by more than rounding."""
+    return run.obj < best.obj - 1e-12 * abs(best.obj)
+
+
 @dataclass
 class Tally:
     """The runs of a stage so far: best passing, least violating, counts."""
@@ -95,7 +100,7 @@ class Tally:
         self.last = run.status
         self.far_off = self.far_off and run.check.max_violation_mm > SPATIAL_GIVE_UP_MM
         if run.check.ok:
-            if self.best is None or run.obj < self.best.obj - 1e-12 * abs(self.best.obj):
+            if self.best is None or _lower(run, self.best):
                 self.best = run
         else:
             self.offer_least(run)
@@ -179,20 +184,16 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     return Handover(queue, batch.least, batch.nit, len(starts), stalled, shared)
 
 
-def _out_of_time(req: Request) -> bool:
-    return time.perf_counter() - req.t_start >= req.max_time
-
-
 def _hop(req: Request, method: IPMethod, best: Run, nit: int, tried: int) -> tuple[Run, int, int]:
     """The spatial default's hops from its best pose (:func:`stackik.starts.spatial_hops`):
     one more compiled batch (within what is left of ``max_time``); a passing run with a
     lower FN replaces ``best``. ``tried`` counts the hops that ran."""
     hops = spatial_hops(req.stack, best.q)[: spatial_hop_count(req.stack.n)]
-    if not hops or _out_of_time(req):
+    if not hops or req.out_of_time():
         return best, nit, tried
     left = req.time_left(time.perf_counter())
     batch = method.run_many(req.problem, hops, req.options, left)
-    if batch.best is not None and batch.best.obj < best.obj - 1e-12 * abs(best.obj):
+    if batch.best is not None and _lower(batch.best, best):
         best = batch.best
     ran = sum(st is not RunStatus.SKIPPED for st in batch.statuses)
     return best, nit + batch.nit, tried + ran
@@ -213,12 +214,12 @@ def _recentre(req: Request, method: IPMethod, best: Run, nit: int) -> tuple[Run,
     targets: FN below one IPOPT run's from the same start on 35, above on 4; without:
     19 / 18). The runs are not starts: ``n_starts`` stays 1, ``nit`` counts them."""
     for mu0 in RECENTRE_MU0:
-        if _out_of_time(req):
+        if req.out_of_time():
             break
         left = req.time_left(time.perf_counter())
         batch = method.run_many(req.problem, [best.q], {**req.options, "mu0": mu0}, left)
         nit += batch.nit
-        if batch.best is not None and batch.best.obj < best.obj - 1e-12 * abs(best.obj):
+        if batch.best is not None and _lower(batch.best, best):
             best = batch.best
     return best, nit
 
@@ -272,7 +273,7 @@ def local_stage(req: Request, plan: StartPlan, handover: Handover | None) -> Ver
         n_planned = 0 if tally.screened[0].check.ok else 1
     fallback = 3 if not req.x0_given and not quick else 0  # more starts if none passes
     while tally.tried < n_planned:
-        if tally.tried > 0 and time.perf_counter() - req.t_start > req.max_time:
+        if tally.tried > 0 and req.out_of_time():
             tally.timed_out = True
             break
         qs = _next_start(req, queue, tally, n_planned - fallback)
