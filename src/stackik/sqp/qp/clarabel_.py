@@ -135,22 +135,38 @@ class ClarabelBackend(QPBackend):
         b[me + mi + n :] = -lb
         Px = np.ascontiguousarray(P[self._triu_rows, self._triu_cols])
         Ax = np.ascontiguousarray(A.T.ravel())
+        rebuild = self._solver is None or not self._solver.is_data_update_allowed()
+        return self._run("_solver", rebuild, self._dense_matrices, Px, q, Ax, b)
+
+    def _dense_matrices(self, Px: FloatArray, Ax: FloatArray) -> tuple[Any, Any]:
+        """CSC ``P`` (upper triangle) and ``A`` of the dense path from their values."""
+        n, m = self.n, self._A.shape[0]
+        P_ptr = np.concatenate(([0], np.cumsum(np.arange(1, n + 1)))).astype(np.int64)
+        P_csc = sp.csc_matrix((Px, self._triu_rows, P_ptr), shape=(n, n))
+        A_ptr = np.arange(0, m * n + 1, m, dtype=np.int64)
+        A_idx = np.tile(np.arange(m, dtype=np.int64), n)
+        return P_csc, sp.csc_matrix((Ax, A_idx, A_ptr), shape=(m, n))
+
+    def _run(
+        self, slot: str, rebuild: bool, matrices: Any, Px: FloatArray, q: FloatArray,
+        Ax: FloatArray, b: FloatArray,
+    ) -> QPSolution:  # fmt: skip
+        """Solve with the persistent solver in ``slot`` (the dense or the sparse path's):
+        a new one from ``matrices(Px, Ax)`` when ``rebuild``, else its data updated in
+        place; a backend error drops it and becomes a status."""
         try:
-            if self._solver is None or not self._solver.is_data_update_allowed():
-                m = A.shape[0]
-                P_ptr = np.concatenate(([0], np.cumsum(np.arange(1, n + 1)))).astype(np.int64)
-                P_csc = sp.csc_matrix((Px, self._triu_rows, P_ptr), shape=(n, n))
-                A_ptr = np.arange(0, m * n + 1, m, dtype=np.int64)
-                A_idx = np.tile(np.arange(m, dtype=np.int64), n)
-                A_csc = sp.csc_matrix((Ax, A_idx, A_ptr), shape=(m, n))
-                self._solver = self._new_solver(P_csc, q, A_csc, b)
+            solver = getattr(self, slot)
+            if rebuild:
+                P_csc, A_csc = matrices(Px, Ax)
+                solver = self._new_solver(P_csc, q, A_csc, b)
+                setattr(self, slot, solver)
             else:
-                self._solver.update(P=Px, q=q, A=Ax, b=b)
-            sol = self._solver.solve()
+                solver.update(P=Px, q=q, A=Ax, b=b)
+            sol = solver.solve()
         except ValueError:
             raise
         except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
-            self._solver = None
+            setattr(self, slot, None)
             return self.failed(f"clarabel raised {exc!r}")
         return self._result(sol)
 
@@ -178,20 +194,13 @@ class ClarabelBackend(QPBackend):
         np.negative(lb, out=b[me + mi + n :])
         Px, new_p = self._triu.values(P)
         Ax, new_a = self._stack.values(J)
-        try:
-            if self._sp_solver is None or new_p or new_a:
-                self._sp_solver = self._new_solver(
-                    self._triu.matrix(Px, n), q, self._stack.matrix(me + mi + 2 * n, n), b
-                )
-            else:
-                self._sp_solver.update(P=Px, q=q, A=Ax, b=b)
-            sol = self._sp_solver.solve()
-        except ValueError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - any backend error becomes a status
-            self._sp_solver = None
-            return self.failed(f"clarabel raised {exc!r}")
-        return self._result(sol)
+        rebuild = self._sp_solver is None or new_p or new_a
+        return self._run("_sp_solver", rebuild, self._sparse_matrices, Px, q, Ax, b)
+
+    def _sparse_matrices(self, Px: FloatArray, Ax: FloatArray) -> tuple[Any, Any]:
+        """CSC ``P`` and ``A`` of the sparse path on their fixed patterns."""
+        n = self.n
+        return self._triu.matrix(Px, n), self._stack.matrix(self.m_eq + self.m_ineq + 2 * n, n)
 
     def _result(self, sol: Any) -> QPSolution:
         n, me, mi = self.n, self.m_eq, self.m_ineq
