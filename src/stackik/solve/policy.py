@@ -120,17 +120,18 @@ class StartPlan:
 
 def plan_starts(req: Any) -> StartPlan:
     """The :class:`StartPlan` of a validated request."""
-    queue = initial_starts(req.stack, req.target, req.q0, structured=req.structured)
     starts = req.starts
     spatial_default = False
     spatial_ip = not req.mode.planar and req.method.name == "ip" and req.stack.n >= 2
     if spatial_ip and req.structured:
-        # spatial interior point: folds, twists and leans (stackik.starts.spatial_starts)
+        # spatial interior point: twists, leans and folds (stackik.starts.spatial_starts)
         pos = req.target.position
         queue = spatial_starts(req.stack, req.q0, math.atan2(pos[1], pos[0]))
         if starts is None:
             k = min(len(queue), spatial_start_count(req.stack.n))
             return StartPlan(queue, k, k, True)
+    else:  # (the planar structured starts are not built for the spatial plan above)
+        queue = initial_starts(req.stack, req.target, req.q0, structured=req.structured)
     if starts is None and not req.mode.planar and req.stack.n >= 2 and req.structured:
         # spatial: the five structured starts and seven random ones, each solved in full
         # (benchmark: within 0.1 % of the best FN found on 30 of 30 targets, vs 28 from
