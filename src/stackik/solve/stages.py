@@ -156,7 +156,7 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     batch = method.run_many(req.problem, starts, req.options, left)
     if batch.best is not None:
         best, nit, tried = batch.best, batch.nit, len(starts)
-        if plan.spatial_default and spatial_hop_count(req.stack.n) > 0:
+        if plan.spatial_default:
             best, nit, tried = _hop(req, method, best, nit, tried)
         elif plan.starts == 1 and req.structured and _recentres(req):
             best, nit = _recentre(req, method, best, nit)
