@@ -222,15 +222,18 @@ class Tracker:
         setattr(self.counts, rung, getattr(self.counts, rung) + 1)
         goal = kw.get("goal")
         qb = bounded_ip(self.stack, target, q, self.scale, goal=goal)
-        if qb is not None and self.ratio(q, qb) <= 1.0 and check_pose(self.stack, target, qb).ok:
-            return qb
-        self.counts.sqp_fallback += 1  # the SQP engine: slower, keeps its iterates in the box
-        qb = bounded_step(self.stack, target, q, self.scale, **kw)
-        if qb is not None and self.ratio(q, qb) <= 1.0 and check_pose(self.stack, target, qb).ok:
+        if not self._accepts(q, target, qb):
+            self.counts.sqp_fallback += 1  # the SQP engine: slower, keeps its iterates in the box
+            qb = bounded_step(self.stack, target, q, self.scale, **kw)
+        if self._accepts(q, target, qb):
             return qb
         failed = f"{rung}_failed"
         setattr(self.counts, failed, getattr(self.counts, failed) + 1)
         return None
+
+    def _accepts(self, q: FloatArray, target: Target, qb: FloatArray | None) -> bool:
+        """``qb`` is a pose of ``target`` (checked) within one jump of ``q``."""
+        return qb is not None and self.ratio(q, qb) <= 1.0 and check_pose(self.stack, target, qb).ok
 
     # --- the ladder -------------------------------------------------------------------
     def step(
