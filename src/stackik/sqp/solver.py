@@ -109,7 +109,11 @@ ROUNDOFF_GUARD = 10.0 * np.finfo(float).eps  # 10 eps_M max(1,|phi|), CGT (2000)
 DELTA_MIN = 1e-12  # trust-region collapse threshold (relative to 1 + ||x/xs||_inf)
 # Interior start phase (SQPOptions.barrier_start); constants as in IPOPT (W&B 2006, 3.1)
 BARRIER_MU0 = 0.1  # initial barrier parameter (IPOPT mu_init)
-BARRIER_MU_END = 1e-4  # hand over to the SQP once the barrier problem of this mu is solved
+# Hand over to the SQP once the barrier problem of this mu is solved: the barrier phase only
+# has to choose the basin. Planar IK, one start, Clarabel: 0.03 keeps the quality of 1e-4
+# (within 0.1 % of the best known on 77.5 % of 200 n = 4 targets, as one IPOPT run; 40 % of
+# 30 at n = 16) in half the iterations (n = 4: 14 vs 30; n = 16: 55.5 vs 110, 3x less time).
+BARRIER_MU_END = 0.03
 BARRIER_KAPPA_EPS = 10.0  # barrier problem solved when its error <= kappa_eps mu
 BARRIER_KAPPA_MU = 0.2  # mu <- max(mu_end, min(kappa_mu mu, mu^theta_mu))
 BARRIER_THETA_MU = 1.5
