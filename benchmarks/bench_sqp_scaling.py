@@ -1,8 +1,9 @@
 """Scaling of the SQP engine with its sparse QP backends against SLSQP, IPOPT and the
-compiled interior point, planar, n = 4 ... 64.
+compiled interior point, planar (n = 4 ... 64) and spatial (n = 4 ... 16).
 
-Run: ``python benchmarks/bench_sqp_scaling.py [--sizes 4,8,16,32,64] [--targets 8]``.
-Writes ``benchmarks/results/sqp_scaling.{json,md}`` (``--out DIR`` elsewhere).
+Run: ``python benchmarks/bench_sqp_scaling.py [--mode planar|spatial] [--sizes 4,8,16]
+[--targets 8]``. Writes ``benchmarks/results/sqp_scaling.{json,md}`` (spatial:
+``sqp_scaling_spatial.{json,md}``; ``--out DIR`` elsewhere).
 
 Every method solves the same random reachable targets of the reference stack
 (``random_planar_targets(stack, K, rng=seed + n)``) from one start, the paper's initial
@@ -31,7 +32,7 @@ import numpy as np
 
 import stackik as sk
 from stackik.bench import machine_info
-from stackik.sampling import random_planar_targets
+from stackik.sampling import random_planar_targets, random_spatial_targets
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -60,11 +61,28 @@ METHODS: dict[str, dict[str, Any]] = {
         "starts": 1,
         "options": {"qp_working_set": True},
     },
+    # spatial only: the NumPy evaluation with damped BFGS (the spatial SQP before the
+    # compiled problem with its exact Hessian)
+    "sqp/clarabel+bfgs": {
+        "method": "sqp",
+        "qp_solver": "clarabel",
+        "starts": 1,
+        "options": {"formulation": "dense"},
+    },
+    "sqp/daqp+bfgs": {
+        "method": "sqp",
+        "qp_solver": "daqp",
+        "starts": 1,
+        "options": {"formulation": "dense"},
+    },
     "slsqp": {"method": "slsqp", "starts": 1},
     "ipopt": {"method": "ipopt", "starts": 1},
     "ip": {"method": "ip", "starts": 1},
     "default": {},
 }
+#: methods of one mode only
+SPATIAL_ONLY = {"sqp/clarabel+bfgs", "sqp/daqp+bfgs"}
+PLANAR_ONLY: set[str] = set()
 #: methods not timed beyond these sizes by default (minutes per solve)
 MAX_N = {
     "slsqp": 32,
@@ -86,17 +104,26 @@ def _fit(ns: list[int], ts: list[float]) -> float | None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--sizes", default="4,8,16,32,64")
+    parser.add_argument("--mode", choices=("planar", "spatial"), default="planar")
+    parser.add_argument("--sizes", default=None, help="default 4,8,16,32,64 (spatial 4,8,16)")
     parser.add_argument("--targets", type=int, default=8, help="targets per size")
-    parser.add_argument("--methods", default=",".join(METHODS))
+    parser.add_argument("--methods", default=None, help="default: every method of the mode")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--repeats", type=int, default=1, help="timing: min over repeats")
     parser.add_argument("--max-time", type=float, default=120.0, help="per solve [s]")
     parser.add_argument("--no-caps", action="store_true", help="run every method at every n")
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args()
+    spatial = args.mode == "spatial"
+    if args.sizes is None:
+        args.sizes = "4,8,16" if spatial else "4,8,16,32,64"
+    if args.methods is None:
+        skip = PLANAR_ONLY if spatial else SPATIAL_ONLY
+        args.methods = ",".join(m for m in METHODS if m not in skip)
     sizes = [int(s) for s in args.sizes.split(",")]
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    make_targets = random_spatial_targets if spatial else random_planar_targets
+    stem = "sqp_scaling_spatial" if spatial else "sqp_scaling"
     unknown = sorted(set(methods) - set(METHODS))
     if unknown:
         parser.error(f"unknown methods {unknown}; known: {sorted(METHODS)}")
@@ -107,14 +134,14 @@ def main() -> None:
             methods.remove("ipopt")
     # warm-up: load or compile every kernel, import every solver
     st4 = sk.Stack.reference(4)
-    t4 = random_planar_targets(st4, 1, rng=12345)[0]
+    t4 = make_targets(st4, 1, rng=12345)[0]
     for m in methods:
         sk.solve_ik(st4, t4, **METHODS[m])
     load0 = os.getloadavg()
     rows: list[dict[str, Any]] = []
     for n in sizes:
         stack = sk.Stack.reference(n)
-        targets = random_planar_targets(stack, args.targets, rng=args.seed + n)
+        targets = make_targets(stack, args.targets, rng=args.seed + n)
         for i, target in enumerate(targets):
             for m in methods:
                 if not args.no_caps and n > MAX_N.get(m, 10**9):
@@ -176,7 +203,7 @@ def main() -> None:
             "16-64": _fit(big, [med[(n, m)] for n in big]) if len(big) >= 2 else None,
         }
     ratios = []
-    for n, base in ((16, "slsqp"), (16, "ipopt"), (4, "slsqp")):
+    for n, base in ((16, "slsqp"), (16, "ipopt"), (4, "slsqp"), (4, "ipopt")):
         for m in ("sqp/osqp", "sqp/clarabel", "sqp/daqp"):
             if (n, m) in med and (n, base) in med:
                 ratios.append(
@@ -194,14 +221,17 @@ def main() -> None:
         "ratios": ratios,
         "rows": rows,
     }
-    (args.out / "sqp_scaling.json").write_text(json.dumps(payload, indent=1))
+    (args.out / f"{stem}.json").write_text(json.dumps(payload, indent=1))
     lines = [
-        "# SQP scaling: planar, reference geometry, one start (paper's guess)",
+        f"# SQP scaling: {args.mode}, reference geometry, one start (paper's guess)",
+        "",
+        f"Command: `python benchmarks/bench_sqp_scaling.py --mode {args.mode} --sizes "
+        f"{args.sizes} --targets {args.targets} --seed {args.seed} --max-time {args.max_time:g}`",
         "",
         f"Machine: {info.get('cpu', info['processor'])}, {info['cpus']} CPUs, load average "
         f"{load0[0]:.1f} at start, {load1[0]:.1f} at end; Python {info['python']}, NumPy "
         f"{info['numpy']}. Date: {info['date']}. {args.targets} targets per n "
-        f"(`random_planar_targets(stack, K, rng={args.seed} + n)`), min of {args.repeats} "
+        f"(`{make_targets.__name__}(stack, K, rng={args.seed} + n)`), min of {args.repeats} "
         "timing(s) per solve.",
         "",
         "| n | method | success | within 0.1 % of best | median time [ms] | median iterations |",
@@ -222,7 +252,7 @@ def main() -> None:
     lines += ["| n | method | baseline | speed-up |", "|---|---|---|---|"]
     for r in ratios:
         lines.append(f"| {r['n']} | {r['method']} | {r['baseline']} | {r['speedup']:.2f}x |")
-    (args.out / "sqp_scaling.md").write_text("\n".join(lines) + "\n")
+    (args.out / f"{stem}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
 

@@ -152,13 +152,13 @@ def test_sqp_formulation_option_checked() -> None:
 def test_compiled_planar_nlp_equals_reduced(objective: str, n: int) -> None:
     # the SQP method's compiled evaluation (stackik._ipm kernels) has ReducedPlanarNLP's
     # values, sparsity pattern and Hessian
-    from stackik.methods._sqp_planar import CompiledPlanarNLP, compiled_supported
+    from stackik.methods._sqp_compiled import CompiledNLP, compiled_supported
 
     stack = Stack.reference(n)
     target = random_planar_targets(stack, 1, rng=3)[0]
     prob = Problem(stack, target, objective, None)
     assert compiled_supported(prob)
-    ref, nlp = ReducedPlanarNLP(prob), CompiledPlanarNLP(prob)
+    ref, nlp = ReducedPlanarNLP(prob), CompiledNLP(prob)
     rng = np.random.default_rng(1)
     u = prob.u_of(paper_initial_guess(stack, target)) + 0.01 * rng.normal(size=3 * n)
     a, b = ref.evaluate(u), nlp.evaluate(u)
@@ -195,3 +195,58 @@ def test_qp_screening_off_gives_the_same_pose() -> None:
     for r in runs:
         assert r.success
         assert r.frobenius_norm == pytest.approx(runs[0].frobenius_norm, rel=1e-6)
+
+
+@pytest.mark.parametrize("objective", ["frobenius", "feasible"])
+def test_compiled_spatial_nlp_has_the_problems_values(objective: str) -> None:
+    # the SQP method's spatial evaluation (stackik._spatial_ipm kernels, whose derivatives
+    # are tested against differences in test_spatial_quality.py): Problem's objective and
+    # limits, the limit Jacobian in one fixed block-diagonal CSC pattern, the kernel's
+    # Lagrangian Hessian
+    from stackik import _spatial_ipm
+    from stackik.methods._sqp_compiled import CompiledNLP, compiled_supported
+    from stackik.sampling import random_spatial_targets
+
+    n = 3
+    stack = Stack.reference(n)
+    target = random_spatial_targets(stack, 1, rng=5)[0]
+    prob = Problem(stack, target, objective, None)
+    assert compiled_supported(prob)
+    nlp = CompiledNLP(prob)
+    rng = np.random.default_rng(2)
+    u = prob.u_of(paper_initial_guess(stack, target)) + 0.01 * rng.normal(size=6 * n)
+    f, g, cE, AE, cI, JI = nlp.evaluate(u)
+    ref = prob.evaluate(u)
+    assert f == pytest.approx(ref[0], rel=1e-12, abs=1e-15)
+    np.testing.assert_allclose(g, ref[1], rtol=1e-10, atol=1e-12 * max(1.0, np.abs(g).max()))
+    np.testing.assert_allclose(cI, ref[4], rtol=1e-13, atol=1e-15)
+    Jd = ref[5].toarray() if hasattr(ref[5], "toarray") else ref[5]
+    np.testing.assert_allclose(JI.toarray(), Jd, rtol=1e-12, atol=1e-14)
+    assert JI.nnz == 24 * 6 * n
+    J2 = nlp.evaluate(u + 1e-3)[5]
+    assert J2.indices is JI.indices and J2.indptr is JI.indptr
+    y_eq, y_in = rng.normal(size=6), rng.random(24 * n)
+    np.testing.assert_array_equal(
+        nlp.hessian(u, y_eq, y_in), _spatial_ipm.lagrangian_hessian(u, y_eq, y_in, nlp.P)
+    )
+
+
+def test_sqp_spatial_exact_hessian_by_default() -> None:
+    # spatial SQP: the compiled problem with its exact Hessian ("auto"), every backend;
+    # the NumPy evaluation with damped BFGS stays as formulation="dense" and needs more
+    # iterations on the same target (deterministic counts, no timing)
+    from stackik.sampling import random_spatial_targets
+
+    stack = Stack.reference(4)
+    target = random_spatial_targets(stack, 1, rng=60621)[0]
+    nit = {}
+    for qp in ("daqp", "clarabel", "osqp"):
+        res = solve_ik(stack, target, method="sqp", qp_solver=qp, starts=1)
+        assert res.success, (qp, res.status)
+        assert check_pose(stack, target, res.q).ok
+        nit[qp] = res.nit
+    bfgs = solve_ik(
+        stack, target, method="sqp", qp_solver="daqp", starts=1, options={"formulation": "dense"}
+    )
+    assert bfgs.success
+    assert nit["daqp"] < bfgs.nit

@@ -11,17 +11,18 @@ import numpy as np
 from stackik.formulation import Problem
 from stackik.formulation.lifted import LiftedPlanarNLP
 from stackik.formulation.structured import ReducedPlanarNLP
-from stackik.methods._sqp_planar import CompiledPlanarNLP, compiled_supported
+from stackik.methods._sqp_compiled import CompiledNLP, compiled_supported
 from stackik.methods.base import FloatArray, Method
 from stackik.result import OptionError
 from stackik.sqp import NonlinearProgram, SQPOptions, default_qp_solver, solve
 from stackik.sqp.qp import SPARSE_BACKENDS
 
-#: ``options["formulation"]`` values (planar; spatial is always dense): ``"auto"``
-#: (``"sparse"`` with OSQP, with Clarabel ``"sparse"`` below :data:`LIFTED_FROM` platforms
-#: and ``"lifted"`` from there, else ``"dense"``), ``"dense"`` (dense Jacobians),
-#: ``"sparse"`` (the reduced problem with its block-diagonal limit Jacobian; its exact
-#: Hessian is dense),
+#: ``options["formulation"]`` values: ``"auto"`` (spatial: ``"sparse"``; planar:
+#: ``"sparse"`` with OSQP, with Clarabel ``"sparse"`` below :data:`LIFTED_FROM` platforms
+#: and ``"lifted"`` from there, else ``"dense"``), ``"dense"`` (dense Jacobians; spatial:
+#: the NumPy evaluation with damped BFGS), ``"sparse"`` (the reduced problem with its
+#: block-diagonal limit Jacobian and its exact, dense Hessian; spatial: the compiled
+#: problem of :mod:`stackik.methods._sqp_compiled`),
 #: ``"lifted"`` (chain states as variables, :mod:`stackik.formulation.lifted`: every matrix
 #: O(n) sparse; the Hessian's 3x3 chain and limit blocks each made positive semidefinite),
 #: ``"lifted-exact"`` (the same with the exact Hessian, convexified by the engine).
@@ -73,10 +74,13 @@ def sqp_options(opts: dict[str, Any]) -> SQPOptions:
 class SQPMethod(Method):
     """Trust-region SQP: linearised target equalities and limits, a convex QP per step.
 
-    Exact Lagrangian Hessian in planar mode (``"frobenius"``, ``"feasible"``, or
+    Exact Lagrangian Hessian in spatial mode (the compiled problem of the spatial interior
+    point, every objective) and in planar mode (``"frobenius"``, ``"feasible"``, or
     ``"weighted"`` with one ``sigma_theta``); damped BFGS otherwise (Gauss-Newton ignores
-    the curvature of active limits and stalls there). With OSQP or Clarabel the planar
-    problem is passed with its sparsity (``options["formulation"]``, :data:`FORMULATIONS`);
+    the curvature of active limits and stalls there). Spatial n = 4, one start: 12
+    iterations instead of BFGS's ~50 (benchmarks/results/sqp_spatial.md). With OSQP or
+    Clarabel the problem is passed with its sparsity (``options["formulation"]``,
+    :data:`FORMULATIONS`);
     ``options`` are otherwise :class:`stackik.sqp.SQPOptions` fields, e.g.
     ``barrier_start=True`` for the interior start phase (better local minima from one
     start, more iterations).
@@ -104,10 +108,11 @@ class SQPMethod(Method):
         form = opts.pop("formulation", "auto")
         if "max_time" not in opts and math.isfinite(time_left):
             opts["max_time"] = max(time_left, 1e-3)
-        exact = prob.fast is not None and (prob.objective != "weighted" or np.ptp(prob.w_th) == 0)
         name = (default_qp_solver() if qp_solver is None else qp_solver).strip().lower()
         if form == "auto":
-            if name not in SPARSE_BACKENDS:
+            if not prob.planar:  # the compiled spatial problem, exact Hessian
+                form = "sparse"
+            elif name not in SPARSE_BACKENDS:
                 form = "dense"
             else:  # OSQP's ADMM struggles with the lifted chain equalities (n = 64)
                 lift = name == "clarabel" and prob.n >= LIFTED_FROM
@@ -123,13 +128,18 @@ class SQPMethod(Method):
         gauss_newton: Any = None if prob.objective == "feasible" else prob.gauss_newton
         lifted: LiftedPlanarNLP | None = None
         x0 = u0
-        if form == "sparse" and prob.fast is not None:
-            # planar: the limit Jacobian as CSC, block diagonal by platform; values and
-            # Hessian from the compiled kernels where they apply (one FN weight)
-            structured: CompiledPlanarNLP | ReducedPlanarNLP = (
-                CompiledPlanarNLP(prob) if compiled_supported(prob) else ReducedPlanarNLP(prob)
+        # exact Hessians: planar (one FN weight) in every formulation, spatial in the
+        # compiled one ("dense" keeps the NumPy evaluation with damped BFGS)
+        exact = prob.fast is not None and (prob.objective != "weighted" or np.ptp(prob.w_th) == 0)
+        if form == "sparse" and (prob.fast is not None or not prob.planar):
+            # the limit Jacobian as CSC, block diagonal by platform; values and Hessian
+            # from the compiled kernels where they apply (spatial; planar with one FN
+            # weight)
+            structured: CompiledNLP | ReducedPlanarNLP = (
+                CompiledNLP(prob) if compiled_supported(prob) else ReducedPlanarNLP(prob)
             )
             evaluate, hessian = structured.evaluate, structured.hessian
+            exact = exact or not prob.planar
         elif form.startswith("lifted") and prob.fast is not None and exact:
             lifted = LiftedPlanarNLP(prob, psd_blocks=form == "lifted")
             evaluate, hessian, gauss_newton = lifted.evaluate, lifted.hessian, None
