@@ -683,14 +683,19 @@ class _Sweep:
         else:
             cost = np.full(len(cur), np.inf)
             prev, pc = self.C[k - 1], self.cost[k - 1]
-            w = self.req.motion_weight
-            for j, cj in enumerate(cur):
-                for i, pi in enumerate(prev):
-                    if not np.isfinite(pc[i]) or self.tracker.ratio(pi.q, cj.q) > 1.0:
-                        continue
-                    v = pc[i] + fn2[j] + w * float(np.sum((cj.q - pi.q) ** 2))
-                    if v < cost[j]:
-                        cost[j], back[j] = v, i
+            if cur and prev:
+                # every edge at once: (len(cur), len(prev)) jumps and step lengths
+                Qc = np.stack([c.q for c in cur])[:, None]
+                Qp = np.stack([p.q for p in prev])[None]
+                d = Qc - Qp
+                far = np.max(np.abs(d) / self.tracker.scale, axis=(2, 3)) > 1.0
+                v = pc[None, :] + fn2[:, None]
+                if self.req.motion_weight:
+                    v = v + self.req.motion_weight * np.sum(d**2, axis=(2, 3))
+                v = np.where(far | ~np.isfinite(pc)[None, :], np.inf, v)
+                i = np.argmin(v, axis=1)  # the first of equal costs, as a loop would
+                cost = v[np.arange(len(cur)), i]
+                back = np.where(np.isfinite(cost), i, -1).astype(np.int64)
         if k < len(self.cost):
             self.cost[k], self.back[k] = cost, back
         else:
