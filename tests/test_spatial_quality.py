@@ -226,7 +226,9 @@ def test_spatial_hops_and_recentring_respect_max_time() -> None:
     target = random_spatial_targets(stack, 1, 9611)[0]
     quick = solve_ik(stack, target, starts=1, max_time=1e-9)
     plain = solve_ik(stack, target, method="ip", x0=paper_initial_guess(stack, target), starts=1)
-    assert quick.nit == plain.nit
+    # the first run keeps 1 ms (Request.time_left) and may be cut short on a loaded machine:
+    # at most the plain run's iterations, never a re-centring run's on top
+    assert quick.nit <= plain.nit
 
 
 def test_spatial_single_start_recentres_from_its_pose() -> None:
