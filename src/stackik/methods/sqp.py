@@ -77,8 +77,9 @@ class SQPMethod(Method):
     Exact Lagrangian Hessian in spatial mode (the compiled problem of the spatial interior
     point, every objective) and in planar mode (``"frobenius"``, ``"feasible"``, or
     ``"weighted"`` with one ``sigma_theta``); damped BFGS otherwise (Gauss-Newton ignores
-    the curvature of active limits and stalls there). Spatial n = 4, one start: 12
-    iterations instead of BFGS's ~50 (benchmarks/results/sqp_spatial.md). With OSQP or
+    the curvature of active limits and stalls there). Spatial, one start: 8.5 / 39 / 120
+    median iterations at n = 4 / 8 / 16 instead of BFGS's 32-36 / 155-175 / 190-400
+    (benchmarks/results/sqp_scaling_spatial.md). With OSQP or
     Clarabel the problem is passed with its sparsity (``options["formulation"]``,
     :data:`FORMULATIONS`);
     ``options`` are otherwise :class:`stackik.sqp.SQPOptions` fields, e.g.
