@@ -455,6 +455,8 @@ def _fast(
         k = len(ql) - 1
         if goal is None and req.reanchor_every and pending and k % req.reanchor_every == 0:
             goal = _reanchor(req, tracker, k, tb, q, info)
+        if ck.path is None:  # nothing to write: no record (~5 us a waypoint at n = 4)
+            return
         top = [(target_to_dict(t), s, d) for t, s, d in pending if d > 0] if req.refine else []
         ck.put(
             "fast",
@@ -499,9 +501,11 @@ def _fast(
             items = []
             for j, q in enumerate(poses, start=j0):
                 ql[j], hows[j] = q, "rejoin"
-                old = ck.get("fast", j)
-                items.append((j, {**old, "q": q.tolist(), "how": "rejoin", "goal": None}))
-            ck.put_many("fast", items)
+                if ck.path is not None:
+                    old = ck.get("fast", j)
+                    items.append((j, {**old, "q": q.tolist(), "how": "rejoin", "goal": None}))
+            if items:
+                ck.put_many("fast", items)
             goal = None
             ladder_at = -1  # a new pose: its warm solve is not made yet
             continue  # the next step from the new pose before tb
