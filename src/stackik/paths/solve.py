@@ -53,7 +53,13 @@ from stackik.paths.timing import time_parameterize
 from stackik.platform import planar_legs, spatial_legs
 from stackik.solve import solve_ik
 from stackik.solve.blas import BlasLimit
-from stackik.targets import PlanarTarget, Target, target_from_dict, target_to_dict
+from stackik.targets import (
+    PlanarTarget,
+    SpatialTarget,
+    Target,
+    target_from_dict,
+    target_to_dict,
+)
 
 __all__ = [
     "DEDUPE",
@@ -423,6 +429,9 @@ def _fast(
     j = 0
     refined: list[tuple[Target, float, int]] = []
     goal: _Goal | None = None
+    # reanchoring schedule: the next check's index and the gap after it (doubled after a
+    # check that finds no better basin, reset to reanchor_every after one that does)
+    due, gap = req.reanchor_every, req.reanchor_every
     while rec is not None:  # replay the checkpoint (or just waypoint 0)
         if j == 0:
             tl.append(pts[0])
@@ -434,6 +443,8 @@ def _fast(
         hows.append(str(rec["how"]))
         refined = [(target_from_dict(t), float(s), int(d)) for t, s, d in rec["pending"]]
         goal = _Goal.load(rec["goal"])
+        if "reanchor" in rec:
+            due, gap = (int(v) for v in rec["reanchor"])
         j += 1
         rec = ck.get("fast", j)
     # pending: a stack of (target, source, depth); the top is the next waypoint to reach
@@ -446,15 +457,18 @@ def _fast(
 
     def accept(q: FloatArray, how: str) -> None:
         """Append the pose of the pending top; reanchor when due; checkpoint."""
-        nonlocal goal
+        nonlocal goal, due, gap
         tb, sb, _ = pending.pop()
         tl.append(tb)
         sl.append(sb)
         ql.append(q)
         hows.append(how)
         k = len(ql) - 1
-        if goal is None and req.reanchor_every and pending and k % req.reanchor_every == 0:
-            goal = _reanchor(req, tracker, k, tb, q, info)
+        if req.reanchor_every and k == due:
+            if goal is None and pending:
+                goal = _reanchor(req, tracker, k, tb, q, info)
+                gap = req.reanchor_every if goal is not None else 2 * gap
+            due = k + gap
         if ck.path is None:  # nothing to write: no record (~5 us a waypoint at n = 4)
             return
         top = [(target_to_dict(t), s, d) for t, s, d in pending if d > 0] if req.refine else []
@@ -468,6 +482,7 @@ def _fast(
                 "how": how,
                 "pending": top,
                 "goal": None if goal is None else goal.record(),
+                "reanchor": [due, gap],
             },
         )
 
@@ -477,7 +492,7 @@ def _fast(
                 and len(ql) != ladder_at):  # fmt: skip
             # warm steps along the next waypoints in one compiled call, up to the next
             # reanchoring; the first it does not reach goes through the ladder below
-            run = _warm_run_length(len(ql), req.reanchor_every, len(pending))
+            run = _warm_run_length(len(ql), due if req.reanchor_every else 0, len(pending))
             poses = tracker.warm_many(ql[-1], [t for t, _, _ in pending[::-1][:run]])
             for q in poses:
                 accept(q, "warm")
@@ -530,12 +545,12 @@ _OFF_OPTIMUM = ("bounded", "transit", "rejoin")
 WARM_RUN = 256
 
 
-def _warm_run_length(k: int, reanchor_every: int, pending: int) -> int:
-    """Waypoints of the next run of warm steps: to the next reanchoring index (a multiple
-    of ``reanchor_every`` >= ``k``, inclusive), at most WARM_RUN and what is pending."""
+def _warm_run_length(k: int, due: int, pending: int) -> int:
+    """Waypoints of the next run of warm steps: to the next reanchoring index ``due``
+    (inclusive; 0: none), at most WARM_RUN and what is pending."""
     run = WARM_RUN
-    if reanchor_every:
-        run = (reanchor_every - k % reanchor_every) % reanchor_every + 1
+    if due >= k:
+        run = due - k + 1
     return min(run, WARM_RUN, pending)
 
 
@@ -1022,6 +1037,7 @@ def solve_path(
         ``start`` of the wrong shape or that misses ``targets[0]``, only one of
         ``leg_speed``/``leg_accel``, non-positive limits.
     """
+    _load_before_clock(targets)
     t_start = time.perf_counter()
     req = _request(
         stack, targets, max_jump, mode, motion_weight, refine, max_depth, start,
@@ -1038,6 +1054,25 @@ def solve_path(
         return _solve(req, ck, t_start)
     finally:
         blas.restore()
+
+
+def _load_before_clock(targets: Any) -> None:
+    """What a path loads once per process, before its clock starts (as :func:`solve_ik`
+    does for its kernels, so that :attr:`PathResult.time` is the path's own work): the
+    compiled kernels (the path kernels among them: tens of milliseconds to load from
+    numba's cache on first use) and the BLAS controller (threadpoolctl scans the loaded
+    libraries, ~10 ms)."""
+    from stackik.solve.blas import _blas_controller
+    from stackik.solve.kernels import ensure_kernels
+
+    ensure_kernels("planar")
+    try:
+        spatial = isinstance(targets[0], SpatialTarget)
+    except (TypeError, IndexError, KeyError):
+        spatial = False  # bad input: the request's validation reports it
+    if spatial:
+        ensure_kernels("spatial")
+    _blas_controller()
 
 
 def _solve(req: _Request, ck: PathCheckpoint, t_start: float) -> PathResult:
