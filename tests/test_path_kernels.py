@@ -21,7 +21,7 @@ from stackik.solve import solve_ik
 from stackik.starts import paper_initial_guess
 
 #: No carried state: the arguments of a run from a point that is not a solved one.
-_NO_STATE3 = (np.zeros(3), np.zeros(0), np.zeros(0, dtype=bool), False)
+_NO_STATE3 = (np.zeros(3), np.zeros(0), np.zeros(0, dtype=bool), False, np.zeros(0))
 
 
 def _planar(n: int, seed: int):

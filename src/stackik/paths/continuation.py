@@ -214,8 +214,9 @@ class Tracker:
         return out
 
     def _no_state(self) -> tuple[Any, ...]:
-        ne = 3 if self.planar else 6
-        return (np.zeros(ne), np.zeros(0), np.zeros(0, dtype=bool), False)
+        if self.planar:  # multipliers, active set, have, the point before and targets
+            return (np.zeros(3), np.zeros(0), np.zeros(0, dtype=bool), False, np.zeros(0))
+        return (np.zeros(6), np.zeros(0), np.zeros(0, dtype=bool), False)
 
     def _subdivide(self, q: FloatArray, ta: Target, tb: Target, depth: int) -> FloatArray | None:
         qb = self.warm(q, tb)
