@@ -102,8 +102,10 @@ class Tracker:
 
     def __post_init__(self) -> None:
         self.scale = jump_scale(self.max_jump, 3 if self.planar else 6)
-        #: (last pose of the last run, its state: yE, z, active, have)
+        #: (last pose of the last run, its state: yE, z, active, have; planar: and hist)
         self._carry: tuple[Any, ...] | None = None
+        #: (plane phi or None, Problem, kernel arrays, scaled jump) of the runs
+        self._run_problem: tuple[Any, ...] | None = None
         #: the pose from which the last run's warm solve to its next target failed (in
         #: the kernel: a pose the Python check rejects may come from a continuation step,
         #: with no warm solve made), else None
@@ -169,8 +171,15 @@ class Tracker:
         from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
         from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
-        prob = Problem(self.stack, targets[0], "frobenius", None)
-        jump = readonly(np.tile(self.scale, self.stack.n) / prob.xs)
+        # the scaled problem's arrays depend on the target only through its values (which
+        # the kernels replace step by step) and, planar, its plane: built once per plane
+        key = getattr(targets[0], "phi", None)
+        if self._run_problem is None or self._run_problem[0] != key:
+            prob = Problem(self.stack, targets[0], "frobenius", None)
+            arrays = problem_arrays(prob) if self.planar else spatial_problem_arrays(prob)
+            jump = readonly(np.tile(self.scale, self.stack.n) / prob.xs)
+            self._run_problem = (key, prob, arrays, jump)
+        _, prob, arrays, jump = self._run_problem
         tol, ctol = float(IP_DEFAULTS["tol"]), float(IP_DEFAULTS["constr_tol"])
         max_iter = int(IP_DEFAULTS["max_iter"])
         # the multipliers and active set of q when the last run ended at q (its last pose)
@@ -181,8 +190,8 @@ class Tracker:
         if self.planar:
             Y = np.array([(t.rho, t.z, t.theta) for t in targets])  # type: ignore[union-attr]
             X, reached, how, *end = _ipm.ip_path(
-                readonly(prob.u_of(q)), readonly(Y), problem_arrays(prob), jump, tol, ctol,
-                WARM_MU0, max_iter, *tail,
+                readonly(prob.u_of(q)), readonly(Y), arrays, jump, tol, ctol, WARM_MU0,
+                max_iter, *tail,
             )  # fmt: skip
             check_many = planar_check_many
         else:
@@ -190,7 +199,7 @@ class Tracker:
             rot = np.array([t.rotation for t in targets])  # type: ignore[union-attr]
             X, reached, how, *end = _spatial_ipm.ip_path(
                 readonly(prob.u_of(q)), readonly(pos), readonly(rot),
-                spatial_problem_arrays(prob), jump, tol, ctol, WARM_MU0, max_iter, *tail,
+                arrays, jump, tol, ctol, WARM_MU0, max_iter, *tail,
             )  # fmt: skip
             check_many = spatial_check_many
         k = 3 if self.planar else 6
