@@ -935,8 +935,12 @@ def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArra
 #: Newton iterations of a continuation step (:func:`_pc_step`), all active sets
 #: together, and active-set changes (a limit added or released) it may make; a step that
 #: has not converged by then goes to the barrier solve.
-PC_NEWTON = 8
+PC_NEWTON = 16
 PC_CHANGES = 3
+#: ... and it gives up early when Newton's method does not converge: after PC_FREE
+#: iterations in one active set, each must shrink the error by PC_CONTRACT.
+PC_FREE = 2
+PC_CONTRACT = 0.5
 #: The continuation step holds its active limits at this scaled value rather than at 0,
 #: on the feasible side as the barrier solve's points are (slacks ~ mu / z there), so
 #: that rounding never leaves them violated for the polish to move.
@@ -1050,6 +1054,8 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
         K = np.zeros((N + 3 + na, N + 3 + na))
         rhs = np.empty(N + 3 + na)
         conv = False
+        inner = 0  # Newton iterations in this active set
+        err_prev = math.inf
         while True:
             if not (np.all(np.isfinite(g)) and np.all(np.isfinite(cE))
                     and np.all(np.isfinite(cI))):  # fmt: skip
@@ -1067,11 +1073,21 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             for j in range(na):
                 e_pr = max(e_pr, abs(cI[idx[j]] - PC_OFFSET))
                 comp = max(comp, abs(cI[idx[j]] * zA[j]))
-            if e_du <= tol and comp / sd <= tol and e_pr <= min(constr_tol, PC_PRIMAL_TOL):
+            ptol = min(constr_tol, PC_PRIMAL_TOL)
+            if e_du <= tol and comp / sd <= tol and e_pr <= ptol:
                 conv = True
                 break
             if it >= max_newton:
                 break
+            # Newton's method converges quadratically near a solution: an iteration that
+            # does not at least halve the error (in units of the tolerances) after the
+            # first two of this active set does not converge, and the barrier solve takes
+            # the step at once (instead of after the whole budget)
+            err = max(e_du / tol, max(comp / sd / tol, e_pr / ptol))
+            if inner >= PC_FREE and not err <= PC_CONTRACT * err_prev:
+                break
+            err_prev = err
+            inner += 1
             it += 1
             W = _lagrangian_hessian(x, yE, zf, P)
             K[:] = 0.0
