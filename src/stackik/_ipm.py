@@ -1004,8 +1004,10 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     nothing left to move). A converged point releases the limit with the most negative
     multiplier, or else adds the other limits that it violates or nearly meets (closer
     than ``PC_OFFSET / 2``), and Newton goes on: at most ``max_changes`` changes and
-    ``max_newton`` iterations in all. A set with more limits than the freedom ``N - 3``
-    (degenerate) loses its weakest (least multiplier) first. Active rows that copy an
+    ``max_newton`` iterations in all (fewer when, after PC_FREE iterations in one active
+    set, an iteration does not shrink the error by PC_CONTRACT: not converging). A set
+    with more limits than the freedom ``N - 3`` (degenerate) loses its weakest (least
+    multiplier) first. Active rows that copy an
     earlier active row (mirror legs, :func:`_twins`) enter once, with the multipliers of
     the copies summed onto that row.
 

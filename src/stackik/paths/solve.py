@@ -11,8 +11,11 @@ waypoints. Two modes:
     (:class:`stackik.paths.continuation.Tracker`): a warm-started solve that keeps the fold
     of the previous pose, bisection of the step when the warm start leaves its basin, and,
     when the followed FN minimum ends, the least-FN pose within ``max_jump`` of the
-    previous one. Every ``reanchor_every`` waypoints it compares the path with the default
-    solve and moves to a basin better by 1 % by transit steps; when the followed branch
+    previous one. At waypoint ``reanchor_every`` it compares the path with the default
+    solve and moves to a basin better by 1 % by transit steps; the next comparison comes
+    ``reanchor_every`` waypoints later after one that moved, twice the last gap after one
+    that did not (the path was on the best basin the default solve knows: checks back
+    off while it stays there); when the followed branch
     ends at a limit wall it splices in a detour walked back from the next waypoint's
     default pose.
 
@@ -83,8 +86,9 @@ DEDUPE = 1e-3
 REFINE_DEPTH = 4
 #: Transit steps per attempt to reach a better basin (each must bring it 1/4 jump closer).
 TRANSIT_STEPS = 10
-#: Fast mode: every ``reanchor_every`` waypoints the default solve is compared with the
-#: path, which moves to the default pose's basin when its FN is lower by this fraction.
+#: Fast mode: at the reanchoring checks (``reanchor_every``, backing off) the default
+#: solve is compared with the path, which moves to the default pose's basin when its FN
+#: is lower by this fraction.
 FAST_TRANSIT_GAIN = 0.01
 #: Default ``reanchor_every`` of planar paths: ``max(REANCHOR_EVERY, REANCHOR_PER_N * n)``
 #: waypoints (the default solve's starts grow with n: 3 at n = 4, 19 at n = 8, 35 at
@@ -1013,11 +1017,14 @@ def solve_path(
         Seeds the random starts of the default solves (waypoint k gets seed ``s + k``);
         None keeps :func:`stackik.solve.solve_ik`'s fixed seed. Deterministic either way.
     reanchor_every : int or None
-        Fast mode: every this many waypoints, compare the path with the default solve of
-        the waypoint; when that pose's FN is lower by more than ``FAST_TRANSIT_GAIN`` (1 %)
-        and it lies more than ``max_jump`` away, the path moves to its basin by transit
-        steps (least FN^2 plus distance to the goal's continuation, within
-        ``max_jump``), at most ``TRANSIT_STEPS`` of them. 0 turns it off. Default (None):
+        Fast mode: at waypoint ``reanchor_every``, compare the path with the default solve
+        of the waypoint; when that pose's FN is lower by more than ``FAST_TRANSIT_GAIN``
+        (1 %) and it lies more than ``max_jump`` away, the path moves to its basin by
+        transit steps (least FN^2 plus distance to the goal's continuation, within
+        ``max_jump``), at most ``TRANSIT_STEPS`` of them. The next check is
+        ``reanchor_every`` waypoints after one that moved the path, twice the last gap
+        after one that did not (20, 60, 140, ... while the path stays on the best basin
+        the default solve finds). 0 turns it off. Default (None):
         ``max(20, 5 n)`` for planar paths (20 at n = 4, 40 at n = 8, 80 at n = 16: the
         default solve's cost grows with n), 0 for spatial ones (a spatial default solve
         costs as much as tens of warm steps, and the spatial FN landscape has so many
