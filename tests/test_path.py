@@ -256,6 +256,54 @@ def test_global_mode_walks_back_onto_a_better_branch_by_bounded_steps():
     assert g.mean_frobenius_norm < 1.003 * ref
 
 
+def _bezier(a: PlanarTarget, c: PlanarTarget, b: PlanarTarget, m: int) -> list[PlanarTarget]:
+    """m waypoints of the quadratic Bezier a -> b with control c (as benchmarks/bench_path)."""
+    pts = []
+    for s in np.linspace(0.0, 1.0, m):
+        y = (1 - s) ** 2 * a.y + 2 * s * (1 - s) * c.y + s**2 * b.y
+        pts.append(PlanarTarget(float(y[0]), float(y[1]), float(y[2])))
+    pts[0], pts[-1] = a, b
+    return pts
+
+
+def test_fast_mode_reanchoring_keeps_fn_within_3_percent_on_the_bench_path(stack4):
+    # the n = 4 benchmark path on which re-anchoring matters (bench_path.py, seed 2024,
+    # curved path 2: without re-anchoring its mean FN is 12.7 % above the per-waypoint
+    # optima): the check at waypoint 20 finds the better basin, transit steps get there,
+    # and the mean FN stays within 3 %; every pose checked, no step above max_jump
+    a = PlanarTarget(222.83399568612748, 1374.0378517401462, -0.3687299319593071)
+    c = PlanarTarget(-804.5536107866321, 859.9298633823975, 0.6632075790621189)
+    b = PlanarTarget(531.7049362483348, 1137.4652087106026, -0.14183720382728005)
+    pts = _bezier(a, c, b, 60)
+    ref = np.mean([solve_ik(stack4, t).frobenius_norm for t in pts])
+    r = solve_path(stack4, pts, max_jump=MAX_JUMP)
+    assert r.success
+    assert_valid_path(stack4, r)
+    assert r.info["reanchored"] >= 1
+    assert r.mean_frobenius_norm <= 1.03 * ref
+    stay = solve_path(stack4, pts, max_jump=MAX_JUMP, reanchor_every=0)
+    assert stay.mean_frobenius_norm > 1.1 * ref
+
+
+def test_fast_mode_reanchoring_checks_back_off(stack4):
+    # a straight n = 4 path (bench_path.py, seed 2024, straight path 0) that stays in the
+    # best basin: the check at waypoint 20 finds nothing better, so the next is due at
+    # 20 + 40 = 60, past the end: two default solves (waypoint 0 and the check), not three
+    a = PlanarTarget(-83.82796298032628, 1224.5834942014094, 0.04429207241448124)
+    b = PlanarTarget(-250.97629224822617, 1250.8289009718815, -0.04249152079099028)
+    pts = interpolate_targets([a, b], steps=59)
+    r = solve_path(stack4, pts, max_jump=MAX_JUMP)
+    assert r.success and r.m == 60
+    assert_valid_path(stack4, r)
+    assert r.info["default"] == 2 and r.info["reanchored"] == 0
+    # every 20 waypoints (the default period, reset by a check that moves) without the
+    # back-off would check at 20 and 40: a period of 10 checks at 10, then 30
+    r10 = solve_path(stack4, pts, max_jump=MAX_JUMP, reanchor_every=10)
+    assert r10.info["default"] == 3 and r10.info["reanchored"] == 0
+    # the same poses (to rounding: a run restarts from the pose, not the kernel's point)
+    np.testing.assert_allclose(r10.q, r.q, rtol=0, atol=1e-9)
+
+
 def test_fast_mode_leaves_a_branch_that_ends_at_a_limit_wall(tmp_path, monkeypatch):
     # n = 8: the branch the fast path follows ends at a joint limit before waypoint 45,
     # where a bounded step that finds no continuation leaves the path there (the compiled

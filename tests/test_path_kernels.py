@@ -21,7 +21,7 @@ from stackik.solve import solve_ik
 from stackik.starts import paper_initial_guess
 
 #: No carried state: the arguments of a run from a point that is not a solved one.
-_NO_STATE3 = (np.zeros(3), np.zeros(0), np.zeros(0, dtype=bool), False)
+_NO_STATE3 = (np.zeros(3), np.zeros(0), np.zeros(0, dtype=bool), False, np.zeros(0))
 
 
 def _planar(n: int, seed: int):
@@ -189,6 +189,34 @@ def test_ip_path_continuation_steps_are_verified_kkt_points_near_the_barrier_sol
             # one) a KKT point whose FN^2 differs by a fraction of a per mille
             assert abs(f_pc - Xj[3][0]) <= 1e-3 * abs(Xj[3][0])
         u = X[j]
+
+
+@pytest.mark.parametrize(("n", "seed"), [(4, 5), (4, 7), (8, 11)])
+def test_ip_path_starts_with_a_continuation_step_from_least_squares_multipliers(n, seed):
+    """A point without a carried state (the default solve's pose): its active limits and
+    least-squares multipliers (_ls_state) are those of its own KKT point, so that the
+    continuation step at its own target is verified without moving it, and a run from it
+    starts with a continuation step instead of a barrier solve."""
+    stack = Stack.reference(n)
+    a, b = random_reachable_targets(stack, 2, rng=seed)
+    pts = interpolate_targets([a, b], max_step=(15.0, 0.03))
+    q0 = solve_ik(stack, pts[0]).q
+    prob = Problem(stack, pts[0], "frobenius", None)
+    P = problem_arrays(prob)
+    u0 = prob.u_of(q0)
+    yE, z, act = _ipm._ls_state(u0, P)
+    assert act.any() and np.all(z[~act] == 0.0)
+    x, ok, *_ = _ipm._pc_step(u0, P, yE, z, act, 1e-7, 1e-9, _ipm.PC_NEWTON, _ipm.PC_CHANGES)
+    assert ok
+    assert np.max(np.abs(x - u0)) <= 1e-6
+    Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:]])
+    X, reached, how, *_ = _ipm.ip_path(
+        readonly(u0), Y, P, readonly(np.full(3 * n, np.inf)), 1e-7, 1e-9, 1e-3, 300,
+        POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, *_NO_STATE3,
+    )  # fmt: skip
+    assert reached >= 1 and how[0] == 1
+    Q = np.array([prob.q_of(X[j]) for j in range(reached)])
+    assert all(planar_check_many(stack, pts[1 : reached + 1], Q))
 
 
 def test_spatial_batch_check_matches_the_check_pose():

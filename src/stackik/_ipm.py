@@ -935,8 +935,12 @@ def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArra
 #: Newton iterations of a continuation step (:func:`_pc_step`), all active sets
 #: together, and active-set changes (a limit added or released) it may make; a step that
 #: has not converged by then goes to the barrier solve.
-PC_NEWTON = 8
+PC_NEWTON = 16
 PC_CHANGES = 3
+#: ... and it gives up early when Newton's method does not converge: after PC_FREE
+#: iterations in one active set, each must shrink the error by PC_CONTRACT.
+PC_FREE = 2
+PC_CONTRACT = 0.5
 #: The continuation step holds its active limits at this scaled value rather than at 0,
 #: on the feasible side as the barrier solve's points are (slacks ~ mu / z there), so
 #: that rounding never leaves them violated for the polish to move.
@@ -1000,8 +1004,10 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     nothing left to move). A converged point releases the limit with the most negative
     multiplier, or else adds the other limits that it violates or nearly meets (closer
     than ``PC_OFFSET / 2``), and Newton goes on: at most ``max_changes`` changes and
-    ``max_newton`` iterations in all. A set with more limits than the freedom ``N - 3``
-    (degenerate) loses its weakest (least multiplier) first. Active rows that copy an
+    ``max_newton`` iterations in all (fewer when, after PC_FREE iterations in one active
+    set, an iteration does not shrink the error by PC_CONTRACT: not converging). A set
+    with more limits than the freedom ``N - 3`` (degenerate) loses its weakest (least
+    multiplier) first. Active rows that copy an
     earlier active row (mirror legs, :func:`_twins`) enter once, with the multipliers of
     the copies summed onto that row.
 
@@ -1050,6 +1056,8 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
         K = np.zeros((N + 3 + na, N + 3 + na))
         rhs = np.empty(N + 3 + na)
         conv = False
+        inner = 0  # Newton iterations in this active set
+        err_prev = math.inf
         while True:
             if not (np.all(np.isfinite(g)) and np.all(np.isfinite(cE))
                     and np.all(np.isfinite(cI))):  # fmt: skip
@@ -1067,11 +1075,21 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             for j in range(na):
                 e_pr = max(e_pr, abs(cI[idx[j]] - PC_OFFSET))
                 comp = max(comp, abs(cI[idx[j]] * zA[j]))
-            if e_du <= tol and comp / sd <= tol and e_pr <= min(constr_tol, PC_PRIMAL_TOL):
+            ptol = min(constr_tol, PC_PRIMAL_TOL)
+            if e_du <= tol and comp / sd <= tol and e_pr <= ptol:
                 conv = True
                 break
             if it >= max_newton:
                 break
+            # Newton's method converges quadratically near a solution: an iteration that
+            # does not at least halve the error (in units of the tolerances) after the
+            # first two of this active set does not converge, and the barrier solve takes
+            # the step at once (instead of after the whole budget)
+            err = max(e_du / tol, max(comp / sd / tol, e_pr / ptol))
+            if inner >= PC_FREE and not err <= PC_CONTRACT * err_prev:
+                break
+            err_prev = err
+            inner += 1
             it += 1
             W = _lagrangian_hessian(x, yE, zf, P)
             K[:] = 0.0
@@ -1148,30 +1166,80 @@ def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: f
     return True
 
 
+#: A point with no multipliers (the first of a run that carries none): limits closer than
+#: this (scaled) are its active set, and least-squares multipliers start the continuation
+#: step (:func:`_ls_state`) instead of a barrier solve.
+PC_ACTIVE_GUESS = 1e-6
+
+
+@_jit
+def _ls_state(x: FloatArray, P: Any) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """A continuation step's start state at a point that has none: the limits within
+    PC_ACTIVE_GUESS of their bound as the active set and the least-squares multipliers of
+    the equalities and those limits (``min |g - AE^T yE - AA^T zA|``; multipliers of
+    ``P``'s problem, as :func:`_ip_loop` returns them). The target enters only ``c_E``:
+    any target's ``P`` gives the same state. :func:`_pc_step` verifies its result."""
+    f, g, cE, AE, cI, D = _evaluate(x, P)
+    m = cI.size
+    N = x.size
+    act = cI < PC_ACTIVE_GUESS
+    idx = np.nonzero(act)[0]
+    A = np.zeros((N, 3 + idx.size))
+    for a in range(N):
+        for r in range(3):
+            A[a, r] = AE[r, a]
+    for j in range(idx.size):
+        i = idx[j] // 24
+        for k in range(3):
+            A[3 * i + k, 3 + j] = D[i, idx[j] % 24, k]
+    lam = np.linalg.lstsq(A, g)[0]
+    yE = lam[:3].copy()
+    z = np.zeros(m)
+    for j in range(idx.size):
+        z[idx[j]] = lam[3 + j]
+    return yE, z, act
+
+
+@_jit
+def _target_step(a: FloatArray, b: FloatArray, es: FloatArray) -> float:
+    """Length of the target step ``a -> b`` in the scaled equalities' units."""
+    acc = 0.0
+    for r in range(3):
+        d = (b[r] - a[r]) * es[r]
+        acc += d * d
+    return math.sqrt(acc)
+
+
 @_jit
 def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol: float,
             constr_tol: float, mu0: float, max_iter: int, reach: float, margin: float,
             pos_tol: float, ang_tol: float, pc: bool, yE0: FloatArray, z0: FloatArray,
-            act0: FloatArray, have0: bool) -> tuple[Any, ...]:  # fmt: skip
+            act0: FloatArray, have0: bool, hist0: FloatArray) -> tuple[Any, ...]:  # fmt: skip
     """Warm-started steps along targets ``(m, 3)`` (raw rho, z, theta), each from the
     previous point (the first from ``u0``).
 
     With ``pc`` False every step is :func:`_ip_loop` with initial barrier ``mu0`` and
     :func:`_polish`, exactly as :func:`_ip_multi` with that one start. With ``pc`` True a
-    step after a solved one is first the predictor-corrector step (:func:`_pc_step`:
-    the previous solution's multipliers and active set carried, tangent predictor,
-    Newton correctors, verified as a KKT point), polished and tested as below; when it
-    is not verified or fails the test, the step is the barrier solve as without ``pc``
-    (whose final multipliers and active set, ``z > s``, the next step carries). The
-    first step carries ``yE0``, ``z0``, ``act0`` when ``have0`` (the state of ``u0`` that
-    the previous run returned; empty arrays and False otherwise).
+    step is first the predictor-corrector step (:func:`_pc_step`: the previous
+    solution's multipliers and active set carried, Newton correctors, verified as a KKT
+    point), polished and tested as below; when it is not verified or fails the test, the
+    step is the barrier solve as without ``pc`` (whose final multipliers and active set,
+    ``z > s``, the next step carries). A point without multipliers (``u0`` without a
+    carried state, or a barrier solve that did not converge) gets them from
+    :func:`_ls_state`. When the two points before are known, the step starts from their
+    secant extrapolation (``x + r (x - x_prev)``, ``r`` the ratio of the target steps): two
+    Newton iterations then usually converge where the tangent predictor from ``x`` takes
+    three. The first step carries ``yE0``, ``z0``, ``act0`` when ``have0`` and ``hist0``
+    (the state of ``u0`` that the previous run returned: ``hist`` is the point before
+    ``u0`` and the targets of both, empty when not known; empty arrays and False
+    otherwise).
 
     Stops before the first step whose point misses its target (``pos_tol`` [mm],
     ``ang_tol`` [rad], from the scaled equalities), violates a limit (scaled) or moves
     some variable by more than ``jump`` (scaled, per variable). Returns the points
     (m, N), the number of steps taken, per step 1 when the continuation step made it
     and 0 when the barrier solve did, and the state of the last point reached
-    (``yE, z, active, have``, for the next run from it); the caller re-checks every
+    (``yE, z, active, have, hist``, for the next run from it); the caller re-checks every
     point with the independent check."""
     m = targets.shape[0]
     N = u0.size
@@ -1183,31 +1251,61 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
     yE = yE0.copy()
     z = z0.copy()
     active = act0.copy()
+    es = P0[2]
+    # the point before x and the targets of both (known: a secant predictor)
+    known = hist0.size == N + 6
+    xprev = hist0[:N].copy() if known else np.zeros(N)
+    yprev = hist0[N : N + 3].copy() if known else np.zeros(3)
+    ycur = hist0[N + 3 : N + 6].copy() if known else np.zeros(3)
     for k in range(m):
         yt = targets[k]
         P = (P0[0], P0[1], P0[2], yt, P0[4], P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
              P0[11], P0[12], P0[13], P0[14], P0[15])  # fmt: skip
-        if pc and have:
+        if pc:
+            if not have:
+                yE, z, active = _ls_state(x, P)
+            xs = x
+            if known:
+                d0 = _target_step(yprev, ycur, es)
+                d1 = _target_step(ycur, yt, es)
+                if d0 > 0.0:
+                    r = min(d1 / d0, 2.0)
+                    xs = x + r * (x - xprev)
             xn, ok, yE1, z1, act1, _ = _pc_step(
-                x, P, yE, z, active, tol, constr_tol, PC_NEWTON, PC_CHANGES
+                xs, P, yE, z, active, tol, constr_tol, PC_NEWTON, PC_CHANGES
             )
             if ok:
                 xn = _polish(xn, P, 3, reach, margin)
                 if _reaches(xn, x, P, jump, pos_tol, ang_tol):
                     X[k] = xn
                     how[k] = 1
-                    x, yE, z, active = xn, yE1, z1, act1
+                    xprev, yprev, ycur, known = x, ycur, yt.copy(), True
+                    x, yE, z, active, have = xn, yE1, z1, act1, True
                     continue
         xn, st, _, s1, z1, yE1 = _ip_loop(
             x, P, tol, constr_tol, mu0, max_iter, 1e300, none, none, none, 0.0
         )
         if st == IP_NONFINITE or not np.all(np.isfinite(xn)):
-            return X, k, how, yE, z, active, have
+            return X, k, how, yE, z, active, have, _hist(known, xprev, yprev, ycur)
         xn = _polish(xn, P, 3, reach, margin)
         if not _reaches(xn, x, P, jump, pos_tol, ang_tol):
-            return X, k, how, yE, z, active, have
+            return X, k, how, yE, z, active, have, _hist(known, xprev, yprev, ycur)
         X[k] = xn
+        xprev, yprev, ycur, known = x, ycur, yt.copy(), True
         x, yE, z = xn, yE1, z1
         active = z1 > s1
         have = st == IP_SUCCESS
-    return X, m, how, yE, z, active, have
+    return X, m, how, yE, z, active, have, _hist(known, xprev, yprev, ycur)
+
+
+@_jit
+def _hist(known: bool, xprev: FloatArray, yprev: FloatArray, ycur: FloatArray) -> FloatArray:
+    """``ip_path``'s ``hist``: the point before the last and the targets of both."""
+    if not known:
+        return np.empty(0)
+    N = xprev.size
+    out = np.empty(N + 6)
+    out[:N] = xprev
+    out[N : N + 3] = yprev
+    out[N + 3 : N + 6] = ycur
+    return out

@@ -66,13 +66,20 @@ def _box(prob: Problem, q_prev: FloatArray, max_jump: FloatArray, shrink: float)
     return (x_prev - box) / prob.xs, (x_prev + box) / prob.xs
 
 
-def _transit_terms(prob: Problem, q_prev: FloatArray, goal: FloatArray) -> tuple[
-    float, float, FloatArray
-]:  # fmt: skip
+def _transit_terms(prob: Problem, q_prev: FloatArray, goal: FloatArray,
+                   P: Any = None) -> tuple[float, float, FloatArray]:  # fmt: skip
     """``f0`` and ``d0`` of the transit objective ``f / f0 + |u - u_goal|^2 / d0`` (both
-    relative to the previous pose) and ``u_goal``."""
+    relative to the previous pose) and ``u_goal``. ``P``: the planar kernels' problem
+    arrays (:func:`stackik.methods.ip.problem_arrays`), whose compiled evaluation gives
+    ``f`` in microseconds (the Problem's own, ~0.2 ms at n = 4)."""
     ug, u_prev = prob.u_of(goal), prob.u_of(q_prev)
-    f0 = max(float(prob.evaluate(u_prev)[0]), 1e-12)
+    if P is not None:
+        from stackik import _ipm
+
+        f = float(_ipm._evaluate(u_prev, P)[0])
+    else:
+        f = float(prob.evaluate(u_prev)[0])
+    f0 = max(f, 1e-12)
     d0 = max(float(np.sum((u_prev - ug) ** 2)), 1e-12) / TRANSIT_WEIGHT
     return f0, d0, ug
 
@@ -98,7 +105,9 @@ def bounded_ip(
     lo, hi = _box(prob, q_prev, max_jump, IP_BOX_SHRINK)
     ug, wq, f0 = np.zeros(0), 0.0, 1.0
     if goal is not None:
-        f0, d0, ug = _transit_terms(prob, q_prev, goal)
+        f0, d0, ug = _transit_terms(
+            prob, q_prev, goal, problem_arrays(prob) if prob.planar else None
+        )
         wq = 1.0 / d0
     lo, hi, ug = readonly(lo), readonly(hi), readonly(ug)
     u0 = readonly(prob.u_of(q_prev))

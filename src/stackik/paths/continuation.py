@@ -102,8 +102,10 @@ class Tracker:
 
     def __post_init__(self) -> None:
         self.scale = jump_scale(self.max_jump, 3 if self.planar else 6)
-        #: (last pose of the last run, its state: yE, z, active, have)
+        #: (last pose of the last run, its state: yE, z, active, have; planar: and hist)
         self._carry: tuple[Any, ...] | None = None
+        #: (plane phi or None, Problem, kernel arrays, scaled jump) of the runs
+        self._run_problem: tuple[Any, ...] | None = None
         #: the pose from which the last run's warm solve to its next target failed (in
         #: the kernel: a pose the Python check rejects may come from a continuation step,
         #: with no warm solve made), else None
@@ -120,14 +122,39 @@ class Tracker:
         (a run of :meth:`warm_many` stopped here): only the retry remains."""
         if not tried:
             self.counts.warm += 1
-            r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options={"mu0": WARM_MU0})
-            if r.success:  # kept its basin, or left it: the default barrier would too
-                return r.q if self.ratio(q, r.q) <= 1.0 else None
+            ok, qw = self._warm_solve(q, target, WARM_MU0)
+            if ok:  # kept its basin, or left it: the default barrier would too
+                return qw if self.ratio(q, qw) <= 1.0 else None
         self.counts.warm_retry += 1
-        r = solve_ik(self.stack, target, x0=q, starts=1, method="ip")
-        if r.success and self.ratio(q, r.q) <= 1.0:
-            return r.q
+        ok, qw = self._warm_solve(q, target, None)
+        if ok and self.ratio(q, qw) <= 1.0:
+            return qw
         return None
+
+    def _warm_solve(self, q: FloatArray, target: Target, mu0: float | None) -> tuple[bool, Any]:
+        """``solve_ik(stack, target, x0=q, starts=1, method="ip", options={"mu0": mu0})``
+        (None: the default barrier): ``(success, pose)``. Planar: the same compiled call
+        (:func:`stackik._ipm._ip_multi` with one start, then the compiled check) without
+        the pipeline around it (its request, plan and result cost ~4x the solve at n = 4);
+        the same pose and verdict."""
+        opts = {} if mu0 is None else {"mu0": mu0}
+        if not self.planar:
+            r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options=opts)
+            return r.success, r.q
+        from stackik import _ipm
+        from stackik._check import planar_check
+        from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
+        from stackik.methods.ip import IP_DEFAULTS, problem_arrays
+
+        prob = Problem(self.stack, target, "frobenius", None)
+        mu = float(IP_DEFAULTS["mu0"]) if mu0 is None else float(mu0)
+        X, *_ = _ipm._ip_multi(
+            prob.u_of(q)[None], problem_arrays(prob), float(IP_DEFAULTS["tol"]),
+            float(IP_DEFAULTS["constr_tol"]), np.array([mu]), int(IP_DEFAULTS["max_iter"]),
+            1e300, POLISH_REACH, POLISH_MARGIN,
+        )  # fmt: skip
+        qw = prob.q_of(X[0])
+        return bool(planar_check(self.stack, target, qw)[0].ok), qw
 
     def warm_many(self, q: FloatArray, targets: list[Target]) -> list[FloatArray]:
         """The warm rung along ``targets``, each from the pose before, in one compiled
@@ -144,8 +171,15 @@ class Tracker:
         from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
         from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
-        prob = Problem(self.stack, targets[0], "frobenius", None)
-        jump = readonly(np.tile(self.scale, self.stack.n) / prob.xs)
+        # the scaled problem's arrays depend on the target only through its values (which
+        # the kernels replace step by step) and, planar, its plane: built once per plane
+        key = getattr(targets[0], "phi", None)
+        if self._run_problem is None or self._run_problem[0] != key:
+            prob = Problem(self.stack, targets[0], "frobenius", None)
+            arrays = problem_arrays(prob) if self.planar else spatial_problem_arrays(prob)
+            jump = readonly(np.tile(self.scale, self.stack.n) / prob.xs)
+            self._run_problem = (key, prob, arrays, jump)
+        _, prob, arrays, jump = self._run_problem
         tol, ctol = float(IP_DEFAULTS["tol"]), float(IP_DEFAULTS["constr_tol"])
         max_iter = int(IP_DEFAULTS["max_iter"])
         # the multipliers and active set of q when the last run ended at q (its last pose)
@@ -156,8 +190,8 @@ class Tracker:
         if self.planar:
             Y = np.array([(t.rho, t.z, t.theta) for t in targets])  # type: ignore[union-attr]
             X, reached, how, *end = _ipm.ip_path(
-                readonly(prob.u_of(q)), readonly(Y), problem_arrays(prob), jump, tol, ctol,
-                WARM_MU0, max_iter, *tail,
+                readonly(prob.u_of(q)), readonly(Y), arrays, jump, tol, ctol, WARM_MU0,
+                max_iter, *tail,
             )  # fmt: skip
             check_many = planar_check_many
         else:
@@ -165,7 +199,7 @@ class Tracker:
             rot = np.array([t.rotation for t in targets])  # type: ignore[union-attr]
             X, reached, how, *end = _spatial_ipm.ip_path(
                 readonly(prob.u_of(q)), readonly(pos), readonly(rot),
-                spatial_problem_arrays(prob), jump, tol, ctol, WARM_MU0, max_iter, *tail,
+                arrays, jump, tol, ctol, WARM_MU0, max_iter, *tail,
             )  # fmt: skip
             check_many = spatial_check_many
         k = 3 if self.planar else 6
@@ -189,8 +223,9 @@ class Tracker:
         return out
 
     def _no_state(self) -> tuple[Any, ...]:
-        ne = 3 if self.planar else 6
-        return (np.zeros(ne), np.zeros(0), np.zeros(0, dtype=bool), False)
+        if self.planar:  # multipliers, active set, have, the point before and targets
+            return (np.zeros(3), np.zeros(0), np.zeros(0, dtype=bool), False, np.zeros(0))
+        return (np.zeros(6), np.zeros(0), np.zeros(0, dtype=bool), False)
 
     def _subdivide(self, q: FloatArray, ta: Target, tb: Target, depth: int) -> FloatArray | None:
         qb = self.warm(q, tb)
@@ -222,9 +257,10 @@ class Tracker:
         setattr(self.counts, rung, getattr(self.counts, rung) + 1)
         goal = kw.get("goal")
         qb = bounded_ip(self.stack, target, q, self.scale, goal=goal)
-        if not self._accepts(q, target, qb):
-            self.counts.sqp_fallback += 1  # the SQP engine: slower, keeps its iterates in the box
-            qb = bounded_step(self.stack, target, q, self.scale, **kw)
+        if self._accepts(q, target, qb):
+            return qb
+        self.counts.sqp_fallback += 1  # the SQP engine: slower, keeps its iterates in the box
+        qb = bounded_step(self.stack, target, q, self.scale, **kw)
         if self._accepts(q, target, qb):
             return qb
         failed = f"{rung}_failed"
@@ -233,7 +269,13 @@ class Tracker:
 
     def _accepts(self, q: FloatArray, target: Target, qb: FloatArray | None) -> bool:
         """``qb`` is a pose of ``target`` (checked) within one jump of ``q``."""
-        return qb is not None and self.ratio(q, qb) <= 1.0 and check_pose(self.stack, target, qb).ok
+        if qb is None or not self.ratio(q, qb) <= 1.0:
+            return False
+        if self.planar:  # the compiled twin of check_pose (same verdicts, tested), ~30x faster
+            from stackik._check import planar_check
+
+            return bool(planar_check(self.stack, target, qb)[0].ok)
+        return check_pose(self.stack, target, qb).ok
 
     # --- the ladder -------------------------------------------------------------------
     def step(

@@ -105,7 +105,9 @@ class PathResult:
         Waypoint times [s] from :func:`stackik.paths.time_parameterize` when leg speed and
         acceleration limits were given (NaN where not reached).
     time : float
-        Wall time of the solve [s].
+        Wall time of the solve [s] (as ``IKResult.time``, without the one-time
+        loading of the compiled kernels, which :func:`solve_path` does before its clock
+        starts).
     info : dict
         Counters of the solve (``warm``, ``subdivided``, ``bounded``, ``default`` solves...).
     """

@@ -11,8 +11,11 @@ waypoints. Two modes:
     (:class:`stackik.paths.continuation.Tracker`): a warm-started solve that keeps the fold
     of the previous pose, bisection of the step when the warm start leaves its basin, and,
     when the followed FN minimum ends, the least-FN pose within ``max_jump`` of the
-    previous one. Every ``reanchor_every`` waypoints it compares the path with the default
-    solve and moves to a basin better by 1 % by transit steps; when the followed branch
+    previous one. At waypoint ``reanchor_every`` it compares the path with the default
+    solve and moves to a basin better by 1 % by transit steps; the next comparison comes
+    ``reanchor_every`` waypoints later after one that moved, twice the last gap after one
+    that did not (the path was on the best basin the default solve knows: checks back
+    off while it stays there); when the followed branch
     ends at a limit wall it splices in a detour walked back from the next waypoint's
     default pose.
 
@@ -54,7 +57,13 @@ from stackik.paths.timing import time_parameterize
 from stackik.platform import planar_legs, spatial_legs
 from stackik.solve import solve_ik
 from stackik.solve.blas import BlasLimit
-from stackik.targets import PlanarTarget, Target, target_from_dict, target_to_dict
+from stackik.targets import (
+    PlanarTarget,
+    SpatialTarget,
+    Target,
+    target_from_dict,
+    target_to_dict,
+)
 
 __all__ = [
     "DEDUPE",
@@ -78,8 +87,9 @@ DEDUPE = 1e-3
 REFINE_DEPTH = 4
 #: Transit steps per attempt to reach a better basin (each must bring it 1/4 jump closer).
 TRANSIT_STEPS = 10
-#: Fast mode: every ``reanchor_every`` waypoints the default solve is compared with the
-#: path, which moves to the default pose's basin when its FN is lower by this fraction.
+#: Fast mode: at the reanchoring checks (``reanchor_every``, backing off) the default
+#: solve is compared with the path, which moves to the default pose's basin when its FN
+#: is lower by this fraction.
 FAST_TRANSIT_GAIN = 0.01
 #: Default ``reanchor_every`` of planar paths: ``max(REANCHOR_EVERY, REANCHOR_PER_N * n)``
 #: waypoints (the default solve's starts grow with n: 3 at n = 4, 19 at n = 8, 35 at
@@ -424,6 +434,9 @@ def _fast(
     j = 0
     refined: list[tuple[Target, float, int]] = []
     goal: _Goal | None = None
+    # reanchoring schedule: the next check's index and the gap after it (doubled after a
+    # check that finds no better basin, reset to reanchor_every after one that does)
+    due, gap = req.reanchor_every, req.reanchor_every
     while rec is not None:  # replay the checkpoint (or just waypoint 0)
         if j == 0:
             tl.append(pts[0])
@@ -435,6 +448,8 @@ def _fast(
         hows.append(str(rec["how"]))
         refined = [(target_from_dict(t), float(s), int(d)) for t, s, d in rec["pending"]]
         goal = _Goal.load(rec["goal"])
+        if "reanchor" in rec:
+            due, gap = (int(v) for v in rec["reanchor"])
         j += 1
         rec = ck.get("fast", j)
     # pending: a stack of (target, source, depth); the top is the next waypoint to reach
@@ -447,15 +462,20 @@ def _fast(
 
     def accept(q: FloatArray, how: str) -> None:
         """Append the pose of the pending top; reanchor when due; checkpoint."""
-        nonlocal goal
+        nonlocal goal, due, gap
         tb, sb, _ = pending.pop()
         tl.append(tb)
         sl.append(sb)
         ql.append(q)
         hows.append(how)
         k = len(ql) - 1
-        if goal is None and req.reanchor_every and pending and k % req.reanchor_every == 0:
-            goal = _reanchor(req, tracker, k, tb, q, info)
+        if req.reanchor_every and k == due:
+            if goal is None and pending:
+                goal = _reanchor(req, tracker, k, tb, q, info)
+                gap = req.reanchor_every if goal is not None else 2 * gap
+            due = k + gap
+        if ck.path is None:  # nothing to write: no record (~5 us a waypoint at n = 4)
+            return
         top = [(target_to_dict(t), s, d) for t, s, d in pending if d > 0] if req.refine else []
         ck.put(
             "fast",
@@ -467,6 +487,7 @@ def _fast(
                 "how": how,
                 "pending": top,
                 "goal": None if goal is None else goal.record(),
+                "reanchor": [due, gap],
             },
         )
 
@@ -476,7 +497,7 @@ def _fast(
                 and len(ql) != ladder_at):  # fmt: skip
             # warm steps along the next waypoints in one compiled call, up to the next
             # reanchoring; the first it does not reach goes through the ladder below
-            run = _warm_run_length(len(ql), req.reanchor_every, len(pending))
+            run = _warm_run_length(len(ql), due if req.reanchor_every else 0, len(pending))
             poses = tracker.warm_many(ql[-1], [t for t, _, _ in pending[::-1][:run]])
             for q in poses:
                 accept(q, "warm")
@@ -500,9 +521,11 @@ def _fast(
             items = []
             for j, q in enumerate(poses, start=j0):
                 ql[j], hows[j] = q, "rejoin"
-                old = ck.get("fast", j)
-                items.append((j, {**old, "q": q.tolist(), "how": "rejoin", "goal": None}))
-            ck.put_many("fast", items)
+                if ck.path is not None:
+                    old = ck.get("fast", j)
+                    items.append((j, {**old, "q": q.tolist(), "how": "rejoin", "goal": None}))
+            if items:
+                ck.put_many("fast", items)
             goal = None
             ladder_at = -1  # a new pose: its warm solve is not made yet
             continue  # the next step from the new pose before tb
@@ -527,12 +550,12 @@ _OFF_OPTIMUM = ("bounded", "transit", "rejoin")
 WARM_RUN = 256
 
 
-def _warm_run_length(k: int, reanchor_every: int, pending: int) -> int:
-    """Waypoints of the next run of warm steps: to the next reanchoring index (a multiple
-    of ``reanchor_every`` >= ``k``, inclusive), at most WARM_RUN and what is pending."""
+def _warm_run_length(k: int, due: int, pending: int) -> int:
+    """Waypoints of the next run of warm steps: to the next reanchoring index ``due``
+    (inclusive; 0: none), at most WARM_RUN and what is pending."""
     run = WARM_RUN
-    if reanchor_every:
-        run = (reanchor_every - k % reanchor_every) % reanchor_every + 1
+    if due >= k:
+        run = due - k + 1
     return min(run, WARM_RUN, pending)
 
 
@@ -1011,11 +1034,14 @@ def solve_path(
         Seeds the random starts of the default solves (waypoint k gets seed ``s + k``);
         None keeps :func:`stackik.solve.solve_ik`'s fixed seed. Deterministic either way.
     reanchor_every : int or None
-        Fast mode: every this many waypoints, compare the path with the default solve of
-        the waypoint; when that pose's FN is lower by more than ``FAST_TRANSIT_GAIN`` (1 %)
-        and it lies more than ``max_jump`` away, the path moves to its basin by transit
-        steps (least FN^2 plus distance to the goal's continuation, within
-        ``max_jump``), at most ``TRANSIT_STEPS`` of them. 0 turns it off. Default (None):
+        Fast mode: at waypoint ``reanchor_every``, compare the path with the default solve
+        of the waypoint; when that pose's FN is lower by more than ``FAST_TRANSIT_GAIN``
+        (1 %) and it lies more than ``max_jump`` away, the path moves to its basin by
+        transit steps (least FN^2 plus distance to the goal's continuation, within
+        ``max_jump``), at most ``TRANSIT_STEPS`` of them. The next check is
+        ``reanchor_every`` waypoints after one that moved the path, twice the last gap
+        after one that did not (20, 60, 140, ... while the path stays on the best basin
+        the default solve finds). 0 turns it off. Default (None):
         ``max(20, 5 n)`` for planar paths (20 at n = 4, 40 at n = 8, 80 at n = 16: the
         default solve's cost grows with n), 0 for spatial ones (a spatial default solve
         costs as much as tens of warm steps, and the spatial FN landscape has so many
@@ -1035,6 +1061,7 @@ def solve_path(
         ``start`` of the wrong shape or that misses ``targets[0]``, only one of
         ``leg_speed``/``leg_accel``, non-positive limits.
     """
+    _load_before_clock(targets)
     t_start = time.perf_counter()
     req = _request(
         stack, targets, max_jump, mode, motion_weight, refine, max_depth, start,
@@ -1051,6 +1078,25 @@ def solve_path(
         return _solve(req, ck, t_start)
     finally:
         blas.restore()
+
+
+def _load_before_clock(targets: Any) -> None:
+    """What a path loads once per process, before its clock starts (as :func:`solve_ik`
+    does for its kernels, so that :attr:`PathResult.time` is the path's own work): the
+    compiled kernels (the path kernels among them: tens of milliseconds to load from
+    numba's cache on first use) and the BLAS controller (threadpoolctl scans the loaded
+    libraries, ~10 ms)."""
+    from stackik.solve.blas import _blas_controller
+    from stackik.solve.kernels import ensure_kernels
+
+    ensure_kernels("planar")
+    try:
+        spatial = isinstance(targets[0], SpatialTarget)
+    except (TypeError, IndexError, KeyError):
+        spatial = False  # bad input: the request's validation reports it
+    if spatial:
+        ensure_kernels("spatial")
+    _blas_controller()
 
 
 def _solve(req: _Request, ck: PathCheckpoint, t_start: float) -> PathResult:

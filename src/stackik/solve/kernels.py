@@ -33,8 +33,8 @@ def _dispatchers(kind: str) -> list[Any]:
     if kind == "planar":
         from stackik import _check, _ipm
 
-        return [_ipm._ip_multi, _ipm.ip_box, _ipm.ip_path, _check._planar_check,
-                _check._planar_check_many]  # fmt: skip
+        return [_ipm._ip_multi, _ipm.ip_box, _ipm.ip_path, _ipm._evaluate,
+                _check._planar_check, _check._planar_check_many]  # fmt: skip
     from stackik import _check, _spatial, _spatial_ipm
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _spatial_ipm.ip_multi,
@@ -75,8 +75,9 @@ def _warm_path_kernels(planar: bool) -> None:
         Y = readonly([[pt.rho, pt.z, pt.theta]])
         _ipm.ip_path(u0, Y, problem_arrays(prob), readonly(np.ones(u0.size)), 1e-7, 1e-9,
                      1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, np.zeros(3),
-                     np.zeros(0), np.zeros(0, dtype=bool), False)  # fmt: skip
+                     np.zeros(0), np.zeros(0, dtype=bool), False, np.zeros(0))  # fmt: skip
         planar_check_many(stack, [pt], q0[None])
+        _ipm._evaluate(prob.u_of(q0), problem_arrays(prob))  # a transit step's f0
     else:
         st = pt.to_spatial()
         _spatial_ipm.ip_path(u0, readonly([st.position]), readonly([st.rotation]),
