@@ -618,7 +618,7 @@ def _towards(
     """One step of a fast path towards its goal basin: the goal's pose at ``target``
     (warm continuation); joined when within max_jump, else a transit step that must bring
     it at least a quarter jump closer. ``(None, None)``: the transit is abandoned."""
-    g = tracker.warm(goal.q, target)
+    g = tracker.follow(goal.q, target)
     if g is not None:
         if tracker.ratio(q, g) <= 1.0:
             return Step(g, "joined"), None
