@@ -6,7 +6,8 @@ Run: ``python benchmarks/bench_sqp_scaling.py [--mode planar|spatial] [--sizes 4
 ``sqp_scaling_spatial.{json,md}``; ``--out DIR`` elsewhere).
 
 Every method solves the same random reachable targets of the reference stack
-(``random_planar_targets(stack, K, rng=seed + n)``) from one start, the paper's initial
+(``random_planar_targets(stack, K, rng=seed + n)``; ``--mode spatial``:
+``random_spatial_targets``) from one start, the paper's initial
 guess (``solve_ik(..., starts=1)``); methods are interleaved target by target so that they
 share the machine's load. Success is the independent check of the returned pose; "within
 0.1 %" compares the FN with the best any method found for that target, including
@@ -14,7 +15,7 @@ stackik's default (structured multi-start interior point, the reference row). Re
 success rate, within-0.1 % rate, median time per solve, median iterations, the fitted
 exponent of median time vs n (least squares in log-log over the sizes run) and the one
 from n = 16 to 64, and the ratios of the goals (n = 16: SLSQP / SQP and IPOPT / SQP; n = 4:
-SLSQP / SQP).
+SLSQP / SQP and IPOPT / SQP).
 """
 
 from __future__ import annotations

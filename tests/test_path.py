@@ -592,3 +592,49 @@ def test_cli_path_csv_break_and_errors(tmp_path, capsys):
                  "--max-jump", "0", "0.3", "--out", str(tmp_path / "y")]) == 2  # fmt: skip
     err = capsys.readouterr().err
     assert "stackik: error:" in err
+
+
+def test_tracker_follow_keeps_the_paths_carried_state(stack4):
+    # a fast path's goal basin is followed by the continuation step with its own state:
+    # the path's carried state (multipliers of its last pose) is left as it was
+    from stackik.paths.continuation import Tracker
+    from stackik.sampling import random_reachable_targets
+
+    a, b = random_reachable_targets(stack4, 2, rng=21)
+    pts = interpolate_targets([a, b], max_step=(15.0, 0.03))
+    tr = Tracker(stack4, True, (60.0, 0.3))
+    q0 = solve_ik(stack4, pts[0]).q
+    run = tr.warm_many(q0, pts[1:3])
+    assert len(run) == 2
+    carry, tried = tr._carry, tr.tried_from
+    g = tr.follow(q0, pts[1])
+    assert g is not None and check_pose(stack4, pts[1], g).ok
+    assert tr.ratio(q0, g) <= 1.0
+    assert tr._carry is carry and tr.tried_from is tried
+    assert tr._side_carry is not None and tr._side_carry[0] is g
+
+
+def test_checkpoint_without_the_reanchoring_schedule_resumes_reanchoring(stack4, tmp_path):
+    # a checkpoint written before records carried the reanchoring schedule: a resumed
+    # path still checks at the next multiple of reanchor_every (not never)
+    from stackik.sampling import random_reachable_targets
+
+    a, c = random_reachable_targets(stack4, 2, rng=31)
+    pts = interpolate_targets([a, c], steps=39)
+    ck = tmp_path / "full.jsonl"
+    full = solve_path(stack4, pts, max_jump=(60.0, 0.3), reanchor_every=5, checkpoint=ck)
+    assert full.info["default"] >= 3
+    lines = ck.read_text().splitlines()
+    kept = [lines[0]]
+    for line in lines[1:]:
+        rec = json.loads(line)
+        if rec.get("index", 0) > 12 or "many" in rec:
+            continue
+        if isinstance(rec.get("value"), dict):
+            rec["value"].pop("reanchor", None)
+        kept.append(json.dumps(rec))
+    legacy = tmp_path / "legacy.jsonl"
+    legacy.write_text("\n".join(kept) + "\n")
+    res = solve_path(stack4, pts, max_jump=(60.0, 0.3), reanchor_every=5, checkpoint=legacy)
+    assert res.success and res.info["default"] >= 1
+    assert res.mean_frobenius_norm == pytest.approx(full.mean_frobenius_norm, rel=1e-3)

@@ -286,3 +286,28 @@ def test_spatial_ip_path_steps_are_checked_and_deterministic():
             f_pc = _spatial_ipm.evaluate(X[j], Pj)[0]
             assert abs(f_pc - f_ip) <= 1e-3 * abs(f_ip)
         u = X[j]
+
+
+def test_ip_path_secant_history_starts_with_a_known_target():
+    """The secant predictor needs the targets of the last two points: a run from a point
+    without history returns none after one step (the target before u0 is unknown, not
+    the origin) and, after two, the point before the last and both targets."""
+    n = 4
+    stack = Stack.reference(n)
+    a, b = random_reachable_targets(stack, 2, rng=5)
+    pts = interpolate_targets([a, b], max_step=(15.0, 0.03))
+    prob = Problem(stack, pts[0], "frobenius", None)
+    u0 = readonly(prob.u_of(solve_ik(stack, pts[0]).q))
+    Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:3]])
+    args = (problem_arrays(prob), readonly(np.full(3 * n, np.inf)), 1e-7, 1e-9, 1e-3, 300,
+            POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, *_NO_STATE3)  # fmt: skip
+    X1, r1, _, *end1 = _ipm.ip_path(u0, readonly(Y[:1]), *args)
+    assert r1 == 1 and end1[4].size == 0
+    X2, r2, _, *end2 = _ipm.ip_path(u0, Y, *args)
+    assert r2 == 2
+    hist = end2[4]
+    N = 3 * n
+    assert hist.size == N + 6
+    np.testing.assert_array_equal(hist[:N], X2[0])
+    np.testing.assert_array_equal(hist[N : N + 3], Y[0])
+    np.testing.assert_array_equal(hist[N + 3 :], Y[1])

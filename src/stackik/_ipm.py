@@ -986,14 +986,15 @@ def _release(act: FloatArray, zf: FloatArray, parent: FloatArray, rj: int) -> No
 def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: FloatArray,
              tol: float, constr_tol: float, max_newton: int,
              max_changes: int) -> tuple[Any, ...]:  # fmt: skip
-    """Predictor-corrector continuation step from the solution ``x0`` of the previous
-    target (multipliers ``yE0``, ``z0`` of ``P0``'s problem, ``active``: boolean mask of
-    the limit rows active there) to the solution for ``P0``'s target.
+    """Predictor-corrector continuation step from ``x0`` (the solution of the previous
+    target, or :func:`ip_path`'s secant extrapolation of it; multipliers ``yE0``, ``z0``
+    of ``P0``'s problem, ``active``: boolean mask of the limit rows active there) to the
+    solution for ``P0``'s target.
 
     Newton's method on the KKT conditions of the problem with the active limits as
     equalities, ``g - AE^T yE - AA^T zA = 0``, ``c_E = 0``, ``c_A = PC_OFFSET`` (on the
     feasible side by a rounding-sized margin), exact Hessian. The target enters only
-    ``c_E``, so the first iteration, with the KKT matrix of the previous solution, is
+    ``c_E``, so from the previous solution the first iteration, with its KKT matrix, is
     the tangent predictor (``x0`` plus the sensitivity of the solution to the target
     change, times the change); the next ones correct.
 
@@ -1252,8 +1253,10 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
     z = z0.copy()
     active = act0.copy()
     es = P0[2]
-    # the point before x and the targets of both (known: a secant predictor)
+    # the point before x and the targets of both (known: a secant predictor); cur_ok:
+    # ycur is x's target (after a run's first step, not before it when hist0 is empty)
     known = hist0.size == N + 6
+    cur_ok = known
     xprev = hist0[:N].copy() if known else np.zeros(N)
     yprev = hist0[N : N + 3].copy() if known else np.zeros(3)
     ycur = hist0[N + 3 : N + 6].copy() if known else np.zeros(3)
@@ -1267,7 +1270,7 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
             xs = x
             if known:
                 d0 = _target_step(yprev, ycur, es)
-                d1 = _target_step(ycur, yt, es)
+                d1 = _target_step(ycur, yt.copy(), es)  # writable, as ycur: one specialisation
                 if d0 > 0.0:
                     r = min(d1 / d0, 2.0)
                     xs = x + r * (x - xprev)
@@ -1279,7 +1282,7 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
                 if _reaches(xn, x, P, jump, pos_tol, ang_tol):
                     X[k] = xn
                     how[k] = 1
-                    xprev, yprev, ycur, known = x, ycur, yt.copy(), True
+                    xprev, yprev, ycur, known, cur_ok = x, ycur, yt.copy(), cur_ok, True
                     x, yE, z, active, have = xn, yE1, z1, act1, True
                     continue
         xn, st, _, s1, z1, yE1 = _ip_loop(
@@ -1291,7 +1294,7 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
         if not _reaches(xn, x, P, jump, pos_tol, ang_tol):
             return X, k, how, yE, z, active, have, _hist(known, xprev, yprev, ycur)
         X[k] = xn
-        xprev, yprev, ycur, known = x, ycur, yt.copy(), True
+        xprev, yprev, ycur, known, cur_ok = x, ycur, yt.copy(), cur_ok, True
         x, yE, z = xn, yE1, z1
         active = z1 > s1
         have = st == IP_SUCCESS

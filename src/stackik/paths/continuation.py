@@ -144,12 +144,13 @@ class Tracker:
         try:
             out = self.warm_many(q, [target])
             self._side_carry = self._carry
+            tried = self.tried_from is q  # the kernel's warm solve from q failed
         finally:
             self._carry, self.tried_from = saved
         if out:
             return out[0]
         self._side_carry = None
-        return self.warm(q, target, tried=False)
+        return self.warm(q, target, tried=tried)
 
     def _warm_solve(self, q: FloatArray, target: Target, mu0: float | None) -> tuple[bool, Any]:
         """``solve_ik(stack, target, x0=q, starts=1, method="ip", options={"mu0": mu0})``

@@ -59,7 +59,6 @@ from stackik.solve import solve_ik
 from stackik.solve.blas import BlasLimit
 from stackik.targets import (
     PlanarTarget,
-    SpatialTarget,
     Target,
     target_from_dict,
     target_to_dict,
@@ -437,6 +436,7 @@ def _fast(
     # reanchoring schedule: the next check's index and the gap after it (doubled after a
     # check that finds no better basin, reset to reanchor_every after one that does)
     due, gap = req.reanchor_every, req.reanchor_every
+    scheduled = False  # a record carried the schedule (checkpoints before it did not)
     while rec is not None:  # replay the checkpoint (or just waypoint 0)
         if j == 0:
             tl.append(pts[0])
@@ -450,8 +450,14 @@ def _fast(
         goal = _Goal.load(rec["goal"])
         if "reanchor" in rec:
             due, gap = (int(v) for v in rec["reanchor"])
+            scheduled = True
         j += 1
         rec = ck.get("fast", j)
+    if not scheduled and j > 1 and req.reanchor_every:
+        # a checkpoint written without the schedule: the next multiple of reanchor_every
+        # after its last waypoint (the rule it was written under), not a check in the past
+        gap = req.reanchor_every
+        due = gap * ((j - 1) // gap + 1)
     # pending: a stack of (target, source, depth); the top is the next waypoint to reach
     inputs_left = {s for _, s, _ in refined}
     pending: list[tuple[Target, float, int]] = [
@@ -1061,12 +1067,13 @@ def solve_path(
         ``start`` of the wrong shape or that misses ``targets[0]``, only one of
         ``leg_speed``/``leg_accel``, non-positive limits.
     """
-    _load_before_clock(targets)
     t_start = time.perf_counter()
     req = _request(
         stack, targets, max_jump, mode, motion_weight, refine, max_depth, start,
         leg_speed, leg_accel, max_candidates, rng, reanchor_every,
     )  # fmt: skip
+    if _load_before_clock(req.planar):  # after the validation: bad input loads nothing
+        t_start = time.perf_counter()
     ck = PathCheckpoint(checkpoint, req.key() if checkpoint is not None else {})
     # one BLAS thread, as solve_ik's: the path kernels (the spatial interior point and
     # continuation step, the planar continuation step's solve) call BLAS on small
@@ -1080,23 +1087,22 @@ def solve_path(
         blas.restore()
 
 
-def _load_before_clock(targets: Any) -> None:
+def _load_before_clock(planar: bool) -> bool:
     """What a path loads once per process, before its clock starts (as :func:`solve_ik`
     does for its kernels, so that :attr:`PathResult.time` is the path's own work): the
     compiled kernels (the path kernels among them: tens of milliseconds to load from
     numba's cache on first use) and the BLAS controller (threadpoolctl scans the loaded
-    libraries, ~10 ms)."""
-    from stackik.solve.blas import _blas_controller
+    libraries, ~10 ms). Whether anything was loaded (the clock restarts then)."""
+    from stackik.solve.blas import _BLAS, _blas_controller
     from stackik.solve.kernels import ensure_kernels
 
-    ensure_kernels("planar")
-    try:
-        spatial = isinstance(targets[0], SpatialTarget)
-    except (TypeError, IndexError, KeyError):
-        spatial = False  # bad input: the request's validation reports it
-    if spatial:
-        ensure_kernels("spatial")
-    _blas_controller()
+    loaded = ensure_kernels("planar") > 0.0
+    if not planar:
+        loaded = ensure_kernels("spatial") > 0.0 or loaded
+    if not _BLAS:
+        _blas_controller()
+        loaded = True
+    return loaded
 
 
 def _solve(req: _Request, ck: PathCheckpoint, t_start: float) -> PathResult:

@@ -34,12 +34,36 @@ def _dispatchers(kind: str) -> list[Any]:
         from stackik import _check, _ipm
 
         return [_ipm._ip_multi, _ipm.ip_box, _ipm.ip_path, _ipm._evaluate,
-                _check._planar_check, _check._planar_check_many]  # fmt: skip
+                _ipm._lagrangian_hessian, _check._planar_check,
+                _check._planar_check_many]  # fmt: skip
     from stackik import _check, _spatial, _spatial_ipm
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _spatial_ipm.ip_multi,
-            _spatial_ipm.ip_box, _spatial_ipm.ip_path, _check._spatial_check,
+            _spatial_ipm.ip_box, _spatial_ipm.ip_path, _spatial_ipm.evaluate,
+            _spatial_ipm.lagrangian_hessian, _check._spatial_check,
             _check._spatial_check_many]  # fmt: skip
+
+
+def _warm_sqp_kernels(planar: bool) -> None:
+    """Run the kernels the SQP method evaluates its compiled problem with
+    (:class:`stackik.methods._sqp_compiled.CompiledNLP`: writable point and multipliers,
+    read-only problem arrays) once, so that a solve's clock sees no loading."""
+    import numpy as np
+
+    from stackik.formulation import Problem
+    from stackik.geometry import Stack
+    from stackik.methods._sqp_compiled import CompiledNLP
+    from stackik.starts import paper_initial_guess
+    from stackik.targets import PlanarTarget
+
+    stack = Stack.reference(2)
+    pt = PlanarTarget(0.0, 700.0, 0.0)
+    target = pt if planar else pt.to_spatial()
+    prob = Problem(stack, target, "frobenius", None)
+    nlp = CompiledNLP(prob)
+    u = prob.u_of(paper_initial_guess(stack, target))
+    nlp.evaluate(u)
+    nlp.hessian(u, np.zeros(3 if planar else 6), np.zeros(24 * stack.n))
 
 
 def _warm_path_kernels(planar: bool) -> None:
@@ -103,6 +127,7 @@ def _warm(kind: str) -> None:
 
         planar_warm_up()
         _warm_path_kernels(True)
+        _warm_sqp_kernels(True)
         return
     import numpy as np
 
@@ -119,6 +144,7 @@ def _warm(kind: str) -> None:
     prob.evaluate(prob.u_of(paper_initial_guess(stack, target)))
     ip_starts(prob, [paper_initial_guess(stack, target)], {}, math.inf)  # spatial IP
     _warm_path_kernels(False)
+    _warm_sqp_kernels(False)
 
 
 def ensure_kernels(kind: str, *, notice: bool = True) -> float:
