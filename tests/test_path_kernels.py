@@ -45,6 +45,17 @@ def _spatial(n: int, seed: int):
     return prob, prob.u_of(q), spatial_problem_arrays(prob), rng
 
 
+def _straight_run(n: int, seed: int):
+    """A straight planar path in 15 mm / 0.03 rad steps, the default solve's pose at its
+    first waypoint, that waypoint's problem and kernel arrays."""
+    stack = Stack.reference(n)
+    a, b = random_reachable_targets(stack, 2, rng=seed)
+    pts = interpolate_targets([a, b], max_step=(15.0, 0.03))
+    q0 = solve_ik(stack, pts[0]).q
+    prob = Problem(stack, pts[0], "frobenius", None)
+    return stack, pts, q0, prob, problem_arrays(prob)
+
+
 def _dense(D: np.ndarray) -> np.ndarray:
     """Blocks (n, R, k) -> the dense (R n, k n) Jacobian."""
     n, R, k = D.shape
@@ -154,12 +165,7 @@ def test_ip_path_continuation_steps_are_verified_kkt_points_near_the_barrier_sol
     the objective of the barrier solve from the previous point (the same KKT point, or a
     neighbouring one that the continuation follows where the barrier solve slides to
     the other), and the run is deterministic."""
-    stack = Stack.reference(n)
-    a, b = random_reachable_targets(stack, 2, rng=seed)
-    pts = interpolate_targets([a, b], max_step=(15.0, 0.03))
-    q0 = solve_ik(stack, pts[0]).q
-    prob = Problem(stack, pts[0], "frobenius", None)
-    P = problem_arrays(prob)
+    stack, pts, q0, prob, P = _straight_run(n, seed)
     Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:]])
     args = (readonly(prob.u_of(q0)), Y, P, readonly(np.full(3 * n, np.inf)), 1e-7, 1e-9,
             1e-3, 300, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, *_NO_STATE3)  # fmt: skip
@@ -197,12 +203,7 @@ def test_ip_path_starts_with_a_continuation_step_from_least_squares_multipliers(
     least-squares multipliers (_ls_state) are those of its own KKT point, so that the
     continuation step at its own target is verified without moving it, and a run from it
     starts with a continuation step instead of a barrier solve."""
-    stack = Stack.reference(n)
-    a, b = random_reachable_targets(stack, 2, rng=seed)
-    pts = interpolate_targets([a, b], max_step=(15.0, 0.03))
-    q0 = solve_ik(stack, pts[0]).q
-    prob = Problem(stack, pts[0], "frobenius", None)
-    P = problem_arrays(prob)
+    stack, pts, q0, prob, P = _straight_run(n, seed)
     u0 = prob.u_of(q0)
     yE, z, act = _ipm._ls_state(u0, P)
     assert act.any() and np.all(z[~act] == 0.0)
@@ -293,13 +294,10 @@ def test_ip_path_secant_history_starts_with_a_known_target():
     without history returns none after one step (the target before u0 is unknown, not
     the origin) and, after two, the point before the last and both targets."""
     n = 4
-    stack = Stack.reference(n)
-    a, b = random_reachable_targets(stack, 2, rng=5)
-    pts = interpolate_targets([a, b], max_step=(15.0, 0.03))
-    prob = Problem(stack, pts[0], "frobenius", None)
-    u0 = readonly(prob.u_of(solve_ik(stack, pts[0]).q))
+    stack, pts, q0, prob, P = _straight_run(n, 5)
+    u0 = readonly(prob.u_of(q0))
     Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:3]])
-    args = (problem_arrays(prob), readonly(np.full(3 * n, np.inf)), 1e-7, 1e-9, 1e-3, 300,
+    args = (P, readonly(np.full(3 * n, np.inf)), 1e-7, 1e-9, 1e-3, 300,
             POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, *_NO_STATE3)  # fmt: skip
     X1, r1, _, *end1 = _ipm.ip_path(u0, readonly(Y[:1]), *args)
     assert r1 == 1 and end1[4].size == 0
