@@ -102,12 +102,11 @@ def bounded_ip(
     from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
     prob = Problem(stack, target, "frobenius", None)
+    P = problem_arrays(prob) if prob.planar else spatial_problem_arrays(prob)
     lo, hi = _box(prob, q_prev, max_jump, IP_BOX_SHRINK)
     ug, wq, f0 = np.zeros(0), 0.0, 1.0
     if goal is not None:
-        f0, d0, ug = _transit_terms(
-            prob, q_prev, goal, problem_arrays(prob) if prob.planar else None
-        )
+        f0, d0, ug = _transit_terms(prob, q_prev, goal, P if prob.planar else None)
         wq = 1.0 / d0
     lo, hi, ug = readonly(lo), readonly(hi), readonly(ug)
     u0 = readonly(prob.u_of(q_prev))
@@ -117,14 +116,12 @@ def bounded_ip(
         if prob.planar:
             from stackik import _ipm
 
-            P = problem_arrays(prob)
             P = P[:4] + (P[4] * f0,) + P[5:]
             u, st, _ = _ipm.ip_box(u0, P, lo, hi, ug, wq, tol, ctol, IP_BOX_MU0, max_iter,
                                    POLISH_REACH, POLISH_MARGIN)  # fmt: skip
         else:
             from stackik import _spatial_ipm
 
-            P = spatial_problem_arrays(prob)
             P = P[:5] + (P[5] * f0,) + P[6:]
             u, st, _ = _spatial_ipm.ip_box(u0, P, lo, hi, ug, wq, tol, ctol, IP_BOX_MU0,
                                            max_iter)  # fmt: skip

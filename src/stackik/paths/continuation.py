@@ -155,25 +155,19 @@ class Tracker:
     def _warm_solve(self, q: FloatArray, target: Target, mu0: float | None) -> tuple[bool, Any]:
         """``solve_ik(stack, target, x0=q, starts=1, method="ip", options={"mu0": mu0})``
         (None: the default barrier): ``(success, pose)``. Planar: the same compiled call
-        (:func:`stackik._ipm._ip_multi` with one start, then the compiled check) without
-        the pipeline around it (its request, plan and result cost ~4x the solve at n = 4);
-        the same pose and verdict."""
+        (:func:`stackik.methods.ip.ip_multi` with one start, then the compiled check)
+        without the pipeline around it (its request, plan and result cost ~4x the solve
+        at n = 4); the same pose and verdict."""
         opts = {} if mu0 is None else {"mu0": mu0}
         if not self.planar:
             r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options=opts)
             return r.success, r.q
-        from stackik import _ipm
         from stackik._check import planar_check
-        from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
-        from stackik.methods.ip import IP_DEFAULTS, problem_arrays
+        from stackik.formulation import Problem
+        from stackik.methods.ip import ip_multi
 
         prob = Problem(self.stack, target, "frobenius", None)
-        mu = float(IP_DEFAULTS["mu0"]) if mu0 is None else float(mu0)
-        X, *_ = _ipm._ip_multi(
-            prob.u_of(q)[None], problem_arrays(prob), float(IP_DEFAULTS["tol"]),
-            float(IP_DEFAULTS["constr_tol"]), np.array([mu]), int(IP_DEFAULTS["max_iter"]),
-            1e300, POLISH_REACH, POLISH_MARGIN,
-        )  # fmt: skip
+        X, *_ = ip_multi(prob, prob.u_of(q)[None], opts)
         qw = prob.q_of(X[0])
         return bool(planar_check(self.stack, target, qw)[0].ok), qw
 
