@@ -44,24 +44,38 @@ def _dispatchers(kind: str) -> list[Any]:
             _check._spatial_check_many]  # fmt: skip
 
 
-def _warm_sqp_kernels(planar: bool) -> None:
-    """Run the kernels the SQP method evaluates its compiled problem with
-    (:class:`stackik.methods._sqp_compiled.CompiledNLP`: writable point and multipliers,
-    read-only problem arrays) once, so that a solve's clock sees no loading."""
-    import numpy as np
-
+def _small_problem(planar: bool) -> tuple[Any, ...]:
+    """``(stack, planar target, target of the mode, Problem, paper's guess)`` of the
+    two-platform problem the warm-ups run the kernels on."""
     from stackik.formulation import Problem
     from stackik.geometry import Stack
-    from stackik.methods._sqp_compiled import CompiledNLP
     from stackik.starts import paper_initial_guess
     from stackik.targets import PlanarTarget
 
     stack = Stack.reference(2)
     pt = PlanarTarget(0.0, 700.0, 0.0)
     target = pt if planar else pt.to_spatial()
-    prob = Problem(stack, target, "frobenius", None)
+    return (
+        stack,
+        pt,
+        target,
+        Problem(stack, target, "frobenius", None),
+        paper_initial_guess(stack, target),
+    )
+
+
+def _warm_sqp_kernels(planar: bool) -> None:
+    """Run the kernels the SQP method evaluates its compiled problem with
+    (:class:`stackik.methods._sqp_compiled.CompiledNLP`: writable point and multipliers,
+    read-only problem arrays; a path's transit step computes its ``f0`` with the same
+    planar evaluation) once, so that a solve's clock sees no loading."""
+    import numpy as np
+
+    from stackik.methods._sqp_compiled import CompiledNLP
+
+    stack, _, _, prob, q0 = _small_problem(planar)
     nlp = CompiledNLP(prob)
-    u = prob.u_of(paper_initial_guess(stack, target))
+    u = prob.u_of(q0)
     nlp.evaluate(u)
     nlp.hessian(u, np.zeros(3 if planar else 6), np.zeros(24 * stack.n))
 
@@ -75,17 +89,10 @@ def _warm_path_kernels(planar: bool) -> None:
     from stackik import _ipm, _spatial_ipm
     from stackik._arrays import readonly
     from stackik._check import planar_check_many, spatial_check_many
-    from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
-    from stackik.geometry import Stack
+    from stackik.formulation import POLISH_MARGIN, POLISH_REACH
     from stackik.methods.ip import problem_arrays, spatial_problem_arrays
-    from stackik.starts import paper_initial_guess
-    from stackik.targets import PlanarTarget
 
-    stack = Stack.reference(2)
-    pt = PlanarTarget(0.0, 700.0, 0.0)
-    target = pt if planar else pt.to_spatial()
-    prob = Problem(stack, target, "frobenius", None)
-    q0 = paper_initial_guess(stack, target)
+    stack, pt, _, prob, q0 = _small_problem(planar)
     u0 = readonly(prob.u_of(q0))
     lo, hi = readonly(u0 - 0.1), readonly(u0 + 0.1)
     for ug, wq in ((readonly(np.zeros(0)), 0.0), (u0, 1.0)):
@@ -101,7 +108,6 @@ def _warm_path_kernels(planar: bool) -> None:
                      1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, np.zeros(3),
                      np.zeros(0), np.zeros(0, dtype=bool), False, np.zeros(0))  # fmt: skip
         planar_check_many(stack, [pt], q0[None])
-        _ipm._evaluate(prob.u_of(q0), problem_arrays(prob))  # a transit step's f0
     else:
         st = pt.to_spatial()
         _spatial_ipm.ip_path(u0, readonly([st.position]), readonly([st.rotation]),
@@ -129,20 +135,11 @@ def _warm(kind: str) -> None:
         _warm_path_kernels(True)
         _warm_sqp_kernels(True)
         return
-    import numpy as np
-
-    from stackik.formulation import Problem
-    from stackik.geometry import Stack
-    from stackik.starts import paper_initial_guess
-    from stackik.targets import SpatialTarget
-
-    stack = Stack.reference(2)
-    target = SpatialTarget(np.array([0.0, 0.0, 700.0]), np.eye(3))
     from stackik.methods.ip import ip_starts
 
-    prob = Problem(stack, target, "frobenius", None)
-    prob.evaluate(prob.u_of(paper_initial_guess(stack, target)))
-    ip_starts(prob, [paper_initial_guess(stack, target)], {}, math.inf)  # spatial IP
+    _, _, _, prob, q0 = _small_problem(False)
+    prob.evaluate(prob.u_of(q0))
+    ip_starts(prob, [q0], {}, math.inf)  # spatial IP
     _warm_path_kernels(False)
     _warm_sqp_kernels(False)
 
