@@ -57,12 +57,7 @@ from stackik.paths.timing import time_parameterize
 from stackik.platform import planar_legs, spatial_legs
 from stackik.solve import solve_ik
 from stackik.solve.blas import BlasLimit
-from stackik.targets import (
-    PlanarTarget,
-    Target,
-    target_from_dict,
-    target_to_dict,
-)
+from stackik.targets import PlanarTarget, Target, target_from_dict, target_to_dict
 
 __all__ = [
     "DEDUPE",
