@@ -629,14 +629,27 @@ class _Engine:
     # ------------------------------------------------------------------ Hessian -------
     def _exact_hessian(self, lam: FloatArray) -> Any:
         """The convexified exact Hessian of the (scaled) Lagrangian at ``lam``."""
-        H = self._lagrangian_hessian(lam)
+        pat = self.h_pat
+        # A full pattern (a dense Hessian, e.g. the reduced IK problem's) is convexified
+        # densely anyway: skip the round trip dense -> CSC -> dense (~8 % of an SQP solve at
+        # n = 4); the same values in the same order as that path.
+        full = self.sparse and pat.full
+        H = self._lagrangian_hessian(lam, dense=full)
         t = time.perf_counter()
-        B = self._convexify_sparse(H, lam) if self.sparse else self._convexify(H, lam)
+        if full and not is_sparse(H):
+            Hd = self._convexify(H, lam)
+            assert pat.indices is not None and pat.indptr is not None
+            B: Any = csc(np.ascontiguousarray(Hd.T).ravel(), pat.indices, pat.indptr, H.shape)
+        elif self.sparse:
+            B = self._convexify_sparse(H, lam)
+        else:
+            B = self._convexify(H, lam)
         self.timer.build += time.perf_counter() - t
         return B
 
-    def _lagrangian_hessian(self, lam: FloatArray) -> Any:
-        """Symmetrised scaled Hessian of ``f - lam'c`` (dense, or CSC in the fixed pattern)."""
+    def _lagrangian_hessian(self, lam: FloatArray, dense: bool = False) -> Any:
+        """Symmetrised scaled Hessian of ``f - lam'c`` (dense, or CSC in the fixed pattern;
+        with ``dense`` a dense Hessian returned by the problem stays dense)."""
         nlp = self.nlp
         assert nlp.hessian is not None
         y = lam * self.w
@@ -647,7 +660,7 @@ class _Engine:
         Hraw: Any = nlp.hessian(self.x, y[:mE], y[mE:])
         self.timer.eval += time.perf_counter() - t
         t = time.perf_counter()
-        if self.sparse:
+        if self.sparse and (not dense or is_sparse(Hraw)):
             Hs = self._fit_hessian(Hraw)
             Hs.data *= self.sf
             self.timer.build += time.perf_counter() - t
