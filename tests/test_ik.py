@@ -429,3 +429,18 @@ def test_planar_interior_point_limits_blas_threads_on_tall_stacks(monkeypatch):
         stack = sk.Stack.reference(n)
         r = sk.solve_ik(stack, random_planar_targets(stack, 1, rng=n)[0], starts=1)
         assert r.success and bool(applied) is expect
+
+
+@pytest.mark.parametrize("method", ["sqp", "slsqp", "ip", "auto"])
+def test_planar_kernels_load_before_the_clock_for_every_method(monkeypatch, method):
+    # every planar method evaluates through the compiled planar kernels (the SQP also its
+    # Hessian): they must be loaded before the solve's clock starts, or a cold first solve
+    # spends its time budget compiling (an SQP returned its start after 0 iterations)
+    import stackik.solve.pipeline as pipeline
+
+    loaded: list[str] = []
+    real = pipeline.ensure_kernels
+    monkeypatch.setattr(pipeline, "ensure_kernels", lambda kind: loaded.append(kind) or real(kind))
+    stack = sk.Stack.reference(2)
+    sk.solve_ik(stack, sk.PlanarTarget(0.0, 1000.0, 0.0), method=method, starts=1)
+    assert "planar" in loaded

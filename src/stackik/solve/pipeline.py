@@ -148,12 +148,16 @@ def _beyond_reach(stack: Stack, target: Target) -> bool:
 
 def _kernels_needed(stack: object, target: object, method: object) -> tuple[str, ...]:
     """The compiled kernels a request may call: the spatial set (evaluation and interior
-    point) for spatial targets; the planar interior point for ``"auto"`` or ``"ip"`` of
-    either kind (planar solves, and the stretched pose of an unreachable target, which is
-    a planar bisection) and for any target beyond the reach bound."""
+    point) for spatial targets; the planar set for every planar target (every method
+    evaluates the planar problem, the SQP its Hessian, through it: a cold first SQP solve
+    used to spend its 18 s budget compiling and return its start after 0 iterations),
+    and for ``"auto"`` or ``"ip"`` of either kind (the stretched pose of an unreachable
+    target is a planar bisection) and any target beyond the reach bound."""
     if not isinstance(stack, Stack) or not isinstance(target, PlanarTarget | SpatialTarget):
         return ()  # the request's validation reports it
-    out: tuple[str, ...] = ("spatial",) if isinstance(target, SpatialTarget) else ()
+    if isinstance(target, PlanarTarget):
+        return ("planar",)
+    out: tuple[str, ...] = ("spatial",)
     if method in ("auto", "ip") or _beyond_reach(stack, target):
         out += ("planar",)
     return out
