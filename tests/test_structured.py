@@ -135,6 +135,21 @@ def test_sqp_barrier_start_solves() -> None:
         assert check_pose(stack, target, res.q).ok
 
 
+def test_sqp_barrier_start_hands_over_when_the_barrier_steps_jam() -> None:
+    # planar n = 16, OSQP: a barrier row blocked every step, the penalty reached its cap
+    # and the radius collapsed inside the barrier phase (INFEASIBLE after 73 iterations
+    # in four runs); now the SQP takes over with a fresh radius and reaches the target
+    from stackik.sampling import random_planar_targets
+
+    stack = Stack.reference(16)
+    target = random_planar_targets(stack, 5, rng=777 + 16)[4]
+    res = solve_ik(
+        stack, target, method="sqp", qp_solver="osqp", starts=1, options={"barrier_start": True}
+    )
+    assert res.success, res.message
+    assert check_pose(stack, target, res.q).ok
+
+
 def test_sqp_formulation_option_checked() -> None:
     from stackik.result import OptionError
 

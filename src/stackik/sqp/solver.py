@@ -1213,6 +1213,12 @@ class _Engine:
                 if m0 > 0:
                     nu = max(nu, (gd + 0.5 * dBd) / ((1.0 - RHO_PENALTY) * m0))
             nu = self.nu = min(nu, NU_MAX)
+            if nu >= NU_MAX:
+                # the barrier steps cannot reduce the violation (a barrier row jams them):
+                # hand over to the SQP, whose limit rows may become active, with a fresh
+                # radius (planar n = 16 with OSQP: the radius used to collapse here)
+                delta = max(delta, self.opts.initial_tr_radius)
+                break
             lin = c_ev + matvec(J_ev, d)
             md = float(np.abs(lin) @ ev_a - lin @ ev_b) if rows.size else 0.0
             pred = -(gd + 0.5 * dBd) + nu * (m0 - md)
@@ -1285,6 +1291,7 @@ class _Engine:
             else:
                 delta = GAMMA_SHRINK * min(delta, dnorm if dnorm > 0 else delta)
             if delta < DELTA_MIN * (1.0 + self.xnorm):
+                delta = self.opts.initial_tr_radius  # the SQP's own model starts afresh
                 break
         if adaptive:
             be.set_accuracy(None)
