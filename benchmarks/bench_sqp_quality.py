@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 import stackik as sk
-from stackik.bench import machine_info
+from stackik.bench import result_payload
 from stackik.sampling import random_planar_targets, random_spatial_targets
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -150,17 +150,15 @@ def main() -> None:
                     "met": by[label]["within"] >= by["ipopt"]["within"],
                 }
             )
-    info = machine_info()
-    info["loadavg_start"] = load0
-    info["loadavg_end"] = load1
     args.out.mkdir(parents=True, exist_ok=True)
-    payload = {
-        "machine": info,
-        "args": {k: str(v) for k, v in vars(args).items()},
-        "summary": summary,
-        "goals": goals,
-        "rows": rows,
-    }
+    payload = result_payload(
+        args,
+        (load0, load1),
+        summary=summary,
+        goals=goals,
+        rows=rows,
+    )
+    info = payload["machine"]
     (args.out / "sqp_quality.json").write_text(json.dumps(payload, indent=1))
     lines = [
         "# SQP quality from one start (paper's guess), reference geometry",

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 import stackik as sk
-from stackik.bench import machine_info
+from stackik.bench import result_payload
 from stackik.sampling import random_planar_targets, random_spatial_targets
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -210,18 +210,16 @@ def main() -> None:
                 ratios.append(
                     {"n": n, "method": m, "baseline": base, "speedup": med[(n, base)] / med[(n, m)]}
                 )
-    info = machine_info()
-    info["loadavg_start"] = load0
-    info["loadavg_end"] = load1
     args.out.mkdir(parents=True, exist_ok=True)
-    payload = {
-        "machine": info,
-        "args": {k: str(v) for k, v in vars(args).items()},
-        "summary": summary,
-        "exponents": exps,
-        "ratios": ratios,
-        "rows": rows,
-    }
+    payload = result_payload(
+        args,
+        (load0, load1),
+        summary=summary,
+        exponents=exps,
+        ratios=ratios,
+        rows=rows,
+    )
+    info = payload["machine"]
     (args.out / f"{stem}.json").write_text(json.dumps(payload, indent=1))
     lines = [
         f"# SQP scaling: {args.mode}, reference geometry, one start (paper's guess)",

@@ -115,6 +115,15 @@ def machine_info() -> dict[str, Any]:
     return info
 
 
+def result_payload(args: Any, load: tuple[Any, Any], **sections: Any) -> dict[str, Any]:
+    """A benchmark's JSON payload: ``machine`` (:func:`machine_info` with the load
+    averages at start and end, ``load``), ``args`` (an argparse namespace, as strings),
+    then ``sections`` in order."""
+    info = machine_info()
+    info["loadavg_start"], info["loadavg_end"] = load
+    return {"machine": info, "args": {k: str(v) for k, v in vars(args).items()}, **sections}
+
+
 def _ipopt_ok() -> bool:
     from stackik.methods.ipopt import ipopt_available
 
