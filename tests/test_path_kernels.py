@@ -185,16 +185,24 @@ def test_ip_path_continuation_steps_are_verified_kkt_points_near_the_barrier_sol
     Q = np.array([prob.q_of(X[j]) for j in range(reached)])
     assert all(planar_check_many(stack, pts[1 : reached + 1], Q))
     u = prob.u_of(q0)
+    compared = 0
     for j in range(reached):
-        Pj = problem_arrays(Problem(stack, pts[j + 1], "frobenius", None))
+        prob_j = Problem(stack, pts[j + 1], "frobenius", None)
+        Pj = problem_arrays(prob_j)
         if how[j]:
             Xj = _ipm._ip_multi(np.atleast_2d(u), Pj, 1e-7, 1e-9, np.array([1e-3]), 300,
                                 1e300, POLISH_REACH, POLISH_MARGIN)  # fmt: skip
-            f_pc = _ipm._evaluate(X[j], Pj)[0]
-            # the same local minimum, or (where the barrier solve slides to a neighbouring
-            # one) a KKT point whose FN^2 differs by a fraction of a per mille
-            assert abs(f_pc - Xj[3][0]) <= 1e-3 * abs(Xj[3][0])
+            # where the barrier solve finds a pose (it may not: at n = 4, seed 5, one
+            # step's barrier point violates a limit by 9 mm, where the continuation step
+            # reaches a vertex of its limits, positive multipliers), the same local
+            # minimum or (where it slides to a neighbouring one) a KKT point whose FN^2
+            # differs by a fraction of a per mille
+            if planar_check(stack, pts[j + 1], prob_j.q_of(Xj[0][0]))[0].ok:
+                f_pc = _ipm._evaluate(X[j], Pj)[0]
+                assert abs(f_pc - Xj[3][0]) <= 1e-3 * abs(Xj[3][0])
+                compared += 1
         u = X[j]
+    assert compared >= reached // 2
 
 
 @pytest.mark.parametrize(("n", "seed"), [(4, 5), (4, 7), (8, 11)])
@@ -218,6 +226,42 @@ def test_ip_path_starts_with_a_continuation_step_from_least_squares_multipliers(
     assert reached >= 1 and how[0] == 1
     Q = np.array([prob.q_of(X[j]) for j in range(reached)])
     assert all(planar_check_many(stack, pts[1 : reached + 1], Q))
+
+
+def test_continuation_step_keeps_a_platform_in_a_corner_of_dependent_limits():
+    """A default pose whose top platform meets 4 limits (leg_min of two legs, the base
+    and top joint limits of a third, which coincide at parallel plates: 4 rows for 3
+    variables): the continuation step at its own target keeps the dependent rows
+    (regularised) and verifies the point without moving it (it failed there, with a
+    singular KKT matrix, moving the point by 2.8)."""
+    stack = Stack.reference(4)
+    t = random_reachable_targets(stack, 1, rng=30)[0]
+    prob = Problem(stack, t, "frobenius", None)
+    P = problem_arrays(prob)
+    u = prob.u_of(solve_ik(stack, t).q)
+    yE, z, act = _ipm._ls_state(u, P)
+    _, _, _, _, cI, D = _ipm._evaluate(u, P)
+    rows = np.nonzero(act & (_ipm._twins(act, cI, D) < 0))[0]
+    assert np.bincount(rows // 24, minlength=4).max() > 3
+    x, ok, *_ = _ipm._pc_step(u, P, yE, z, act, 1e-7, 1e-9, _ipm.PC_NEWTON, _ipm.PC_CHANGES)
+    assert ok
+    assert np.max(np.abs(x - u)) <= 1e-6
+
+
+def test_degenerate_active_set_releases_an_old_limit_that_frees_a_variable():
+    """Over the freedom, the continuation step releases the least multiplier among the
+    limits that free a variable (platforms with at most 3) and that the last change did
+    not add (adding a violated limit and releasing it again would cycle)."""
+    idx = np.array([1, 2, 3, 30, 50, 51, 52, 53])  # platform 2 has 4 rows
+    zf = np.zeros(96)
+    zf[[1, 2, 3, 30, 50, 51, 52, 53]] = [0.5, 0.4, 0.3, 0.0, 0.01, 0.02, 0.03, 0.04]
+    new = np.zeros(96, dtype=bool)
+    new[30] = True
+    cnt = _ipm._platform_counts(idx, 4)
+    assert list(cnt) == [3, 1, 4, 0]
+    assert _ipm._weakest(idx, zf, new, cnt) == 3  # not 30 (new), not 50 (dependent)
+    new[:] = False
+    assert _ipm._weakest(idx, zf, new, cnt) == 30
 
 
 def test_spatial_batch_check_matches_the_check_pose():

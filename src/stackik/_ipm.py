@@ -948,6 +948,12 @@ PC_OFFSET = 1e-10
 #: ... and converges its equality and active-limit residuals (scaled) to this, below
 #: the polish's threshold (1e-13), where the barrier solve's own test asks constr_tol.
 PC_PRIMAL_TOL = 1e-13
+#: A platform with more than 3 active limits (dependent rows: a platform has 3
+#: variables; they meet where the base and top joint limits of a leg coincide, at
+#: parallel plates) gets ``-PC_REG`` on their diagonal of the KKT matrix (a dual
+#: regularisation, as IPOPT's for dependent constraints): the matrix is singular
+#: without it, and the Newton iteration keeps its fixed points (the KKT points) with it.
+PC_REG = 1e-10
 
 
 @_jit
@@ -983,6 +989,34 @@ def _release(act: FloatArray, zf: FloatArray, parent: FloatArray, rj: int) -> No
 
 
 @_jit
+def _platform_counts(idx: FloatArray, n: int) -> FloatArray:
+    """Limit rows of ``idx`` per platform, shape (n,)."""
+    cnt = np.zeros(n, dtype=np.int64)
+    for j in range(idx.size):
+        cnt[idx[j] // 24] += 1
+    return cnt
+
+
+@_jit
+def _weakest(idx: FloatArray, zf: FloatArray, new: FloatArray, cnt: FloatArray) -> int:
+    """The row of ``idx`` with the least multiplier whose release frees a variable (in
+    a platform with at most 3 of the rows ``idx``), among the rows not ``new`` when there
+    are any (a limit just added because the point violates it stays; the set makes room
+    with an older one)."""
+    rj = -1
+    for rank in range(4):  # first the old rows of platforms with <= 3 rows, then ...
+        for j in range(idx.size):
+            r = idx[j]
+            if (rank < 2 and cnt[r // 24] > 3) or (rank % 2 == 0 and new[r]):
+                continue
+            if rj < 0 or zf[r] < zf[rj]:
+                rj = r
+        if rj >= 0:
+            break
+    return rj
+
+
+@_jit
 def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: FloatArray,
              tol: float, constr_tol: float, max_newton: int,
              max_changes: int) -> tuple[Any, ...]:  # fmt: skip
@@ -1008,7 +1042,9 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     ``max_newton`` iterations in all (fewer when, after PC_FREE iterations in one active
     set, an iteration does not shrink the error by PC_CONTRACT: not converging). A set
     with more limits than the freedom ``N - 3`` (degenerate) loses its weakest (least
-    multiplier) first. Active rows that copy an
+    multiplier) first, counting at most 3 limits per platform (more depend on those:
+    they stay, with PC_REG) and keeping the limits the last change added. Active rows
+    that copy an
     earlier active row (mirror legs, :func:`_twins`) enter once, with the multipliers of
     the copies summed onto that row.
 
@@ -1030,6 +1066,7 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     yE = yE0 * fs
     zf = z0 * fs  # full multipliers; only the rows of the Newton system are used
     act = active.copy()
+    new = np.zeros(m, dtype=np.bool_)  # the limits the last change added
     ok = False
     it = 0
     changes = 0
@@ -1042,15 +1079,16 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             elif not act[r]:
                 zf[r] = 0.0
         idx = np.nonzero(act & (parent < 0))[0]
-        na = idx.size
-        while 3 + na > N:  # more limits than freedom (degenerate): the weakest go
-            rj = idx[0]
-            for j in range(na):
-                if zf[idx[j]] < zf[rj]:
-                    rj = idx[j]
-            _release(act, zf, parent, rj)
+        # more limits than freedom (degenerate): the weakest go. A platform has 3
+        # variables: its limits beyond 3 depend on the others (where base and top joint
+        # limits of its legs meet, at parallel plates) and take no freedom; they stay,
+        # regularised in the KKT matrix (below), and the others make room
+        cnt = _platform_counts(idx, n)
+        while 3 + np.minimum(cnt, 3).sum() > N:
+            _release(act, zf, parent, _weakest(idx, zf, new, cnt))
             idx = np.nonzero(act & (parent < 0))[0]
-            na = idx.size
+            cnt = _platform_counts(idx, n)
+        na = idx.size
         zA = np.empty(na)
         for j in range(na):
             zA[j] = zf[idx[j]]
@@ -1108,6 +1146,8 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
                     K[3 * i + k, N + 3 + j] = -D[i, idx[j] % 24, k]
                     K[N + 3 + j, 3 * i + k] = D[i, idx[j] % 24, k]
                 rhs[N + 3 + j] = PC_OFFSET - cI[idx[j]]
+                if cnt[i] > 3:  # dependent rows: the multipliers' split is not unique
+                    K[N + 3 + j, N + 3 + j] = -PC_REG
             if not np.all(np.isfinite(K)):
                 break
             try:
@@ -1141,12 +1181,14 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
         if changes >= max_changes:
             break
         changes += 1
+        new[:] = False
         if jmin >= 0:
             _release(act, zf, parent, idx[jmin])
         else:
             for r in range(m):
                 if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
                     act[r] = True
+                    new[r] = True
     return x, ok, yE / fs, zf / fs, act, it
 
 
