@@ -843,6 +843,17 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
 
 
 @_jit
+def _polished(cE: FloatArray, cI: FloatArray, reach: float) -> bool:
+    """Whether :func:`_polish` leaves a point with these constraint values as it is."""
+    if not np.abs(cE).max() < 1e-13:
+        return False
+    for r in range(cI.size):
+        if -reach < cI[r] < 0.0:
+            return False
+    return True
+
+
+@_jit
 def _polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> FloatArray:
     """Min-norm Newton corrections of the equalities and of limits violated by less than
     ``reach`` (scaled), as :func:`stackik.formulation.polish` (tiny moves only)."""
@@ -1050,9 +1061,9 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
 
     Verified (``ok``) when converged with every active multiplier >= 0 and every other
     limit at ``c_I >= PC_OFFSET / 2``: a KKT point of the original problem to the barrier
-    solve's tolerances. Returns ``(x, ok, yE, z, active, iterations)`` (multipliers of
-    ``P0``'s problem, ``z`` zero off the active set); the caller polishes and checks
-    ``x``."""
+    solve's tolerances. Returns ``(x, ok, yE, z, active, iterations, c_E, c_I)``
+    (multipliers of ``P0``'s problem, ``z`` zero off the active set; the constraint
+    values at ``x``); the caller polishes and checks ``x``."""
     n = P0[7].shape[0]
     N = 3 * n
     m = 24 * n
@@ -1189,7 +1200,7 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
                 if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
                     act[r] = True
                     new[r] = True
-    return x, ok, yE / fs, zf / fs, act, it
+    return x, ok, yE / fs, zf / fs, act, it, cE, cI
 
 
 @_jit
@@ -1198,8 +1209,16 @@ def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: f
     """Whether the polished point ``xn`` reaches ``P``'s target (``pos_tol`` [mm],
     ``ang_tol`` [rad], from the scaled equalities), violates no limit (scaled) and moves
     no variable from ``x`` by more than ``jump`` (scaled, per variable)."""
-    es = P[2]
     f, g, cE, AE, cI, D = _evaluate(xn, P)
+    return _reaches_at(xn, x, cE, cI, P[2], jump, pos_tol, ang_tol)
+
+
+@_jit
+def _reaches_at(xn: FloatArray, x: FloatArray, cE: FloatArray, cI: FloatArray,
+                es: FloatArray, jump: FloatArray, pos_tol: float,
+                ang_tol: float) -> bool:  # fmt: skip
+    """:func:`_reaches` with the constraint values at ``xn`` given (``es``: the
+    equalities' scales)."""
     if not (math.hypot(cE[0] / es[0], cE[1] / es[1]) <= pos_tol
             and abs(cE[2] / es[2]) <= ang_tol and cI.min() >= -1e-12):  # fmt: skip
         return False
@@ -1316,12 +1335,18 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
                 if d0 > 0.0:
                     r = min(d1 / d0, 2.0)
                     xs = x + r * (x - xprev)
-            xn, ok, yE1, z1, act1, _ = _pc_step(
+            xn, ok, yE1, z1, act1, _, cEn, cIn = _pc_step(
                 xs, P, yE, z, active, tol, constr_tol, PC_NEWTON, PC_CHANGES
             )
             if ok:
-                xn = _polish(xn, P, 3, reach, margin)
-                if _reaches(xn, x, P, jump, pos_tol, ang_tol):
+                # the polish and test of a barrier step; the step's own constraint
+                # values at xn when the polish would not move it
+                if _polished(cEn, cIn, reach):
+                    good = _reaches_at(xn, x, cEn, cIn, es, jump, pos_tol, ang_tol)
+                else:
+                    xn = _polish(xn, P, 3, reach, margin)
+                    good = _reaches(xn, x, P, jump, pos_tol, ang_tol)
+                if good:
                     X[k] = xn
                     how[k] = 1
                     xprev, yprev, ycur, known, cur_ok = x, ycur, yt.copy(), cur_ok, True
