@@ -195,6 +195,28 @@ def test_fast_planar_path_is_valid_and_continuous(stack4, planar_path, fast_resu
     np.testing.assert_allclose(r.frobenius_norm, fn, rtol=1e-12)  # FN of the poses
 
 
+def test_planar_path_arrays_match_the_leg_vectors(stack4, fast_result):
+    """The compiled planar path arrays against the leg vectors of stackik.platform:
+    lengths, the four margins (the smallest sine of a leg's angle with the base and top
+    plates, through asin) and FN."""
+    from stackik.kinematics import planar_fn2
+    from stackik.platform import planar_legs
+
+    r = fast_result
+    Q = np.array(r.q)
+    Q[2, 1, 2] += 0.4  # a pose off the path: other legs are the extreme ones
+    arr = path_arrays(stack4, r.targets, Q)
+    l, Rn, _, _ = planar_legs(stack4, Q, r.targets[0].phi)
+    L = np.linalg.norm(l, axis=-1)
+    jm = np.arcsin(stack4.sin_joint_min)
+    base = np.arcsin(np.clip(l[..., 2] / L, -1, 1)).min(axis=-1) - jm
+    top = np.arcsin(np.clip(np.einsum("mnkj,mnj->mnk", l, Rn) / L, -1, 1)).min(axis=-1) - jm
+    want = np.stack([L.min(-1) - stack4.leg_min, stack4.leg_max - L.max(-1), base, top], -1)
+    np.testing.assert_allclose(arr["leg_lengths"], L, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(arr["margins"], want, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(arr["frobenius_norm"] ** 2, planar_fn2(Q), rtol=1e-13)
+
+
 def test_global_mode_is_no_worse_than_fast(stack4, planar_path, fast_result):
     g = solve_path(stack4, planar_path, max_jump=MAX_JUMP, mode="global")
     assert g.success and g.mode == "global"
