@@ -264,6 +264,30 @@ def test_degenerate_active_set_releases_an_old_limit_that_frees_a_variable():
     assert _ipm._weakest(idx, zf, new, cnt) == 30
 
 
+def test_ip_path_marks_a_stop_where_the_barrier_solve_left_its_basin():
+    """A run stops before a step whose point is farther than the jump: marked -1 (the
+    barrier solve found a pose of the target, beyond the jump: the warm rung fails there
+    without its retry) where the point reaches its target within the limits; a tracker
+    whose run stopped so skips the retry."""
+    from stackik.paths.continuation import Tracker
+
+    n = 4
+    stack, pts, q0, prob, P = _straight_run(n, 5)
+    Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:4]])
+    for pc in (False, True):
+        X, reached, how, *_ = _ipm.ip_path(
+            readonly(prob.u_of(q0)), Y, P, readonly(np.full(3 * n, 1e-9)), 1e-7, 1e-9,
+            1e-3, 300, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, pc, *_NO_STATE3,
+        )  # fmt: skip
+        assert reached == 0 and how[0] == -1
+    tracker = Tracker(stack, True, (1e-6, 1e-8))
+    assert tracker.warm_many(q0, pts[1:3]) == []
+    assert tracker.tried_from is q0 and tracker.tried_left
+    assert tracker.step(q0, pts[0], pts[1], subdivide=False, bounded=False, warm_tried=True,
+                        warm_left=True) is None  # fmt: skip
+    assert tracker.counts.warm_retry == 0
+
+
 def test_spatial_batch_check_matches_the_check_pose():
     """The compiled spatial check: the values of check_pose (to rounding) and its verdicts,
     on solved poses and poses moved off them by 1e-12 .. 1 times a typical step."""

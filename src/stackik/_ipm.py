@@ -1300,7 +1300,9 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
     ``ang_tol`` [rad], from the scaled equalities), violates a limit (scaled) or moves
     some variable by more than ``jump`` (scaled, per variable). Returns the points
     (m, N), the number of steps taken, per step 1 when the continuation step made it
-    and 0 when the barrier solve did, and the state of the last point reached
+    and 0 when the barrier solve did (at the step it stopped before: -1 when the barrier
+    solve's point reaches the target within the limits but is farther than ``jump``, the
+    solve left its basin, else 0), and the state of the last point reached
     (``yE, z, active, have, hist``, for the next run from it); the caller re-checks every
     point with the independent check."""
     m = targets.shape[0]
@@ -1308,6 +1310,7 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
     X = np.empty((m, N))
     how = np.zeros(m, dtype=np.int64)
     none = np.empty(0)
+    far = np.full(N, np.inf)
     x = u0.copy()
     have = have0  # the state of u0 (multipliers, active set) when it is a solved point
     yE = yE0.copy()
@@ -1358,7 +1361,10 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
         if st == IP_NONFINITE or not np.all(np.isfinite(xn)):
             return X, k, how, yE, z, active, have, _hist(known, xprev, yprev, ycur)
         xn = _polish(xn, P, 3, reach, margin)
-        if not _reaches(xn, x, P, jump, pos_tol, ang_tol):
+        f, g, cE, AE, cI, D = _evaluate(xn, P)
+        if not _reaches_at(xn, x, cE, cI, es, jump, pos_tol, ang_tol):
+            if _reaches_at(xn, x, cE, cI, es, far, pos_tol, ang_tol):
+                how[k] = -1  # a pose of the target farther than jump: it left its basin
             return X, k, how, yE, z, active, have, _hist(known, xprev, yprev, ycur)
         X[k] = xn
         xprev, yprev, ycur, known, cur_ok = x, ycur, yt.copy(), cur_ok, True

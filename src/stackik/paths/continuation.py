@@ -110,6 +110,9 @@ class Tracker:
         #: the kernel: a pose the Python check rejects may come from a continuation step,
         #: with no warm solve made), else None
         self.tried_from: FloatArray | None = None
+        #: that failed solve found a pose of the target farther than one jump (it left
+        #: its basin), not no pose
+        self.tried_left = False
         #: the carried state of a second pose followed beside the path (a fast path's
         #: goal basin, :meth:`follow`)
         self._side_carry: tuple[Any, ...] | None = None
@@ -119,10 +122,17 @@ class Tracker:
         return float(np.max(np.abs(qb - qa) / self.scale))
 
     # --- rungs ----------------------------------------------------------------------
-    def warm(self, q: FloatArray, target: Target, *, tried: bool = False) -> FloatArray | None:
+    def warm(
+        self, q: FloatArray, target: Target, *, tried: bool = False, left: bool = False
+    ) -> FloatArray | None:
         """Warm-started solve from ``q``; the pose if checked and within one jump.
         ``tried``: the first solve (initial barrier ``WARM_MU0``) was made and failed
-        (a run of :meth:`warm_many` stopped here): only the retry remains."""
+        (a run of :meth:`warm_many` stopped here): only the retry remains, unless
+        ``left``: that solve found a pose farther than one jump (it left its basin), and
+        the rung fails as when it makes that solve itself (the retry is for a first
+        solve that finds no pose)."""
+        if tried and left:
+            return None
         if not tried:
             self.counts.warm += 1
             ok, qw = self._warm_solve(q, target, WARM_MU0)
@@ -139,18 +149,19 @@ class Tracker:
         first the continuation step of :meth:`warm_many`, with its own carried state (the
         path's is kept), then the warm rung's barrier solves. A spatial barrier solve
         costs ~15 ms at n = 4, a continuation step well under 1 ms."""
-        saved = self._carry, self.tried_from
+        saved = self._carry, self.tried_from, self.tried_left
         self._carry = self._side_carry
         try:
             out = self.warm_many(q, [target])
             self._side_carry = self._carry
             tried = self.tried_from is q  # the kernel's warm solve from q failed
+            left = self.tried_left
         finally:
-            self._carry, self.tried_from = saved
+            self._carry, self.tried_from, self.tried_left = saved
         if out:
             return out[0]
         self._side_carry = None
-        return self.warm(q, target, tried=tried)
+        return self.warm(q, target, tried=tried, left=tried and left)
 
     def _warm_solve(self, q: FloatArray, target: Target, mu0: float | None) -> tuple[bool, Any]:
         """``solve_ik(stack, target, x0=q, starts=1, method="ip", options={"mu0": mu0})``
@@ -231,10 +242,12 @@ class Tracker:
         self.counts.pc += int(np.sum(how[: len(out)]))
         self._carry = None
         self.tried_from = None
+        self.tried_left = False
         if out and len(out) == int(reached):
             self._carry = (out[-1], tuple(end))
         if len(out) == int(reached) < len(targets):  # the kernel's warm solve failed
             self.tried_from = out[-1] if out else q
+            self.tried_left = bool(how[int(reached)] == -1)  # ... finding a far pose
         return out
 
     def _no_state(self) -> tuple[Any, ...]:
@@ -302,6 +315,7 @@ class Tracker:
         subdivide: bool = True,
         bounded: bool = True,
         warm_tried: bool = False,
+        warm_left: bool = False,
     ) -> Step | None:
         """A pose of ``tb`` within ``max_jump`` of ``q`` (a pose of ``ta``), or None.
 
@@ -315,8 +329,11 @@ class Tracker:
         warm_tried : bool
             The warm rung's first solve from ``q`` to ``tb`` was made and failed (a run
             of :meth:`warm_many` stopped before ``tb``): the rung starts at its retry.
+        warm_left : bool
+            ... and found a pose farther than ``max_jump`` (it left its basin): the rung
+            fails without the retry (:meth:`warm`).
         """
-        qb = self.warm(q, tb, tried=warm_tried)
+        qb = self.warm(q, tb, tried=warm_tried, left=warm_left)
         if qb is not None:
             return Step(qb, "warm")
         if subdivide and self.max_depth > 0:

@@ -514,7 +514,8 @@ def _fast(
             # where a run of warm steps stopped in its kernel, it made the warm rung's
             # first solve from this pose to this waypoint
             tried = len(ql) == ladder_at and depth == 0 and tracker.tried_from is ql[-1]
-            step = tracker.step(ql[-1], tl[-1], tb, subdivide=not off, warm_tried=tried)
+            step = tracker.step(ql[-1], tl[-1], tb, subdivide=not off, warm_tried=tried,
+                                warm_left=tried and tracker.tried_left)  # fmt: skip
         if step is not None:
             accept(step.q, step.how)
             continue
