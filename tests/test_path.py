@@ -326,6 +326,22 @@ def test_fast_mode_reanchoring_checks_back_off(stack4):
     np.testing.assert_allclose(r10.q, r.q, rtol=0, atol=1e-9)
 
 
+def test_fast_mode_reanchoring_backs_off_after_a_transit_abandoned_before_a_step(stack4):
+    # the n = 4 benchmark's curved path 1 (bench_path.py, seed 2024): the check at
+    # waypoint 20 finds a better basin 9 jumps away, but the first transit step does not
+    # bring the path a quarter jump closer: abandoned, the path did not move, and the
+    # next check is due at 20 + 40 = 60 (past the end) as after a check that finds
+    # nothing; no third default solve at waypoint 40
+    a = PlanarTarget(-1095.1836552615814, 334.108793971703, 2.013334065435856)
+    c = PlanarTarget(-274.4456166198349, 1008.2648105324206, 0.0018676164655920813)
+    b = PlanarTarget(209.54674534085788, 1289.4278635580708, 1.095354359848603)
+    r = solve_path(stack4, _bezier(a, c, b, 60), max_jump=MAX_JUMP)
+    assert r.success
+    assert_valid_path(stack4, r)
+    assert r.info["reanchored"] == 1 and r.info["transit_abandoned"] == 1
+    assert r.info["default"] == 2
+
+
 def test_fast_mode_leaves_a_branch_that_ends_at_a_limit_wall(tmp_path, monkeypatch):
     # n = 8: the branch the fast path follows ends at a joint limit before waypoint 45,
     # where a bounded step that finds no continuation leaves the path there (the compiled

@@ -14,8 +14,9 @@ waypoints. Two modes:
     previous one. At waypoint ``reanchor_every`` it compares the path with the default
     solve and moves to a basin better by 1 % by transit steps; the next comparison comes
     ``reanchor_every`` waypoints later after one that moved, twice the last gap after one
-    that did not (the path was on the best basin the default solve knows: checks back
-    off while it stays there); when the followed branch
+    that did not (the path was on the best basin the default solve knows, or its transit
+    there was abandoned before a step: checks back off while it stays there); when the
+    followed branch
     ends at a limit wall it splices in a detour walked back from the next waypoint's
     default pose.
 
@@ -475,8 +476,8 @@ def _fast(
         if req.reanchor_every and k == due:
             if goal is None and pending:
                 goal = _reanchor(req, tracker, k, tb, q, info)
-                gap = req.reanchor_every if goal is not None else 2 * gap
-            due = k + gap
+                gap = 2 * gap  # the next gap unless the path moves to the goal (below)
+            due = k + (req.reanchor_every if goal is not None else gap)
         if ck.path is None:  # nothing to write: no record (~5 us a waypoint at n = 4)
             return
         top = [(target_to_dict(t), s, d) for t, s, d in pending if d > 0] if req.refine else []
@@ -508,7 +509,15 @@ def _fast(
                 ladder_at = len(ql)
             continue
         tb, sb, depth = pending[-1]
+        moving = goal
         step, goal = _towards(tracker, goal, ql[-1], tb, info) if goal else (None, None)
+        if moving is not None and step is not None:  # it moves to the goal's basin
+            gap = req.reanchor_every
+        elif moving is not None and moving.steps == 0:
+            # abandoned before a step: the check moved nothing, and backs off as one that
+            # finds no better basin (the next check 2 x the last gap after it, not
+            # reanchor_every: the path stays on its basin)
+            due += gap - req.reanchor_every
         if step is None:
             off = hows[-1] in ("bounded", "transit")  # off the optimum: no bisection
             # where a run of warm steps stopped in its kernel, it made the warm rung's
@@ -1045,7 +1054,8 @@ def solve_path(
         ``max_jump``), at most ``TRANSIT_STEPS`` of them. The next check is
         ``reanchor_every`` waypoints after one that moved the path, twice the last gap
         after one that did not (20, 60, 140, ... while the path stays on the best basin
-        the default solve finds). 0 turns it off. Default (None):
+        the default solve finds, or its transit is abandoned before a step). 0 turns it
+        off. Default (None):
         ``max(20, 5 n)`` for planar paths (20 at n = 4, 40 at n = 8, 80 at n = 16: the
         default solve's cost grows with n), 0 for spatial ones (a spatial default solve
         costs as much as tens of warm steps, and the spatial FN landscape has so many
