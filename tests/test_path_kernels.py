@@ -231,9 +231,9 @@ def test_ip_path_starts_with_a_continuation_step_from_least_squares_multipliers(
 def test_continuation_step_keeps_a_platform_in_a_corner_of_dependent_limits():
     """A default pose whose top platform meets 4 limits (leg_min of two legs, the base
     and top joint limits of a third, which coincide at parallel plates: 4 rows for 3
-    variables): the continuation step at its own target keeps the dependent rows
-    (regularised) and verifies the point without moving it (it failed there, with a
-    singular KKT matrix, moving the point by 2.8)."""
+    variables): the continuation step at its own target keeps the dependent rows and
+    verifies the point without moving it (it failed there, with a singular KKT matrix,
+    moving the point by 2.8)."""
     stack = Stack.reference(4)
     t = random_reachable_targets(stack, 1, rng=30)[0]
     prob = Problem(stack, t, "frobenius", None)
@@ -246,6 +246,50 @@ def test_continuation_step_keeps_a_platform_in_a_corner_of_dependent_limits():
     x, ok, *_ = _ipm._pc_step(u, P, yE, z, act, 1e-7, 1e-9, _ipm.PC_NEWTON, _ipm.PC_CHANGES)
     assert ok
     assert np.max(np.abs(x - u)) <= 1e-6
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_continuation_kkt_solve_by_platforms(seed):
+    """The continuation step's KKT solve (_pc_kkt: each platform's active rows fix their
+    part of dx, a reduced system the rest) against the dense KKT matrix: the same
+    solution where the rows are independent; with 4 rows on a platform (consistent, as
+    where base and top joint limits coincide) the exact solution and, of the
+    multipliers' family, the least-norm one."""
+    rng = np.random.default_rng(seed)
+    n, N = 4, 12
+    W = rng.normal(size=(N, N))
+    W = W + W.T
+    AE = rng.normal(size=(3, N))
+    D = rng.normal(size=(n, 24, 3))
+    idx = np.array([1, 5, 30, 50, 51, 72, 73, 74])
+    r1, r2, rA = rng.normal(size=N), rng.normal(size=3), rng.normal(size=idx.size)
+
+    def dense_rows(idx):
+        A = np.zeros((idx.size, N))
+        for j, r in enumerate(idx):
+            A[j, 3 * (r // 24) : 3 * (r // 24) + 3] = D[r // 24, r % 24]
+        return A
+
+    A = dense_rows(idx)
+    K = np.block([[W, -AE.T, -A.T], [AE, np.zeros((3, 3 + idx.size))],
+                  [A, np.zeros((idx.size, 3 + idx.size))]])  # fmt: skip
+    want = np.linalg.solve(K, np.concatenate([r1, r2, rA]))
+    dx, dy, dz, ok = _ipm._pc_kkt(W, AE, D, idx, r1, r2, rA, n)
+    assert ok
+    np.testing.assert_allclose(np.concatenate([dx, dy, dz]), want, rtol=0, atol=1e-9)
+    # a fourth row on platform 3, in the span of its three others, consistent
+    D[3, 3] = 0.7 * D[3, 0] - 0.2 * D[3, 1] + 0.5 * D[3, 2]
+    idx4 = np.array([1, 5, 30, 50, 51, 72, 73, 74, 75])
+    rA4 = np.append(rA, 0.7 * rA[5] - 0.2 * rA[6] + 0.5 * rA[7])
+    dx, dy, dz, ok = _ipm._pc_kkt(W, AE, D, idx4, r1, r2, rA4, n)
+    assert ok
+    A4 = dense_rows(idx4)
+    np.testing.assert_allclose(W @ dx - AE.T @ dy - A4.T @ dz, r1, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(AE @ dx, r2, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(A4 @ dx, rA4, rtol=0, atol=1e-11)
+    # least norm on platform 3: orthogonal to the null space of its rows' transpose
+    null = np.linalg.svd(D[3, [0, 1, 2, 3]].T)[2][-1]
+    assert abs(dz[5:] @ null) <= 1e-9 * np.linalg.norm(dz[5:])
 
 
 def test_degenerate_active_set_releases_an_old_limit_that_frees_a_variable():

@@ -959,12 +959,6 @@ PC_OFFSET = 1e-10
 #: ... and converges its equality and active-limit residuals (scaled) to this, below
 #: the polish's threshold (1e-13), where the barrier solve's own test asks constr_tol.
 PC_PRIMAL_TOL = 1e-13
-#: A platform with more than 3 active limits (dependent rows: a platform has 3
-#: variables; they meet where the base and top joint limits of a leg coincide, at
-#: parallel plates) gets ``-PC_REG`` on their diagonal of the KKT matrix (a dual
-#: regularisation, as IPOPT's for dependent constraints): the matrix is singular
-#: without it, and the Newton iteration keeps its fixed points (the KKT points) with it.
-PC_REG = 1e-10
 
 
 @_jit
@@ -1028,6 +1022,274 @@ def _weakest(idx: FloatArray, zf: FloatArray, new: FloatArray, cnt: FloatArray) 
 
 
 @_jit
+def _lu_solve(M: FloatArray, b: FloatArray) -> tuple[FloatArray, bool]:
+    """``M^{-1} b`` by Gaussian elimination with partial pivoting, in place on copies
+    (small systems: no LAPACK call); ``ok`` False at a zero or non-finite pivot."""
+    A = M.copy()
+    x = b.copy()
+    m = x.size
+    for c in range(m):
+        p = c
+        for r in range(c + 1, m):
+            if abs(A[r, c]) > abs(A[p, c]):
+                p = r
+        if not (A[p, c] != 0.0 and math.isfinite(A[p, c])):
+            return x, False
+        if p != c:
+            for k in range(c, m):
+                A[c, k], A[p, k] = A[p, k], A[c, k]
+            x[c], x[p] = x[p], x[c]
+        for r in range(c + 1, m):
+            f = A[r, c] / A[c, c]
+            if f != 0.0:
+                for k in range(c + 1, m):
+                    A[r, k] -= f * A[c, k]
+                x[r] -= f * x[c]
+    for c in range(m - 1, -1, -1):
+        acc = x[c]
+        for k in range(c + 1, m):
+            acc -= A[c, k] * x[k]
+        x[c] = acc / A[c, c]
+    return x, True
+
+
+#: Rows of a platform's active limits whose part orthogonal to the rows taken before
+#: is below this fraction of their length depend on those (the KKT solve of the
+#: continuation step, :func:`_pc_kkt`). Not smaller: near the ridge where a leg's base
+#: and top joint limits coincide, rows that depend there are off by ~|theta| during
+#: Newton's iterations, and taken as independent they gave multipliers of 4e4 (n = 8).
+PC_DEPENDENT = 1e-6
+
+
+@_jit
+def _platform_basis(D: FloatArray, idx: FloatArray, rows: FloatArray, k: int, i: int,
+                    Q: FloatArray, sel: FloatArray) -> int:  # fmt: skip
+    """Orthonormal basis ``Q[:, :r]`` of the span of platform ``i``'s active limit rows
+    ``D[i, idx[rows[:k]] % 24]`` by Gram-Schmidt, the row with the largest remaining
+    part first (rows with less than PC_DEPENDENT of their length left depend on the
+    others); ``sel[:r]``: the rows taken, in order. Returns the rank r."""
+    r = 0
+    while r < 3:
+        best = -1
+        bn = 0.0
+        for t in range(k):
+            taken = False
+            for s in range(r):
+                taken = taken or sel[s] == t
+            if taken:
+                continue
+            a = D[i, idx[rows[t]] % 24]
+            v0, v1, v2 = a[0], a[1], a[2]
+            for s in range(r):
+                dot = a[0] * Q[0, s] + a[1] * Q[1, s] + a[2] * Q[2, s]
+                v0 -= dot * Q[0, s]
+                v1 -= dot * Q[1, s]
+                v2 -= dot * Q[2, s]
+            nv = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+            if nv > PC_DEPENDENT * math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]) and nv > bn:
+                best = t
+                bn = nv
+        if best < 0:
+            break
+        a = D[i, idx[rows[best]] % 24]
+        v0, v1, v2 = a[0], a[1], a[2]
+        for _ in range(2):  # Gram-Schmidt twice: orthogonal to rounding
+            for s in range(r):
+                dot = v0 * Q[0, s] + v1 * Q[1, s] + v2 * Q[2, s]
+                v0 -= dot * Q[0, s]
+                v1 -= dot * Q[1, s]
+                v2 -= dot * Q[2, s]
+        nv = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        Q[0, r] = v0 / nv
+        Q[1, r] = v1 / nv
+        Q[2, r] = v2 / nv
+        sel[r] = best
+        r += 1
+    return r
+
+
+@_jit
+def _pc_kkt(W: FloatArray, AE: FloatArray, D: FloatArray, idx: FloatArray, r1: FloatArray,
+            r2: FloatArray, rA: FloatArray, n: int) -> tuple[Any, ...]:  # fmt: skip
+    """The Newton step of the continuation step: the solution of
+
+        W dx - AE^T dy - AA^T dz = r1,   AE dx = r2,   AA dx = rA
+
+    (``AA``: the rows ``idx`` of the block-diagonal limit Jacobian ``D``), by platforms:
+    each platform's active rows fix the part of its ``dx`` in their span (the rows that
+    depend on others, beyond 3 or in a lower rank, are taken as consistent with them),
+    a system of the free parts and ``dy`` (size ``N - rank + 3``, not ``N + 3 + na``)
+    gives the rest, and each platform's ``dz`` is the least-norm solution of its rows'
+    part of the first equation (unique where its rows are independent). Returns
+    ``(dx, dy, dz, ok)``; ``ok`` False when the system is singular."""
+    N = 3 * n
+    na = idx.size
+    dxp = np.zeros(N)
+    Z = np.zeros((3, N))  # null-space columns of their platform (3 entries each)
+    zp = np.empty(N, dtype=np.int64)  # ... and that platform
+    nz = 0
+    Qs = np.zeros((n, 3, 3))
+    rk = np.zeros(n, dtype=np.int64)
+    rows = np.empty(max(na, 1), dtype=np.int64)
+    sel = np.empty(3, dtype=np.int64)
+    y = np.zeros(3)
+    B = np.zeros((3, 3))
+    for i in range(n):
+        k = 0
+        for j in range(na):
+            if idx[j] // 24 == i:
+                rows[k] = j
+                k += 1
+        Q = Qs[i]
+        r = _platform_basis(D, idx, rows, k, i, Q, sel)
+        rk[i] = r
+        # the part in the rows' span: A_S Q y = rA_S, A_S Q lower triangular
+        for t in range(r):
+            a = D[i, idx[rows[sel[t]]] % 24]
+            acc = rA[rows[sel[t]]]
+            for u in range(t):
+                acc -= (a[0] * Q[0, u] + a[1] * Q[1, u] + a[2] * Q[2, u]) * y[u]
+            y[t] = acc / (a[0] * Q[0, t] + a[1] * Q[1, t] + a[2] * Q[2, t])
+        for c in range(3):
+            acc = 0.0
+            for t in range(r):
+                acc += Q[c, t] * y[t]
+            dxp[3 * i + c] = acc
+        # the free directions: the unit vectors' parts orthogonal to the span, largest
+        # first, orthonormalised
+        for t in range(r):
+            for c in range(3):
+                B[c, t] = Q[c, t]
+        nb = r
+        while nb < 3:
+            best = 0
+            bn = -1.0
+            for e in range(3):
+                acc = 1.0  # |e - sum_s (e.b_s) b_s|^2 = 1 - sum_s (b_s[e])^2
+                for t in range(nb):
+                    acc -= B[e, t] * B[e, t]
+                if acc > bn:
+                    bn = acc
+                    best = e
+            v0 = 1.0 if best == 0 else 0.0
+            v1 = 1.0 if best == 1 else 0.0
+            v2 = 1.0 if best == 2 else 0.0
+            for _ in range(2):
+                for t in range(nb):
+                    dot = v0 * B[0, t] + v1 * B[1, t] + v2 * B[2, t]
+                    v0 -= dot * B[0, t]
+                    v1 -= dot * B[1, t]
+                    v2 -= dot * B[2, t]
+            nv = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+            B[0, nb] = Z[0, nz] = v0 / nv
+            B[1, nb] = Z[1, nz] = v1 / nv
+            B[2, nb] = Z[2, nz] = v2 / nv
+            zp[nz] = i
+            nz += 1
+            nb += 1
+    # the reduced system in (v, dy): Z^T W Z v - Z^T AE^T dy = Z^T (r1 - W dxp),
+    # AE Z v = r2 - AE dxp
+    m2 = nz + 3
+    WZ = np.zeros((N, nz))
+    for c in range(nz):
+        b0 = 3 * zp[c]
+        for a in range(N):
+            WZ[a, c] = W[a, b0] * Z[0, c] + W[a, b0 + 1] * Z[1, c] + W[a, b0 + 2] * Z[2, c]
+    Wd = np.zeros(N)
+    for a in range(N):
+        acc = 0.0
+        for b in range(N):
+            acc += W[a, b] * dxp[b]
+        Wd[a] = acc
+    M = np.zeros((m2, m2))
+    rhs = np.empty(m2)
+    for c in range(nz):
+        b0 = 3 * zp[c]
+        for c2 in range(nz):
+            M[c, c2] = Z[0, c] * WZ[b0, c2] + Z[1, c] * WZ[b0 + 1, c2] + Z[2, c] * WZ[b0 + 2, c2]
+        acc = 0.0
+        for t in range(3):
+            zt = Z[t, c]
+            acc += zt * (r1[b0 + t] - Wd[b0 + t])
+        rhs[c] = acc
+        for r in range(3):
+            ez = AE[r, b0] * Z[0, c] + AE[r, b0 + 1] * Z[1, c] + AE[r, b0 + 2] * Z[2, c]
+            M[c, nz + r] = -ez
+            M[nz + r, c] = ez
+    for r in range(3):
+        acc = r2[r]
+        for a in range(N):
+            acc -= AE[r, a] * dxp[a]
+        rhs[nz + r] = acc
+    sol, ok = _lu_solve(M, rhs)
+    dx = dxp.copy()
+    dy = np.zeros(3)
+    dz = np.zeros(na)
+    if not ok:
+        return dx, dy, dz, False
+    for c in range(nz):
+        b0 = 3 * zp[c]
+        for t in range(3):
+            dx[b0 + t] += Z[t, c] * sol[c]
+    for r in range(3):
+        dy[r] = sol[nz + r]
+    # multipliers: per platform, the least-norm dz with A^T dz = (W dx - AE^T dy - r1)
+    # on its variables (A = C Q^T, C = A Q: C^T dz = Q^T b, dz = C (C^T C)^-1 Q^T b)
+    bvec = np.empty(N)
+    for a in range(N):
+        acc = -r1[a] - AE[0, a] * dy[0] - AE[1, a] * dy[1] - AE[2, a] * dy[2]
+        for b in range(N):
+            acc += W[a, b] * dx[b]
+        bvec[a] = acc
+    C = np.empty((max(na, 1), 3))
+    G = np.empty((3, 3))
+    w = np.empty(3)
+    for i in range(n):
+        r = rk[i]
+        if r == 0:
+            continue
+        Q = Qs[i]
+        k = 0
+        for j in range(na):
+            if idx[j] // 24 == i:
+                rows[k] = j
+                k += 1
+        for t in range(k):
+            a = D[i, idx[rows[t]] % 24]
+            for s in range(r):
+                C[t, s] = a[0] * Q[0, s] + a[1] * Q[1, s] + a[2] * Q[2, s]
+        # G = C^T C (positive definite: C has rank r) by Cholesky, G w = Q^T b
+        for s in range(r):
+            w[s] = Q[0, s] * bvec[3 * i] + Q[1, s] * bvec[3 * i + 1] + Q[2, s] * bvec[3 * i + 2]
+            for s2 in range(s + 1):
+                acc = 0.0
+                for t in range(k):
+                    acc += C[t, s] * C[t, s2]
+                for u in range(s2):
+                    acc -= G[s, u] * G[s2, u]
+                if s2 < s:
+                    G[s, s2] = acc / G[s2, s2]
+                elif acc > 0.0:
+                    G[s, s] = math.sqrt(acc)
+                else:
+                    return dx, dy, dz, False
+        for s in range(r):  # L y = Q^T b, then L^T w = y
+            for u in range(s):
+                w[s] -= G[s, u] * w[u]
+            w[s] /= G[s, s]
+        for s in range(r - 1, -1, -1):
+            for u in range(s + 1, r):
+                w[s] -= G[u, s] * w[u]
+            w[s] /= G[s, s]
+        for t in range(k):
+            acc = 0.0
+            for s in range(r):
+                acc += C[t, s] * w[s]
+            dz[rows[t]] = acc
+    return dx, dy, dz, True
+
+
+@_jit
 def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: FloatArray,
              tol: float, constr_tol: float, max_newton: int,
              max_changes: int) -> tuple[Any, ...]:  # fmt: skip
@@ -1054,7 +1316,8 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     set, an iteration does not shrink the error by PC_CONTRACT: not converging). A set
     with more limits than the freedom ``N - 3`` (degenerate) loses its weakest (least
     multiplier) first, counting at most 3 limits per platform (more depend on those:
-    they stay, with PC_REG) and keeping the limits the last change added. Active rows
+    they stay, and :func:`_pc_kkt` takes them as consistent with the others) and
+    keeping the limits the last change added. Active rows
     that copy an
     earlier active row (mirror legs, :func:`_twins`) enter once, with the multipliers of
     the copies summed onto that row.
@@ -1092,8 +1355,8 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
         idx = np.nonzero(act & (parent < 0))[0]
         # more limits than freedom (degenerate): the weakest go. A platform has 3
         # variables: its limits beyond 3 depend on the others (where base and top joint
-        # limits of its legs meet, at parallel plates) and take no freedom; they stay,
-        # regularised in the KKT matrix (below), and the others make room
+        # limits of its legs meet, at parallel plates) and take no freedom; they stay
+        # (the KKT solve, _pc_kkt, handles them), and the others make room
         cnt = _platform_counts(idx, n)
         while 3 + np.minimum(cnt, 3).sum() > N:
             _release(act, zf, parent, _weakest(idx, zf, new, cnt))
@@ -1103,8 +1366,6 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
         zA = np.empty(na)
         for j in range(na):
             zA[j] = zf[idx[j]]
-        K = np.zeros((N + 3 + na, N + 3 + na))
-        rhs = np.empty(N + 3 + na)
         conv = False
         inner = 0  # Newton iterations in this active set
         err_prev = math.inf
@@ -1142,36 +1403,20 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             inner += 1
             it += 1
             W = _lagrangian_hessian(x, yE, zf, P)
-            K[:] = 0.0
-            K[:N, :N] = W
-            for a in range(N):
-                for r in range(3):
-                    K[a, N + r] = -AE[r, a]
-                    K[N + r, a] = AE[r, a]
-                rhs[a] = -rd[a]
-            for r in range(3):
-                rhs[N + r] = -cE[r]
+            if not np.all(np.isfinite(W)):
+                break
+            rA = np.empty(na)
             for j in range(na):
-                i = idx[j] // 24
-                for k in range(3):
-                    K[3 * i + k, N + 3 + j] = -D[i, idx[j] % 24, k]
-                    K[N + 3 + j, 3 * i + k] = D[i, idx[j] % 24, k]
-                rhs[N + 3 + j] = PC_OFFSET - cI[idx[j]]
-                if cnt[i] > 3:  # dependent rows: the multipliers' split is not unique
-                    K[N + 3 + j, N + 3 + j] = -PC_REG
-            if not np.all(np.isfinite(K)):
-                break
-            try:
-                sol = np.linalg.solve(K, rhs)
-            except Exception:  # noqa: BLE001 - singular KKT matrix: the barrier solve decides
-                break
-            if not np.all(np.isfinite(sol)):
-                break
-            x = x + sol[:N]
+                rA[j] = PC_OFFSET - cI[idx[j]]
+            dx, dy, dz, solved = _pc_kkt(W, AE, D, idx, -rd, -cE, rA, n)
+            if not (solved and np.all(np.isfinite(dx)) and np.all(np.isfinite(dy))
+                    and np.all(np.isfinite(dz))):  # fmt: skip
+                break  # a singular KKT matrix: the barrier solve decides
+            x = x + dx
             for r in range(3):
-                yE[r] += sol[N + r]
+                yE[r] += dy[r]
             for j in range(na):
-                zA[j] += sol[N + 3 + j]
+                zA[j] += dz[j]
             f, g, cE, AE, cI, D = _evaluate(x, P)
         if not conv:
             break
