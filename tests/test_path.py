@@ -342,6 +342,26 @@ def test_fast_mode_reanchoring_backs_off_after_a_transit_abandoned_before_a_step
     assert r.info["default"] == 2
 
 
+def test_reanchoring_screen_is_the_default_solve_with_slow_starts_cut_short(stack4):
+    # waypoint 20 of the n = 4 benchmark's curved path 1: two of the default solve's
+    # three starts take 112 and 89 iterations, the best one 15; the check's screen (the
+    # same starts, options and selection with 10 n = 40 iterations a start) returns the
+    # default solve's pose; with rng, the seed of the waypoint's default solve
+    from stackik.paths.solve import _request, _screen
+
+    t = PlanarTarget(-577.4463669760025, 746.0050920668673, 1.0064166443992248)
+    req = _request(stack4, [t], MAX_JUMP, "fast", 0.0, False, 1, None, None, None, 6, None,
+                   None)  # fmt: skip
+    found = _screen(req, t, 20)
+    assert found is not None
+    r = solve_ik(stack4, t)
+    np.testing.assert_array_equal(found[0], r.q)
+    assert found[1] == pytest.approx(r.frobenius_norm, rel=1e-12)
+    req7 = _request(stack4, [t], MAX_JUMP, "fast", 0.0, False, 1, None, None, None, 6, 7,
+                    None)  # fmt: skip
+    np.testing.assert_array_equal(_screen(req7, t, 20)[0], req7.default_solve(t, 20).q)
+
+
 def test_fast_mode_leaves_a_branch_that_ends_at_a_limit_wall(tmp_path, monkeypatch):
     # n = 8: the branch the fast path follows ends at a joint limit before waypoint 45,
     # where a bounded step that finds no continuation leaves the path there (the compiled
