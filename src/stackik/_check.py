@@ -142,24 +142,29 @@ def planar_check_many(stack: Any, targets: Any, Q: FloatArray) -> list[bool]:
     """Whether each planar pose ``Q[j]`` (m, n, 3) passes the acceptance rule
     (:func:`stackik.check.pose_ok`) for ``targets[j]`` (one plane ``phi``): the same
     verdicts as :func:`planar_check` pose by pose, in one compiled call."""
-    from stackik._arrays import readonly
-    from stackik.check import pose_ok
-
     if len(targets) == 0:
         return []
     phi = float(targets[0].phi)
     if any(float(t.phi) != phi for t in targets):
         raise ValueError("targets: planar targets in one plane phi expected")
     Y = np.array([[t.rho, t.z, t.theta] for t in targets], dtype=float)
+    return planar_checks(stack, phi, Y, Q).tolist()  # type: ignore[no-any-return]
+
+
+def planar_checks(stack: Any, phi: float, Y: FloatArray, Q: FloatArray) -> Any:
+    """:func:`planar_check_many` of poses ``Q`` (m, n, 3) for the targets ``Y`` (m, 3)
+    (rows ``rho, z, theta``) in the plane ``phi``, as a boolean array."""
+    from stackik._arrays import readonly
+    from stackik.check import poses_ok
+
     Qa = np.ascontiguousarray(Q, dtype=float)
-    if Qa.shape != (len(targets), stack.n, 3):
+    if Qa.shape != (len(Y), stack.n, 3):
         raise ValueError(
-            f"Q: shape (len(targets), n, 3) = ({len(targets)}, {stack.n}, 3) expected, "
-            f"got {Qa.shape}"
+            f"Q: shape (len(targets), n, 3) = ({len(Y)}, {stack.n}, 3) expected, got {Qa.shape}"
         )
     pos, ang, v_mm, finite = _planar_check_many(
         readonly(Qa),
-        phi,
+        float(phi),
         readonly(stack.base_nodes),
         readonly(stack.top_nodes),
         readonly(stack.leg_min),
@@ -167,10 +172,7 @@ def planar_check_many(stack: Any, targets: Any, Q: FloatArray) -> list[bool]:
         readonly(stack.sin_joint_min),
         readonly(Y),
     )
-    return [
-        bool(pose_ok(float(p), float(a), float(v), bool(f)))
-        for p, a, v, f in zip(pos, ang, v_mm, finite)
-    ]
+    return poses_ok(pos, ang, v_mm, finite)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -344,7 +346,7 @@ def spatial_check_many(stack: Any, targets: Any, Q: FloatArray) -> list[bool]:
     (:func:`stackik.check.pose_ok`) for ``targets[j]``: the verdicts of
     :func:`stackik.check.check_pose`, in one compiled call."""
     from stackik._arrays import readonly
-    from stackik.check import pose_ok
+    from stackik.check import poses_ok
 
     if len(targets) == 0:
         return []
@@ -360,7 +362,4 @@ def spatial_check_many(stack: Any, targets: Any, Q: FloatArray) -> list[bool]:
         readonly(pos),
         readonly(rot),
     )
-    return [
-        bool(pose_ok(float(p), float(a), float(v), bool(f)))
-        for p, a, v, f in zip(pe, ae, v_mm, finite)
-    ]
+    return poses_ok(pe, ae, v_mm, finite).tolist()  # type: ignore[no-any-return]

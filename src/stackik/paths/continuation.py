@@ -193,7 +193,7 @@ class Tracker:
         if not targets:
             return []
         from stackik import _ipm, _spatial_ipm
-        from stackik._check import planar_check_many, spatial_check_many
+        from stackik._check import planar_checks, spatial_check_many
         from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
         from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
@@ -214,12 +214,10 @@ class Tracker:
         tail = (POLISH_REACH, POLISH_MARGIN, check.TARGET_POS_TOL, check.TARGET_ANGLE_TOL,
                 self.pc, *state)  # fmt: skip
         if self.planar:
-            Y = np.array([(t.rho, t.z, t.theta) for t in targets])  # type: ignore[union-attr]
+            Y = readonly([(t.rho, t.z, t.theta) for t in targets])  # type: ignore[union-attr]
             X, reached, how, *end = _ipm.ip_path(
-                readonly(prob.u_of(q)), readonly(Y), arrays, jump, tol, ctol, WARM_MU0,
-                max_iter, *tail,
+                readonly(prob.u_of(q)), Y, arrays, jump, tol, ctol, WARM_MU0, max_iter, *tail,
             )  # fmt: skip
-            check_many = planar_check_many
         else:
             pos = np.array([t.position for t in targets])  # type: ignore[union-attr]
             rot = np.array([t.rotation for t in targets])  # type: ignore[union-attr]
@@ -227,27 +225,32 @@ class Tracker:
                 readonly(prob.u_of(q)), readonly(pos), readonly(rot),
                 arrays, jump, tol, ctol, WARM_MU0, max_iter, *tail,
             )  # fmt: skip
-            check_many = spatial_check_many
         k = 3 if self.planar else 6
-        Q = (X[: int(reached)] * prob.xs).reshape(int(reached), self.stack.n, k)
-        # the jump of every step at once: each pose against the one before
-        prev = np.concatenate([q[None], Q[:-1]])
-        jumps = np.max(np.abs(Q - prev) / self.scale, axis=(1, 2)) if len(Q) else []
-        out: list[FloatArray] = []
-        for qk, ok, jr in zip(Q, check_many(self.stack, targets[: len(Q)], Q), jumps):
-            if not ok or jr > 1.0:
-                break
-            out.append(qk)
+        reached = int(reached)
+        Q = (X[:reached] * prob.xs).reshape(reached, self.stack.n, k)
+        # every pose checked and within one jump of the one before, at once: the leading
+        # ones that are
+        good = np.zeros(0, dtype=bool)
+        if reached:
+            prev = np.concatenate([q[None], Q[:-1]])
+            jumps = np.max(np.abs(Q - prev) / self.scale, axis=(1, 2))
+            if self.planar:
+                ok = planar_checks(self.stack, targets[0].phi, Y[:reached], Q)  # type: ignore[union-attr]
+            else:
+                ok = np.asarray(spatial_check_many(self.stack, targets[:reached], Q))
+            good = ok & (jumps <= 1.0)
+        bad = np.flatnonzero(~good)
+        out: list[FloatArray] = list(Q[: bad[0] if bad.size else reached])
         self.counts.warm += len(out)
         self.counts.pc += int(np.sum(how[: len(out)]))
         self._carry = None
         self.tried_from = None
         self.tried_left = False
-        if out and len(out) == int(reached):
+        if out and len(out) == reached:
             self._carry = (out[-1], tuple(end))
-        if len(out) == int(reached) < len(targets):  # the kernel's warm solve failed
+        if len(out) == reached < len(targets):  # the kernel's warm solve failed
             self.tried_from = out[-1] if out else q
-            self.tried_left = bool(how[int(reached)] == -1)  # ... finding a far pose
+            self.tried_left = bool(how[reached] == -1)  # ... finding a far pose
         return out
 
     def _no_state(self) -> tuple[Any, ...]:
