@@ -417,7 +417,10 @@ def test_ip_path_secant_history_starts_with_a_known_target():
     assert r2 == 2
     hist = end2[4]
     N = 3 * n
-    assert hist.size == N + 6
+    # the point before the last and both targets; then the quadratic predictor's state
+    # (the point before that not known yet: u0's target is not)
+    assert hist.size == 2 * N + 11 + 2 * (3 + 2 * 24 * n)
     np.testing.assert_array_equal(hist[:N], X2[0])
     np.testing.assert_array_equal(hist[N : N + 3], Y[0])
-    np.testing.assert_array_equal(hist[N + 3 :], Y[1])
+    np.testing.assert_array_equal(hist[N + 3 : N + 6], Y[1])
+    assert hist[N + 6] == 0.0 and hist[2 * N + 10] == 2  # two continuation steps
