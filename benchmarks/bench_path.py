@@ -16,7 +16,9 @@ above max_jump, mean FN along the path against the mean of the independent optim
 the same waypoints, and wall time per waypoint (ratio to independent solves). Writes
 ``path_bench.json`` (every path), ``path_bench.csv`` and ``path_bench.md`` (tables).
 
-Usage: ``python benchmarks/bench_path.py [--quick] [--out benchmarks/results]``.
+Usage: ``python benchmarks/bench_path.py [--quick] [--only planar:4,...] [--out DIR]``
+(``--only``: the rows of those kinds and sizes, written as ``path_bench_partial.*`` so
+that a partial run never replaces the full run's files; give it a scratch ``--out``).
 """
 
 from __future__ import annotations
@@ -372,8 +374,22 @@ def markdown(rows: list[dict], meta: dict) -> str:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="a few small paths")
+    ap.add_argument(
+        "--only",
+        default=None,
+        help="only these rows, KIND:N comma-separated (e.g. planar:4); seeds as in the full "
+        "run; written as path_bench_partial.*",
+    )
     ap.add_argument("--out", type=Path, default=Path(__file__).parent / "results")
     args = ap.parse_args(argv)
+    only = None
+    if args.only:
+        only = set()
+        for item in args.only.split(","):
+            kind, _, n = item.partition(":")
+            if kind not in ("planar", "spatial") or not n.isdigit():
+                ap.error(f"--only: expected KIND:N (planar:4, spatial:8, ...), got {item!r}")
+            only.add((kind, int(n)))
     t_all = time.perf_counter()
     solve_ik(Stack.reference(2), PlanarTarget(0.0, 700.0, 0.0))  # compile / load kernels
     solve_ik(Stack.reference(2), PlanarTarget(0.0, 700.0, 0.0).to_spatial())
@@ -381,6 +397,8 @@ def main(argv: list[str] | None = None) -> int:
     for j, (kind, n, straight, curved, local, m, do_global) in enumerate(
         QUICK if args.quick else FULL
     ):
+        if only is not None and (kind, n) not in only:
+            continue  # (the seed stays the row's: SEED + its index in the full list)
         stack = Stack.reference(n)
         paths = make_paths(kind, stack, straight, curved, local, m, SEED + j)
         for i, (shape, targets) in enumerate(paths):
@@ -400,7 +418,9 @@ def main(argv: list[str] | None = None) -> int:
             )
     rows = summarise(records)
     meta = {
-        "command": "python benchmarks/bench_path.py" + (" --quick" if args.quick else ""),
+        "command": "python benchmarks/bench_path.py"
+        + (" --quick" if args.quick else "")
+        + (f" --only {args.only}" if args.only else ""),
         "date": time.strftime("%Y-%m-%d %H:%M"),
         "machine": f"{platform.machine()}, {os.cpu_count()} cores, Python "
         f"{platform.python_version()}",
@@ -410,6 +430,8 @@ def main(argv: list[str] | None = None) -> int:
     }
     args.out.mkdir(parents=True, exist_ok=True)
     name = "path_bench_quick" if args.quick else "path_bench"
+    if only is not None:
+        name = "path_bench_partial"
     (args.out / f"{name}.json").write_text(
         json.dumps({"meta": meta, "summary": rows, "paths": records}, indent=1, default=str)
     )

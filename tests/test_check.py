@@ -71,3 +71,20 @@ def test_planar_check_many_rejects_mismatched_shapes() -> None:
         planar_check_many(stack, targets, np.zeros((4, 3, 3)))
     with pytest.raises(ValueError, match="shape"):
         planar_check_many(stack, targets, np.zeros((1, 2, 3)))
+
+
+def test_poses_ok_is_pose_ok_elementwise():
+    from itertools import product
+
+    from stackik.check import FEAS_TOL, TARGET_ANGLE_TOL, TARGET_POS_TOL, pose_ok, poses_ok
+
+    cases = list(
+        product(
+            [0.0, TARGET_POS_TOL, 2 * TARGET_POS_TOL, np.nan],
+            [0.0, TARGET_ANGLE_TOL, 2 * TARGET_ANGLE_TOL, np.nan],
+            [0.0, FEAS_TOL, 2 * FEAS_TOL, np.inf],
+            [True, False],
+        )
+    )
+    p, a, v, f = (np.array(c) for c in zip(*cases))
+    assert poses_ok(p, a, v, f).tolist() == [pose_ok(*c) for c in cases]

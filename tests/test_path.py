@@ -195,6 +195,28 @@ def test_fast_planar_path_is_valid_and_continuous(stack4, planar_path, fast_resu
     np.testing.assert_allclose(r.frobenius_norm, fn, rtol=1e-12)  # FN of the poses
 
 
+def test_planar_path_arrays_match_the_leg_vectors(stack4, fast_result):
+    """The compiled planar path arrays against the leg vectors of stackik.platform:
+    lengths, the four margins (the smallest sine of a leg's angle with the base and top
+    plates, through asin) and FN."""
+    from stackik.kinematics import planar_fn2
+    from stackik.platform import planar_legs
+
+    r = fast_result
+    Q = np.array(r.q)
+    Q[2, 1, 2] += 0.4  # a pose off the path: other legs are the extreme ones
+    arr = path_arrays(stack4, r.targets, Q)
+    l, Rn, _, _ = planar_legs(stack4, Q, r.targets[0].phi)
+    L = np.linalg.norm(l, axis=-1)
+    jm = np.arcsin(stack4.sin_joint_min)
+    base = np.arcsin(np.clip(l[..., 2] / L, -1, 1)).min(axis=-1) - jm
+    top = np.arcsin(np.clip(np.einsum("mnkj,mnj->mnk", l, Rn) / L, -1, 1)).min(axis=-1) - jm
+    want = np.stack([L.min(-1) - stack4.leg_min, stack4.leg_max - L.max(-1), base, top], -1)
+    np.testing.assert_allclose(arr["leg_lengths"], L, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(arr["margins"], want, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(arr["frobenius_norm"] ** 2, planar_fn2(Q), rtol=1e-13)
+
+
 def test_global_mode_is_no_worse_than_fast(stack4, planar_path, fast_result):
     g = solve_path(stack4, planar_path, max_jump=MAX_JUMP, mode="global")
     assert g.success and g.mode == "global"
@@ -302,6 +324,42 @@ def test_fast_mode_reanchoring_checks_back_off(stack4):
     assert r10.info["default"] == 3 and r10.info["reanchored"] == 0
     # the same poses (to rounding: a run restarts from the pose, not the kernel's point)
     np.testing.assert_allclose(r10.q, r.q, rtol=0, atol=1e-9)
+
+
+def test_fast_mode_reanchoring_backs_off_after_a_transit_abandoned_before_a_step(stack4):
+    # the n = 4 benchmark's curved path 1 (bench_path.py, seed 2024): the check at
+    # waypoint 20 finds a better basin 9 jumps away, but the first transit step does not
+    # bring the path a quarter jump closer: abandoned, the path did not move, and the
+    # next check is due at 20 + 40 = 60 (past the end) as after a check that finds
+    # nothing; no third default solve at waypoint 40
+    a = PlanarTarget(-1095.1836552615814, 334.108793971703, 2.013334065435856)
+    c = PlanarTarget(-274.4456166198349, 1008.2648105324206, 0.0018676164655920813)
+    b = PlanarTarget(209.54674534085788, 1289.4278635580708, 1.095354359848603)
+    r = solve_path(stack4, _bezier(a, c, b, 60), max_jump=MAX_JUMP)
+    assert r.success
+    assert_valid_path(stack4, r)
+    assert r.info["reanchored"] == 1 and r.info["transit_abandoned"] == 1
+    assert r.info["default"] == 2
+
+
+def test_reanchoring_screen_is_the_default_solve_with_slow_starts_cut_short(stack4):
+    # waypoint 20 of the n = 4 benchmark's curved path 1: two of the default solve's
+    # three starts take 112 and 89 iterations, the best one 15; the check's screen (the
+    # same starts, options and selection with 10 n = 40 iterations a start) returns the
+    # default solve's pose; with rng, the seed of the waypoint's default solve
+    from stackik.paths.solve import _request, _screen
+
+    t = PlanarTarget(-577.4463669760025, 746.0050920668673, 1.0064166443992248)
+    req = _request(stack4, [t], MAX_JUMP, "fast", 0.0, False, 1, None, None, None, 6, None,
+                   None)  # fmt: skip
+    found = _screen(req, t, 20)
+    assert found is not None
+    r = solve_ik(stack4, t)
+    np.testing.assert_array_equal(found[0], r.q)
+    assert found[1] == pytest.approx(r.frobenius_norm, rel=1e-12)
+    req7 = _request(stack4, [t], MAX_JUMP, "fast", 0.0, False, 1, None, None, None, 6, 7,
+                    None)  # fmt: skip
+    np.testing.assert_array_equal(_screen(req7, t, 20)[0], req7.default_solve(t, 20).q)
 
 
 def test_fast_mode_leaves_a_branch_that_ends_at_a_limit_wall(tmp_path, monkeypatch):

@@ -142,24 +142,29 @@ def planar_check_many(stack: Any, targets: Any, Q: FloatArray) -> list[bool]:
     """Whether each planar pose ``Q[j]`` (m, n, 3) passes the acceptance rule
     (:func:`stackik.check.pose_ok`) for ``targets[j]`` (one plane ``phi``): the same
     verdicts as :func:`planar_check` pose by pose, in one compiled call."""
-    from stackik._arrays import readonly
-    from stackik.check import pose_ok
-
     if len(targets) == 0:
         return []
     phi = float(targets[0].phi)
     if any(float(t.phi) != phi for t in targets):
         raise ValueError("targets: planar targets in one plane phi expected")
     Y = np.array([[t.rho, t.z, t.theta] for t in targets], dtype=float)
+    return planar_checks(stack, phi, Y, Q).tolist()  # type: ignore[no-any-return]
+
+
+def planar_checks(stack: Any, phi: float, Y: FloatArray, Q: FloatArray) -> Any:
+    """:func:`planar_check_many` of poses ``Q`` (m, n, 3) for the targets ``Y`` (m, 3)
+    (rows ``rho, z, theta``) in the plane ``phi``, as a boolean array."""
+    from stackik._arrays import readonly
+    from stackik.check import poses_ok
+
     Qa = np.ascontiguousarray(Q, dtype=float)
-    if Qa.shape != (len(targets), stack.n, 3):
+    if Qa.shape != (len(Y), stack.n, 3):
         raise ValueError(
-            f"Q: shape (len(targets), n, 3) = ({len(targets)}, {stack.n}, 3) expected, "
-            f"got {Qa.shape}"
+            f"Q: shape (len(targets), n, 3) = ({len(Y)}, {stack.n}, 3) expected, got {Qa.shape}"
         )
     pos, ang, v_mm, finite = _planar_check_many(
         readonly(Qa),
-        phi,
+        float(phi),
         readonly(stack.base_nodes),
         readonly(stack.top_nodes),
         readonly(stack.leg_min),
@@ -167,10 +172,95 @@ def planar_check_many(stack: Any, targets: Any, Q: FloatArray) -> list[bool]:
         readonly(stack.sin_joint_min),
         readonly(Y),
     )
-    return [
-        bool(pose_ok(float(p), float(a), float(v), bool(f)))
-        for p, a, v, f in zip(pos, ang, v_mm, finite)
-    ]
+    return poses_ok(pos, ang, v_mm, finite)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _planar_path_arrays(Q: FloatArray, phi: float, base: FloatArray, top: FloatArray,
+                        leg_min: FloatArray, leg_max: FloatArray,
+                        sin_joint: FloatArray) -> tuple[Any, ...]:  # fmt: skip
+    """FN, leg lengths and limit margins of planar poses ``Q`` (m, n, 3), as
+    :func:`stackik.paths.path_arrays` reports them: ``FN^2 = 3 n + sum_{0<i<n} |O_n -
+    O_i|^2`` (:func:`stackik.kinematics.planar_fn2`), ``|l|`` per leg, and per platform
+    ``min |l| - leg_min``, ``leg_max - max |l|`` and the smallest angle of a leg with the
+    base (top) plate minus ``asin(sin_joint)`` (the legs as :func:`_planar_check` builds
+    them)."""
+    m, n = Q.shape[0], Q.shape[1]
+    fn = np.empty(m)
+    legs = np.empty((m, n, 6))
+    margins = np.empty((m, n, 4))
+    e_phi = np.array([math.cos(phi), math.sin(phi), 0.0])
+    s = np.array([math.sin(phi), -math.cos(phi), 0.0])  # plane_axis(phi)
+    O = np.zeros((n + 1, 2))
+    R = np.empty((3, 3))
+    for j in range(m):
+        th = 0.0
+        for i in range(n):
+            c = math.cos(th)
+            sn = math.sin(th)
+            O[i + 1, 0] = O[i, 0] + c * Q[j, i, 0] - sn * Q[j, i, 1]
+            O[i + 1, 1] = O[i, 1] + sn * Q[j, i, 0] + c * Q[j, i, 1]
+            th += Q[j, i, 2]
+        acc = 3.0 * n
+        for i in range(1, n):
+            d0 = O[n, 0] - O[i, 0]
+            d1 = O[n, 1] - O[i, 1]
+            acc += d0 * d0 + d1 * d1
+        fn[j] = math.sqrt(acc)
+        for i in range(n):
+            ct = math.cos(Q[j, i, 2])
+            st = math.sin(Q[j, i, 2])
+            for a in range(3):
+                for b in range(3):
+                    R[a, b] = (1.0 - ct) * s[a] * s[b] + (ct if a == b else 0.0)
+            R[0, 1] -= st * s[2]
+            R[0, 2] += st * s[1]
+            R[1, 0] += st * s[2]
+            R[1, 2] -= st * s[0]
+            R[2, 0] -= st * s[1]
+            R[2, 1] += st * s[0]
+            p0 = Q[j, i, 0] * e_phi[0]
+            p1 = Q[j, i, 0] * e_phi[1]
+            p2 = Q[j, i, 1]
+            lo = math.inf
+            hi = -math.inf
+            ab = math.inf
+            at = math.inf
+            for k in range(6):
+                l0 = R[0, 0] * top[i, k, 0] + R[0, 1] * top[i, k, 1] + R[0, 2] * top[i, k, 2]
+                l1 = R[1, 0] * top[i, k, 0] + R[1, 1] * top[i, k, 1] + R[1, 2] * top[i, k, 2]
+                l2 = R[2, 0] * top[i, k, 0] + R[2, 1] * top[i, k, 1] + R[2, 2] * top[i, k, 2]
+                l0 += p0 - base[i, k, 0]
+                l1 += p1 - base[i, k, 1]
+                l2 += p2 - base[i, k, 2]
+                nrm = math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
+                legs[j, i, k] = nrm
+                lo = min(lo, nrm)
+                hi = max(hi, nrm)
+                ab = min(ab, l2 / nrm)  # sines: asin is increasing
+                at = min(at, (l0 * R[0, 2] + l1 * R[1, 2] + l2 * R[2, 2]) / nrm)
+            jmin = math.asin(sin_joint[i])
+            margins[j, i, 0] = lo - leg_min[i]
+            margins[j, i, 1] = leg_max[i] - hi
+            margins[j, i, 2] = math.asin(min(max(ab, -1.0), 1.0)) - jmin
+            margins[j, i, 3] = math.asin(min(max(at, -1.0), 1.0)) - jmin
+    return fn, legs, margins
+
+
+def planar_path_arrays(stack: Any, phi: float, Q: FloatArray) -> tuple[Any, ...]:
+    """``(FN (m,), leg lengths (m, n, 6), margins (m, n, 4))`` of planar poses ``Q``
+    (m, n, 3) in the plane ``phi`` (:func:`_planar_path_arrays`)."""
+    from stackik._arrays import readonly
+
+    return _planar_path_arrays(  # type: ignore[no-any-return]
+        readonly(np.ascontiguousarray(Q, dtype=float)),
+        float(phi),
+        readonly(stack.base_nodes),
+        readonly(stack.top_nodes),
+        readonly(stack.leg_min),
+        readonly(stack.leg_max),
+        readonly(stack.sin_joint_min),
+    )
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -256,7 +346,7 @@ def spatial_check_many(stack: Any, targets: Any, Q: FloatArray) -> list[bool]:
     (:func:`stackik.check.pose_ok`) for ``targets[j]``: the verdicts of
     :func:`stackik.check.check_pose`, in one compiled call."""
     from stackik._arrays import readonly
-    from stackik.check import pose_ok
+    from stackik.check import poses_ok
 
     if len(targets) == 0:
         return []
@@ -272,7 +362,4 @@ def spatial_check_many(stack: Any, targets: Any, Q: FloatArray) -> list[bool]:
         readonly(pos),
         readonly(rot),
     )
-    return [
-        bool(pose_ok(float(p), float(a), float(v), bool(f)))
-        for p, a, v, f in zip(pe, ae, v_mm, finite)
-    ]
+    return poses_ok(pe, ae, v_mm, finite).tolist()  # type: ignore[no-any-return]

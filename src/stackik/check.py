@@ -24,6 +24,7 @@ __all__ = [
     "PoseCheck",
     "check_pose",
     "pose_ok",
+    "poses_ok",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -41,6 +42,18 @@ def pose_ok(position_error: float, angle_error: float, violation_mm: float, fini
         and angle_error <= TARGET_ANGLE_TOL
         and violation_mm <= FEAS_TOL
         and bool(finite)
+    )
+
+
+def poses_ok(
+    position_error: ArrayLike, angle_error: ArrayLike, violation_mm: ArrayLike, finite: ArrayLike
+) -> NDArray[np.bool_]:
+    """:func:`pose_ok` elementwise (arrays of the same shape), as a boolean array."""
+    return (  # type: ignore[no-any-return]
+        (np.asarray(position_error) <= TARGET_POS_TOL)
+        & (np.asarray(angle_error) <= TARGET_ANGLE_TOL)
+        & (np.asarray(violation_mm) <= FEAS_TOL)
+        & np.asarray(finite, dtype=bool)
     )
 
 

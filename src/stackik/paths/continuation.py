@@ -110,6 +110,9 @@ class Tracker:
         #: the kernel: a pose the Python check rejects may come from a continuation step,
         #: with no warm solve made), else None
         self.tried_from: FloatArray | None = None
+        #: that failed solve found a pose of the target farther than one jump (it left
+        #: its basin), not no pose
+        self.tried_left = False
         #: the carried state of a second pose followed beside the path (a fast path's
         #: goal basin, :meth:`follow`)
         self._side_carry: tuple[Any, ...] | None = None
@@ -119,10 +122,17 @@ class Tracker:
         return float(np.max(np.abs(qb - qa) / self.scale))
 
     # --- rungs ----------------------------------------------------------------------
-    def warm(self, q: FloatArray, target: Target, *, tried: bool = False) -> FloatArray | None:
+    def warm(
+        self, q: FloatArray, target: Target, *, tried: bool = False, left: bool = False
+    ) -> FloatArray | None:
         """Warm-started solve from ``q``; the pose if checked and within one jump.
         ``tried``: the first solve (initial barrier ``WARM_MU0``) was made and failed
-        (a run of :meth:`warm_many` stopped here): only the retry remains."""
+        (a run of :meth:`warm_many` stopped here): only the retry remains, unless
+        ``left``: that solve found a pose farther than one jump (it left its basin), and
+        the rung fails as when it makes that solve itself (the retry is for a first
+        solve that finds no pose)."""
+        if tried and left:
+            return None
         if not tried:
             self.counts.warm += 1
             ok, qw = self._warm_solve(q, target, WARM_MU0)
@@ -139,18 +149,19 @@ class Tracker:
         first the continuation step of :meth:`warm_many`, with its own carried state (the
         path's is kept), then the warm rung's barrier solves. A spatial barrier solve
         costs ~15 ms at n = 4, a continuation step well under 1 ms."""
-        saved = self._carry, self.tried_from
+        saved = self._carry, self.tried_from, self.tried_left
         self._carry = self._side_carry
         try:
             out = self.warm_many(q, [target])
             self._side_carry = self._carry
             tried = self.tried_from is q  # the kernel's warm solve from q failed
+            left = self.tried_left
         finally:
-            self._carry, self.tried_from = saved
+            self._carry, self.tried_from, self.tried_left = saved
         if out:
             return out[0]
         self._side_carry = None
-        return self.warm(q, target, tried=tried)
+        return self.warm(q, target, tried=tried, left=tried and left)
 
     def _warm_solve(self, q: FloatArray, target: Target, mu0: float | None) -> tuple[bool, Any]:
         """``solve_ik(stack, target, x0=q, starts=1, method="ip", options={"mu0": mu0})``
@@ -182,7 +193,7 @@ class Tracker:
         if not targets:
             return []
         from stackik import _ipm, _spatial_ipm
-        from stackik._check import planar_check_many, spatial_check_many
+        from stackik._check import planar_checks, spatial_check_many
         from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
         from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
@@ -203,12 +214,10 @@ class Tracker:
         tail = (POLISH_REACH, POLISH_MARGIN, check.TARGET_POS_TOL, check.TARGET_ANGLE_TOL,
                 self.pc, *state)  # fmt: skip
         if self.planar:
-            Y = np.array([(t.rho, t.z, t.theta) for t in targets])  # type: ignore[union-attr]
+            Y = readonly([(t.rho, t.z, t.theta) for t in targets])  # type: ignore[union-attr]
             X, reached, how, *end = _ipm.ip_path(
-                readonly(prob.u_of(q)), readonly(Y), arrays, jump, tol, ctol, WARM_MU0,
-                max_iter, *tail,
+                readonly(prob.u_of(q)), Y, arrays, jump, tol, ctol, WARM_MU0, max_iter, *tail,
             )  # fmt: skip
-            check_many = planar_check_many
         else:
             pos = np.array([t.position for t in targets])  # type: ignore[union-attr]
             rot = np.array([t.rotation for t in targets])  # type: ignore[union-attr]
@@ -216,25 +225,32 @@ class Tracker:
                 readonly(prob.u_of(q)), readonly(pos), readonly(rot),
                 arrays, jump, tol, ctol, WARM_MU0, max_iter, *tail,
             )  # fmt: skip
-            check_many = spatial_check_many
         k = 3 if self.planar else 6
-        Q = (X[: int(reached)] * prob.xs).reshape(int(reached), self.stack.n, k)
-        # the jump of every step at once: each pose against the one before
-        prev = np.concatenate([q[None], Q[:-1]])
-        jumps = np.max(np.abs(Q - prev) / self.scale, axis=(1, 2)) if len(Q) else []
-        out: list[FloatArray] = []
-        for qk, ok, jr in zip(Q, check_many(self.stack, targets[: len(Q)], Q), jumps):
-            if not ok or jr > 1.0:
-                break
-            out.append(qk)
+        reached = int(reached)
+        Q = (X[:reached] * prob.xs).reshape(reached, self.stack.n, k)
+        # every pose checked and within one jump of the one before, at once: the leading
+        # ones that are
+        good = np.zeros(0, dtype=bool)
+        if reached:
+            prev = np.concatenate([q[None], Q[:-1]])
+            jumps = np.max(np.abs(Q - prev) / self.scale, axis=(1, 2))
+            if self.planar:
+                ok = planar_checks(self.stack, targets[0].phi, Y[:reached], Q)  # type: ignore[union-attr]
+            else:
+                ok = np.asarray(spatial_check_many(self.stack, targets[:reached], Q))
+            good = ok & (jumps <= 1.0)
+        bad = np.flatnonzero(~good)
+        out: list[FloatArray] = list(Q[: bad[0] if bad.size else reached])
         self.counts.warm += len(out)
         self.counts.pc += int(np.sum(how[: len(out)]))
         self._carry = None
         self.tried_from = None
-        if out and len(out) == int(reached):
+        self.tried_left = False
+        if out and len(out) == reached:
             self._carry = (out[-1], tuple(end))
-        if len(out) == int(reached) < len(targets):  # the kernel's warm solve failed
+        if len(out) == reached < len(targets):  # the kernel's warm solve failed
             self.tried_from = out[-1] if out else q
+            self.tried_left = bool(how[reached] == -1)  # ... finding a far pose
         return out
 
     def _no_state(self) -> tuple[Any, ...]:
@@ -302,6 +318,7 @@ class Tracker:
         subdivide: bool = True,
         bounded: bool = True,
         warm_tried: bool = False,
+        warm_left: bool = False,
     ) -> Step | None:
         """A pose of ``tb`` within ``max_jump`` of ``q`` (a pose of ``ta``), or None.
 
@@ -315,8 +332,11 @@ class Tracker:
         warm_tried : bool
             The warm rung's first solve from ``q`` to ``tb`` was made and failed (a run
             of :meth:`warm_many` stopped before ``tb``): the rung starts at its retry.
+        warm_left : bool
+            ... and found a pose farther than ``max_jump`` (it left its basin): the rung
+            fails without the retry (:meth:`warm`).
         """
-        qb = self.warm(q, tb, tried=warm_tried)
+        qb = self.warm(q, tb, tried=warm_tried, left=warm_left)
         if qb is not None:
             return Step(qb, "warm")
         if subdivide and self.max_depth > 0:

@@ -14,8 +14,9 @@ waypoints. Two modes:
     previous one. At waypoint ``reanchor_every`` it compares the path with the default
     solve and moves to a basin better by 1 % by transit steps; the next comparison comes
     ``reanchor_every`` waypoints later after one that moved, twice the last gap after one
-    that did not (the path was on the best basin the default solve knows: checks back
-    off while it stays there); when the followed branch
+    that did not (the path was on the best basin the default solve knows, or its transit
+    there was abandoned before a step: checks back off while it stays there); when the
+    followed branch
     ends at a limit wall it splices in a detour walked back from the next waypoint's
     default pose.
 
@@ -54,7 +55,7 @@ from stackik.paths.continuation import Step, Tracker
 from stackik.paths.interpolate import _pair, as_waypoints, lerp_target
 from stackik.paths.result import MARGIN_NAMES, PATH_MESSAGES, PathResult, PathStatus
 from stackik.paths.timing import time_parameterize
-from stackik.platform import planar_legs, spatial_legs
+from stackik.platform import spatial_legs
 from stackik.solve import solve_ik
 from stackik.solve.blas import BlasLimit
 from stackik.targets import PlanarTarget, Target, target_from_dict, target_to_dict
@@ -64,6 +65,7 @@ __all__ = [
     "FAST_TRANSIT_GAIN",
     "MODES",
     "REANCHOR_EVERY",
+    "REANCHOR_ITER_PER_N",
     "REANCHOR_PER_N",
     "REFINE_DEPTH",
     "TRANSIT_GAIN",
@@ -90,6 +92,11 @@ FAST_TRANSIT_GAIN = 0.01
 #: n = 16; this keeps its share of a fast path's time small). Spatial: 0, off.
 REANCHOR_EVERY = 20
 REANCHOR_PER_N = 5
+#: Fast mode's planar reanchoring check runs the default solve's interior-point starts
+#: with at most this many iterations per platform each (:func:`_screen`; on the
+#: benchmark's planar paths the best start of a default solve took at most 30
+#: iterations at n = 4, 98 at n = 8, 128 at n = 16, a slow start up to 112 at n = 4).
+REANCHOR_ITER_PER_N = 10
 
 
 # =========================================================================================
@@ -258,11 +265,13 @@ def path_arrays(stack: Stack, targets: Sequence[Target], q: ArrayLike) -> dict[s
             "margins": np.zeros((0, n, len(MARGIN_NAMES))),
         }
     t0 = targets[0]
-    fn = _frobenius_norms(isinstance(t0, PlanarTarget), Q)
-    if isinstance(t0, PlanarTarget):
-        l, Rn, _, _ = planar_legs(stack, Q, t0.phi)
-    else:
-        l, Rn, _, _ = spatial_legs(stack, Q)
+    if isinstance(t0, PlanarTarget):  # compiled (~20 us for 60 poses at n = 4, not ~200)
+        from stackik._check import planar_path_arrays
+
+        fn, legs, margins = planar_path_arrays(stack, t0.phi, Q)
+        return {"frobenius_norm": fn, "leg_lengths": legs, "margins": margins}
+    fn = _frobenius_norms(False, Q)
+    l, Rn, _, _ = spatial_legs(stack, Q)
     norms = np.linalg.norm(l, axis=-1)  # (m, n, 6)
     joint_min = np.arcsin(stack.sin_joint_min)[None, :]
     ang_base = np.arcsin(np.clip(l[..., 2] / norms, -1.0, 1.0))
@@ -473,8 +482,8 @@ def _fast(
         if req.reanchor_every and k == due:
             if goal is None and pending:
                 goal = _reanchor(req, tracker, k, tb, q, info)
-                gap = req.reanchor_every if goal is not None else 2 * gap
-            due = k + gap
+                gap = 2 * gap  # the next gap unless the path moves to the goal (below)
+            due = k + (req.reanchor_every if goal is not None else gap)
         if ck.path is None:  # nothing to write: no record (~5 us a waypoint at n = 4)
             return
         top = [(target_to_dict(t), s, d) for t, s, d in pending if d > 0] if req.refine else []
@@ -506,13 +515,22 @@ def _fast(
                 ladder_at = len(ql)
             continue
         tb, sb, depth = pending[-1]
+        moving = goal
         step, goal = _towards(tracker, goal, ql[-1], tb, info) if goal else (None, None)
+        if moving is not None and step is not None:  # it moves to the goal's basin
+            gap = req.reanchor_every
+        elif moving is not None and moving.steps == 0:
+            # abandoned before a step: the check moved nothing, and backs off as one that
+            # finds no better basin (the next check 2 x the last gap after it, not
+            # reanchor_every: the path stays on its basin)
+            due += gap - req.reanchor_every
         if step is None:
             off = hows[-1] in ("bounded", "transit")  # off the optimum: no bisection
             # where a run of warm steps stopped in its kernel, it made the warm rung's
             # first solve from this pose to this waypoint
             tried = len(ql) == ladder_at and depth == 0 and tracker.tried_from is ql[-1]
-            step = tracker.step(ql[-1], tl[-1], tb, subdivide=not off, warm_tried=tried)
+            step = tracker.step(ql[-1], tl[-1], tb, subdivide=not off, warm_tried=tried,
+                                warm_left=tried and tracker.tried_left)  # fmt: skip
         if step is not None:
             accept(step.q, step.how)
             continue
@@ -600,17 +618,53 @@ def _reanchor(
     req: _Request, tracker: Tracker, k: int, target: Target, q: FloatArray, info: dict
 ) -> _Goal | None:
     """The default solve's pose at waypoint k as a goal, when its FN is lower than the
-    path's by more than FAST_TRANSIT_GAIN and it is more than max_jump away."""
-    r = req.default_solve(target, k)
+    path's by more than FAST_TRANSIT_GAIN and it is more than max_jump away (planar: the
+    default solve's interior-point batch with an iteration budget, :func:`_screen`)."""
     info["default"] += 1
-    if not r.success:
+    found = _screen(req, target, k) if req.planar else None
+    if found is None and not req.planar:
+        r = req.default_solve(target, k)
+        found = (r.q, float(r.frobenius_norm)) if r.success else None
+    if found is None:
         return None
+    qd, fn_d = found
     fn = math.sqrt(_fn2(req, q))
-    dist = tracker.ratio(q, r.q)
-    if r.frobenius_norm >= (1 - FAST_TRANSIT_GAIN) * fn or dist <= 1.0:
+    dist = tracker.ratio(q, qd)
+    if fn_d >= (1 - FAST_TRANSIT_GAIN) * fn or dist <= 1.0:
         return None
     info["reanchored"] += 1
-    return _Goal(r.q, dist, 0)
+    return _Goal(qd, dist, 0)
+
+
+def _screen(req: _Request, target: Target, index: int) -> tuple[FloatArray, float] | None:
+    """The planar default solve of waypoint ``index`` as a reanchoring check needs it:
+    its interior-point batch (its starts, options and selection,
+    :func:`stackik.methods.ip.ip_starts`) with at most ``REANCHOR_ITER_PER_N * n``
+    iterations a start, without the pipeline around it. ``(pose, FN)`` of the best start
+    that passes the check, or None (then no goal: the default solve would hand over to
+    the SQP engine). The same pose as the default solve's wherever its best start
+    converges within the budget, the others cut short: on the benchmark's planar paths
+    at every waypoint at n = 4 (360; one check there took 216 iterations, 3 ms, with a
+    start of 112: 95 with the budget) and n = 16 (24 sampled), at 89 of 90 sampled at
+    n = 8 (the other: a start reaching the same basin, 2e-4 higher in FN)."""
+    from stackik.methods.ip import IPMethod, ip_starts
+    from stackik.solve.blas import BlasLimit
+    from stackik.solve.policy import plan_starts
+    from stackik.solve.request import build_request
+
+    rng = None if req.seed is None else req.seed + index
+    r = build_request(
+        req.stack, target, objective="frobenius", method="auto", qp_solver=None, x0=None,
+        starts=None, rng=rng, options=None, sigma_t=None, sigma_theta=None, start="paper",
+        max_time=None, t_start=time.perf_counter(), blas=BlasLimit(None),
+    )  # fmt: skip
+    if not isinstance(r.method, IPMethod):
+        d = req.default_solve(target, index)
+        return (d.q, float(d.frobenius_norm)) if d.success else None
+    starts = plan_starts(r).batch(r.sampler, r.structured, req.stack.n)
+    budget = {**r.options, "max_iter": REANCHOR_ITER_PER_N * req.stack.n}
+    best = ip_starts(r.problem, starts, budget, r.max_time).best
+    return None if best is None else (best.q, math.sqrt(best.obj))
 
 
 def _towards(
@@ -1042,7 +1096,8 @@ def solve_path(
         ``max_jump``), at most ``TRANSIT_STEPS`` of them. The next check is
         ``reanchor_every`` waypoints after one that moved the path, twice the last gap
         after one that did not (20, 60, 140, ... while the path stays on the best basin
-        the default solve finds). 0 turns it off. Default (None):
+        the default solve finds, or its transit is abandoned before a step). 0 turns it
+        off. Default (None):
         ``max(20, 5 n)`` for planar paths (20 at n = 4, 40 at n = 8, 80 at n = 16: the
         default solve's cost grows with n), 0 for spatial ones (a spatial default solve
         costs as much as tens of warm steps, and the spatial FN landscape has so many

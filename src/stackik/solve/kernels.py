@@ -35,7 +35,7 @@ def _dispatchers(kind: str) -> list[Any]:
 
         return [_ipm._ip_multi, _ipm.ip_box, _ipm.ip_path, _ipm._evaluate,
                 _ipm._lagrangian_hessian, _check._planar_check,
-                _check._planar_check_many]  # fmt: skip
+                _check._planar_check_many, _check._planar_path_arrays]  # fmt: skip
     from stackik import _check, _spatial, _spatial_ipm
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _spatial_ipm.ip_multi,
@@ -88,7 +88,7 @@ def _warm_path_kernels(planar: bool) -> None:
 
     from stackik import _ipm, _spatial_ipm
     from stackik._arrays import readonly
-    from stackik._check import planar_check_many, spatial_check_many
+    from stackik._check import planar_check_many, planar_path_arrays, spatial_check_many
     from stackik.formulation import POLISH_MARGIN, POLISH_REACH
     from stackik.methods.ip import problem_arrays, spatial_problem_arrays
 
@@ -108,6 +108,7 @@ def _warm_path_kernels(planar: bool) -> None:
                      1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, np.zeros(3),
                      np.zeros(0), np.zeros(0, dtype=bool), False, np.zeros(0))  # fmt: skip
         planar_check_many(stack, [pt], q0[None])
+        planar_path_arrays(stack, pt.phi, q0[None])
     else:
         st = pt.to_spatial()
         _spatial_ipm.ip_path(u0, readonly([st.position]), readonly([st.rotation]),
