@@ -174,14 +174,17 @@ def test_ip_path_continuation_steps_are_verified_kkt_points_near_the_barrier_sol
     assert reached == reached2 and np.array_equal(X[:reached], X2[:reached])
     assert np.array_equal(how, how2)
     assert reached >= 5 and how[:reached].sum() >= reached // 2
-    # two runs, the second from the first's last point with its state: the same points
-    h = reached // 2
-    Xa, ra, _, *end = _ipm.ip_path(args[0], readonly(Y[:h]), *args[2:13], *_NO_STATE3)
-    assert ra == h and end[3]
-    Xb, rb, howb, *_ = _ipm.ip_path(readonly(Xa[h - 1]), readonly(Y[h:reached]), *args[2:13],
-                                    *end)  # fmt: skip
-    assert rb == reached - h and howb[0] == how[h]
-    np.testing.assert_array_equal(np.concatenate([Xa[:h], Xb[:rb]]), X[:reached])
+    # two runs, the second from the first's last point with its state: the same points,
+    # wherever the split (after the first step too: the history then holds the target
+    # and the continuation count only; the secant and quadratic predictors start as in
+    # the whole run)
+    for h in sorted({1, 2, 3, reached // 2}):
+        Xa, ra, _, *end = _ipm.ip_path(args[0], readonly(Y[:h]), *args[2:13], *_NO_STATE3)
+        assert ra == h and end[3]
+        Xb, rb, howb, *_ = _ipm.ip_path(readonly(Xa[h - 1]), readonly(Y[h:reached]),
+                                        *args[2:13], *end)  # fmt: skip
+        assert rb == reached - h and howb[0] == how[h]
+        np.testing.assert_array_equal(np.concatenate([Xa[:h], Xb[:rb]]), X[:reached])
     Q = np.array([prob.q_of(X[j]) for j in range(reached)])
     assert all(planar_check_many(stack, pts[1 : reached + 1], Q))
     u = prob.u_of(q0)
@@ -403,8 +406,9 @@ def test_spatial_ip_path_steps_are_checked_and_deterministic():
 
 def test_ip_path_secant_history_starts_with_a_known_target():
     """The secant predictor needs the targets of the last two points: a run from a point
-    without history returns none after one step (the target before u0 is unknown, not
-    the origin) and, after two, the point before the last and both targets."""
+    without history returns only the last target after one step (the target before u0
+    is unknown, not the origin) and, after two, the point before the last and both
+    targets."""
     n = 4
     stack, pts, q0, prob, P = _straight_run(n, 5)
     u0 = readonly(prob.u_of(q0))
@@ -412,7 +416,9 @@ def test_ip_path_secant_history_starts_with_a_known_target():
     args = (P, readonly(np.full(3 * n, np.inf)), 1e-7, 1e-9, 1e-3, 300,
             POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, *_NO_STATE3)  # fmt: skip
     X1, r1, _, *end1 = _ipm.ip_path(u0, readonly(Y[:1]), *args)
-    assert r1 == 1 and end1[4].size == 0
+    # after one step: no point before the last, only its target and the continuation count
+    assert r1 == 1 and end1[4].size == 4
+    np.testing.assert_array_equal(end1[4][:3], Y[0])
     X2, r2, _, *end2 = _ipm.ip_path(u0, Y, *args)
     assert r2 == 2
     hist = end2[4]

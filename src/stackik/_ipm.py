@@ -1569,10 +1569,10 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
     # the point before x and the targets of both (known: a secant predictor); cur_ok:
     # ycur is x's target (after a run's first step, not before it when hist0 is empty)
     known = hist0.size >= N + 6
-    cur_ok = known
+    cur_ok = known or hist0.size == 4  # (4: x's target and pcrun only, see _hist)
     xprev = hist0[:N].copy() if known else np.zeros(N)
     yprev = hist0[N : N + 3].copy() if known else np.zeros(3)
-    ycur = hist0[N + 3 : N + 6].copy() if known else np.zeros(3)
+    ycur = hist0[N + 3 : N + 6].copy() if known else hist0[:3].copy() if cur_ok else np.zeros(3)
     # ... and the point before xprev and its target (known2: a quadratic predictor), and
     # the multipliers of xprev and of it (pcrun: x and the points before it made by
     # continuation steps, in a row), from hist0 when it has them (_hist)
@@ -1596,6 +1596,8 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
         yE2 = hist0[o : o + 3].copy()
         z2 = hist0[o + 3 : o + 3 + M].copy()
         act2 = hist0[o + 3 + M : o + 3 + 2 * M] > 0.5
+    elif hist0.size == 4:
+        pcrun = int(hist0[3])
     for k in range(m):
         yt = targets[k]
         P = (P0[0], P0[1], P0[2], yt, P0[4], P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
@@ -1609,7 +1611,7 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
                 d0 = _target_step(yprev, ycur, es)
                 d1 = _target_step(ycur, yt.copy(), es)  # writable, as ycur: one specialisation
                 d2 = _target_step(y2, yprev, es) if known2 else 0.0
-                if d0 > 0.0 and d2 > 0.0 and d1 <= 2.0 * d0:
+                if d0 > 0.0 and d2 > 0.0 and d1 <= 2.0 * d0 and d0 <= 2.0 * d2:
                     # quadratic extrapolation through the last three points (Lagrange in
                     # the targets' arc length): one Newton iteration fewer on smooth
                     # stretches; the multipliers too when the three kept one active set
@@ -1646,18 +1648,16 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
             x, P, tol, constr_tol, mu0, max_iter, 1e300, none, none, none, 0.0
         )
         if st == IP_NONFINITE or not np.all(np.isfinite(xn)):
-            hist = _hist(
-                known, xprev, yprev, ycur, known2, x2, y2, pcrun, yEp, zp, actp, yE2, z2, act2
-            )
+            hist = _hist(known, cur_ok, xprev, yprev, ycur, known2, x2, y2, pcrun, yEp, zp,
+                         actp, yE2, z2, act2)  # fmt: skip
             return X, k, how, yE, z, active, have, hist
         xn = _polish(xn, P, 3, reach, margin)
         f, g, cE, AE, cI, D = _evaluate(xn, P)
         if not _reaches_at(xn, x, cE, cI, es, jump, pos_tol, ang_tol):
             if _reaches_at(xn, x, cE, cI, es, far, pos_tol, ang_tol):
                 how[k] = -1  # a pose of the target farther than jump: it left its basin
-            hist = _hist(
-                known, xprev, yprev, ycur, known2, x2, y2, pcrun, yEp, zp, actp, yE2, z2, act2
-            )
+            hist = _hist(known, cur_ok, xprev, yprev, ycur, known2, x2, y2, pcrun, yEp, zp,
+                         actp, yE2, z2, act2)  # fmt: skip
             return X, k, how, yE, z, active, have, hist
         X[k] = xn
         x2, y2, known2 = xprev, yprev, known
@@ -1666,7 +1666,9 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
         active = z1 > s1
         have = st == IP_SUCCESS
         pcrun = 0
-    hist = _hist(known, xprev, yprev, ycur, known2, x2, y2, pcrun, yEp, zp, actp, yE2, z2, act2)
+    hist = _hist(
+        known, cur_ok, xprev, yprev, ycur, known2, x2, y2, pcrun, yEp, zp, actp, yE2, z2, act2
+    )
     return X, m, how, yE, z, active, have, hist
 
 
@@ -1684,17 +1686,25 @@ def _lagrange3(d2: float, d0: float, d1: float) -> tuple[float, float, float]:
 
 
 @_jit
-def _hist(known: bool, xprev: FloatArray, yprev: FloatArray, ycur: FloatArray,
-          known2: bool, x2: FloatArray, y2: FloatArray, pcrun: int, yEp: FloatArray,
-          zp: FloatArray, actp: FloatArray, yE2: FloatArray, z2: FloatArray,
-          act2: FloatArray) -> FloatArray:  # fmt: skip
+def _hist(known: bool, cur_ok: bool, xprev: FloatArray, yprev: FloatArray,
+          ycur: FloatArray, known2: bool, x2: FloatArray, y2: FloatArray, pcrun: int,
+          yEp: FloatArray, zp: FloatArray, actp: FloatArray, yE2: FloatArray,
+          z2: FloatArray, act2: FloatArray) -> FloatArray:  # fmt: skip
     """``ip_path``'s ``hist``: the point before the last and the targets of both (the
-    secant predictor; empty when not known), then, for the quadratic one, whether the
-    point before that is known, it, its target, the continuation steps in a row ending at
-    the last point, and the multipliers and active sets (as 0/1) of the point before the
-    last and of the one before it: ``N + 6`` then ``N + 5 + 2 (3 + 2 m)`` values."""
+    secant predictor), then, for the quadratic one, whether the point before that is
+    known, it, its target, the continuation steps in a row ending at the last point, and
+    the multipliers and active sets (as 0/1) of the point before the last and of the one
+    before it: ``N + 6`` then ``N + 5 + 2 (3 + 2 m)`` values. When the point before the
+    last is not known (a run's first step from a point without history): the last
+    point's target and the continuation steps in a row (4 values: a run split after its
+    first step continues as the whole run), or nothing before any step."""
     if not known:
-        return np.empty(0)
+        if not cur_ok:
+            return np.empty(0)
+        out1 = np.empty(4)
+        out1[:3] = ycur
+        out1[3] = pcrun
+        return out1
     N = xprev.size
     m = zp.size
     out = np.empty(2 * N + 11 + 2 * (3 + 2 * m))
