@@ -162,15 +162,8 @@ def planar_checks(stack: Any, phi: float, Y: FloatArray, Q: FloatArray) -> Any:
         raise ValueError(
             f"Q: shape (len(targets), n, 3) = ({len(Y)}, {stack.n}, 3) expected, got {Qa.shape}"
         )
-    pos, ang, v_mm, finite = _planar_check_many(
-        readonly(Qa),
-        float(phi),
-        readonly(stack.base_nodes),
-        readonly(stack.top_nodes),
-        readonly(stack.leg_min),
-        readonly(stack.leg_max),
-        readonly(stack.sin_joint_min),
-        readonly(Y),
+    pos, ang, v_mm, finite = _planar_check_many(  # type: ignore[call-arg]
+        readonly(Qa), float(phi), *_limits_args(stack), readonly(Y)
     )
     return poses_ok(pos, ang, v_mm, finite)
 
@@ -253,8 +246,15 @@ def planar_path_arrays(stack: Any, phi: float, Q: FloatArray) -> tuple[Any, ...]
     from stackik._arrays import readonly
 
     return _planar_path_arrays(  # type: ignore[no-any-return]
-        readonly(np.ascontiguousarray(Q, dtype=float)),
-        float(phi),
+        readonly(np.ascontiguousarray(Q, dtype=float)), float(phi), *_limits_args(stack)
+    )
+
+
+def _limits_args(stack: Any) -> tuple[FloatArray, ...]:
+    """The stack's node and limit arrays as the compiled checks take them (read-only)."""
+    from stackik._arrays import readonly
+
+    return (
         readonly(stack.base_nodes),
         readonly(stack.top_nodes),
         readonly(stack.leg_min),

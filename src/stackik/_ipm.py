@@ -1092,20 +1092,24 @@ def _platform_basis(D: FloatArray, idx: FloatArray, rows: FloatArray, k: int, i:
         if best < 0:
             break
         a = D[i, idx[rows[best]] % 24]
-        v0, v1, v2 = a[0], a[1], a[2]
-        for _ in range(2):  # Gram-Schmidt twice: orthogonal to rounding
-            for s in range(r):
-                dot = v0 * Q[0, s] + v1 * Q[1, s] + v2 * Q[2, s]
-                v0 -= dot * Q[0, s]
-                v1 -= dot * Q[1, s]
-                v2 -= dot * Q[2, s]
-        nv = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-        Q[0, r] = v0 / nv
-        Q[1, r] = v1 / nv
-        Q[2, r] = v2 / nv
+        Q[0, r], Q[1, r], Q[2, r] = _orth_unit(a[0], a[1], a[2], Q, r)
         sel[r] = best
         r += 1
     return r
+
+
+@_jit
+def _orth_unit(v0: float, v1: float, v2: float, Q: FloatArray, r: int) -> tuple[Any, ...]:
+    """``(v0, v1, v2)`` orthogonalised against the first ``r`` (orthonormal) columns of
+    ``Q`` (3, *) by Gram-Schmidt twice (orthogonal to rounding), then normalised."""
+    for _ in range(2):
+        for s in range(r):
+            dot = v0 * Q[0, s] + v1 * Q[1, s] + v2 * Q[2, s]
+            v0 -= dot * Q[0, s]
+            v1 -= dot * Q[1, s]
+            v2 -= dot * Q[2, s]
+    nv = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    return v0 / nv, v1 / nv, v2 / nv
 
 
 @_jit
@@ -1171,19 +1175,16 @@ def _pc_kkt(W: FloatArray, AE: FloatArray, D: FloatArray, idx: FloatArray, r1: F
                 if acc > bn:
                     bn = acc
                     best = e
-            v0 = 1.0 if best == 0 else 0.0
-            v1 = 1.0 if best == 1 else 0.0
-            v2 = 1.0 if best == 2 else 0.0
-            for _ in range(2):
-                for t in range(nb):
-                    dot = v0 * B[0, t] + v1 * B[1, t] + v2 * B[2, t]
-                    v0 -= dot * B[0, t]
-                    v1 -= dot * B[1, t]
-                    v2 -= dot * B[2, t]
-            nv = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-            B[0, nb] = Z[0, nz] = v0 / nv
-            B[1, nb] = Z[1, nz] = v1 / nv
-            B[2, nb] = Z[2, nz] = v2 / nv
+            w0, w1, w2 = _orth_unit(
+                1.0 if best == 0 else 0.0,
+                1.0 if best == 1 else 0.0,
+                1.0 if best == 2 else 0.0,
+                B,
+                nb,
+            )
+            B[0, nb] = Z[0, nz] = w0
+            B[1, nb] = Z[1, nz] = w1
+            B[2, nb] = Z[2, nz] = w2
             zp[nz] = i
             nz += 1
             nb += 1
