@@ -395,6 +395,31 @@ def test_spatial_continuation_step_keeps_a_platform_in_a_corner_of_dependent_lim
     assert np.max(np.abs(xn - x)) <= 1e-6
 
 
+def test_spatial_continuation_step_budget_and_early_exit():
+    """As the planar step: 16 Newton iterations, given up as soon as Newton's method stops
+    converging. On a straight spatial path (n = 4) from the default pose of its first
+    waypoint: the step to the next waypoint needs 12 (it failed with 8), the step to the
+    last one (far) gives up after a few iterations instead of spending the budget."""
+    stack = Stack.reference(4)
+    a, b = random_spatial_targets(stack, 10, 2027)[:2]
+    pts = interpolate_targets([a, b], steps=15)
+    none = np.empty(0)
+    prob = Problem(stack, pts[0], "frobenius", None)
+    P = spatial_problem_arrays(prob)
+    u = readonly(prob.u_of(solve_ik(stack, pts[0]).q))
+    x, st, _, s, z, yE = _spatial_ipm.ip_loop(u, P, 1e-7, 1e-9, 1e-3, 300, 1e300, none, none,
+                                              none, 0.0)  # fmt: skip
+    assert st == _spatial_ipm.IP_SUCCESS
+    out = []
+    for j in (1, 15):
+        Pj = spatial_problem_arrays(Problem(stack, pts[j], "frobenius", None))
+        r = _spatial_ipm._pc_step(x, Pj, yE, z, z > s, 1e-7, 1e-9, _spatial_ipm.PC_NEWTON,
+                                  _spatial_ipm.PC_CHANGES)  # fmt: skip
+        out.append((r[1], r[5]))
+    assert out[0][0] and 8 < out[0][1] <= _spatial_ipm.PC_NEWTON
+    assert not out[1][0] and out[1][1] <= 4
+
+
 def test_spatial_degenerate_active_set_releases_an_old_independent_limit():
     """Over the freedom, the spatial continuation step releases the least multiplier
     among the independent rows that the last change did not add."""

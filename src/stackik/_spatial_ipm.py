@@ -906,8 +906,12 @@ def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArra
 # =========================================================================================
 #: As :mod:`stackik._ipm`: Newton iterations and active-set changes of a continuation
 #: step, the offset its active limits are held at, and its residual tolerance.
-PC_NEWTON = 8
+PC_NEWTON = 16
 PC_CHANGES = 3
+#: ... and it gives up early when Newton's method does not converge: after PC_FREE
+#: iterations in one active set, each must shrink the error by PC_CONTRACT.
+PC_FREE = 2
+PC_CONTRACT = 0.5
 PC_OFFSET = 1e-10
 PC_PRIMAL_TOL = 1e-13
 #: A platform's active limit rows with less than this part of their length outside the
@@ -1100,6 +1104,8 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
         K = np.zeros((N + 6 + na, N + 6 + na))
         rhs = np.empty(N + 6 + na)
         conv = False
+        inner = 0  # Newton iterations in this active set
+        err_prev = math.inf
         while True:
             if not (np.all(np.isfinite(g)) and np.all(np.isfinite(cE))
                     and np.all(np.isfinite(cI))):  # fmt: skip
@@ -1118,11 +1124,20 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
                 e_pr = max(e_pr, abs(cI[allidx[j]] - PC_OFFSET))
             for j in range(na):
                 comp = max(comp, abs(cI[idx[j]] * zA[j]))
-            if e_du <= tol and comp / sd <= tol and e_pr <= min(constr_tol, PC_PRIMAL_TOL):
+            ptol = min(constr_tol, PC_PRIMAL_TOL)
+            if e_du <= tol and comp / sd <= tol and e_pr <= ptol:
                 conv = True
                 break
             if it >= max_newton:
                 break
+            # as the planar step: an iteration that does not at least halve the error (in
+            # units of the tolerances) after the first two of this active set does not
+            # converge, and the barrier solve takes the step at once
+            err = max(e_du / tol, max(comp / sd / tol, e_pr / ptol))
+            if inner >= PC_FREE and not err <= PC_CONTRACT * err_prev:
+                break
+            err_prev = err
+            inner += 1
             it += 1
             W = lagrangian_hessian(x, yE, zf, P)
             K[:] = 0.0
