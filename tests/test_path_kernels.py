@@ -365,6 +365,87 @@ def test_spatial_batch_check_matches_the_check_pose():
     assert spatial_check_many(stack, [], np.zeros((0, 3, 6))) == []
 
 
+@pytest.mark.parametrize(("n", "seed", "k"), [(4, 2027, 2), (8, 2028, 1)])
+def test_spatial_continuation_step_keeps_a_platform_in_a_corner_of_dependent_limits(n, seed, k):
+    """Default poses (targets of the spatial bench rows) where a platform meets more
+    limits than its rank (n = 4: 9 rows of rank 6 on the top platform): the continuation
+    step at the pose's own target, from the barrier solve's multipliers and active set,
+    keeps the dependent rows and verifies the point without moving it (it released
+    limits with negative multipliers of a singular KKT system until its change limit:
+    ok=False, and at n = 8 moved the point by 7e-3)."""
+    stack = Stack.reference(n)
+    t = random_spatial_targets(stack, 10 if n == 4 else 5, seed)[k]
+    prob = Problem(stack, t, "frobenius", None)
+    P = spatial_problem_arrays(prob)
+    none = np.empty(0)
+    u = readonly(prob.u_of(solve_ik(stack, t).q))
+    x, st, _, s, z, yE = _spatial_ipm.ip_loop(u, P, 1e-7, 1e-9, 1e-3, 300, 1e300, none, none,
+                                              none, 0.0)  # fmt: skip
+    assert st == _spatial_ipm.IP_SUCCESS
+    act = z > s
+    _, _, _, _, cI, D = _spatial_ipm.evaluate(x, P)
+    rows = np.nonzero(act & (_spatial_ipm._twins(act, cI, D) < 0))[0]
+    dep = _spatial_ipm._dependent(D, rows)
+    assert dep.sum() >= 2
+    for i in range(n):  # the independent rows of a platform span what all its rows span
+        mine = rows // 24 == i
+        if mine.any():
+            rank = np.linalg.matrix_rank(D[i, rows[mine] % 24], tol=1e-6)
+            assert rank == np.sum(mine & ~dep) <= 6
+    xn, ok, *_ = _spatial_ipm._pc_step(x, P, yE, z, act, 1e-7, 1e-9, _spatial_ipm.PC_NEWTON,
+                                       _spatial_ipm.PC_CHANGES)  # fmt: skip
+    assert ok
+    assert np.max(np.abs(xn - x)) <= 1e-6
+
+
+def test_spatial_continuation_step_budget_and_early_exit():
+    """As the planar step: 16 Newton iterations, given up as soon as Newton's method stops
+    converging. On a straight spatial path (n = 4) from the default pose of its first
+    waypoint: the step to the next waypoint needs 12 (it failed with 8), the step to the
+    last one (far) gives up after a few iterations instead of spending the budget."""
+    stack = Stack.reference(4)
+    a, b = random_spatial_targets(stack, 10, 2027)[:2]
+    pts = interpolate_targets([a, b], steps=15)
+    none = np.empty(0)
+    prob = Problem(stack, pts[0], "frobenius", None)
+    P = spatial_problem_arrays(prob)
+    u = readonly(prob.u_of(solve_ik(stack, pts[0]).q))
+    x, st, _, s, z, yE = _spatial_ipm.ip_loop(u, P, 1e-7, 1e-9, 1e-3, 300, 1e300, none, none,
+                                              none, 0.0)  # fmt: skip
+    assert st == _spatial_ipm.IP_SUCCESS
+    out = []
+    for j in (1, 15):
+        Pj = spatial_problem_arrays(Problem(stack, pts[j], "frobenius", None))
+        r = _spatial_ipm._pc_step(x, Pj, yE, z, z > s, 1e-7, 1e-9, _spatial_ipm.PC_NEWTON,
+                                  _spatial_ipm.PC_CHANGES)  # fmt: skip
+        out.append((r[1], r[5]))
+    assert out[0][0] and 8 < out[0][1] <= _spatial_ipm.PC_NEWTON
+    assert not out[1][0] and out[1][1] <= 4
+
+
+def test_spatial_degenerate_active_set_releases_an_old_independent_limit():
+    """Over the freedom, the spatial continuation step releases the least multiplier
+    among the independent rows that the last change did not add."""
+    idx = np.array([1, 2, 30, 31, 50])
+    dep = np.array([False, True, False, False, False])
+    zf = np.zeros(96)
+    zf[idx] = [0.5, -1.0, 0.0, 0.3, 0.01]
+    new = np.zeros(96, dtype=bool)
+    new[30] = True
+    assert _spatial_ipm._weakest(idx, dep, zf, new) == 50  # not 2 (dependent), not 30 (new)
+    new[:] = False
+    assert _spatial_ipm._weakest(idx, dep, zf, new) == 30
+    # a row in the span of its platform's others is dependent; other platforms' are not
+    D = np.zeros((4, 24, 6))
+    rng = np.random.default_rng(5)
+    D[0, :8] = rng.normal(size=(8, 6))
+    D[0, 3] = 0.5 * D[0, 0] - 2.0 * D[0, 1]
+    D[1, 0] = D[0, 0]
+    dep = _spatial_ipm._dependent(D, np.array([0, 1, 3, 24]))
+    assert dep[:3].sum() == 1 and not dep[3]  # which of the three: the largest parts first
+    assert _spatial_ipm._dependent(D, np.arange(8)).sum() == 2  # 8 rows, rank 6
+
+
 def test_spatial_ip_path_steps_are_checked_and_deterministic():
     """The spatial run (continuation steps, barrier solves where they are not verified):
     continuation steps on a finely sampled path, every point passes the check and is

@@ -906,10 +906,21 @@ def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArra
 # =========================================================================================
 #: As :mod:`stackik._ipm`: Newton iterations and active-set changes of a continuation
 #: step, the offset its active limits are held at, and its residual tolerance.
-PC_NEWTON = 8
+PC_NEWTON = 16
 PC_CHANGES = 3
+#: ... and it gives up early when Newton's method does not converge: after PC_FREE
+#: iterations in one active set, each must shrink the error by PC_CONTRACT.
+PC_FREE = 2
+PC_CONTRACT = 0.5
 PC_OFFSET = 1e-10
 PC_PRIMAL_TOL = 1e-13
+#: A platform's active limit rows with less than this part of their length outside the
+#: span of its other active rows (Gram-Schmidt, the largest remaining part first) depend
+#: on those (as :data:`stackik._ipm.PC_DEPENDENT`): where several limits of a platform
+#: meet (a leg's base and top joint limits at parallel plates; more limits than the
+#: platform's 6 variables) they stay active, out of the Newton system (multiplier 0,
+#: their residuals still converged), and take no freedom.
+PC_DEPENDENT = 1e-6
 
 
 @_jit
@@ -974,6 +985,68 @@ def _release(act: FloatArray, zf: FloatArray, parent: FloatArray, rj: int) -> No
 
 
 @_jit
+def _dependent(D: FloatArray, idx: FloatArray) -> FloatArray:
+    """Mask of the rows ``idx`` (sorted active limit rows) that depend on the others of
+    their platform: per platform, Gram-Schmidt on its rows ``D[i, r % 24]`` taking the row
+    with the largest remaining part first; rows left with less than PC_DEPENDENT of their
+    length are dependent (at most 6 rows a platform are independent)."""
+    k = idx.size
+    dep = np.ones(k, dtype=np.bool_)
+    Q = np.zeros((6, 6))
+    v = np.empty(6)
+    j0 = 0
+    while j0 < k:
+        i = idx[j0] // 24
+        j1 = j0
+        while j1 < k and idx[j1] // 24 == i:
+            j1 += 1
+        rank = 0
+        while rank < 6:
+            best = -1
+            bn = 0.0
+            for j in range(j0, j1):
+                if not dep[j]:
+                    continue
+                a = D[i, idx[j] % 24]
+                v[:] = a
+                for s in range(rank):
+                    v -= (a @ Q[s]) * Q[s]
+                nv = math.sqrt(v @ v)
+                if nv > PC_DEPENDENT * math.sqrt(a @ a) and nv > bn:
+                    best = j
+                    bn = nv
+            if best < 0:
+                break
+            v[:] = D[i, idx[best] % 24]
+            for _ in range(2):  # Gram-Schmidt twice: orthogonal to rounding
+                for s in range(rank):
+                    v -= (v @ Q[s]) * Q[s]
+            Q[rank] = v / math.sqrt(v @ v)
+            dep[best] = False
+            rank += 1
+        j0 = j1
+    return dep
+
+
+@_jit
+def _weakest(idx: FloatArray, dep: FloatArray, zf: FloatArray, new: FloatArray) -> int:
+    """The independent row of ``idx`` (not ``dep``) with the least multiplier, among
+    those not ``new`` when there are any (a limit just added because the point violates
+    it stays; the set makes room with an older one)."""
+    rj = -1
+    for rank in range(2):
+        for j in range(idx.size):
+            r = idx[j]
+            if dep[j] or (rank == 0 and new[r]):
+                continue
+            if rj < 0 or zf[r] < zf[rj]:
+                rj = r
+        if rj >= 0:
+            break
+    return rj
+
+
+@_jit
 def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: FloatArray,
              tol: float, constr_tol: float, max_newton: int,
              max_changes: int) -> tuple[Any, ...]:  # fmt: skip
@@ -981,9 +1054,13 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     (6 equalities, 6 variables per platform): Newton on the KKT conditions with the
     active limits held at ``PC_OFFSET``, the first iteration the tangent predictor, the
     active set corrected (most negative multiplier released, else violated or nearly met
-    limits added; the weakest dropped while the set exceeds the freedom ``N - 6``), and
-    verified as a KKT point to the barrier solve's tolerances. Returns
-    ``(x, ok, yE, z, active, iterations)``."""
+    limits added), and verified as a KKT point to the barrier solve's tolerances. Active
+    rows that depend on others of their platform (:func:`_dependent`: where more limits
+    meet than the platform has variables, e.g. a leg's base and top joint limits at
+    parallel plates) stay active with multiplier 0, out of the Newton system (which is
+    singular with them) and take no freedom; while the independent rows exceed the
+    freedom ``N - 6`` the weakest goes, not one the last change added
+    (:func:`_weakest`). Returns ``(x, ok, yE, z, active, iterations)``."""
     n = P0[8].shape[0]
     N = 6 * n
     m = 24 * n
@@ -996,6 +1073,7 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     yE = yE0 * fs
     zf = z0 * fs
     act = active.copy()
+    new = np.zeros(m, dtype=np.bool_)  # the limits the last change added
     ok = False
     it = 0
     changes = 0
@@ -1007,14 +1085,18 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
                 zf[r] = 0.0
             elif not act[r]:
                 zf[r] = 0.0
-        idx = np.nonzero(act & (parent < 0))[0]
-        while 6 + idx.size > N:  # degenerate: the weakest limits go
-            rj = idx[0]
-            for j in range(idx.size):
-                if zf[idx[j]] < zf[rj]:
-                    rj = idx[j]
-            _release(act, zf, parent, rj)
-            idx = np.nonzero(act & (parent < 0))[0]
+        # rows that depend on others of their platform stay active, out of the Newton
+        # system; the independent ones beyond the freedom N - 6 (degenerate): the weakest go
+        allidx = np.nonzero(act & (parent < 0))[0]
+        dep = _dependent(D, allidx)
+        while 6 + allidx.size - dep.sum() > N:
+            _release(act, zf, parent, _weakest(allidx, dep, zf, new))
+            allidx = np.nonzero(act & (parent < 0))[0]
+            dep = _dependent(D, allidx)
+        for j in range(allidx.size):
+            if dep[j]:
+                zf[allidx[j]] = 0.0
+        idx = allidx[~dep]
         na = idx.size
         zA = np.empty(na)
         for j in range(na):
@@ -1022,6 +1104,8 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
         K = np.zeros((N + 6 + na, N + 6 + na))
         rhs = np.empty(N + 6 + na)
         conv = False
+        inner = 0  # Newton iterations in this active set
+        err_prev = math.inf
         while True:
             if not (np.all(np.isfinite(g)) and np.all(np.isfinite(cE))
                     and np.all(np.isfinite(cI))):  # fmt: skip
@@ -1036,14 +1120,24 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             e_du = np.abs(rd).max() / sd
             e_pr = np.abs(cE).max()
             comp = 0.0
+            for j in range(allidx.size):  # the dependent rows' residuals too
+                e_pr = max(e_pr, abs(cI[allidx[j]] - PC_OFFSET))
             for j in range(na):
-                e_pr = max(e_pr, abs(cI[idx[j]] - PC_OFFSET))
                 comp = max(comp, abs(cI[idx[j]] * zA[j]))
-            if e_du <= tol and comp / sd <= tol and e_pr <= min(constr_tol, PC_PRIMAL_TOL):
+            ptol = min(constr_tol, PC_PRIMAL_TOL)
+            if e_du <= tol and comp / sd <= tol and e_pr <= ptol:
                 conv = True
                 break
             if it >= max_newton:
                 break
+            # as the planar step: an iteration that does not at least halve the error (in
+            # units of the tolerances) after the first two of this active set does not
+            # converge, and the barrier solve takes the step at once
+            err = max(e_du / tol, max(comp / sd / tol, e_pr / ptol))
+            if inner >= PC_FREE and not err <= PC_CONTRACT * err_prev:
+                break
+            err_prev = err
+            inner += 1
             it += 1
             W = lagrangian_hessian(x, yE, zf, P)
             K[:] = 0.0
@@ -1091,12 +1185,14 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
         if changes >= max_changes:
             break
         changes += 1
+        new[:] = False
         if jmin >= 0:
             _release(act, zf, parent, idx[jmin])
         else:
             for r in range(m):
                 if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
                     act[r] = True
+                    new[r] = True
     return x, ok, yE / fs, zf / fs, act, it
 
 
