@@ -131,7 +131,7 @@ class SQPMethod(Method):
         x0 = u0
         # exact Hessians: planar (one FN weight) in every formulation, spatial in the
         # compiled one ("dense" keeps the NumPy evaluation with damped BFGS)
-        exact = prob.fast is not None and (prob.objective != "weighted" or np.ptp(prob.w_th) == 0)
+        exact = prob.planar and compiled_supported(prob)
         if form == "sparse" and (prob.fast is not None or not prob.planar):
             # the limit Jacobian as CSC, block diagonal by platform; values and Hessian
             # from the compiled kernels where they apply (spatial; planar with one FN
