@@ -621,10 +621,7 @@ def _reanchor(
     path's by more than FAST_TRANSIT_GAIN and it is more than max_jump away (planar: the
     default solve's interior-point batch with an iteration budget, :func:`_screen`)."""
     info["default"] += 1
-    found = _screen(req, target, k) if req.planar else None
-    if found is None and not req.planar:
-        r = req.default_solve(target, k)
-        found = (r.q, float(r.frobenius_norm)) if r.success else None
+    found = _screen(req, target, k) if req.planar else _default_pose(req, target, k)
     if found is None:
         return None
     qd, fn_d = found
@@ -634,6 +631,12 @@ def _reanchor(
         return None
     info["reanchored"] += 1
     return _Goal(qd, dist, 0)
+
+
+def _default_pose(req: _Request, target: Target, index: int) -> tuple[FloatArray, float] | None:
+    """``(pose, FN)`` of the default solve of waypoint ``index``, or None if it fails."""
+    r = req.default_solve(target, index)
+    return (r.q, float(r.frobenius_norm)) if r.success else None
 
 
 def _screen(req: _Request, target: Target, index: int) -> tuple[FloatArray, float] | None:
@@ -659,8 +662,7 @@ def _screen(req: _Request, target: Target, index: int) -> tuple[FloatArray, floa
         max_time=None, t_start=time.perf_counter(), blas=BlasLimit(None),
     )  # fmt: skip
     if not isinstance(r.method, IPMethod):
-        d = req.default_solve(target, index)
-        return (d.q, float(d.frobenius_norm)) if d.success else None
+        return _default_pose(req, target, index)
     starts = plan_starts(r).batch(r.sampler, r.structured, req.stack.n)
     budget = {**r.options, "max_iter": REANCHOR_ITER_PER_N * req.stack.n}
     best = ip_starts(r.problem, starts, budget, r.max_time).best
