@@ -629,21 +629,12 @@ class _Engine:
     # ------------------------------------------------------------------ Hessian -------
     def _exact_hessian(self, lam: FloatArray) -> Any:
         """The convexified exact Hessian of the (scaled) Lagrangian at ``lam``."""
-        pat = self.h_pat
         # A full pattern (a dense Hessian, e.g. the reduced IK problem's) is convexified
-        # densely anyway: skip the round trip dense -> CSC -> dense (~8 % of an SQP solve at
-        # n = 4); the same values in the same order as that path.
-        full = self.sparse and pat.full
-        H = self._lagrangian_hessian(lam, dense=full)
+        # densely anyway: the Hessian stays dense, without the round trip dense -> CSC ->
+        # dense (~8 % of an SQP solve at n = 4; the same values in the same order)
+        H = self._lagrangian_hessian(lam, dense=self.sparse and self.h_pat.full)
         t = time.perf_counter()
-        if full and not is_sparse(H):
-            Hd = self._convexify(H, lam)
-            assert pat.indices is not None and pat.indptr is not None
-            B: Any = csc(np.ascontiguousarray(Hd.T).ravel(), pat.indices, pat.indptr, H.shape)
-        elif self.sparse:
-            B = self._convexify_sparse(H, lam)
-        else:
-            B = self._convexify(H, lam)
+        B = self._convexify_sparse(H, lam) if self.sparse else self._convexify(H, lam)
         self.timer.build += time.perf_counter() - t
         return B
 
@@ -739,14 +730,17 @@ class _Engine:
         """Sparse twin of :meth:`_convexify`: the test is an LDL' factorisation (all pivots
         positive), the modifications keep the pattern: ``H + tau J_A'J_A`` as in the dense
         case, else ``H + delta I`` with ``delta`` raised from the last one (IPOPT's inertia
-        correction) instead of eigenvalue clipping."""
-        data = H.data
+        correction) instead of eigenvalue clipping. ``H`` may be dense when the pattern is
+        full (:meth:`_lagrangian_hessian` with ``dense``)."""
         n = self.n
-        if data.size == n * n:
+        if not is_sparse(H) or H.data.size == n * n:
             # a full pattern (e.g. a dense Hessian with a sparse Jacobian): the dense
             # convexification (eigenvalues) costs no fill; values back in column order
-            Hd = self._convexify(H.toarray(), lam)
-            return csc(np.ascontiguousarray(Hd.T).ravel(), H.indices, H.indptr, H.shape)
+            Hd = self._convexify(H if not is_sparse(H) else H.toarray(), lam)
+            pat = self.h_pat
+            assert pat.indices is not None and pat.indptr is not None
+            return csc(np.ascontiguousarray(Hd.T).ravel(), pat.indices, pat.indptr, (n, n))
+        data = H.data
         fro = math.sqrt(float(data @ data))
         if not math.isfinite(fro):
             return self._shifted(csc(np.zeros_like(data), H.indices, H.indptr, H.shape), 1.0)
