@@ -253,6 +253,12 @@ def _constraint_hessian(q: FloatArray, yraw: FloatArray, tf: FloatArray, tz: Flo
         sn = sth[i]
         h00 = h11 = h01 = h02 = h12 = h22 = 0.0
         for j in range(6):
+            y0 = yraw[24 * i + j]
+            y1 = yraw[24 * i + 6 + j]
+            y2 = yraw[24 * i + 12 + j]
+            y3 = yraw[24 * i + 18 + j]
+            if y0 == 0.0 and y1 == 0.0 and y2 == 0.0 and y3 == 0.0:
+                continue  # adds exact zeros (a continuation step: limits off its active set)
             nrm = math.sqrt(sq[i, j])
             inv = 1.0 / nrm
             S_rt = -2.0 * Rtz[i, j]
@@ -269,10 +275,6 @@ def _constraint_hessian(q: FloatArray, yraw: FloatArray, tf: FloatArray, tz: Flo
             N_rt = (0.5 * S_rt - d_r * d_t) * inv
             N_zt = (0.5 * S_zt - d_z * d_t) * inv
             N_tt = (0.5 * S_tt - d_t * d_t) * inv
-            y0 = yraw[24 * i + j]
-            y1 = yraw[24 * i + 6 + j]
-            y2 = yraw[24 * i + 12 + j]
-            y3 = yraw[24 * i + 18 + j]
             ys = y0 - y1
             yn = -sj[i] * (y2 + y3)
             rf = lf[i, j] - Rtf[i, j]
@@ -299,10 +301,16 @@ def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
     n = tf.shape[0]
     q = (u * xs).reshape(n, 3)
     c, s, y, J, d = _kinematics(q)
-    cE = (y - yt) * es
-    AE = J * es.reshape(3, 1) * xs.reshape(1, -1)
-    g, D = _constraints(q, tf, tz, bf, bz, ls, lmin2, lmax2, sj)
-    cI = g * cs
+    # elementwise in loops (numba's broadcasting allocates temporaries: ~1 us at n = 4)
+    cE = np.empty(3)
+    AE = np.empty((3, 3 * n))
+    for r in range(3):
+        cE[r] = (y[r] - yt[r]) * es[r]
+        for a in range(3 * n):
+            AE[r, a] = J[r, a] * es[r] * xs[a]
+    cI, D = _constraints(q, tf, tz, bf, bz, ls, lmin2, lmax2, sj)
+    for r in range(24 * n):
+        cI[r] *= cs[r]
     for i in range(n):
         for r in range(24):
             for k in range(3):
