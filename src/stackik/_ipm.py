@@ -65,6 +65,16 @@ IP_STATUS = {
 }
 
 
+@_jit
+def _finite(a: FloatArray) -> bool:
+    """``np.all(np.isfinite(a))`` without the boolean temporary (a kernel's hot loops
+    test a few arrays every iteration)."""
+    for v in a.flat:
+        if not math.isfinite(v):
+            return False
+    return True
+
+
 # =========================================================================================
 # Evaluation (raw kinematics, then scaled)
 # =========================================================================================
@@ -658,7 +668,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     N = 3 * n
     x = u0.copy()
     f, g, cE, AE, cI, D = _evaluate_ext(x, P0, lo, hi, ug, wq)
-    if not (np.all(np.isfinite(cI)) and np.all(np.isfinite(cE)) and math.isfinite(f)):
+    if not (_finite(cI) and _finite(cE) and math.isfinite(f)):
         return x, IP_NONFINITE, 0, cI, np.ones(m), np.zeros(3)
     # objective scaling as IPOPT's gradient-based rule: max |grad f(x0)| <= OBJ_MAX_GRAD
     gmax = np.abs(g).max()
@@ -718,7 +728,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             nfilt = 0
         # --- Newton step -----------------------------------------------------------
         W = _lagrangian_hessian_ext(x, yE, z, P, wq)
-        if not (np.all(np.isfinite(W)) and np.all(np.isfinite(g)) and np.all(np.isfinite(AE))):
+        if not (_finite(W) and _finite(g) and _finite(AE)):
             status = IP_NONFINITE
             break
         Sig = z / s
@@ -737,7 +747,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         for a in range(N):
             rhs[a] = -g[a] + AEty[a] + AIv[a]
         dx, _, _, shift = _kkt_step(W, AE, cE, rhs, last_shift)
-        if not np.all(np.isfinite(dx)):
+        if not _finite(dx):
             status = IP_NONFINITE
             break
         if shift > 0.0:
@@ -820,7 +830,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             xt = x + alpha * dx
             st = s + alpha * ds
             ft, gt, cEt, AEt, cIt, Dt = _evaluate_ext(xt, P, lo, hi, ug, wq)
-            if not (math.isfinite(ft) and np.all(np.isfinite(cIt))):
+            if not (math.isfinite(ft) and _finite(cIt)):
                 status = IP_NONFINITE
                 break
         else:
@@ -876,7 +886,7 @@ def _polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> F
                 A[k, 3 * i : 3 * i + 3] = D[i, r % 24]
                 rr[k] = cI[r] - margin
                 k += 1
-        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(rr))):
+        if not (_finite(A) and _finite(rr)):
             break
         du = np.linalg.lstsq(A, rr)[0]
         u = u - du
@@ -908,7 +918,7 @@ def _ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatA
         x, st, it, _, _, _ = _ip_loop(
             U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline, none, none, none, 0.0
         )
-        if st == IP_NONFINITE or not np.all(np.isfinite(x)):
+        if st == IP_NONFINITE or not _finite(x):
             x = U0[j].copy()
         x = _polish(x, P, 3, reach, margin)
         X[j] = x
@@ -936,7 +946,7 @@ def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArra
     # _ip_multi (one compiled specialisation of the loop, not one per array flag)
     x, st, it, _, _, _ = _ip_loop(u0.copy(), P, tol, constr_tol, mu0, max_iter, 1e300,
                                   lo.copy(), hi.copy(), ug.copy(), wq)  # fmt: skip
-    if st == IP_NONFINITE or not np.all(np.isfinite(x)):
+    if st == IP_NONFINITE or not _finite(x):
         return u0.copy(), IP_NONFINITE, it
     return _polish(x, P, 3, reach, margin), st, it
 
@@ -1369,8 +1379,7 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
         inner = 0  # Newton iterations in this active set
         err_prev = math.inf
         while True:
-            if not (np.all(np.isfinite(g)) and np.all(np.isfinite(cE))
-                    and np.all(np.isfinite(cI))):  # fmt: skip
+            if not (_finite(g) and _finite(cE) and _finite(cI)):
                 break
             for j in range(na):
                 zf[idx[j]] = zA[j]
@@ -1402,14 +1411,13 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             inner += 1
             it += 1
             W = _lagrangian_hessian(x, yE, zf, P)
-            if not np.all(np.isfinite(W)):
+            if not _finite(W):
                 break
             rA = np.empty(na)
             for j in range(na):
                 rA[j] = PC_OFFSET - cI[idx[j]]
             dx, dy, dz, solved = _pc_kkt(W, AE, D, idx, -rd, -cE, rA, n)
-            if not (solved and np.all(np.isfinite(dx)) and np.all(np.isfinite(dy))
-                    and np.all(np.isfinite(dz))):  # fmt: skip
+            if not (solved and _finite(dx) and _finite(dy) and _finite(dz)):
                 break  # a singular KKT matrix: the barrier solve decides
             x = x + dx
             for r in range(3):
@@ -1646,7 +1654,7 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
         xn, st, _, s1, z1, yE1 = _ip_loop(
             x, P, tol, constr_tol, mu0, max_iter, 1e300, none, none, none, 0.0
         )
-        if st == IP_NONFINITE or not np.all(np.isfinite(xn)):
+        if st == IP_NONFINITE or not _finite(xn):
             hist = _hist(known, cur_ok, xprev, yprev, ycur, known2, x2, y2, pcrun, yEp, zp,
                          actp, yE2, z2, act2)  # fmt: skip
             return X, k, how, yE, z, active, have, hist
