@@ -529,8 +529,11 @@ def _fast(
             # where a run of warm steps stopped in its kernel, it made the warm rung's
             # first solve from this pose to this waypoint
             tried = len(ql) == ladder_at and depth == 0 and tracker.tried_from is ql[-1]
+            # spatial, off the optimum: the boxed solve first (~2 ms at n = 4; a warm
+            # barrier solve from there slides far, 10-25 ms, and mostly jumps)
             step = tracker.step(ql[-1], tl[-1], tb, subdivide=not off, warm_tried=tried,
-                                warm_left=tried and tracker.tried_left)  # fmt: skip
+                                warm_left=tried and tracker.tried_left,
+                                box_first=off and BOX_FIRST and not req.planar)  # fmt: skip
         if step is not None:
             accept(step.q, step.how)
             continue
@@ -565,6 +568,9 @@ def _fast(
 #: Fast mode: after these steps the path is off its optimum and a warm step often fails;
 #: the next step goes through the ladder directly, not through a run of warm steps.
 _OFF_OPTIMUM = ("bounded", "transit", "rejoin")
+#: Fast mode, spatial: after a bounded or transit step the ladder tries the bounded rung
+#: before the warm one (:meth:`Tracker.step`'s ``box_first``).
+BOX_FIRST = True
 #: Fast mode: most warm steps solved in one compiled call.
 WARM_RUN = 256
 
