@@ -730,6 +730,42 @@ def _spatial_bench_curve() -> list[SpatialTarget]:
     return pts
 
 
+def test_spatial_fast_mode_reanchors_by_default_and_keeps_fn_within_3_percent(stack4):
+    # the curved spatial n = 4 benchmark path: without re-anchoring its mean FN is 3.2 %
+    # above the per-waypoint optima; the default check at waypoint 20 finds a better
+    # basin 15 jumps away, transit steps move the path towards it (the goal's barrier
+    # solve is cut short at FOLLOW_MAX_ITER: the goal is dropped after 9 steps) and
+    # bounded steps, boxed solve first (off the optimum), take it into a better basin;
+    # the abandoned transit backs the checks off (next at 20 + 40 = 60, past the end:
+    # two default solves, waypoint 0 and the check)
+    pts = _spatial_bench_curve()
+    ref = np.mean([solve_ik(stack4, t).frobenius_norm for t in pts])
+    r = solve_path(stack4, pts, max_jump=MAX_JUMP)
+    assert r.success
+    assert_valid_path(stack4, r)
+    assert r.info["reanchored"] == 1 and r.info["transit"] >= 1
+    assert r.info["transit_abandoned"] == 1 and r.info["default"] == 2
+    assert r.mean_frobenius_norm <= 1.03 * ref
+    stay = solve_path(stack4, pts, max_jump=MAX_JUMP, reanchor_every=0)
+    assert stay.success
+    assert stay.mean_frobenius_norm > 1.03 * ref
+    again = solve_path(stack4, pts, max_jump=MAX_JUMP)
+    np.testing.assert_array_equal(again.q, r.q)  # deterministic
+
+
+def test_spatial_default_reanchoring_up_to_four_platforms():
+    # a spatial check costs ~20 warm steps at n = 4; from n = 5 (18 starts and 12 hops)
+    # 40-70, and on the benchmark's n = 8 paths it found no better path: off
+    from stackik.paths.solve import _request
+
+    for n, every in ((2, 20), (4, 20), (5, 0), (8, 0), (16, 0)):
+        stack = Stack.reference(n)
+        t = SpatialTarget(*spatial_forward(np.tile([0.0, 0.0, 380.0, 0.0, 0.0, 0.0], (n, 1))))
+        req = _request(stack, [t, t], MAX_JUMP, "fast", 0.0, False, 1, None, None, None, 6,
+                       None, None)  # fmt: skip
+        assert req.reanchor_every == every
+
+
 def test_tracker_box_first_step_is_warm_inside_the_box(stack4):
     # off the optimum, a spatial fast path's ladder tries the boxed solve first: a small
     # step from a solved pose ends inside the box (a minimum without it, "warm"); a tight
