@@ -696,3 +696,110 @@ def test_checkpoint_without_the_reanchoring_schedule_resumes_reanchoring(stack4,
     res = solve_path(stack4, pts, max_jump=(60.0, 0.3), reanchor_every=5, checkpoint=legacy)
     assert res.success and res.info["default"] >= 1
     assert res.mean_frobenius_norm == pytest.approx(full.mean_frobenius_norm, rel=1e-3)
+
+
+def _spatial_bench_curve() -> list[SpatialTarget]:
+    """The path bench's curved spatial n = 4 path with 60 waypoints (bench_path.py, seed
+    2030, curved path 1): a quadratic Bezier in position, slerp in orientation."""
+    keys = [
+        SpatialTarget(
+            [-353.1201960044432, -276.8081744379765, 1257.94545884039],
+            [[0.7233143083014085, -0.26540594155623015, -0.6374763506147548],
+             [-0.07621160449627626, 0.8868607702725511, -0.4557079826947084],
+             [0.6863003735585155, 0.3782031997990346, 0.6212520719604996]],
+        ),
+        SpatialTarget(
+            [265.0896321489826, -57.65374037992752, 1351.1912831058594],
+            [[0.9891673312083602, 0.13808302116280854, -0.04981034166397424],
+             [-0.13576631887183088, 0.9896138032313547, 0.04724433419962697],
+             [0.055816642053448655, -0.03996998524549488, 0.9976406681512899]],
+        ),
+        SpatialTarget(
+            [99.45783474001013, 167.83827022474378, 1295.3047471834857],
+            [[0.9866960335395302, 0.15957211384305828, -0.031107521293352678],
+             [-0.148724067127619, 0.9632349722115681, 0.2237398939965762],
+             [0.06566650024462882, -0.21613682886597016, 0.9741523402186048]],
+        ),
+    ]  # fmt: skip
+    a, c, b = keys
+    pts = []
+    for s in np.linspace(0.0, 1.0, 60):
+        p = (1 - s) ** 2 * a.position + 2 * s * (1 - s) * c.position + s**2 * b.position
+        pts.append(SpatialTarget(p, slerp(a.rotation, b.rotation, float(s))))
+    pts[0], pts[-1] = a, b
+    return pts
+
+
+def test_spatial_fast_mode_reanchors_by_default_and_keeps_fn_within_3_percent(stack4):
+    # the curved spatial n = 4 benchmark path: without re-anchoring its mean FN is 3.2 %
+    # above the per-waypoint optima; the default check at waypoint 20 finds a better
+    # basin 15 jumps away, transit steps move the path towards it (the goal's barrier
+    # solve is cut short at FOLLOW_MAX_ITER: the goal is dropped after 9 steps) and
+    # bounded steps, boxed solve first (off the optimum), take it into a better basin;
+    # the abandoned transit backs the checks off (next at 20 + 40 = 60, past the end:
+    # two default solves, waypoint 0 and the check)
+    pts = _spatial_bench_curve()
+    ref = np.mean([solve_ik(stack4, t).frobenius_norm for t in pts])
+    r = solve_path(stack4, pts, max_jump=MAX_JUMP)
+    assert r.success
+    assert_valid_path(stack4, r)
+    assert r.info["reanchored"] == 1 and r.info["transit"] >= 1
+    assert r.info["transit_abandoned"] == 1 and r.info["default"] == 2
+    assert r.mean_frobenius_norm <= 1.03 * ref
+    stay = solve_path(stack4, pts, max_jump=MAX_JUMP, reanchor_every=0)
+    assert stay.success
+    assert stay.mean_frobenius_norm > 1.03 * ref
+    again = solve_path(stack4, pts, max_jump=MAX_JUMP)
+    np.testing.assert_array_equal(again.q, r.q)  # deterministic
+
+
+def test_spatial_default_reanchoring_up_to_four_platforms():
+    # a spatial check costs ~20 warm steps at n = 4; from n = 5 (18 starts and 12 hops)
+    # 40-70, and on the benchmark's n = 8 paths it found no better path: off
+    from stackik.paths.solve import _request
+
+    for n, every in ((2, 20), (4, 20), (5, 0), (8, 0), (16, 0)):
+        stack = Stack.reference(n)
+        t = SpatialTarget(*spatial_forward(np.tile([0.0, 0.0, 380.0, 0.0, 0.0, 0.0], (n, 1))))
+        req = _request(stack, [t, t], MAX_JUMP, "fast", 0.0, False, 1, None, None, None, 6,
+                       None, None)  # fmt: skip
+        assert req.reanchor_every == every
+
+
+def test_tracker_box_first_step_is_warm_inside_the_box(stack4):
+    # off the optimum, a spatial fast path's ladder tries the boxed solve first: a small
+    # step from a solved pose ends inside the box (a minimum without it, "warm"); a tight
+    # jump limit leaves a variable at the box ("bounded"); both checked, within one jump
+    from stackik._check import spatial_check_many
+    from stackik.paths.continuation import BOX_INSIDE, Tracker
+
+    pts = _spatial_bench_curve()
+    q0 = solve_ik(stack4, pts[0]).q
+    tr = Tracker(stack4, False, MAX_JUMP)
+    st = tr.step(q0, pts[0], pts[1], box_first=True)
+    assert st is not None and st.how == "warm"
+    assert tr.ratio(q0, st.q) <= BOX_INSIDE
+    assert spatial_check_many(stack4, [pts[1]], st.q[None])[0]
+    assert tr.counts.bounded == 1 and tr.counts.warm == 0
+    tight = Tracker(stack4, False, (2.0, 0.01))
+    st = tight.step(q0, pts[0], pts[1], box_first=True)
+    if st is not None:
+        assert st.how == "bounded" and tight.ratio(q0, st.q) <= 1.0
+        assert check_pose(stack4, pts[1], st.q).ok
+
+
+def test_spatial_tracker_follow_drops_a_goal_whose_barrier_solve_runs_out(stack4, monkeypatch):
+    # spatial: a goal pose without a carried state takes a barrier solve; when that needs
+    # more than FOLLOW_MAX_ITER iterations, follow gives the goal up (None) instead of
+    # retrying with the slow warm rung
+    import stackik.paths.continuation as cont
+
+    pts = _spatial_bench_curve()
+    q0 = solve_ik(stack4, pts[0]).q
+    tr = cont.Tracker(stack4, False, MAX_JUMP)
+    g = tr.follow(q0, pts[1])
+    assert g is not None and check_pose(stack4, pts[1], g).ok
+    monkeypatch.setattr(cont, "FOLLOW_MAX_ITER", 1)
+    tr = cont.Tracker(stack4, False, MAX_JUMP)
+    assert tr.follow(q0, pts[1]) is None
+    assert tr._side_carry is None and tr.counts.warm_retry == 0

@@ -27,14 +27,13 @@ from numpy.typing import NDArray
 
 from stackik import check
 from stackik._arrays import readonly
-from stackik.check import check_pose
 from stackik.geometry import Stack
 from stackik.paths.bounded import bounded_ip, bounded_step
 from stackik.paths.interpolate import lerp_target
 from stackik.solve import solve_ik
 from stackik.targets import Target
 
-__all__ = ["WARM_MU0", "Step", "StepCounts", "Tracker", "jump_scale"]
+__all__ = ["BOX_INSIDE", "WARM_MU0", "Step", "StepCounts", "Tracker", "jump_scale"]
 
 FloatArray = NDArray[np.float64]
 
@@ -44,6 +43,15 @@ FloatArray = NDArray[np.float64]
 #: barrier (0.1) is tried; when it leaves its basin, the default one did too on every
 #: case measured (31 of 31 on six n = 8 paths), so it is not tried.
 WARM_MU0 = 1e-3
+#: Spatial :meth:`Tracker.follow` (a fast path's goal basin beside the path): iterations
+#: of its barrier solve when the continuation step fails; beyond them the goal is
+#: dropped (a warm solve that keeps its basin takes 10-40; on the bench's curved n = 4
+#: path two such solves took 30-60 ms, more than the rest of the transit).
+FOLLOW_MAX_ITER = 60
+#: A bounded step whose largest change is below this fraction of ``max_jump`` has no
+#: variable at its box (the boxed interior point ends within ~1e-7 of an active bound):
+#: its pose is a minimum of the problem without the box.
+BOX_INSIDE = 1.0 - 1e-4
 
 
 def jump_scale(max_jump: tuple[float, float], k: int) -> FloatArray:
@@ -148,11 +156,19 @@ class Tracker:
         """:meth:`warm` for a pose followed beside the path (a fast path's goal basin):
         first the continuation step of :meth:`warm_many`, with its own carried state (the
         path's is kept), then the warm rung's barrier solves. A spatial barrier solve
-        costs ~15 ms at n = 4, a continuation step well under 1 ms."""
+        costs ~15 ms at n = 4, a continuation step well under 1 ms: spatial, the barrier
+        solve gets ``FOLLOW_MAX_ITER`` iterations, and a goal it does not reach within
+        them is dropped (None; no warm rung)."""
         saved = self._carry, self.tried_from, self.tried_left
         self._carry = self._side_carry
+        cap = None if self.planar else FOLLOW_MAX_ITER
         try:
-            out = self.warm_many(q, [target])
+            out = self.warm_many(q, [target], max_iter=cap)
+            if out and cap is not None and not self._carry[1][-1]:  # type: ignore[index]
+                # the barrier solve ran out of its iterations: the basin is changing
+                # under the goal (the rest of a transit would follow a moving target)
+                self._side_carry = None
+                return None
             self._side_carry = self._carry
             tried = self.tried_from is q  # the kernel's warm solve from q failed
             left = self.tried_left
@@ -161,6 +177,8 @@ class Tracker:
         if out:
             return out[0]
         self._side_carry = None
+        if cap is not None and tried:
+            return None  # spatial: the capped solve found no pose; no slow retry
         return self.warm(q, target, tried=tried, left=tried and left)
 
     def _warm_solve(self, q: FloatArray, target: Target, mu0: float | None) -> tuple[bool, Any]:
@@ -182,14 +200,17 @@ class Tracker:
         qw = prob.q_of(X[0])
         return bool(planar_check(self.stack, target, qw)[0].ok), qw
 
-    def warm_many(self, q: FloatArray, targets: list[Target]) -> list[FloatArray]:
+    def warm_many(
+        self, q: FloatArray, targets: list[Target], max_iter: int | None = None
+    ) -> list[FloatArray]:
         """The warm rung along ``targets``, each from the pose before, in one compiled
         call (:func:`stackik._ipm.ip_path`, :func:`stackik._spatial_ipm.ip_path`): the
         continuation step (``pc``) where it is verified, else the warm rung's first solve
         (initial barrier ``WARM_MU0``). Returns the poses of the leading targets that it
         reaches, as :meth:`warm` would accept them (checked by the compiled twin of
         ``check_pose``, each within one jump of the one before). Stops at the first it
-        does not reach; the caller takes that one through the ladder (:meth:`step`)."""
+        does not reach; the caller takes that one through the ladder (:meth:`step`).
+        ``max_iter``: iterations of each barrier solve (default: the interior point's)."""
         if not targets:
             return []
         from stackik import _ipm, _spatial_ipm
@@ -207,7 +228,7 @@ class Tracker:
             self._run_problem = (key, prob, arrays, jump)
         _, prob, arrays, jump = self._run_problem
         tol, ctol = float(IP_DEFAULTS["tol"]), float(IP_DEFAULTS["constr_tol"])
-        max_iter = int(IP_DEFAULTS["max_iter"])
+        max_iter = int(IP_DEFAULTS["max_iter"]) if max_iter is None else int(max_iter)
         # the multipliers and active set of q when the last run ended at q (its last pose)
         carry = self._carry
         state = carry[1] if carry is not None and carry[0] is q else self._no_state()
@@ -306,7 +327,9 @@ class Tracker:
             from stackik._check import planar_check
 
             return bool(planar_check(self.stack, target, qb)[0].ok)
-        return check_pose(self.stack, target, qb).ok
+        from stackik._check import spatial_check_many  # its verdict; 15 instead of 190 us
+
+        return bool(spatial_check_many(self.stack, [target], qb[None])[0])
 
     # --- the ladder -------------------------------------------------------------------
     def step(
@@ -319,6 +342,7 @@ class Tracker:
         bounded: bool = True,
         warm_tried: bool = False,
         warm_left: bool = False,
+        box_first: bool = False,
     ) -> Step | None:
         """A pose of ``tb`` within ``max_jump`` of ``q`` (a pose of ``ta``), or None.
 
@@ -335,7 +359,19 @@ class Tracker:
         warm_left : bool
             ... and found a pose farther than ``max_jump`` (it left its basin): the rung
             fails without the retry (:meth:`warm`).
+        box_first : bool
+            Try the bounded rung first (a pose off its optimum, after a bounded or transit
+            step: a warm solve from there slides far, 100-200 spatial iterations at
+            n = 4, and usually lands farther than one jump). Its pose is the step's
+            ``"warm"`` pose when no variable sits at the box (a minimum of the problem
+            without the box, as a warm solve finds), else ``"bounded"``; the warm rung
+            only when it fails.
         """
+        if box_first and bounded:
+            qb = self.bounded(q, tb)
+            if qb is not None:
+                return Step(qb, "bounded" if self.ratio(q, qb) > BOX_INSIDE else "warm")
+            bounded = False
         qb = self.warm(q, tb, tried=warm_tried, left=warm_left)
         if qb is not None:
             return Step(qb, "warm")

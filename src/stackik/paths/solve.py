@@ -68,6 +68,7 @@ __all__ = [
     "REANCHOR_ITER_PER_N",
     "REANCHOR_PER_N",
     "REFINE_DEPTH",
+    "SPATIAL_REANCHOR_N",
     "TRANSIT_GAIN",
     "TRANSIT_STEPS",
     "path_arrays",
@@ -87,11 +88,16 @@ TRANSIT_STEPS = 10
 #: solve is compared with the path, which moves to the default pose's basin when its FN
 #: is lower by this fraction.
 FAST_TRANSIT_GAIN = 0.01
-#: Default ``reanchor_every`` of planar paths: ``max(REANCHOR_EVERY, REANCHOR_PER_N * n)``
-#: waypoints (the default solve's starts grow with n: 3 at n = 4, 19 at n = 8, 35 at
-#: n = 16; this keeps its share of a fast path's time small). Spatial: 0, off.
+#: Default ``reanchor_every``: ``max(REANCHOR_EVERY, REANCHOR_PER_N * n)`` waypoints
+#: (the default solve's starts grow with n: planar 3 at n = 4, 19 at n = 8, 35 at n = 16;
+#: this keeps its share of a fast path's time small); spatial paths up to
+#: ``SPATIAL_REANCHOR_N`` platforms only (8 starts, ~10 ms, about 20 warm steps, at
+#: n = 4; from n = 5 18 starts and 12 hops, ~170 ms at n = 8, where a check at waypoint
+#: 40 of the benchmark's and 4 held-out 60-waypoint paths gave no lower FN (mean ratio
+#: 1.0107 -> 1.0113 and 1.0025 -> 1.0027) at 60-70 % of the speed).
 REANCHOR_EVERY = 20
 REANCHOR_PER_N = 5
+SPATIAL_REANCHOR_N = 4
 #: Fast mode's planar reanchoring check runs the default solve's interior-point starts
 #: with at most this many iterations per platform each (:func:`_screen`; on the
 #: benchmark's planar paths the best start of a default solve took at most 30
@@ -216,7 +222,9 @@ def _request(
                 f"{chk.angle_error:.3g} rad, worst violation {chk.max_violation_mm:.3g} mm)"
             )
     if reanchor_every is None:
-        reanchor_every = max(REANCHOR_EVERY, REANCHOR_PER_N * stack.n) if planar else 0
+        reanchor_every = max(REANCHOR_EVERY, REANCHOR_PER_N * stack.n)
+        if not planar and stack.n > SPATIAL_REANCHOR_N:
+            reanchor_every = 0
     if (
         isinstance(reanchor_every, bool)
         or not isinstance(reanchor_every, int)
@@ -518,19 +526,25 @@ def _fast(
         moving = goal
         step, goal = _towards(tracker, goal, ql[-1], tb, info) if goal else (None, None)
         if moving is not None and step is not None:  # it moves to the goal's basin
-            gap = req.reanchor_every
-        elif moving is not None and moving.steps == 0:
+            if req.planar or step.how == "joined" or not BACKOFF_ABANDONED:
+                gap = req.reanchor_every
+        elif moving is not None and (moving.steps == 0 or (BACKOFF_ABANDONED and not req.planar)):
             # abandoned before a step: the check moved nothing, and backs off as one that
             # finds no better basin (the next check 2 x the last gap after it, not
-            # reanchor_every: the path stays on its basin)
+            # reanchor_every: the path stays on its basin); spatial, abandoned at any
+            # step: it did not reach the better basin either (its gap is reset on
+            # arrival only)
             due += gap - req.reanchor_every
         if step is None:
             off = hows[-1] in ("bounded", "transit")  # off the optimum: no bisection
             # where a run of warm steps stopped in its kernel, it made the warm rung's
             # first solve from this pose to this waypoint
             tried = len(ql) == ladder_at and depth == 0 and tracker.tried_from is ql[-1]
+            # spatial, off the optimum: the boxed solve first (~2 ms at n = 4; a warm
+            # barrier solve from there slides far, 10-25 ms, and mostly jumps)
             step = tracker.step(ql[-1], tl[-1], tb, subdivide=not off, warm_tried=tried,
-                                warm_left=tried and tracker.tried_left)  # fmt: skip
+                                warm_left=tried and tracker.tried_left,
+                                box_first=off and BOX_FIRST and not req.planar)  # fmt: skip
         if step is not None:
             accept(step.q, step.how)
             continue
@@ -565,6 +579,14 @@ def _fast(
 #: Fast mode: after these steps the path is off its optimum and a warm step often fails;
 #: the next step goes through the ladder directly, not through a run of warm steps.
 _OFF_OPTIMUM = ("bounded", "transit", "rejoin")
+#: Fast mode, spatial: after a bounded or transit step the ladder tries the bounded rung
+#: before the warm one (:meth:`Tracker.step`'s ``box_first``).
+BOX_FIRST = True
+#: Fast mode, spatial: a transit abandoned after steps (the goal not reached) backs the
+#: reanchoring checks off as one abandoned before a step (its gap is reset on arrival
+#: only): on the benchmark's curved n = 4 path the check at waypoint 40 found nothing
+#: after the transit towards a goal 15 jumps away gave up at step 9.
+BACKOFF_ABANDONED = True
 #: Fast mode: most warm steps solved in one compiled call.
 WARM_RUN = 256
 
@@ -1101,9 +1123,11 @@ def solve_path(
         the default solve finds, or its transit is abandoned before a step). 0 turns it
         off. Default (None):
         ``max(20, 5 n)`` for planar paths (20 at n = 4, 40 at n = 8, 80 at n = 16: the
-        default solve's cost grows with n), 0 for spatial ones (a spatial default solve
-        costs as much as tens of warm steps, and the spatial FN landscape has so many
-        minima that the default solve is no reliable reference).
+        default solve's cost grows with n); spatial: 20 up to ``SPATIAL_REANCHOR_N`` = 4
+        platforms (a check costs about 20 warm steps), 0 beyond (the default solve's
+        starts and hops make a check cost 40-70 warm steps, and on the benchmark's n = 8
+        paths it found no better path). Spatial paths: a transit abandoned after steps
+        backs off as one abandoned before a step.
 
     Returns
     -------
