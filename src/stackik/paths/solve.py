@@ -526,9 +526,9 @@ def _fast(
         moving = goal
         step, goal = _towards(tracker, goal, ql[-1], tb, info) if goal else (None, None)
         if moving is not None and step is not None:  # it moves to the goal's basin
-            if req.planar or step.how == "joined" or not BACKOFF_ABANDONED:
+            if req.planar or step.how == "joined":  # spatial: reset on arrival only
                 gap = req.reanchor_every
-        elif moving is not None and (moving.steps == 0 or (BACKOFF_ABANDONED and not req.planar)):
+        elif moving is not None and (moving.steps == 0 or not req.planar):
             # abandoned before a step: the check moved nothing, and backs off as one that
             # finds no better basin (the next check 2 x the last gap after it, not
             # reanchor_every: the path stays on its basin); spatial, abandoned at any
@@ -544,7 +544,7 @@ def _fast(
             # barrier solve from there slides far, 10-25 ms, and mostly jumps)
             step = tracker.step(ql[-1], tl[-1], tb, subdivide=not off, warm_tried=tried,
                                 warm_left=tried and tracker.tried_left,
-                                box_first=off and BOX_FIRST and not req.planar)  # fmt: skip
+                                box_first=off and not req.planar)  # fmt: skip
         if step is not None:
             accept(step.q, step.how)
             continue
@@ -579,14 +579,6 @@ def _fast(
 #: Fast mode: after these steps the path is off its optimum and a warm step often fails;
 #: the next step goes through the ladder directly, not through a run of warm steps.
 _OFF_OPTIMUM = ("bounded", "transit", "rejoin")
-#: Fast mode, spatial: after a bounded or transit step the ladder tries the bounded rung
-#: before the warm one (:meth:`Tracker.step`'s ``box_first``).
-BOX_FIRST = True
-#: Fast mode, spatial: a transit abandoned after steps (the goal not reached) backs the
-#: reanchoring checks off as one abandoned before a step (its gap is reset on arrival
-#: only): on the benchmark's curved n = 4 path the check at waypoint 40 found nothing
-#: after the transit towards a goal 15 jumps away gave up at step 9.
-BACKOFF_ABANDONED = True
 #: Fast mode: most warm steps solved in one compiled call.
 WARM_RUN = 256
 
