@@ -246,7 +246,9 @@ def _constraints(q: FloatArray, tf: FloatArray, tz: FloatArray, bf: FloatArray, 
 def _constraint_hessian(q: FloatArray, yraw: FloatArray, tf: FloatArray, tz: FloatArray,
                         bf: FloatArray, bz: FloatArray, ls: FloatArray,
                         sj: FloatArray) -> FloatArray:  # fmt: skip
-    """``sum_r yraw_r Hessian(c_r)`` per platform, shape (n, 3, 3) (block diagonal)."""
+    """``sum_r yraw_r Hessian(c_r)`` per platform, shape (n, 3, 3) (block diagonal).
+    Legs whose four multipliers are zero are skipped: they add exact zeros wherever the
+    leg's terms are finite (a leg of non-zero length at a finite pose)."""
     n = q.shape[0]
     H = np.zeros((n, 3, 3))
     for i in range(n):

@@ -44,9 +44,11 @@ FloatArray = NDArray[np.float64]
 #: case measured (31 of 31 on six n = 8 paths), so it is not tried.
 WARM_MU0 = 1e-3
 #: Spatial :meth:`Tracker.follow` (a fast path's goal basin beside the path): iterations
-#: of its barrier solve when the continuation step fails; beyond them the goal is
-#: dropped (a warm solve that keeps its basin takes 10-40; on the bench's curved n = 4
-#: path two such solves took 30-60 ms, more than the rest of the transit).
+#: of its barrier solve when the continuation step fails; a solve that has not converged
+#: within them drops the goal (a warm solve that keeps its basin takes 10-40; on the
+#: bench's curved n = 4 path the dropped goal's solve had not converged after 60, 300 or
+#: 1000 iterations, 30-60 ms each uncapped: the cap saves that time, the path is the
+#: same with any cap from 40 to 300).
 FOLLOW_MAX_ITER = 60
 #: A bounded step whose largest change is below this fraction of ``max_jump`` has no
 #: variable at its box (the boxed interior point ends within ~1e-7 of an active bound):
@@ -157,18 +159,21 @@ class Tracker:
         first the continuation step of :meth:`warm_many`, with its own carried state (the
         path's is kept), then the warm rung's barrier solves. A spatial barrier solve
         costs ~15 ms at n = 4, a continuation step well under 1 ms: spatial, the barrier
-        solve gets ``FOLLOW_MAX_ITER`` iterations, and a goal it does not reach within
-        them is dropped (None; no warm rung)."""
+        solve gets ``FOLLOW_MAX_ITER`` iterations, and a goal is dropped (None; no warm
+        rung) when that solve reaches no pose or one without converging."""
         saved = self._carry, self.tried_from, self.tried_left
         self._carry = self._side_carry
         cap = None if self.planar else FOLLOW_MAX_ITER
         try:
             out = self.warm_many(q, [target], max_iter=cap)
-            if out and cap is not None and not self._carry[1][-1]:  # type: ignore[index]
-                # the barrier solve ran out of its iterations: the basin is changing
-                # under the goal (the rest of a transit would follow a moving target)
-                self._side_carry = None
-                return None
+            if out and cap is not None:
+                have = self._carry[1][3]  # type: ignore[index]  # spatial: (yE, z, act, have)
+                if not have:
+                    # the barrier solve reached the target without converging (out of
+                    # its iterations or stalled): no minimum to follow there (the basin
+                    # changes under the goal; a transit would follow a moving target)
+                    self._side_carry = None
+                    return None
             self._side_carry = self._carry
             tried = self.tried_from is q  # the kernel's warm solve from q failed
             left = self.tried_left
