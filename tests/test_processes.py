@@ -76,3 +76,44 @@ def test_solve_many_in_a_process_pool_gives_the_serial_poses():
     for a, b in zip(serial, pooled, strict=True):
         assert a.status is b.status
         np.testing.assert_array_equal(a.q, b.q)
+
+
+def _path_kernels_in_fresh_process() -> dict:
+    """Runs in a fresh (spawned) process: load the kernels as a path's solve does before
+    its clock, then run every compiled call of a path (boxed and transit steps, planar and
+    spatial, both modes); report the kernels that got a new specialisation after that."""
+    from stackik import _check, _ipm, _spatial, _spatial_ipm
+    from stackik.paths.bounded import bounded_ip
+    from stackik.solve.kernels import warm_up
+
+    warm_up()
+    mods = (_ipm, _spatial_ipm, _check, _spatial)
+
+    def count() -> dict[str, int]:
+        return {f"{m.__name__}.{k}": len(v.signatures) for m in mods
+                for k, v in vars(m).items() if hasattr(v, "signatures")}  # fmt: skip
+
+    before = count()
+    stack = sk.Stack.reference(3)
+    for planar in (True, False):
+        keys = [sk.PlanarTarget(0.0, 1000.0, 0.0), sk.PlanarTarget(150.0, 950.0, 0.2)]
+        targets = sk.interpolate_targets(
+            keys if planar else [t.to_spatial() for t in keys], steps=4
+        )
+        for mode in ("fast", "global"):
+            sk.solve_path(stack, targets, mode=mode)
+        q0 = sk.solve_ik(stack, targets[0]).q
+        goal = sk.solve_ik(stack, targets[1]).q
+        scale = np.full(q0.shape[1], 0.5)
+        for g in (None, goal):
+            bounded_ip(stack, targets[1], q0, scale, goal=g)
+    after = count()
+    return {k: (before.get(k, 0), v) for k, v in after.items() if before.get(k, 0) != v}
+
+
+def test_a_paths_compiled_calls_are_all_loaded_before_its_clock():
+    """Every kernel a path calls from Python has its specialisation loaded by the
+    warm-up (a missing one compiles inside the path's time: ~1 s on first use)."""
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
+        new = pool.submit(_path_kernels_in_fresh_process).result(timeout=900)
+    assert new == {}

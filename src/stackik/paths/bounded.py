@@ -69,16 +69,21 @@ def _box(prob: Problem, q_prev: FloatArray, max_jump: FloatArray, shrink: float)
 def _transit_terms(prob: Problem, q_prev: FloatArray, goal: FloatArray,
                    P: Any = None) -> tuple[float, float, FloatArray]:  # fmt: skip
     """``f0`` and ``d0`` of the transit objective ``f / f0 + |u - u_goal|^2 / d0`` (both
-    relative to the previous pose) and ``u_goal``. ``P``: the planar kernels' problem
-    arrays (:func:`stackik.methods.ip.problem_arrays`), whose compiled evaluation gives
-    ``f`` in microseconds (the Problem's own, ~0.2 ms at n = 4)."""
+    relative to the previous pose) and ``u_goal``. ``P``: the kernels' problem arrays
+    (:func:`stackik.methods.ip.problem_arrays`, ``spatial_problem_arrays``), whose
+    compiled evaluation gives ``f`` in microseconds (the Problem's own: ~0.2 ms at
+    n = 4, planar and spatial; the same value to rounding)."""
     ug, u_prev = prob.u_of(goal), prob.u_of(q_prev)
-    if P is not None:
+    if P is None:
+        f = float(prob.evaluate(u_prev)[0])
+    elif prob.planar:
         from stackik import _ipm
 
         f = float(_ipm._evaluate(u_prev, P)[0])
     else:
-        f = float(prob.evaluate(u_prev)[0])
+        from stackik import _spatial_ipm
+
+        f = float(_spatial_ipm.evaluate(u_prev, P)[0])
     f0 = max(f, 1e-12)
     d0 = max(float(np.sum((u_prev - ug) ** 2)), 1e-12) / TRANSIT_WEIGHT
     return f0, d0, ug
@@ -98,7 +103,7 @@ def bounded_ip(
     hundred microseconds instead of tens of milliseconds. Starts at ``q_prev``, the
     centre of the box. Returns the pose (polished) or None when the solver failed; the
     caller checks it."""
-    from stackik.formulation import POLISH_MARGIN, POLISH_REACH, polish
+    from stackik.formulation import POLISH_MARGIN, POLISH_REACH
     from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
     prob = Problem(stack, target, "frobenius", None)
@@ -106,7 +111,7 @@ def bounded_ip(
     lo, hi = _box(prob, q_prev, max_jump, IP_BOX_SHRINK)
     ug, wq, f0 = np.zeros(0), 0.0, 1.0
     if goal is not None:
-        f0, d0, ug = _transit_terms(prob, q_prev, goal, P if prob.planar else None)
+        f0, d0, ug = _transit_terms(prob, q_prev, goal, P)
         wq = 1.0 / d0
     lo, hi, ug = readonly(lo), readonly(hi), readonly(ug)
     u0 = readonly(prob.u_of(q_prev))
@@ -125,7 +130,8 @@ def bounded_ip(
             P = P[:5] + (P[5] * f0,) + P[6:]
             u, st, _ = _spatial_ipm.ip_box(u0, P, lo, hi, ug, wq, tol, ctol, IP_BOX_MU0,
                                            max_iter)  # fmt: skip
-            u = polish(prob, u)
+            # the compiled polish (the continuation's; ~20 us, the Problem's ~0.5 ms)
+            u = _spatial_ipm.polish(u, P, 3, POLISH_REACH, POLISH_MARGIN)
     except (ValueError, np.linalg.LinAlgError):
         return None
     if st == _IP_NONFINITE or not np.all(np.isfinite(u)):

@@ -40,7 +40,7 @@ def _dispatchers(kind: str) -> list[Any]:
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _spatial_ipm.ip_multi,
             _spatial_ipm.ip_box, _spatial_ipm.ip_path, _spatial_ipm.evaluate,
-            _spatial_ipm.lagrangian_hessian, _check._spatial_check,
+            _spatial_ipm.polish, _spatial_ipm.lagrangian_hessian, _check._spatial_check,
             _check._spatial_check_many]  # fmt: skip
 
 
@@ -100,8 +100,9 @@ def _warm_path_kernels(planar: bool) -> None:
             _ipm.ip_box(u0, problem_arrays(prob), lo, hi, ug, wq, 1e-7, 1e-9, 1e-3, 3,
                         POLISH_REACH, POLISH_MARGIN)  # fmt: skip
         else:
-            _spatial_ipm.ip_box(u0, spatial_problem_arrays(prob), lo, hi, ug, wq, 1e-7,
-                                1e-9, 1e-3, 3)  # fmt: skip
+            P = spatial_problem_arrays(prob)
+            u, _, _ = _spatial_ipm.ip_box(u0, P, lo, hi, ug, wq, 1e-7, 1e-9, 1e-3, 3)
+            _spatial_ipm.polish(u, P, 3, POLISH_REACH, POLISH_MARGIN)  # as bounded_ip
     if planar:
         Y = readonly([[pt.rho, pt.z, pt.theta]])
         _ipm.ip_path(u0, Y, problem_arrays(prob), readonly(np.ones(u0.size)), 1e-7, 1e-9,
