@@ -104,14 +104,10 @@ def planar_check(stack: Any, target: Any, q: FloatArray) -> tuple[Any, ...]:
     from stackik._arrays import readonly  # one compiled specialisation for every caller
     from stackik.check import PoseCheck, pose_ok
 
-    pos_err, ang_err, max_v, v_mm, finite, C, P, R, legs = _planar_check(
+    pos_err, ang_err, max_v, v_mm, finite, C, P, R, legs = _planar_check(  # type: ignore[call-arg]
         readonly(q),
         float(target.phi),
-        readonly(stack.base_nodes),
-        readonly(stack.top_nodes),
-        readonly(stack.leg_min),
-        readonly(stack.leg_max),
-        readonly(stack.sin_joint_min),
+        *_limits_args(stack),
         readonly([target.rho, target.z, target.theta]),
     )
     ok = pose_ok(float(pos_err), float(ang_err), float(v_mm), bool(finite))
@@ -352,13 +348,9 @@ def spatial_check_many(stack: Any, targets: Any, Q: FloatArray) -> list[bool]:
         return []
     pos = np.array([t.position for t in targets], dtype=float)
     rot = np.array([t.rotation for t in targets], dtype=float)
-    pe, ae, v_mm, finite = _spatial_check_many(
+    pe, ae, v_mm, finite = _spatial_check_many(  # type: ignore[call-arg]
         readonly(np.ascontiguousarray(Q, dtype=float)),
-        readonly(stack.base_nodes),
-        readonly(stack.top_nodes),
-        readonly(stack.leg_min),
-        readonly(stack.leg_max),
-        readonly(stack.sin_joint_min),
+        *_limits_args(stack),
         readonly(pos),
         readonly(rot),
     )
