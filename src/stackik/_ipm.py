@@ -871,12 +871,12 @@ def _polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> F
     N = 3 * n
     for _ in range(iters):
         f, g, cE, AE, cI, D = _evaluate(u, P)
+        if _polished(cE, cI, reach):
+            break
         nv = 0
         for r in range(cI.size):
             if -reach < cI[r] < 0.0:
                 nv += 1
-        if np.abs(cE).max() < 1e-13 and nv == 0:
-            break
         A = np.zeros((3 + nv, N))
         rr = np.empty(3 + nv)
         A[:3] = AE
