@@ -74,7 +74,7 @@ def _planar_parts(q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
 
 
 def planar_plate_origins(q: ArrayLike) -> FloatArray:
-    """Origins ``O_0 .. O_n`` of the plates in the (rho, z) plane, shape (..., n+1, 2) [mm]."""
+    """Origins ``O_0`` to ``O_n`` of the plates in the (rho, z) plane, shape (..., n+1, 2) [mm]."""
     return _planar_parts(_pose(q, 3))[2]
 
 
@@ -385,7 +385,7 @@ def spatial_forward(q: ArrayLike) -> tuple[FloatArray, FloatArray]:
 
 
 def spatial_plate_origins(q: ArrayLike) -> FloatArray:
-    """Origins ``O_0 .. O_n`` of the plates in the base frame, shape (n+1, 3) [mm]."""
+    """Origins ``O_0`` to ``O_n`` of the plates in the base frame, shape (n+1, 3) [mm]."""
     return spatial_chain(q).O
 
 

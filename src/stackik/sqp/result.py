@@ -23,6 +23,7 @@ class SQPStatus(enum.Enum):
     NUMERICAL_ERROR = "numerical_error"
 
 
+#: The human message of each :class:`SQPStatus` (``SQPResult.message`` is one of them).
 MESSAGES: dict[SQPStatus, str] = {
     SQPStatus.SUCCESS: "Optimal solution found (scaled KKT residual and violation within tol).",
     SQPStatus.INFEASIBLE: (
