@@ -101,5 +101,9 @@ def _write_if_changed(path: Path, text: str) -> None:
 
 
 _write_if_changed(DOCS / "_generated" / "api.rst", _api_page())
-for _name, _text in gen_benchmarks.pages(ROOT / "benchmarks" / "results").items():
+_pages = gen_benchmarks.pages(ROOT / "benchmarks" / "results")
+for _name, _text in _pages.items():
     _write_if_changed(DOCS / "_generated" / "benchmarks" / _name, _text)
+for _stale in (DOCS / "_generated" / "benchmarks").glob("*.md"):
+    if _stale.name not in _pages:  # a report removed or renamed since the last build
+        _stale.unlink()

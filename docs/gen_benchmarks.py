@@ -132,32 +132,39 @@ _HEADING = re.compile(r"^(#{1,6})(\s+.*)$")
 _FENCE = re.compile(r"^\s*(```|~~~)")
 
 
-def _consecutive_headings(text: str) -> str:
-    """Headings shifted so that the first is level 1 and none skips a level (MyST warns on
-    both); fenced code is left alone."""
-    out: list[str] = []
-    prev = 0
+def _consecutive_headings(text: str, title: str) -> str:
+    """The page's headings made consecutive: a report that opens with a level-1 heading
+    keeps it as the page title, any other gets ``title``; later headings are level 2 or
+    deeper and none skips a level (MyST warns on that). Fenced code is left alone."""
+    lines = text.splitlines()
+    first = next((ln for ln in lines if ln.strip()), "")
+    titled = first.startswith("# ")
+    out: list[str] = [] if titled else [f"# {title}", ""]
+    prev = 0 if titled else 1
     shift: int | None = None
     fenced = False
-    for line in text.splitlines():
+    for line in lines:
         if _FENCE.match(line):
             fenced = not fenced
         m = None if fenced else _HEADING.match(line)
         if m:
             level = len(m.group(1))
-            if shift is None:
-                shift = level - 1
-            level = max(1, min(level - shift, prev + 1))
+            if shift is None:  # the first heading: 1 if it is the title, else 2
+                shift = level - (1 if titled else 2)
+            level = min(level - shift, prev + 1)
+            level = max(level, 1 if titled and prev == 0 else 2)
             prev = level
             line = "#" * level + m.group(2)
         out.append(line)
-    if shift is None:  # no heading at all: give the page one
-        out = ["# Report", ""] + out
     return "\n".join(out) + "\n"
 
 
 def _slug(rel: Path) -> str:
-    return "results_" + re.sub(r"[^A-Za-z0-9]+", "_", str(rel.with_suffix(""))).strip("_")
+    """``results_1_<name>`` for the benchmarks' own reports, ``results_2_<dir>_<name>`` for
+    the outside checks in subdirectories (so that the table of contents lists them so)."""
+    group = "1" if len(rel.parts) == 1 else "2"
+    name = re.sub(r"[^A-Za-z0-9]+", "_", str(rel.with_suffix(""))).strip("_")
+    return f"results_{group}_{name}"
 
 
 def report_files(results: Path = RESULTS) -> list[Path]:
@@ -168,13 +175,19 @@ def report_files(results: Path = RESULTS) -> list[Path]:
 def pages(results: Path = RESULTS) -> dict[str, str]:
     """The generated benchmark pages: file name -> MyST Markdown.
 
-    ``headline.md`` is the headline table; ``results_<name>.md`` is one report of
-    ``benchmarks/results`` (its source path named at the top).
+    ``headline.md`` is the headline table; ``results_<group>_<name>.md`` is one report of
+    ``benchmarks/results`` (its source path named at the top, see :func:`_slug`).
     """
     out = {"headline.md": headline(results) + "\n"}
+    seen: set[str] = set()
     for rel in report_files(results):
-        body = _consecutive_headings((results / rel).read_text(encoding="utf-8"))
+        body = _consecutive_headings(
+            (results / rel).read_text(encoding="utf-8"), f"Report `{rel.as_posix()}`"
+        )
         title, _, rest = body.partition("\n")
+        if title in seen:  # two reports of one benchmark (e.g. another seed): say which
+            title += f" (`{rel.as_posix()}`)"
+        seen.add(title)
         note = (
             f"\n_Generated from `benchmarks/results/{rel.as_posix()}` (written by the "
             "benchmark that produced it; the CSV/JSON beside it hold every row)._\n"
