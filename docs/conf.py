@@ -24,6 +24,7 @@ sys.path.insert(0, str(DOCS))
 sys.path.insert(0, str(DOCS / "_ext"))
 
 import gen_benchmarks  # noqa: E402
+from sphinx.pycode import ModuleAnalyzer  # noqa: E402
 
 import stackik  # noqa: E402
 import stackik.sqp  # noqa: E402
@@ -70,9 +71,26 @@ def _api_page() -> str:
     def names(module: object) -> list[str]:
         return sorted((n for n in module.__all__ if not n.startswith("_")), key=str.lower)
 
+    def entry(module: str, name: str) -> str:
+        """A function or class by its public name; a constant by the module that defines
+        it, where its ``#:`` comment (its docstring) is."""
+        obj = getattr(sys.modules[module], name)
+        if callable(obj) or isinstance(obj, type):
+            return name
+        for mod_name, mod in sorted(sys.modules.items()):
+            if mod_name.startswith(module + ".") and getattr(mod, name, None) is obj:
+                docs = ModuleAnalyzer.for_module(mod_name).find_attr_docs()
+                if ("", name) in docs:
+                    return f"~{mod_name.removeprefix(module + '.')}.{name}"
+        return name
+
     def block(module: str, members: list[str]) -> list[str]:
         out = [f".. currentmodule:: {module}", "", ".. autosummary::", "   :toctree: api", ""]
-        return out + [f"   {m}" for m in members] + [""]
+        entries = [entry(module, m) for m in members]
+        pages.update(f"{module}.{e.lstrip('~')}.rst" for e in entries)
+        return out + [f"   {e}" for e in entries] + [""]
+
+    pages: set[str] = set()
 
     lines = [
         "API reference",
@@ -91,6 +109,9 @@ def _api_page() -> str:
         "",
         *block("stackik.sqp", names(stackik.sqp)),
     ]
+    for stale in (DOCS / "_generated" / "api").glob("*.rst"):
+        if stale.name not in pages:  # a name no longer public: autosummary leaves its page
+            stale.unlink()
     return "\n".join(lines)
 
 

@@ -257,6 +257,12 @@ def test_reference_geometry_claim() -> None:
     assert math.isclose(math.degrees(p.joint_min), 20.0)
 
 
+def test_docs_command_is_the_ci_one() -> None:
+    (command,) = re.findall(r"`(python -m sphinx [^`]*)`", TEXT)
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert command.replace(" -b ", " -q -b ") in ci, "README's docs build is not .ci/run's"
+
+
 def test_linked_files_exist() -> None:
     for target in re.findall(r"\]\(([^)#]+)\)", TEXT):
         if "://" not in target:

@@ -79,7 +79,7 @@ def planar_plate_origins(q: ArrayLike) -> FloatArray:
 
 
 def planar_forward(q: ArrayLike) -> FloatArray:
-    """End effector ``(rho_ee, z_ee, theta_ee)`` of a planar pose (paper eq. "forward").
+    """End effector ``(rho_ee, z_ee, theta_ee)`` of a planar pose (the paper's equation "forward").
 
     Parameters
     ----------
@@ -361,7 +361,7 @@ def _skew(v: FloatArray) -> FloatArray:
 
 
 def spatial_forward(q: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    """End-effector pose of a spatial stack (paper eq. "forward").
+    """End-effector pose of a spatial stack (the paper's equation "forward").
 
     Parameters
     ----------

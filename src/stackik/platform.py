@@ -156,7 +156,7 @@ def constraints_from_legs(
 
 
 def leg_vectors(geometry: PlatformGeometry, P: ArrayLike, R: ArrayLike) -> FloatArray:
-    """Leg vectors ``l_k = R t_k + P - b_k`` of one platform (paper eq. 1).
+    """Leg vectors ``l_k = R t_k + P - b_k`` of one platform (the paper's equation 1).
 
     Parameters
     ----------
