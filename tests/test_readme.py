@@ -33,7 +33,8 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 TEXT = README.read_text(encoding="utf-8")
-PROSE = " ".join(TEXT.split())  # line breaks as spaces, for phrases
+#: The text with line breaks (and block-quote marks) as spaces, for phrases.
+PROSE = " ".join(re.sub(r"^> ?", "", TEXT, flags=re.MULTILINE).split())
 MAX_LINES = 250
 
 _BLOCK = re.compile(
@@ -255,6 +256,31 @@ def test_reference_geometry_claim() -> None:
     assert math.isclose(math.degrees(np.arctan2(*p.base_nodes[1, 1::-1])), 15.0)
     assert (p.leg_min, p.leg_max) == (250.0, 450.0)
     assert math.isclose(math.degrees(p.joint_min), 20.0)
+    # "chosen so that the paper's three targets are reachable with n = 4"
+    assert "chosen so that the paper's three targets are reachable with n = 4" in PROSE
+    from stackik import solve_ik
+    from stackik.targets import paper_targets
+
+    assert all(solve_ik(Stack.reference(4), t).success for t in paper_targets())
+
+
+def test_project_files() -> None:
+    """LICENSE matches pyproject's licence; CITATION.cff cites the paper the README names."""
+    import tomllib
+
+    yaml = pytest.importorskip("yaml")  # a dependency of dask, in the dev extra
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    assert meta["license"] == {"text": "MIT"} and "MIT licence (`LICENSE`)" in PROSE
+    assert (ROOT / "LICENSE").read_text().startswith("MIT License")
+    cff = yaml.safe_load((ROOT / "CITATION.cff").read_text(encoding="utf-8"))
+    assert cff["cff-version"] == "1.2.0" and cff["version"] == meta["version"]
+    paper = cff["preferred-citation"]
+    assert f'"{paper["title"]}."' in PROSE
+    names = [f"{a['given-names']} {a['family-names']}" for a in paper["authors"]]
+    assert ", ".join(names[:-1]) + ", " + names[-1] in PROSE
+    assert f"AAMAS {paper['year']}" in PROSE
+    changelog = (ROOT / "CHANGELOG.md").read_text(encoding="utf-8")
+    assert "## Unreleased" in changelog and f"## {meta['version']} - " in changelog
 
 
 def test_docs_command_is_the_ci_one() -> None:
