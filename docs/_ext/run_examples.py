@@ -16,7 +16,7 @@ program's own::
 The ``run-example`` directive shows the script's source and, below it, what it printed (stdout and
 stderr), run with the interpreter that runs Sphinx, ``src/`` first on ``PYTHONPATH``, in a
 temporary directory, with ``MPLBACKEND=Agg``. A script that exits non-zero or runs longer
-than ``:timeout:`` seconds (default 300) is a build error, so the examples in the
+than ``:timeout:`` seconds (default 600) is a build error, so the examples in the
 documentation are always ones that ran. Each script runs once per build (cached by file and
 arguments); the time each took is logged.
 """
@@ -103,7 +103,7 @@ class RunExample(SphinxDirective):
         self.env.note_dependency(str(script))
         args = shlex.split(self.options.get("args", ""))
         try:
-            output = run_example(name, args, float(self.options.get("timeout", 300)))
+            output = run_example(name, args, float(self.options.get("timeout", 600)))
         except ExampleError as exc:
             raise self.error(str(exc)) from exc
         command = shlex.join(["python", f"examples/{name}", *args])
@@ -131,7 +131,7 @@ class RunCommand(SphinxDirective):
         args = shlex.split(self.arguments[0])
         ok = (0, self.options.get("exit", 0))
         try:
-            output = run_command(args, float(self.options.get("timeout", 300)), ok)
+            output = run_command(args, float(self.options.get("timeout", 600)), ok)
         except ExampleError as exc:
             raise self.error(str(exc)) from exc
         text = f"$ {shlex.join(['stackik', *args])}\n{output}"
