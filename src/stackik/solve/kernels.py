@@ -130,10 +130,17 @@ def kernels_cached(kind: str) -> bool | None:
 
 
 def _warm(kind: str) -> None:
+    from stackik.solve.blas import _blas_controller
+
+    _blas_controller()  # threadpoolctl's scan of the loaded libraries (~20 ms), once
     if kind == "planar":
         from stackik.methods.ip import warm_up as planar_warm_up
 
         planar_warm_up()
+        from stackik.methods.ip import ip_starts
+
+        _, _, _, prob, q0 = _small_problem(True)
+        ip_starts(prob, [q0, q0], {}, math.inf)
         _warm_path_kernels(True)
         _warm_sqp_kernels(True)
         return
