@@ -34,7 +34,8 @@ def _spatial_target(n: int) -> sk.SpatialTarget:
 def _what_first_calls_cost() -> dict[str, tuple[list[str], list[str]]]:
     """Runs in a fresh process: warm up, then record the numba compilations and the new
     modules of each first call (planar n = 4 paper target as the issue measured it,
-    spatial, an unreachable spatial target, a planar and a spatial path)."""
+    spatial, an unreachable spatial target, the SQP engine's first solves (its QP
+    backends imported by the warm-up), a planar and a spatial path)."""
     import sys
 
     from numba.core import event
@@ -48,6 +49,10 @@ def _what_first_calls_cost() -> dict[str, tuple[list[str], list[str]]]:
         "spatial": lambda: sk.solve_ik(stack, _spatial_target(4)),
         "spatial unreachable": lambda: sk.solve_ik(
             sk.Stack.reference(3), sk.SpatialTarget([0.0, 0.0, 200.0], np.eye(3))
+        ),
+        "planar sqp": lambda: sk.solve_ik(stack, keys[0], method="sqp", starts=1),
+        "spatial sqp": lambda: sk.solve_ik(
+            sk.Stack.reference(3), _spatial_target(3), method="sqp", starts=1
         ),
         "planar path": lambda: solve_path(stack, interpolate(keys, steps=3)),
         "spatial path": lambda: solve_path(
