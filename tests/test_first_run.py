@@ -77,11 +77,14 @@ def test_after_warm_up_a_first_solve_compiles_and_imports_nothing():
 def _kernels_a_spatial_solve_loads() -> dict[str, object]:
     """Runs in a fresh process: one reachable spatial solve (no warm-up); which kernel
     families are loaded and which planar entry points got a specialisation."""
-    from stackik import _check, _ipm
+    import sys
 
     r = sk.solve_ik(sk.Stack.reference(3), _spatial_target(3))
-    planar = [d for d in vars(_ipm).values() if hasattr(d, "signatures")]
-    planar += [_check._planar_check, _check._planar_check_many, _check._planar_path_arrays]
+    # the planar entry points, and every compiled function of the planar interior point's
+    # module (wherever the kernels live)
+    planar = kernels._dispatchers("planar")
+    ipm = sys.modules[planar[0].py_func.__module__]
+    planar += [d for d in vars(ipm).values() if hasattr(d, "signatures")]
     return {
         "status": r.status.value,
         "ready": sorted(kernels._READY),
