@@ -431,3 +431,87 @@ def test_mc_on_two_local_processes_is_the_serial_run(capsys: pytest.CaptureFixtu
     assert rc == 0
     rc, pooled, _ = _run(capsys, *argv, "--workers", "2")
     assert rc == 0 and json.loads(pooled) == json.loads(serial)
+
+
+# -----------------------------------------------------------------------------------------
+# Defaults, help and the summary: what the command line says is what the code does
+# -----------------------------------------------------------------------------------------
+@pytest.mark.parametrize("command", ["solve", "mc"])
+def test_the_default_number_of_starts_is_the_librarys(command: str) -> None:
+    args = build_parser().parse_args([command, "--target", *TARGET])
+    assert args.starts is None  # solve_ik's own default (starts=None)
+
+
+def test_solve_by_default_returns_the_librarys_default_pose(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    rc, out, _ = _run(capsys, "solve", "--target", *TARGET, "--json")
+    data = json.loads(out)
+    lib = stackik.solve_ik(Stack.reference(4), stackik.PlanarTarget(600.0, 1000.0, -1.57))
+    assert rc == 0 and data["n_starts"] == lib.n_starts > 1
+    np.testing.assert_array_equal(np.array(data["q"]), lib.q)
+
+
+def test_method_help_states_the_auto_rule_of_the_code(capsys: pytest.CaptureFixture[str]) -> None:
+    from stackik.methods import get_method
+    from stackik.solve.policy import auto_method
+
+    rc, out, _ = _run(capsys, "solve", "--help")
+    text = " ".join(out.split())
+    assert rc == 0
+    # "auto (default): ip ... for planar and spatial targets with --objective frobenius or
+    # weighted (planar: one sigma-theta for all platforms); sqp ... for --objective
+    # feasible or when --qp-solver is given"
+    assert "for planar and spatial targets with --objective frobenius or weighted" in text
+    for planar in (True, False):
+        assert auto_method(planar, "frobenius", None, None) == "ip"
+        assert auto_method(planar, "weighted", 0.005, None) == "ip"
+        assert auto_method(planar, "feasible", None, None) == "sqp"
+        assert auto_method(planar, "frobenius", None, "osqp") == "sqp"
+    assert "(planar: one sigma-theta for all platforms)" in text
+    assert auto_method(True, "weighted", [0.005, 0.01], None) == "sqp"
+    assert auto_method(False, "weighted", [0.005, 0.01], None) == "ip"
+    assert "ipopt, IPOPT through CasADi (planar and spatial;" in text
+    assert get_method("ipopt").modes == {"planar", "spatial"}
+
+
+@pytest.mark.parametrize(
+    ("method", "row"),
+    [
+        ("auto", "ip (QP backend: none)"),
+        ("ip", "ip (QP backend: none)"),
+        ("sqp", None),  # the default backend, named
+        ("slsqp", "slsqp (QP backend: none)"),
+    ],
+)
+def test_the_summary_names_method_and_qp_backend_for_every_method(
+    capsys: pytest.CaptureFixture[str], method: str, row: str | None
+) -> None:
+    from stackik.sqp.qp import default_qp_solver
+
+    rc, out, _ = _run(capsys, "solve", "--target", *TARGET, "--method", method, "--starts", "1")
+    assert rc == 0
+    line = next(ln for ln in out.splitlines() if ln.startswith("method "))
+    expect = row or f"sqp (QP backend: {default_qp_solver()})"
+    assert line == f"{'method':<16}{expect}"
+
+
+def test_the_unreachable_message_is_one_short_line_then_details(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    rc, out, _ = _run(capsys, "solve", "--target", "0", "9000", "0")  # beyond the reach bound
+    assert rc == 1
+    lines = out.splitlines()
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("status "))
+    headline = "infeasible: Unreachable: the target lies beyond the reach bound of the stack."
+    assert lines[k] == f"{'status':<16}{headline}"
+    details = lines[k + 1 : next(i for i in range(k + 1, len(lines)) if lines[i][:1] != " ")]
+    assert details and all(ln.startswith(" " * 16) and len(ln) <= 88 for ln in details)
+    assert "target_error is what is left" in " ".join(details)
+
+
+def test_version_subprocess() -> None:
+    proc = subprocess.run(
+        [sys.executable, "-m", "stackik", "--version"], capture_output=True, text=True, timeout=60
+    )
+    assert proc.returncode == 0 and proc.stdout.strip() == f"stackik {stackik.__version__}"

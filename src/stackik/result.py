@@ -32,8 +32,8 @@ class IKStatus(Enum):
 #: The message of each status (one table; a result may carry a more specific one).
 STATUS_MESSAGES = {
     IKStatus.SUCCESS: "Target reached with every leg and joint limit respected (checked).",
-    IKStatus.INFEASIBLE: "No feasible pose found: the target looks unreachable; q is the "
-    "least-violation pose found.",
+    IKStatus.INFEASIBLE: "Unreachable: no feasible pose found. q is the least-violation "
+    "pose found.",
     IKStatus.MAX_ITER: "Iteration limit reached before a checked feasible pose was found.",
     IKStatus.MAX_TIME: "Time limit reached before a checked feasible pose was found.",
     IKStatus.FAILED: "The solver stopped without a pose that passes the independent check.",

@@ -12,10 +12,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
+from stackik._arrays import finite_array
 from stackik.geometry import finite_number
-from stackik.rotations import plane_axis, rodrigues
+from stackik.rotations import euler_zyx, plane_axis, rodrigues
 
 __all__ = [
     "PAPER_TARGETS",
@@ -78,7 +79,7 @@ class PlanarTarget:
 
 @dataclass(frozen=True, eq=False)
 class SpatialTarget:
-    """End-effector target of spatial mode.
+    """End-effector target of spatial mode (DESIGN §4).
 
     Parameters
     ----------
@@ -86,27 +87,73 @@ class SpatialTarget:
         ``P_ee`` in the base frame [mm].
     rotation : array_like, shape (3, 3)
         ``R_ee``, a rotation matrix (orthonormal to 1e-6, det +1).
+
+    Other constructors: :meth:`from_euler` (yaw, pitch, roll), :meth:`from_rotvec`
+    (rotation vector) and :meth:`from_quat` (unit quaternion, scalar last).
+
+    Examples
+    --------
+    >>> t = SpatialTarget.from_euler([100.0, 0.0, 1200.0], yaw=0.3, pitch=0.0, roll=0.1)
+    >>> t.position.tolist()
+    [100.0, 0.0, 1200.0]
     """
 
     position: FloatArray
     rotation: FloatArray
 
     def __post_init__(self) -> None:
-        try:
-            P = np.array(self.position, dtype=float)
-            R = np.array(self.rotation, dtype=float)
-        except (TypeError, ValueError):
-            raise ValueError("position/rotation: expected arrays of numbers") from None
-        if P.shape != (3,) or not np.all(np.isfinite(P)):
-            raise ValueError(f"position: expected 3 finite values, got shape {P.shape}")
-        if R.shape != (3, 3) or not np.all(np.isfinite(R)):
-            raise ValueError(f"rotation: expected a finite (3, 3) matrix, got shape {R.shape}")
-        if np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) < 0:
-            raise ValueError("rotation: not a rotation matrix (R^T R != I or det < 0)")
+        P = finite_array(self.position, "position", (3,))
+        R = finite_array(self.rotation, "rotation", (3, 3))
+        err = float(np.abs(R.T @ R - np.eye(3)).max())
+        if err > 1e-6:
+            raise ValueError(
+                f"rotation: not a rotation matrix (max |R^T R - I| = {err:.3g} > 1e-6)"
+            )
+        if np.linalg.det(R) < 0:
+            raise ValueError("rotation: not a rotation matrix (det R = -1, a reflection)")
         P.setflags(write=False)
         R.setflags(write=False)
         object.__setattr__(self, "position", P)
         object.__setattr__(self, "rotation", R)
+
+    @classmethod
+    def from_euler(
+        cls, position: ArrayLike, yaw: float, pitch: float, roll: float
+    ) -> SpatialTarget:
+        """The target at ``position`` [mm] with ``R = Rz(yaw) Ry(pitch) Rx(roll)`` [rad].
+
+        The convention of the platform variables (DESIGN §4), the same as scipy's
+        ``Rotation.from_euler("ZYX", [yaw, pitch, roll])``: turn by ``roll`` about x,
+        then ``pitch`` about y, then ``yaw`` about z, all axes of the base frame.
+        """
+        angles = [finite_number(v, k) for k, v in (("yaw", yaw), ("pitch", pitch), ("roll", roll))]
+        return cls(finite_array(position, "position", (3,)), euler_zyx(angles))
+
+    @classmethod
+    def from_rotvec(cls, position: ArrayLike, rotvec: ArrayLike) -> SpatialTarget:
+        """The target at ``position`` [mm] turned by the rotation vector ``rotvec``
+        (shape (3,)): the axis ``rotvec / |rotvec|``, the angle ``|rotvec|`` [rad]."""
+        w = finite_array(rotvec, "rotvec", (3,))
+        angle = float(np.linalg.norm(w))
+        R = np.eye(3) if angle == 0.0 else rodrigues(w / angle, angle)
+        return cls(finite_array(position, "position", (3,)), R)
+
+    @classmethod
+    def from_quat(cls, position: ArrayLike, quat: ArrayLike) -> SpatialTarget:
+        """The target at ``position`` [mm] turned by the quaternion ``quat = (x, y, z, w)``
+        (shape (4,), scalar *last*, as scipy's ``Rotation.from_quat``); normalised
+        here, so any non-zero length is accepted."""
+        xyzw = finite_array(quat, "quat", (4,))
+        norm = float(np.linalg.norm(xyzw))
+        if norm < 1e-12:
+            raise ValueError("quat: a zero quaternion is no rotation (expected (x, y, z, w))")
+        x, y, z, w = xyzw / norm
+        R = np.array([
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ])  # fmt: skip
+        return cls(finite_array(position, "position", (3,)), R)
 
 
 Target = PlanarTarget | SpatialTarget

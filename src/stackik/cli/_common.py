@@ -33,6 +33,7 @@ __all__ = [
     "add_planar_target_args",
     "add_scale_args",
     "add_stack_args",
+    "add_starts_arg",
     "call_entry",
     "check_scale_args",
     "draw_figures",
@@ -176,16 +177,20 @@ def planar_target(args: argparse.Namespace) -> PlanarTarget:
 
 def add_method_args(p: argparse.ArgumentParser) -> None:
     """``--method`` (choices: the method registry, ``stackik.solve.METHOD_NAMES``) and
-    ``--qp-solver``."""
+    ``--qp-solver``. The help states the rule of :func:`stackik.solve.policy.auto_method`
+    (tests/test_cli.py holds the two together)."""
     from stackik.solve import METHOD_NAMES
 
     p.add_argument(
         "--method",
         choices=METHOD_NAMES,
         default="auto",
-        help="auto (default): stackik's compiled interior-point solver for planar targets, "
-        "its SQP engine otherwise; ip or sqp to choose; a scipy baseline; or IPOPT through "
-        "CasADi (planar; needs the [ipopt] extra)",
+        help="auto (default): ip, stackik's compiled interior point, for planar and spatial "
+        "targets with --objective frobenius or weighted (planar: one sigma-theta for all "
+        "platforms); sqp, its SQP engine, for --objective feasible or when --qp-solver is "
+        "given (and when no interior-point start passes the check); ip or sqp to choose; "
+        "slsqp or trust-constr, the scipy baselines; ipopt, IPOPT through CasADi (planar "
+        "and spatial; needs the [ipopt] extra)",
     )
     p.add_argument(
         "--qp-solver",
@@ -193,6 +198,21 @@ def add_method_args(p: argparse.ArgumentParser) -> None:
         metavar="NAME",
         help="QP backend of --method sqp (with auto: selects sqp): daqp (default when "
         "installed), osqp, clarabel or any qpsolvers name",
+    )
+
+
+def add_starts_arg(p: argparse.ArgumentParser) -> None:
+    """``--starts K``, default None: the default of :func:`stackik.solve_ik` (one default
+    for the library and the command line)."""
+    p.add_argument(
+        "--starts",
+        type=positive_int,
+        default=None,
+        metavar="K",
+        help="number of starts (default: solve_ik's: planar, the paper's guess and two "
+        "folded variants, plus fold patterns of the top platforms from n = 5; spatial, "
+        "the interior point's structured starts and hops); K takes the first K structured "
+        "starts and fills up with random ones (--seed)",
     )
 
 

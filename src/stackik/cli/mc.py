@@ -20,6 +20,7 @@ from ._common import (
     add_planar_target_args,
     add_scale_args,
     add_stack_args,
+    add_starts_arg,
     draw_figures,
     dump_json,
     executor_from_args,
@@ -60,7 +61,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--sigma-theta", type=float, default=0.005, help="angle noise [rad] (0.005)")
     p.add_argument("--nonopt", type=int, default=2, help="non-optimised poses (2)")
     add_method_args(p)
-    p.add_argument("--starts", type=positive_int, default=1, metavar="K", help="starts (1)")
+    add_starts_arg(p)
     p.add_argument("--seed", type=int, default=None, metavar="S", help=f"seed ({DEFAULT_SEED})")
     p.add_argument(
         "--out", type=Path, default=None, metavar="DIR", help="write mc.json and the figures"

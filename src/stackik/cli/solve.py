@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import textwrap
 from typing import TYPE_CHECKING, Any
 
 from ._common import (
@@ -14,11 +15,11 @@ from ._common import (
     add_method_args,
     add_planar_target_args,
     add_stack_args,
+    add_starts_arg,
     dump_json,
     finite_float,
     load_stack,
     planar_target,
-    positive_int,
     resolve_qp,
 )
 
@@ -27,7 +28,16 @@ if TYPE_CHECKING:
     from stackik.result import IKResult
     from stackik.targets import PlanarTarget, SpatialTarget
 
-__all__ = ["HELP", "NAME", "add_parser", "format_result", "pose_margins", "run"]
+__all__ = [
+    "HELP",
+    "NAME",
+    "add_parser",
+    "format_result",
+    "pose_margins",
+    "qp_backend",
+    "run",
+    "split_message",
+]
 
 NAME = "solve"
 HELP = "solve the inverse kinematics of one target"
@@ -68,7 +78,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--sigma-theta", type=float, default=None, help="weighted: sigma_theta [rad] (0.005)"
     )
     add_method_args(p)
-    p.add_argument("--starts", type=positive_int, default=1, metavar="K", help="starts (1)")
+    add_starts_arg(p)
     p.add_argument("--seed", type=int, default=None, metavar="S", help="seed of extra starts")
     p.add_argument(
         "--start",
@@ -149,26 +159,46 @@ def format_result(stack: Stack, result: IKResult) -> str:
     )
     lines.append("")
     width = 16
+    headline, details = split_message(result.message)
     summary: list[tuple[str, str]] = [
         ("success", str(result.success)),
-        ("status", f"{result.status.value}: {result.message}"),
+        ("status", f"{result.status.value}: {headline}"),
         ("frobenius norm", f"{result.frobenius_norm:.6g}"),
         ("objective", f"{result.objective} = {result.objective_value:.6g}"),
         ("max violation", f"{result.max_violation:.3g} (raw: mm^2 leg blocks, mm joint blocks)"),
         ("target error", f"{result.target_error:.3g} mm, {result.angle_error:.3g} rad"),
         ("time", f"{result.time:.3f} s ({result.nit} iterations, {result.n_starts} start(s))"),
-        (
-            "method",
-            result.method
-            if result.qp_solver == "-"
-            else f"{result.method} (QP: {result.qp_solver})",
-        ),
+        ("method", f"{result.method} (QP backend: {qp_backend(result) or 'none'})"),
     ]
     if result.phi is not None:
         summary.insert(4, ("phi", f"{result.phi:.6g} rad"))
+    indent = " " * width
     for key, value in summary:
         lines.append(f"{key:<{width}}{value}")
+        if key == "status" and details:  # the message's details, below its headline
+            wrapped = textwrap.fill(details, 88, initial_indent=indent, subsequent_indent=indent)
+            lines.append(wrapped)
     return "\n".join(lines)
+
+
+def split_message(message: str) -> tuple[str, str]:
+    """``(headline, details)`` of a result message: its first sentence, and the rest
+    (empty for the one-sentence messages of a success)."""
+    head, sep, rest = message.partition(". ")
+    return (head + ".", rest.strip()) if sep else (message, "")
+
+
+def qp_backend(result: IKResult) -> str | None:
+    """The QP backend of the method that produced the pose: the SQP engine's (its
+    default, :func:`stackik.sqp.qp.default_qp_solver`, when none was asked for, as after
+    the ``auto`` policy's hand-over); None for the methods without one (ip, scipy, ipopt)."""
+    if result.method != "sqp":
+        return None
+    if result.qp_solver not in ("-", "default"):
+        return result.qp_solver
+    from stackik.sqp.qp import default_qp_solver
+
+    return default_qp_solver()
 
 
 def _target(args: argparse.Namespace) -> PlanarTarget | SpatialTarget:
@@ -222,7 +252,7 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.json:
         data = result.to_dict()
-        data["qp_solver"] = qp if qp is not None else "-"
+        data["qp_solver"] = qp_backend(result) or "-"
         data["n"] = stack.n
         if result.mode == "planar":
             data["target"] = {"rho": args.target[0], "z": args.target[1], "theta": args.target[2]}

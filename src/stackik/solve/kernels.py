@@ -3,11 +3,19 @@
 The planar interior point and its re-check (:mod:`stackik._ipm`, :mod:`stackik._check`),
 the spatial evaluation (:mod:`stackik._spatial`) and the spatial interior point
 (:mod:`stackik._spatial_ipm`) are compiled by numba with
-``cache=True``: the first use on a machine compiles them (tens of seconds) and writes
-machine code beside the sources (or to ``NUMBA_CACHE_DIR``); later processes load it
-(a fraction of a second). :func:`solve_ik` calls :func:`ensure_kernels` for what the
-request needs *before* its clock starts, so compilation never eats a solve's time budget
-nor shows in :attr:`IKResult.time`. A compilation says so on stderr once.
+``cache=True``: the first use on a machine compiles them (a minute or more each on a
+loaded 2-core machine: ``benchmarks/results/first_run.md``) and writes machine code beside
+the sources (or to ``NUMBA_CACHE_DIR``); later processes load it (a fraction of a
+second). :func:`solve_ik` calls :func:`ensure_kernels` for what the request needs
+*before* its clock starts, so compilation never eats a solve's time budget nor shows in
+:attr:`IKResult.time`; the warm-up also runs what numba compiles per process whatever
+the cache (the interior point's object-mode clock) and creates the BLAS controller, so
+that a first solve after it pays nothing a later one does not.
+
+A compilation shows its progress on stderr, per kernel family: on a terminal a bar that
+ticks per entry point compiled (``stackik: planar kernels 3/8 [00:41, _ip_loop]``: the
+elapsed time and the function numba compiles now); otherwise (a log, a pipe) one line
+when it starts and one when it ends, with the seconds it took.
 """
 
 from __future__ import annotations
@@ -16,14 +24,15 @@ import math
 import sys
 import threading
 import time
-from typing import Any
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import IO, Any
 
 __all__ = ["KERNEL_KINDS", "ensure_kernels", "kernels_cached", "warm_up"]
 
-#: The kernel sets, and the rough first-compile time of each on a 2-core machine [s]
-#: (measured with an empty NUMBA_CACHE_DIR at load ~2 from other jobs, path kernels
-#: included: the first planar command 42 s in all, a first spatial solve 86 s with both).
-KERNEL_KINDS: dict[str, float] = {"planar": 40.0, "spatial": 45.0}
+#: The kernel families (compiled and loaded separately: a spatial solve needs no planar
+#: kernel unless its target turns out unreachable).
+KERNEL_KINDS: tuple[str, ...] = ("planar", "spatial")
 
 _READY: set[str] = set()
 _LOCK = threading.Lock()
@@ -130,28 +139,110 @@ def kernels_cached(kind: str) -> bool | None:
 
 
 def _warm(kind: str) -> None:
-    if kind == "planar":
-        from stackik.methods.ip import warm_up as planar_warm_up
-
-        planar_warm_up()
-        _warm_path_kernels(True)
-        _warm_sqp_kernels(True)
-        return
     from stackik.methods.ip import ip_starts
+    from stackik.solve.blas import _blas_controller
 
-    _, _, _, prob, q0 = _small_problem(False)
+    _blas_controller()  # threadpoolctl's scan of the loaded libraries (~20 ms), once
+    planar = kind == "planar"
+    _, _, _, prob, q0 = _small_problem(planar)
     prob.evaluate(prob.u_of(q0))
-    ip_starts(prob, [q0], {}, math.inf)  # spatial IP
-    _warm_path_kernels(False)
-    _warm_sqp_kernels(False)
+    # two starts: the batch reads its clock before the second (an object-mode call that
+    # numba compiles in every process, cache or not: 31-39 ms of the first solve's time)
+    ip_starts(prob, [q0, q0], {}, math.inf)
+    _warm_path_kernels(planar)
+    _warm_sqp_kernels(planar)
+
+
+class _Progress:
+    """Compilation progress of one kernel family on ``stream``, fed by numba's
+    ``numba:compile`` events: a tqdm bar ticking per entry point when ``tty``, else a
+    line at the start; a line at the end either way."""
+
+    def __init__(self, kind: str, entry_points: list[Any], stream: IO[str], tty: bool) -> None:
+        self.kind, self.stream = kind, stream
+        self.entry = {id(d) for d in entry_points}
+        self.total = len(entry_points)
+        self.done: set[int] = set()
+        self.functions = 0
+        self.t0 = time.perf_counter()
+        self.bar: Any = None
+        if tty:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(
+                total=self.total,
+                desc=f"stackik: {kind} kernels",
+                file=stream,
+                bar_format="{desc} {n_fmt}/{total_fmt} [{elapsed}{postfix}]",
+                leave=False,
+            )
+        else:
+            print(
+                f"stackik: compiling the {kind} solver kernels ({self.total} entry points; "
+                "first run on this machine only, cached afterwards)",
+                file=stream,
+                flush=True,
+            )
+
+    def started(self, event: Any) -> None:
+        """A ``numba:compile`` event starts: name the function on the bar."""
+        if self.bar is not None:
+            name = getattr(getattr(event.data.get("dispatcher"), "py_func", None), "__name__", "?")
+            self.bar.set_postfix_str(name, refresh=True)
+
+    def ended(self, event: Any) -> None:
+        """A ``numba:compile`` event ends: tick when it is a new entry point."""
+        self.functions += 1
+        key = id(event.data.get("dispatcher"))
+        if key in self.entry and key not in self.done:
+            self.done.add(key)
+            if self.bar is not None:
+                self.bar.update(1)
+
+    def close(self) -> None:
+        seconds = time.perf_counter() - self.t0
+        if self.bar is not None:
+            self.bar.close()
+        print(
+            f"stackik: compiled the {self.kind} solver kernels in {seconds:.0f} s "
+            f"({len(self.done)} of {self.total} entry points, {self.functions} functions "
+            "in all)",
+            file=self.stream,
+            flush=True,
+        )
+
+
+@contextmanager
+def _progress(kind: str, stream: IO[str] | None = None) -> Iterator[_Progress]:
+    """Show the compilation of ``kind`` on ``stream`` (default stderr) while in the block."""
+    from numba.core import event
+
+    stream = sys.stderr if stream is None else stream
+    tty = bool(getattr(stream, "isatty", lambda: False)())
+    progress = _Progress(kind, _dispatchers(kind), stream, tty)
+
+    class Forward(event.Listener):  # numba's listener interface, to the progress
+        def on_start(self, e: Any) -> None:
+            progress.started(e)
+
+        def on_end(self, e: Any) -> None:
+            progress.ended(e)
+
+    listener = Forward()
+    event.register("numba:compile", listener)
+    try:
+        yield progress
+    finally:
+        event.unregister("numba:compile", listener)
+        progress.close()
 
 
 def ensure_kernels(kind: str, *, notice: bool = True) -> float:
     """Load or compile the kernels of ``kind`` (``"planar"`` or ``"spatial"``) once per
-    process; returns the seconds spent (0 when already done). A compilation prints one
-    line on stderr first (``notice=False`` silences it)."""
+    process; returns the seconds spent (0 when already done). A compilation shows its
+    progress on stderr (module docstring; ``notice=False`` silences it)."""
     if kind not in KERNEL_KINDS:
-        raise ValueError(f"kind: unknown {kind!r}; choose one of {tuple(KERNEL_KINDS)}")
+        raise ValueError(f"kind: unknown {kind!r}; choose one of {KERNEL_KINDS}")
     if kind in _READY:
         return 0.0
     with _LOCK:
@@ -159,18 +250,31 @@ def ensure_kernels(kind: str, *, notice: bool = True) -> float:
             return 0.0
         t0 = time.perf_counter()
         if notice and kernels_cached(kind) is False:
-            print(
-                f"stackik: compiling the {kind} solver kernels (first run on this machine "
-                f"only, about {KERNEL_KINDS[kind]:.0f} s; cached afterwards)",
-                file=sys.stderr,
-                flush=True,
-            )
-        _warm(kind)
+            with _progress(kind):
+                _warm(kind)
+        else:
+            _warm(kind)
         _READY.add(kind)
         return time.perf_counter() - t0
 
 
-def warm_up(kinds: tuple[str, ...] = ("planar", "spatial"), *, notice: bool = True) -> float:
+def warm_up(kinds: tuple[str, ...] = KERNEL_KINDS, *, notice: bool = True) -> float:
     """Load or compile every kernel set in ``kinds`` now (e.g. in a worker process before
-    it takes work); returns the seconds spent."""
-    return sum(ensure_kernels(k, notice=notice) for k in kinds)
+    it takes work), and import the SQP engine's QP backends (their first import, ~0.2 s,
+    would otherwise land in the first SQP solve's time); returns the seconds spent."""
+    t0 = time.perf_counter()
+    for kind in kinds:
+        ensure_kernels(kind, notice=notice)
+    _import_qp_backends()
+    return time.perf_counter() - t0
+
+
+def _import_qp_backends() -> None:
+    """Import the installed QP backends (:func:`stackik.sqp.qp.available_qp_solvers`
+    tries each) and build the default one, as a first SQP solve does."""
+    from stackik.sqp.qp import default_qp_solver, make_backend
+
+    try:
+        make_backend(default_qp_solver())
+    except ValueError:  # no QP solver installed: the SQP solve reports it
+        pass

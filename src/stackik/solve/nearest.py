@@ -41,17 +41,16 @@ NEAREST_STEPS = 24
 #: decides (starting from the pose reached).
 NEAREST_MAX_T = 0.999
 NEAREST_MESSAGE = (
-    "No feasible pose found: the target looks unreachable (every interior-point start "
-    "stalled); q respects every limit and reaches the point y0 + t (y_target - y0) for "
-    "the largest t a bisection from the upright pose y0 found; target_error is what is "
-    "left [mm]."
+    "Unreachable: every interior-point start stalled. q respects every limit and reaches "
+    "the point y0 + t (y_target - y0) for the largest t a bisection from the upright pose "
+    "y0 found; target_error is what is left [mm]."
 )
 
 SPATIAL_NEAREST_MESSAGE = (
-    "No feasible pose found: the target looks unreachable (the first interior-point "
-    "starts all stalled far from it); q respects every limit and is stretched toward the "
-    "target position in the vertical plane through it (a bisection of interior-point "
-    "solves from the upright pose); target_error is what is left [mm]."
+    "Unreachable: the first interior-point starts all stalled far from the target. q "
+    "respects every limit and is stretched toward the target position in the vertical "
+    "plane through it (a bisection of interior-point solves from the upright pose); "
+    "target_error is what is left [mm]."
 )
 
 
@@ -108,9 +107,9 @@ def nearest_reachable(
 
 
 BEYOND_MESSAGE = (
-    "Unreachable: the target lies beyond the reach bound of the stack (the sum over "
-    "platforms of leg_max and the node radii); q respects every limit and is stretched "
-    "toward the target along the segment from the upright pose (a bisection of "
+    "Unreachable: the target lies beyond the reach bound of the stack. The reach bound is "
+    "the sum over platforms of leg_max and the node radii; q respects every limit and is "
+    "stretched toward the target along the segment from the upright pose (a bisection of "
     "interior-point solves; spatial targets: in the vertical plane through the target "
     "position); target_error is what is left [mm]."
 )

@@ -124,7 +124,7 @@ def solve_ik(
         compiled twin :func:`stackik._check.planar_check`, tested to agree, does the
         check).
     """
-    for kind in _kernels_needed(stack, target, method):
+    for kind in _kernels_needed(stack, target):
         ensure_kernels(kind)  # load or compile before the clock starts
     t_start = time.perf_counter()
     blas = BlasLimit(blas_threads)
@@ -146,21 +146,20 @@ def _beyond_reach(stack: Stack, target: Target) -> bool:
     return float(np.linalg.norm(position)) > reach_bound(stack)
 
 
-def _kernels_needed(stack: object, target: object, method: object) -> tuple[str, ...]:
-    """The compiled kernels a request may call: the spatial set (evaluation and interior
-    point) for spatial targets; the planar set for every planar target (every method
-    evaluates the planar problem, the SQP its Hessian, through it: a cold first SQP solve
-    used to spend its 18 s budget compiling and return its start after 0 iterations),
-    and for ``"auto"`` or ``"ip"`` of either kind (the stretched pose of an unreachable
-    target is a planar bisection) and any target beyond the reach bound."""
+def _kernels_needed(stack: object, target: object) -> tuple[str, ...]:
+    """The compiled kernels a request calls for sure: the planar set for every planar
+    target (every method evaluates the planar problem, the SQP its Hessian, through it:
+    a cold first SQP solve used to spend its 18 s budget compiling and return its start
+    after 0 iterations); the spatial set (evaluation and interior point) for spatial
+    targets, with the planar set only for a target beyond the reach bound (its
+    stretched pose is a planar bisection). A spatial target that turns out unreachable
+    later loads the planar set then, off the clock (:meth:`Request.load_kernels`): a
+    first spatial solve compiles no planar kernel (it used to compile both sets)."""
     if not isinstance(stack, Stack) or not isinstance(target, PlanarTarget | SpatialTarget):
         return ()  # the request's validation reports it
     if isinstance(target, PlanarTarget):
         return ("planar",)
-    out: tuple[str, ...] = ("spatial",)
-    if method in ("auto", "ip") or _beyond_reach(stack, target):
-        out += ("planar",)
-    return out
+    return ("spatial", "planar") if _beyond_reach(stack, target) else ("spatial",)
 
 
 def _run(req: Request) -> Verdict:

@@ -13,10 +13,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from stackik._arrays import finite_array
 from stackik.formulation import Mode, Problem, mode_of
 from stackik.geometry import Stack
 from stackik.methods import AUTO, Method, get_method
 from stackik.solve.blas import BlasLimit
+from stackik.solve.kernels import ensure_kernels
 from stackik.solve.policy import auto_method
 from stackik.starts import StartSampler, paper_initial_guess
 from stackik.targets import Target
@@ -62,6 +64,12 @@ class Request:
         """Seconds left of the budget at ``now`` (at least 1 ms)."""
         return max(self.max_time - (now - self.t_start), 1e-3)
 
+    def load_kernels(self, kind: str) -> None:
+        """Load (or compile) the kernels of ``kind`` in the middle of the solve, the
+        seconds spent taken off its clock (as :func:`stackik.solve_ik` loads the others
+        before its clock starts): ``t_start`` moves on by them."""
+        self.t_start += ensure_kernels(kind)
+
     def out_of_time(self) -> bool:
         """Whether the budget is spent (:meth:`time_left` never says so: it keeps 1 ms)."""
         return time.perf_counter() - self.t_start > self.max_time
@@ -85,10 +93,7 @@ def sigma_weights(
 def _first_start(stack: Stack, target: Target, mode: Mode, x0: Any, start: str) -> FloatArray:
     n, k = stack.n, mode.k
     if x0 is not None:
-        q0 = np.array(x0, dtype=float)
-        if q0.shape != (n, k) or not np.all(np.isfinite(q0)):
-            raise ValueError(f"x0: expected finite values of shape ({n}, {k}), got {q0.shape}")
-        return q0
+        return finite_array(x0, "x0", (n, k))  # (n, 3) planar, (n, 6) spatial
     if start == "convex":
         from stackik.convex import ConvexStartError, convex_start
 

@@ -167,7 +167,9 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     queue = plan.queue
     if stalled:
         # the bisection toward the target (spatial: in the vertical plane through its
-        # position) gives a pose within every limit stretched toward it
+        # position) gives a pose within every limit stretched toward it; a planar
+        # bisection: its kernels load now (off the clock) for a spatial target
+        req.load_kernels("planar")
         near, t_near, nit_near, n_near = stretch_toward(
             req.stack, req.target, req.objective, req.weights, req.options,
             req.t_start + req.max_time,

@@ -1,0 +1,169 @@
+"""First run: what a fresh process pays, and when.
+
+After :func:`stackik.warm_up` a first solve compiles and imports nothing (the first solve's
+clock used to include the interior point's object-mode clock, compiled in every process,
+and threadpoolctl's first scan: 31-39 ms against 0.6-0.9 ms later); a spatial solve loads
+no planar kernel unless its target turns out unreachable, and then off the clock; a
+compilation shows its progress per kernel family. Processes are spawned, so that what
+this test process has loaded does not hide a cost; nothing here asserts a time.
+"""
+
+from __future__ import annotations
+
+import io
+import multiprocessing as mp
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+import pytest
+
+import stackik as sk
+from stackik.solve import kernels
+
+
+def _in_fresh_process(fn, *args):
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
+        return pool.submit(fn, *args).result(timeout=900)
+
+
+def _spatial_target(n: int) -> sk.SpatialTarget:
+    q = np.array([[10.0, -5.0, 330.0, 0.05, 0.02, -0.03]] * n)
+    return sk.SpatialTarget(*sk.spatial_forward(q))
+
+
+def _what_first_calls_cost() -> dict[str, tuple[list[str], list[str]]]:
+    """Runs in a fresh process: warm up, then record the numba compilations and the new
+    modules of each first call (planar n = 4 paper target as the issue measured it,
+    spatial, an unreachable spatial target, the SQP engine's first solves (its QP
+    backends imported by the warm-up), a planar and a spatial path)."""
+    import sys
+
+    from numba.core import event
+
+    sk.warm_up()
+    solve_path, interpolate = sk.solve_path, sk.interpolate_targets  # (lazy attributes)
+    stack = sk.Stack.reference(4)
+    keys = [sk.PlanarTarget(0.0, 1000.0, 0.0), sk.PlanarTarget(150.0, 950.0, 0.2)]
+    calls = {
+        "planar": lambda: sk.solve_ik(stack, sk.PlanarTarget(600.0, 1000.0, -1.57)),
+        "spatial": lambda: sk.solve_ik(stack, _spatial_target(4)),
+        "spatial unreachable": lambda: sk.solve_ik(
+            sk.Stack.reference(3), sk.SpatialTarget([0.0, 0.0, 200.0], np.eye(3))
+        ),
+        "planar sqp": lambda: sk.solve_ik(stack, keys[0], method="sqp", starts=1),
+        "spatial sqp": lambda: sk.solve_ik(
+            sk.Stack.reference(3), _spatial_target(3), method="sqp", starts=1
+        ),
+        "planar path": lambda: solve_path(stack, interpolate(keys, steps=3)),
+        "spatial path": lambda: solve_path(
+            stack, interpolate([t.to_spatial() for t in keys], steps=3)
+        ),
+    }
+    out = {}
+    for name, call in calls.items():
+        before = set(sys.modules)
+        with event.install_recorder("numba:compile") as rec:
+            call()
+        compiled = [e.data["dispatcher"].py_func.__qualname__ for _, e in rec.buffer if e.is_start]
+        out[name] = (compiled, sorted(set(sys.modules) - before))
+    return out
+
+
+def test_after_warm_up_a_first_solve_compiles_and_imports_nothing():
+    costs = _in_fresh_process(_what_first_calls_cost)
+    assert costs == {name: ([], []) for name in costs}
+
+
+def _kernels_a_spatial_solve_loads() -> dict[str, object]:
+    """Runs in a fresh process: one reachable spatial solve (no warm-up); which kernel
+    families are loaded and which planar entry points got a specialisation."""
+    import sys
+
+    r = sk.solve_ik(sk.Stack.reference(3), _spatial_target(3))
+    # the planar entry points, and every compiled function of the planar interior point's
+    # module (wherever the kernels live)
+    planar = kernels._dispatchers("planar")
+    ipm = sys.modules[planar[0].py_func.__module__]
+    planar += [d for d in vars(ipm).values() if hasattr(d, "signatures")]
+    return {
+        "status": r.status.value,
+        "ready": sorted(kernels._READY),
+        "planar specialisations": sum(len(d.signatures) for d in planar),
+    }
+
+
+def test_a_spatial_solve_loads_no_planar_kernel():
+    # (on an empty cache the same rule means it compiles none: benchmarks/first_run.py
+    # records the compilations of a first spatial solve there)
+    out = _in_fresh_process(_kernels_a_spatial_solve_loads)
+    assert out == {"status": "success", "ready": ["spatial"], "planar specialisations": 0}
+
+
+def test_an_unreachable_spatial_target_loads_the_planar_kernels_off_the_clock(monkeypatch):
+    from stackik.solve import request
+
+    loaded: list[str] = []
+
+    def fake(kind: str) -> float:  # as if loading took 1000 s
+        loaded.append(kind)
+        return 1000.0
+
+    monkeypatch.setattr(request, "ensure_kernels", fake)
+    stack = sk.Stack.reference(3)
+    r = sk.solve_ik(stack, _spatial_target(3))
+    assert r.success and loaded == []  # reachable: no planar kernel needed
+    r = sk.solve_ik(stack, sk.SpatialTarget([0.0, 0.0, 200.0], np.eye(3)))  # stalls
+    assert r.status is sk.IKStatus.INFEASIBLE and r.message.startswith("Unreachable")
+    assert loaded == ["planar"]
+    assert r.time < -900.0  # the 1000 s said spent loading are not on the solve's clock
+
+
+# -----------------------------------------------------------------------------------------
+# Progress of a compilation
+# -----------------------------------------------------------------------------------------
+def _fake_family(monkeypatch: pytest.MonkeyPatch, names: list[str]) -> None:
+    """The planar family replaced by fresh (uncompiled, uncached) numba functions."""
+    import numba
+
+    funcs = []
+    for k, name in enumerate(names):
+        ns: dict[str, object] = {}
+        exec(f"def {name}(x):\n    return x + {k}", ns)  # noqa: S102 - a fresh function
+        funcs.append(numba.njit(ns[name]))
+    monkeypatch.setattr(kernels, "_dispatchers", lambda kind: funcs)
+    monkeypatch.setattr(kernels, "kernels_cached", lambda kind: False)
+    monkeypatch.setattr(kernels, "_warm", lambda kind: [f(1.0) for f in funcs])
+    monkeypatch.setattr(kernels, "_READY", set())
+
+
+def test_a_compilation_says_when_it_starts_and_how_long_it_took(monkeypatch, capsys):
+    _fake_family(monkeypatch, ["first_kernel", "second_kernel"])
+    kernels.ensure_kernels("planar")
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == (
+        "stackik: compiling the planar solver kernels (2 entry points; first run on this "
+        "machine only, cached afterwards)"
+    )
+    assert err[1].startswith("stackik: compiled the planar solver kernels in ")
+    assert err[1].endswith(" s (2 of 2 entry points, 2 functions in all)")
+    assert len(err) == 2
+    kernels.ensure_kernels("planar")  # once per process
+    assert capsys.readouterr().err == ""
+
+
+def test_a_compilation_on_a_terminal_ticks_a_bar_per_entry_point(monkeypatch):
+    _fake_family(monkeypatch, ["alpha_kernel", "beta_kernel", "gamma_kernel"])
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    term = Terminal()
+    with kernels._progress("planar", term) as progress:
+        for f in kernels._dispatchers("planar"):
+            f(2.0)
+        assert progress.bar.n == 3 and progress.done == {id(f) for f in kernels._dispatchers("")}
+    text = term.getvalue()
+    assert "stackik: planar kernels 0/3" in text and "stackik: planar kernels 3/3" in text
+    assert "gamma_kernel" in text  # the function being compiled, on the bar
+    assert text.rstrip().splitlines()[-1].endswith("(3 of 3 entry points, 3 functions in all)")
