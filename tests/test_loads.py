@@ -21,6 +21,7 @@ import math
 import pickle
 import zlib
 
+import fd
 import numpy as np
 import pytest
 import reference_impl as ref
@@ -66,8 +67,22 @@ def _vee(S):
     return np.array([S[2, 1], S[0, 2], S[1, 0]])
 
 
-def virtual_work_forces(stack: Stack, poses, load: Load):
-    """Leg forces (n, 6) [N] by virtual work (module doc); poses: real [(P_i, R_i)]."""
+def virtual_work_forces(stack: Stack, poses, load: Load, derivative: str = "complex"):
+    """Leg forces (n, 6) [N] by virtual work (module doc); poses: real [(P_i, R_i)].
+
+    derivative: "complex" (complex step, exact to rounding) or "central" (real central
+    differences with Richardson extrapolation, tests/fd.py: error ~ eps^(4/5) of the scale).
+    """
+    if derivative == "complex":
+        diff = ref.complex_step
+    else:
+
+        def diff(f, x):
+            def real(y):
+                return np.real(f(y))  # reference_impl's explicit rotation is complex-typed
+
+            return fd.central(real, x, typical=fd.TYPICAL_SPATIAL, richardson=True).value
+
     geoms = [_geometry_dict(g) for g in stack]
     n = len(geoms)
     g_acc = load.gravity  # [m/s^2]: m g is in N
@@ -98,9 +113,9 @@ def virtual_work_forces(stack: Stack, poses, load: Load):
             return ref.chain(moved(x))[1][-1]
 
         x0 = np.zeros(6)
-        dl = ref.complex_step(lengths, x0)  # (6 legs, 6 motions)
-        Q = ref.complex_step(work_of_loads, x0)  # (6,)
-        dA = ref.complex_step(end_rotation, x0)  # (3, 3, 6)
+        dl = diff(lengths, x0)  # (6 legs, 6 motions)
+        Q = diff(work_of_loads, x0)  # (6,)
+        dA = diff(end_rotation, x0)  # (3, 3, 6)
         dtheta = np.array([_vee(dA[:, :, a] @ A0[-1].T) for a in range(6)])  # (6, 3)
         Q = Q + dtheta @ M
         out[i] = np.linalg.solve(dl.T, -Q)
@@ -185,6 +200,8 @@ def test_leg_forces_equal_virtual_work(planar, frame, gravity):
         f = sk.leg_forces(stack, q, load, phi=phi)
         assert f.shape == (n, 6)
         assert_forces_close(f, virtual_work_forces(stack, poses_of(q, phi), load))
+        if trial == 2:  # once more with real finite differences of the kinematics
+            assert_forces_close(f, virtual_work_forces(stack, poses_of(q, phi), load, "central"))
 
 
 def test_leg_forces_are_batched():

@@ -144,12 +144,17 @@ class Load:
             raise ValueError(f"mass: must be >= 0 kg, got {mass}")
         object.__setattr__(self, "mass", mass)
         object.__setattr__(self, "com", _vector3(self.com, "com"))
-        g = self.gravity
+        g: Any = self.gravity
         if isinstance(g, str):
             if g not in GRAVITY:
                 raise ValueError(f"gravity: unknown preset {g!r}; use one of {list(GRAVITY)}")
             g = GRAVITY[g]
         object.__setattr__(self, "gravity", _vector3(g, "gravity"))
+
+    @property
+    def g(self) -> FloatArray:
+        """The gravity vector [m/s^2] in the base frame, shape (3,)."""
+        return np.asarray(self.gravity, dtype=float)
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Load):
@@ -255,7 +260,7 @@ def _system(
     M_cut = np.cumsum(m[::-1])[::-1]  # (n,)
     S_cut = np.flip(np.cumsum(np.flip(s, axis=-2), axis=-2), axis=-2)  # (..., n, 3)
 
-    g = load.gravity
+    g = load.g
     F_ext, M_ext = load.force, load.moment * _MM_PER_M
     if load.frame == "end_effector":
         F_ext = np.einsum("...ij,j->...i", A[..., n, :, :], F_ext)
@@ -498,6 +503,6 @@ def statics(
     out = (f, np.array(fmax), margin, ratio, sigma_min, condition)
     for a in out:
         a.setflags(write=False)
-    singular = np.array(singular)
-    singular.setflags(write=False)
-    return Statics(*out, length=characteristic_length(stack), singular=singular)
+    flags = np.array(singular, dtype=bool)
+    flags.setflags(write=False)
+    return Statics(*out, length=characteristic_length(stack), singular=flags)
