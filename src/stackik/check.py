@@ -1,8 +1,9 @@
 """The independent check: the one place that decides whether a pose is a success.
 
 :func:`check_pose` re-evaluates a pose with the forward kinematics of
-:mod:`stackik.kinematics` and the constraint functions of :mod:`stackik.platform`, sharing no
-code with any solver. :func:`pose_ok` holds the acceptance rule; the compiled twin
+:mod:`stackik.kinematics`, the constraint functions of :mod:`stackik.platform` and (under a
+load or a force limit) the leg forces of :mod:`stackik.loads`, sharing no code with any
+solver. :func:`pose_ok` holds the acceptance rule; the compiled twin
 (:mod:`stackik._check`) imports only this module.
 """
 

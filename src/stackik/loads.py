@@ -156,6 +156,11 @@ class Load:
         """The gravity vector [m/s^2] in the base frame, shape (3,)."""
         return np.asarray(self.gravity, dtype=float)
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle through the constructor (the arrays come back validated and read-only)."""
+        args = (self.force, self.moment, self.frame, self.mass, self.com, self.gravity)
+        return (Load, args)
+
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Load):
             return NotImplemented
