@@ -26,6 +26,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("stackik.convex", "stackik.starts"),
     ("stackik.formulation", "stackik._check"),
     ("stackik.check", "stackik.result", "stackik.targets", "stackik.sampling"),
+    ("stackik.loads",),  # statics: leg forces and singularity margins
     ("stackik.kinematics",),
     ("stackik.geometry", "stackik.platform"),
     ("stackik.rotations",),

@@ -23,6 +23,15 @@ from stackik.kinematics import (
     spatial_jacobian,
     spatial_plate_origins,
 )
+from stackik.loads import (
+    GRAVITY,
+    Conditioning,
+    Load,
+    Statics,
+    leg_forces,
+    statics,
+    wrench_conditioning,
+)
 from stackik.platform import leg_lengths, leg_vectors, platform_forward_kinematics
 from stackik.result import IKResult, IKStatus, OptionError
 from stackik.solve import solve_ik, solve_many
@@ -34,20 +43,24 @@ __all__ = [
     "__version__",
     "check_pose",
     "ConfidenceEllipse",
+    "Conditioning",
     "convex_start",
     "ConvexStartError",
     "draw_perturbations",
     "f_factor",
     "frobenius_norm",
     "GeometryError",
+    "GRAVITY",
     "IKResult",
     "IKStatus",
     "interpolate_targets",
+    "leg_forces",
     "leg_lengths",
     "leg_vectors",
     "lift_planar",
     "linear_covariance",
     "linearity_check",
+    "Load",
     "monte_carlo",
     "MonteCarloResult",
     "nonoptimal_poses",
@@ -76,11 +89,14 @@ __all__ = [
     "spatial_plate_origins",
     "SpatialTarget",
     "Stack",
+    "statics",
+    "Statics",
     "target_from_dict",
     "target_to_dict",
     "time_parameterize",
     "warm_up",
     "workspace_study",
+    "wrench_conditioning",
 ]
 
 # Analysis names are imported on first use: they pull in scipy.stats and friends.

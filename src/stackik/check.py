@@ -1,8 +1,9 @@
 """The independent check: the one place that decides whether a pose is a success.
 
 :func:`check_pose` re-evaluates a pose with the forward kinematics of
-:mod:`stackik.kinematics` and the constraint functions of :mod:`stackik.platform`, sharing no
-code with any solver. :func:`pose_ok` holds the acceptance rule; the compiled twin
+:mod:`stackik.kinematics`, the constraint functions of :mod:`stackik.platform` and (under a
+load or a force limit) the leg forces of :mod:`stackik.loads`, sharing no code with any
+solver. :func:`pose_ok` holds the acceptance rule; the compiled twin
 (:mod:`stackik._check`) imports only this module.
 """
 
@@ -15,10 +16,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from stackik.geometry import Stack
 from stackik.kinematics import planar_forward, spatial_forward
+from stackik.loads import Load, Statics, statics
 from stackik.targets import PlanarTarget, Target
 
 __all__ = [
     "FEAS_TOL",
+    "FORCE_TOL",
     "TARGET_ANGLE_TOL",
     "TARGET_POS_TOL",
     "PoseCheck",
@@ -32,21 +35,35 @@ FloatArray = NDArray[np.float64]
 TARGET_POS_TOL = 1e-6  # [mm] largest accepted end-effector position error
 TARGET_ANGLE_TOL = 1e-8  # [rad] largest accepted end-effector orientation error
 FEAS_TOL = 1e-6  # [mm] accepted violation of a limit, as a length (see check_pose)
+FORCE_TOL = 1e-6  # accepted leg force over its limit, relative: |f| <= (1 + FORCE_TOL) force_max
 
 
-def pose_ok(position_error: float, angle_error: float, violation_mm: float, finite: bool) -> bool:
+def pose_ok(
+    position_error: float,
+    angle_error: float,
+    violation_mm: float,
+    finite: bool,
+    force_ratio: float = 0.0,
+) -> bool:
     """The acceptance rule of every pose: target within ``TARGET_POS_TOL`` [mm] and
-    ``TARGET_ANGLE_TOL`` [rad], every limit within ``FEAS_TOL`` [mm], all values finite."""
+    ``TARGET_ANGLE_TOL`` [rad], every limit within ``FEAS_TOL`` [mm], all values finite,
+    and every leg force within its limit: ``force_ratio = max |f| / force_max <= 1 +
+    FORCE_TOL`` (0 when forces are not checked; inf at a singular platform)."""
     return (
         position_error <= TARGET_POS_TOL
         and angle_error <= TARGET_ANGLE_TOL
         and violation_mm <= FEAS_TOL
         and bool(finite)
+        and force_ratio <= 1.0 + FORCE_TOL
     )
 
 
 def poses_ok(
-    position_error: ArrayLike, angle_error: ArrayLike, violation_mm: ArrayLike, finite: ArrayLike
+    position_error: ArrayLike,
+    angle_error: ArrayLike,
+    violation_mm: ArrayLike,
+    finite: ArrayLike,
+    force_ratio: ArrayLike = 0.0,
 ) -> NDArray[np.bool_]:
     """:func:`pose_ok` elementwise (arrays of the same shape), as a boolean array."""
     return (  # type: ignore[no-any-return]
@@ -54,6 +71,7 @@ def poses_ok(
         & (np.asarray(angle_error) <= TARGET_ANGLE_TOL)
         & (np.asarray(violation_mm) <= FEAS_TOL)
         & np.asarray(finite, dtype=bool)
+        & (np.asarray(force_ratio) <= 1.0 + FORCE_TOL)
     )
 
 
@@ -75,6 +93,12 @@ class PoseCheck:
         The same as a length [mm]: leg-length blocks converted by ``|l| - limit``.
     constraints : ndarray, shape (n, 24)
         Raw constraint values.
+    peak_force_ratio : float
+        ``max |f| / force_max`` over every leg (0 where ``force_max`` is inf; inf at a
+        singular platform); 0 when leg forces were not checked.
+    statics : Statics or None
+        Leg forces, margins and singularity measure (:func:`stackik.statics`) when they
+        were checked (a load was given or some ``force_max`` is finite), else None.
     """
 
     ok: bool
@@ -83,6 +107,8 @@ class PoseCheck:
     max_violation: float
     max_violation_mm: float
     constraints: FloatArray
+    peak_force_ratio: float = 0.0
+    statics: Statics | None = None
 
 
 def so3_log(R: FloatArray) -> FloatArray:
@@ -92,13 +118,20 @@ def so3_log(R: FloatArray) -> FloatArray:
     return Rotation.from_matrix(R).as_rotvec()  # type: ignore[no-any-return]
 
 
-def check_pose(stack: Stack, target: Target, q: ArrayLike) -> PoseCheck:
+def check_pose(stack: Stack, target: Target, q: ArrayLike, load: Load | None = None) -> PoseCheck:
     """Check a pose against a target and every limit, independently of any solver.
 
-    Uses only :func:`stackik.planar_forward` / :func:`stackik.spatial_forward` and
-    :meth:`Stack.planar_constraints` / :meth:`Stack.spatial_constraints`. Tolerances:
-    ``TARGET_POS_TOL`` = 1e-6 mm, ``TARGET_ANGLE_TOL`` = 1e-8 rad, ``FEAS_TOL`` = 1e-6 mm
-    (leg-length blocks are compared as lengths: ``|l| >= leg_min - FEAS_TOL``).
+    Uses only :func:`stackik.planar_forward` / :func:`stackik.spatial_forward`,
+    :meth:`Stack.planar_constraints` / :meth:`Stack.spatial_constraints` and, for the leg
+    forces, :func:`stackik.statics`. Tolerances: ``TARGET_POS_TOL`` = 1e-6 mm,
+    ``TARGET_ANGLE_TOL`` = 1e-8 rad, ``FEAS_TOL`` = 1e-6 mm (leg-length blocks are compared
+    as lengths: ``|l| >= leg_min - FEAS_TOL``), ``FORCE_TOL`` = 1e-6 (``|f| <= (1 +
+    FORCE_TOL) force_max``).
+
+    Leg forces are checked when ``load`` is given or some platform's ``force_max`` is
+    finite (``load=None`` then means the stack's own weight under earth gravity): every
+    force must be finite (no singular platform) and within its limit. Otherwise (no load,
+    no limit) they are not computed and the verdict is that of the limits alone.
     """
     qa = np.asarray(q, dtype=float)
     if isinstance(target, PlanarTarget):
@@ -119,5 +152,13 @@ def check_pose(stack: Stack, target: Target, q: ArrayLike) -> PoseCheck:
     v_min = lmin - np.sqrt(np.maximum(lmin**2 - viol[:, 0:6], 0.0))
     v_max = np.sqrt(lmax**2 + viol[:, 6:12]) - lmax
     v_mm = float(max(v_min.max(), v_max.max(), viol[:, 12:].max()))
-    ok = pose_ok(pos_err, ang_err, v_mm, bool(np.all(np.isfinite(c))))
-    return PoseCheck(ok, pos_err, ang_err, max_v, v_mm, c)
+    finite = bool(np.all(np.isfinite(c)))
+    st = None
+    ratio = 0.0
+    if load is not None or bool(np.isfinite(stack.force_max).any()):
+        phi = target.phi if isinstance(target, PlanarTarget) else None
+        st = statics(stack, qa, load, phi=phi)
+        ratio = st.peak_force_ratio
+        finite = finite and bool(np.all(np.isfinite(st.leg_forces)))
+    ok = pose_ok(pos_err, ang_err, v_mm, finite, ratio)
+    return PoseCheck(ok, pos_err, ang_err, max_v, v_mm, c, ratio, st)

@@ -78,6 +78,24 @@ def _scalar(value: Any, name: str) -> float:
     return finite_number(value, name, GeometryError)
 
 
+#: The statics fields of :class:`PlatformGeometry` (DESIGN §10) and their defaults.
+STATICS_FIELDS = ("plate_mass", "leg_mass", "force_max")
+STATICS_DEFAULTS = (0.0, 0.0, math.inf)
+
+
+def _force_max(value: Any) -> float:
+    """A force limit [N]: a number > 0, ``inf`` allowed (no limit)."""
+    if isinstance(value, str | bytes | bool | np.bool_):
+        raise GeometryError(f"force_max: expected a number, got {value!r}")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise GeometryError(f"force_max: expected a number, got {value!r}") from None
+    if not x > 0:  # also NaN
+        raise GeometryError(f"force_max: must be > 0 N (inf = no limit), got {x}")
+    return x
+
+
 @dataclass(frozen=True, eq=False)
 class PlatformGeometry:
     """Geometry of one Stewart platform.
@@ -93,6 +111,14 @@ class PlatformGeometry:
         Actuator length limits [mm], ``0 < leg_min < leg_max``.
     joint_min : float
         Minimum angle between a leg and either plate [rad], ``0 <= joint_min < pi/2``.
+    plate_mass : float
+        Mass of the top plate [kg], at its centre (DESIGN §10); finite, ``>= 0``.
+    leg_mass : float
+        Mass of each leg [kg], split half at each of its two joints; finite, ``>= 0``.
+    force_max : float
+        Each leg's actuator force limit [N]: ``|f| <= force_max`` in tension and
+        compression; ``> 0``, default ``inf`` (no limit). The defaults (massless, no limit)
+        are the paper's model: they change nothing of the kinematics or the solvers.
 
     Raises
     ------
@@ -105,6 +131,9 @@ class PlatformGeometry:
     leg_min: float
     leg_max: float
     joint_min: float
+    plate_mass: float = 0.0  # [kg]
+    leg_mass: float = 0.0  # [kg] per leg
+    force_max: float = math.inf  # [N] per leg
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "base_nodes", _nodes(self.base_nodes, "base_nodes"))
@@ -121,12 +150,24 @@ class PlatformGeometry:
         object.__setattr__(self, "leg_min", leg_min)
         object.__setattr__(self, "leg_max", leg_max)
         object.__setattr__(self, "joint_min", joint_min)
+        for name in ("plate_mass", "leg_mass"):
+            mass = _scalar(getattr(self, name), name)
+            if mass < 0:
+                raise GeometryError(f"{name}: must be >= 0 kg, got {mass}")
+            object.__setattr__(self, name, mass)
+        force_max = _force_max(self.force_max)
+        object.__setattr__(self, "force_max", force_max)
+
+    @property
+    def _statics(self) -> tuple[float, float, float]:
+        """``(plate_mass, leg_mass, force_max)`` [kg, kg, N]."""
+        return (self.plate_mass, self.leg_mass, self.force_max)
 
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickle through the constructor: the node arrays come back validated and
         read-only (numpy's own pickling would make them writable)."""
         args = (self.base_nodes, self.top_nodes, self.leg_min, self.leg_max, self.joint_min)
-        return (PlatformGeometry, args)
+        return (PlatformGeometry, args + self._statics)
 
     @classmethod
     def hexagonal(
@@ -138,8 +179,14 @@ class PlatformGeometry:
         leg_min: float = REF_LEG_MIN,
         leg_max: float = REF_LEG_MAX,
         joint_min: float = REF_JOINT_MIN,
+        *,
+        plate_mass: float = 0.0,
+        leg_mass: float = 0.0,
+        force_max: float = math.inf,
     ) -> PlatformGeometry:
         """The symmetric layout of DESIGN §2 (radii in mm, angles in rad).
+
+        ``plate_mass``, ``leg_mass`` [kg] and ``force_max`` [N] as in the constructor.
 
         Base node angles ``[-a, a, 120-a, 120+a, 240-a, 240+a]`` at radius ``base_radius``;
         top node angles ``[-60+b, 60-b, 60+b, 180-b, 180+b, 300-b]`` at ``top_radius``; all
@@ -160,7 +207,16 @@ class PlatformGeometry:
         def ring(r: float, ang: FloatArray) -> FloatArray:
             return np.column_stack([r * np.cos(ang), r * np.sin(ang), np.zeros(6)])
 
-        return cls(ring(r_b, base_ang), ring(r_t, top_ang), leg_min, leg_max, joint_min)
+        return cls(
+            ring(r_b, base_ang),
+            ring(r_t, top_ang),
+            leg_min,
+            leg_max,
+            joint_min,
+            plate_mass=plate_mass,
+            leg_mass=leg_mass,
+            force_max=force_max,
+        )
 
     @classmethod
     def reference(cls) -> PlatformGeometry:
@@ -171,14 +227,25 @@ class PlatformGeometry:
         return cls.hexagonal()
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain-data form (lists and floats), the inverse of :meth:`from_dict`."""
-        return {
+        """Plain-data form (lists and floats), the inverse of :meth:`from_dict`.
+
+        ``plate_mass``, ``leg_mass`` and ``force_max`` appear only when they differ from
+        their defaults (so a massless, unlimited geometry reads as before; JSON has no inf).
+        """
+        out: dict[str, Any] = {
             "base_nodes": self.base_nodes.tolist(),
             "top_nodes": self.top_nodes.tolist(),
             "leg_min": self.leg_min,
             "leg_max": self.leg_max,
             "joint_min": self.joint_min,
         }
+        out.update(self._statics_fields())
+        return out
+
+    def _statics_fields(self) -> dict[str, float]:
+        """The statics fields that differ from their defaults, in declaration order."""
+        fields = zip(STATICS_FIELDS, self._statics, STATICS_DEFAULTS, strict=True)
+        return {k: v for k, v, d in fields if v != d}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], where: str = "platform") -> PlatformGeometry:
@@ -200,6 +267,7 @@ class PlatformGeometry:
                 "leg_min",
                 "leg_max",
                 "joint_min",
+                *STATICS_FIELDS,
             }
             unknown = set(spec) - allowed
             if unknown:
@@ -212,11 +280,12 @@ class PlatformGeometry:
         for key in required:
             if key not in data:
                 raise GeometryError(f"{where}.{key}: missing field")
-        unknown = set(data) - set(required)
+        unknown = set(data) - set(required) - set(STATICS_FIELDS)
         if unknown:
             raise GeometryError(f"{where}: unknown field(s) {sorted(unknown)}")
+        extra = {k: data[k] for k in STATICS_FIELDS if k in data}
         try:
-            return cls(*(data[k] for k in required))
+            return cls(*(data[k] for k in required), **extra)
         except GeometryError as exc:
             raise GeometryError(f"{where}.{exc}") from None
 
@@ -228,6 +297,7 @@ class PlatformGeometry:
             and np.array_equal(self.top_nodes, other.top_nodes)
             and (self.leg_min, self.leg_max, self.joint_min)
             == (other.leg_min, other.leg_max, other.joint_min)
+            and self._statics == other._statics
         )
 
     def __hash__(self) -> int:
@@ -238,6 +308,7 @@ class PlatformGeometry:
                 self.leg_min,
                 self.leg_max,
                 self.joint_min,
+                *self._statics,
             )
         )
 
@@ -331,6 +402,9 @@ class Stack(Sequence[PlatformGeometry]):
                 "leg_min": np.array([g.leg_min for g in p]),
                 "leg_max": np.array([g.leg_max for g in p]),
                 "sin_joint": np.sin([g.joint_min for g in p]),
+                "plate_mass": np.array([g.plate_mass for g in p]),
+                "leg_mass": np.array([g.leg_mass for g in p]),
+                "force_max": np.array([g.force_max for g in p]),
             }
             for v in values.values():
                 v.setflags(write=False)
@@ -361,6 +435,21 @@ class Stack(Sequence[PlatformGeometry]):
     def sin_joint_min(self) -> FloatArray:
         """``sin(joint_min)`` of every platform, shape (n,)."""
         return self._arr("sin_joint")
+
+    @property
+    def plate_mass(self) -> FloatArray:
+        """Mass of every platform's top plate, shape (n,) [kg]."""
+        return self._arr("plate_mass")
+
+    @property
+    def leg_mass(self) -> FloatArray:
+        """Mass of each leg of every platform, shape (n,) [kg]."""
+        return self._arr("leg_mass")
+
+    @property
+    def force_max(self) -> FloatArray:
+        """Leg force limit of every platform, shape (n,) [N] (``inf`` = no limit)."""
+        return self._arr("force_max")
 
     # --- constraints (delegated to stackik.platform) ---------------------------------
     def planar_constraints(self, q: ArrayLike, phi: float) -> FloatArray:
@@ -430,11 +519,14 @@ class Stack(Sequence[PlatformGeometry]):
     def to_toml(self, path: str | Path | None = None) -> str:
         """TOML text (``[[platforms]]`` tables); also written to ``path`` when given."""
         lines = ["# stackik stack geometry: lengths in mm, angles in rad", ""]
+        if any(p._statics_fields() for p in self.platforms):
+            lines.insert(1, "# masses in kg, force limits in N")
         for p in self.platforms:
             lines.append("[[platforms]]")
             lines.append(f"leg_min = {p.leg_min!r}")
             lines.append(f"leg_max = {p.leg_max!r}")
             lines.append(f"joint_min = {p.joint_min!r}")
+            lines.extend(f"{k} = {v!r}" for k, v in p._statics_fields().items())
             for key, arr in (("base_nodes", p.base_nodes), ("top_nodes", p.top_nodes)):
                 rows = ",\n    ".join("[" + ", ".join(repr(float(v)) for v in r) + "]" for r in arr)
                 lines.append(f"{key} = [\n    {rows},\n]")

@@ -52,6 +52,11 @@ def describe_stack(stack: Stack) -> str:
             f"platform {i + 1}: legs {g.leg_min:g}-{g.leg_max:g} mm, "
             f"joint_min {math.degrees(g.joint_min):.4g} deg"
         )
+        if g.plate_mass or g.leg_mass or math.isfinite(g.force_max):
+            lines.append(
+                f"  plate {g.plate_mass:g} kg, each leg {g.leg_mass:g} kg, "
+                f"leg force limit {g.force_max:g} N"
+            )
         for key, nodes in (("base nodes", g.base_nodes), ("top nodes", g.top_nodes)):
             r = np.hypot(nodes[:, 0], nodes[:, 1])
             ang = np.degrees(np.arctan2(nodes[:, 1], nodes[:, 0]))
