@@ -188,8 +188,8 @@ def test_cli_view_reads_solve_and_path_json(tmp_path, capsys):
     assert main(["view", str(pj), "--out", str(tmp_path / "pose.html")]) == 0
     assert (tmp_path / "pose.html").stat().st_size > 1_000_000
     sj = tmp_path / "spatial.json"
-    sj.write_text(json.dumps(_solve_json(Q_SPATIAL, "spatial", None,
-                                         {"position": [0, 0, 1050], "euler_zyx": [0.1, 0, 0]})))  # fmt: skip
+    spatial = {"position": [0, 0, 1050], "euler_zyx": [0.1, 0, 0]}
+    sj.write_text(json.dumps(_solve_json(Q_SPATIAL, "spatial", None, spatial)))
     assert main(["view", str(sj)]) == 0 and (tmp_path / "spatial.html").exists()
     m = 3
     tg = tuple(SpatialTarget([0, 0, 1050.0 + k], euler_zyx([0, 0, 0])) for k in range(m))
@@ -225,7 +225,9 @@ def test_cli_solve_html(tmp_path, capsys):
 # =========================================================================================
 HOOK = """<script>
 window.__stackikErrors = [];
-window.addEventListener("error", function (e) { window.__stackikErrors.push("error: " + e.message); });
+window.addEventListener("error", function (e) {
+  window.__stackikErrors.push("error: " + e.message);
+});
 ["error", "warn"].forEach(function (level) {
   var orig = console[level];
   console[level] = function () {
@@ -249,7 +251,7 @@ def _chromium() -> str | None:
         if path:
             return path
     if os.environ.get("CI"):
-        pytest.fail("CI: chromium is required for the viewer's browser test (apt-get install chromium)")
+        pytest.fail("CI: the viewer's browser test needs chromium (apt-get install chromium)")
     pytest.skip("chromium not installed (required in CI)")
     return None
 
@@ -284,7 +286,8 @@ def test_html_renders_in_headless_chromium(tmp_path, kind):
     dom = _browser(exe, probe, "--dump-dom")
     assert dom.returncode == 0, dom.stderr[-2000:]
     start = dom.stdout.index('<pre id="stackik-report">') + len('<pre id="stackik-report">')
-    report = json.loads(dom.stdout[start : dom.stdout.index("</pre>", start)].replace("&quot;", '"'))
+    raw = dom.stdout[start : dom.stdout.index("</pre>", start)]
+    report = json.loads(raw.replace("&quot;", '"'))
     assert report["errors"] == [] and report["canvases"] >= 1, report
     shot = tmp_path / f"{kind}.png"
     run = _browser(exe, html, f"--screenshot={shot}")

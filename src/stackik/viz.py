@@ -239,7 +239,9 @@ def obstacle_record(ob: Any) -> ObstacleRecord:
     name = str(_field(ob, "name", "label") or kind)
     if kind == "sphere":
         r = float(_field(ob, "radius", "r"))
-        return ObstacleRecord("sphere", _vec(_field(ob, "center", "centre"), "center"), r, name=name)
+        return ObstacleRecord(
+            "sphere", _vec(_field(ob, "center", "centre"), "center"), r, name=name
+        )
     if kind in ("capsule", "cylinder", "segment"):
         a = _vec(_field(ob, "a", "p0", "start"), "capsule a")
         b = _vec(_field(ob, "b", "p1", "end"), "capsule b")
@@ -446,10 +448,16 @@ def _pose_traces(
             xyz = [[p[d], tip[d]] for d in range(3)]
         axes.append(
             go.Scatter3d(
-                x=xyz[0], y=xyz[1], z=xyz[2], mode="lines", line={"color": col, "width": 9},
-                name="target frame (x red, y green, z blue)", legendgroup="target",
+                x=xyz[0],
+                y=xyz[1],
+                z=xyz[2],
+                mode="lines",
+                line={"color": col, "width": 9},
+                name="target frame (x red, y green, z blue)",
+                legendgroup="target",
                 showlegend=show_legend and a == 0 and frame is not None,
-                hovertext=f"target {label} axis", hoverinfo="text",
+                hovertext=f"target {label} axis",
+                hoverinfo="text",
             )  # fmt: skip
         )
     return [plates, legs, centres, ee, *axes]
@@ -525,10 +533,20 @@ def _obstacle_traces(go: Any, obstacles: Sequence[Any] | None, extent: float) ->
         V, T = _obstacle_mesh(rec, extent)
         out.append(
             go.Mesh3d(
-                x=V[:, 0], y=V[:, 1], z=V[:, 2], i=T[:, 0], j=T[:, 1], k=T[:, 2],
-                color=_OBSTACLE_COLOR, opacity=0.35 if rec.kind == "halfspace" else 0.5,
-                name="obstacles", legendgroup="obstacles", showlegend=idx == 0,
-                hovertext=f"{rec.name} ({rec.kind})", hoverinfo="text", flatshading=True,
+                x=V[:, 0],
+                y=V[:, 1],
+                z=V[:, 2],
+                i=T[:, 0],
+                j=T[:, 1],
+                k=T[:, 2],
+                color=_OBSTACLE_COLOR,
+                opacity=0.35 if rec.kind == "halfspace" else 0.5,
+                name="obstacles",
+                legendgroup="obstacles",
+                showlegend=idx == 0,
+                hovertext=f"{rec.name} ({rec.kind})",
+                hoverinfo="text",
+                flatshading=True,
             )  # fmt: skip
         )
     return out
@@ -648,7 +666,7 @@ def path_figure(
     """
     go = require_plotly()
     if hasattr(poses, "q") and hasattr(poses, "targets"):  # a PathResult
-        res = poses
+        res: Any = poses
         c = int(res.completed)
         if c == 0:
             raise ValueError("poses: the path has no reached waypoint to draw")
@@ -709,8 +727,13 @@ def path_figure(
     if m > 1 and len(tpos) > 1:
         static.append(
             go.Scatter3d(
-                x=tpos[:, 0], y=tpos[:, 1], z=tpos[:, 2], mode="lines", name="target path",
-                line={"color": "black", "width": 3, "dash": "dash"}, hoverinfo="skip",
+                x=tpos[:, 0],
+                y=tpos[:, 1],
+                z=tpos[:, 2],
+                mode="lines",
+                name="target path",
+                line={"color": "black", "width": 3, "dash": "dash"},
+                hoverinfo="skip",
             )  # fmt: skip
         )
     fig = go.Figure(data=traces[0] + static)

@@ -6,8 +6,9 @@ Waypoints from ``--from``/``--to`` (a straight segment cut by ``--steps`` or
 ``path.csv``, ``path.json``, ``path.png`` (leg lengths and FN along the path) and
 ``path.gif`` (the stack following the path; also ``path.mp4`` when ffmpeg is installed)
 into ``--out``; ``path.json`` also carries the stack geometry, so that ``stackik view
-path.json`` can draw it, and ``--html FILE`` writes that interactive view directly. Exit code 0 when the whole path is solved, 1 when it breaks (the message
-says where and why), 2 on bad input.
+path.json`` can draw it, and ``--html FILE`` writes that interactive view directly.
+Exit code 0 when the whole path is solved, 1 when it breaks (the message says where and
+why), 2 on bad input.
 """
 
 from __future__ import annotations

@@ -87,9 +87,7 @@ def figure_of(data: dict[str, Any], stack: Stack, title: str | None = None) -> A
         title = f"{stack.n}-platform stack, {data.get('mode', '')} pose, {ok}" + (
             f", FN {fn:.1f}" if isinstance(fn, int | float) else ""
         )
-    return viz.pose_figure(
-        stack, q, phi=data.get("phi"), target=_solve_target(data), title=title
-    )
+    return viz.pose_figure(stack, q, phi=data.get("phi"), target=_solve_target(data), title=title)
 
 
 def run(args: argparse.Namespace) -> int:
