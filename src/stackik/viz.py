@@ -211,6 +211,17 @@ def _vec(value: Any, what: str) -> FloatArray:
     return v
 
 
+def _radius(ob: Any) -> float:
+    r = _field(ob, "radius", "r")
+    try:
+        value = float(r)
+    except (TypeError, ValueError):
+        raise ValueError(f"obstacles: radius: expected a number, got {r!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"obstacles: radius: expected a positive number, got {r!r}")
+    return value
+
+
 def obstacle_record(ob: Any) -> ObstacleRecord:
     """Read an obstacle given as a mapping or as any object with the same attributes.
 
@@ -238,14 +249,14 @@ def obstacle_record(ob: Any) -> ObstacleRecord:
     kind = str(kind).lower().replace("-", "").replace("_", "") if kind is not None else ""
     name = str(_field(ob, "name", "label") or kind)
     if kind == "sphere":
-        r = float(_field(ob, "radius", "r"))
+        r = _radius(ob)
         return ObstacleRecord(
             "sphere", _vec(_field(ob, "center", "centre"), "center"), r, name=name
         )
     if kind in ("capsule", "cylinder", "segment"):
         a = _vec(_field(ob, "a", "p0", "start"), "capsule a")
         b = _vec(_field(ob, "b", "p1", "end"), "capsule b")
-        r = float(_field(ob, "radius", "r"))
+        r = _radius(ob)
         return ObstacleRecord("capsule", (a + b) / 2, r, a=a, b=b, name=name)
     if kind == "box":
         c = _vec(_field(ob, "center", "centre"), "box center")
