@@ -26,7 +26,17 @@ stack = Stack.reference(8)
 keys = [PlanarTarget(-600.0, 2300.0, 0.3), PlanarTarget(700.0, 2400.0, -0.6)]
 waypoints = interpolate_targets(keys, max_step=(25.0, 0.05))  # 25 mm, 0.05 rad steps
 max_jump = (60.0, 0.3)  # [mm], [rad]
-print(f"{len(waypoints)} waypoints from {keys[0].y} to {keys[1].y}, max_jump {max_jump}")
+
+
+def where(t: PlanarTarget) -> str:
+    """A target as ``(rho, z, theta)`` in plain numbers [mm, mm, rad]."""
+    return f"(rho, z, theta) = ({t.rho:.0f} mm, {t.z:.0f} mm, {t.theta:.2f} rad)"
+
+
+print(
+    f"{len(waypoints)} waypoints from {where(keys[0])} to {where(keys[1])}; max jump "
+    f"{max_jump[0]:g} mm / {max_jump[1]:g} rad"
+)
 
 
 def largest_steps(q: np.ndarray) -> tuple[float, float]:

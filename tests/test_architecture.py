@@ -20,7 +20,7 @@ PKG = SRC / "stackik"
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("stackik.cli", "stackik.__main__", "stackik.ik", "stackik"),  # entry points, compat
     ("stackik.bench",),
-    ("stackik.analysis", "stackik.paths", "stackik.distributed"),
+    ("stackik.analysis", "stackik.paths", "stackik.distributed", "stackik.viz"),
     ("stackik.solve",),
     ("stackik.methods",),
     ("stackik.convex", "stackik.starts"),

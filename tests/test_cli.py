@@ -389,7 +389,7 @@ def test_cli_module_has_no_heavy_top_level_imports() -> None:
 
 def test_commands_follow_the_module_convention() -> None:
     names = [m.NAME for m in COMMANDS]
-    assert names == ["solve", "mc", "map", "reproduce", "bench", "geometry", "path"]
+    assert names == ["solve", "mc", "map", "reproduce", "bench", "geometry", "path", "view"]
     for m in COMMANDS:
         assert isinstance(m.HELP, str) and m.HELP
         assert callable(m.add_parser) and callable(m.run)

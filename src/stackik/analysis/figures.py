@@ -50,11 +50,16 @@ def _figure(width: float, height: float) -> Figure:
     return Figure(figsize=(width, height), dpi=110, layout="constrained")
 
 
+#: Background margin of every saved figure [in]: the saved area is the drawn one (titles,
+#: labels, legends) plus this, so that nothing is cut at an edge (tests/test_figure_borders.py).
+SAVE_PAD = 0.12
+
+
 def _save(fig: Figure, path: str | Path | None) -> Figure:
     if path is not None:
         p = Path(path)
         p.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(p, dpi=fig.dpi)
+        fig.savefig(p, dpi=fig.dpi, bbox_inches="tight", pad_inches=SAVE_PAD)
     return fig
 
 

@@ -16,6 +16,11 @@ Subcommands (one module each, listed in :data:`COMMANDS`)
     Benchmarks (:func:`stackik.bench.main`).
 ``geometry``
     ``show``, ``validate FILE`` or ``write FILE`` a stack geometry (.toml / .json).
+``path``
+    Continuous least-FN poses along an end-effector path (:mod:`stackik.paths`).
+``view``
+    An interactive 3D view of a solve or path result: one self-contained HTML file
+    (:mod:`stackik.viz`).
 
 Adding a subcommand: write a module ``stackik/cli/<name>.py`` that defines
 
@@ -42,14 +47,14 @@ import sys
 from collections.abc import Sequence
 from types import ModuleType
 
-from . import bench, geometry, mc, path, reproduce, solve
+from . import bench, geometry, mc, path, reproduce, solve, view
 from . import map as map_  # the module, not the builtin
 from ._common import EXIT_USAGE, PROG, CLIError, Parser, one_line
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 
 #: The subcommand modules, in the order ``stackik --help`` lists them.
-COMMANDS: tuple[ModuleType, ...] = (solve, mc, map_, reproduce, bench, geometry, path)
+COMMANDS: tuple[ModuleType, ...] = (solve, mc, map_, reproduce, bench, geometry, path, view)
 
 
 def _command(name: str) -> ModuleType:

@@ -5,14 +5,17 @@ Waypoints from ``--from``/``--to`` (a straight segment cut by ``--steps`` or
 ``x,y,z,yaw,pitch,roll``); solved by :func:`stackik.paths.solve_path`. Writes
 ``path.csv``, ``path.json``, ``path.png`` (leg lengths and FN along the path) and
 ``path.gif`` (the stack following the path; also ``path.mp4`` when ffmpeg is installed)
-into ``--out``. Exit code 0 when the whole path is solved, 1 when it breaks (the message
-says where and why), 2 on bad input.
+into ``--out``; ``path.json`` also carries the stack geometry, so that ``stackik view
+path.json`` can draw it, and ``--html FILE`` writes that interactive view directly.
+Exit code 0 when the whole path is solved, 1 when it breaks (the message says where and
+why), 2 on bad input.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import json
 import math
 import sys
 from pathlib import Path
@@ -121,6 +124,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--checkpoint", type=Path, default=None, metavar="FILE",
                    help="record finished waypoints; rerun to resume")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--html", type=Path, default=None, metavar="FILE",
+                   help="also write an interactive 3D view of the path (needs plotly)")  # fmt: skip
     return p
 
 
@@ -224,6 +229,10 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError("--leg-accel needs --leg-speed")
     if speed is not None and accel is None:
         accel = ACCEL_PER_SPEED * speed
+    if args.html is not None:  # a missing plotly is reported before the solve
+        from stackik.viz import require_plotly
+
+        require_plotly()
     result = solve_path(
         stack,
         targets,
@@ -238,8 +247,14 @@ def run(args: argparse.Namespace) -> int:
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
     files = [result.to_csv(out / "path.csv")]
-    (out / "path.json").write_text(result.to_json() + "\n")
+    doc = result.to_dict()
+    doc["geometry"] = stack.to_dict()  # what `stackik view path.json` draws the poses with
+    (out / "path.json").write_text(json.dumps(doc, indent=1) + "\n")
     files.append(out / "path.json")
+    if args.html is not None and result.completed > 0:
+        from stackik import viz
+
+        files.append(viz.write_html(viz.path_figure(stack, result), args.html))
     try:
         from stackik.paths.animate import animate_path, plot_path
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import math
 import textwrap
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ._common import (
@@ -88,6 +89,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     p.add_argument("--max-time", type=float, default=None, metavar="SEC", help="time budget")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.add_argument("--html", type=Path, default=None, metavar="FILE",
+                   help="also write an interactive 3D view of the pose (needs plotly)")  # fmt: skip
     return p
 
 
@@ -231,6 +234,10 @@ def run(args: argparse.Namespace) -> int:
     if args.objective != "weighted" and (args.sigma_t is not None or args.sigma_theta is not None):
         raise CLIError("--sigma-t/--sigma-theta apply to --objective weighted only")
     qp = resolve_qp(args.method, args.qp_solver)
+    if args.html is not None:  # a missing plotly is reported before the solve
+        from stackik.viz import require_plotly
+
+        require_plotly()
     from stackik.solve import solve_ik
 
     kwargs: dict[str, Any] = {}
@@ -271,4 +278,11 @@ def run(args: argparse.Namespace) -> int:
         src = str(args.geometry) if args.geometry else "reference geometry"
         print(f"stack: {stack.n} platforms ({src})")
         print(format_result(stack, result))
+    if args.html is not None:
+        from stackik import viz
+
+        fig = viz.pose_figure(stack, result.q, phi=result.phi, target=target)
+        path = viz.write_html(fig, args.html)
+        if not args.json:
+            print(f"wrote {path}")
     return EXIT_OK if result.success else EXIT_INFEASIBLE

@@ -111,7 +111,7 @@ def plot_path(result: PathResult, stack: Stack, path: str | Path | None = None) 
 
     x = result.times if result.times is not None else np.arange(result.m, dtype=float)
     xlabel = "time [s]" if result.times is not None else "waypoint"
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, layout="constrained")
     cmap = plt.get_cmap("viridis")
     c = result.completed
     for i in range(result.n):
@@ -119,14 +119,14 @@ def plot_path(result: PathResult, stack: Stack, path: str | Path | None = None) 
         for k in range(6):
             ax1.plot(x[:c], result.leg_lengths[:c, i, k], color=color, lw=0.8,
                      label=f"platform {i + 1}" if k == 0 else None)  # fmt: skip
-    ax1.axhline(float(stack.leg_min.min()), color="k", ls="--", lw=0.8)
+    ax1.axhline(float(stack.leg_min.min()), color="k", ls="--", lw=0.8, label="leg limits")
     ax1.axhline(float(stack.leg_max.max()), color="k", ls="--", lw=0.8)
     ax1.set_ylabel("leg length [mm]")
     ax1.set_title(
         f"{result.mode} mode, {result.completed}/{result.m} waypoints, {result.status.value}"
     )
-    if result.n <= 8:
-        ax1.legend(fontsize=7, ncol=4, loc="upper right")
+    if result.n <= 8:  # beside the axes, off the data and the limit lines
+        ax1.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     ax2.plot(x[:c], result.frobenius_norm[:c], "b.-", lw=1)
     ax2.set_ylabel("FN")
     ax2.set_xlabel(xlabel)
@@ -134,9 +134,8 @@ def plot_path(result: PathResult, stack: Stack, path: str | Path | None = None) 
         for ax in (ax1, ax2):
             ax.axvline(float(x[c]) if result.times is None else float(x[c - 1]), color="r")
         ax2.text(0.01, 0.9, f"break at waypoint {c}", color="r", transform=ax2.transAxes)
-    fig.tight_layout()
-    if path is not None:
-        fig.savefig(path, dpi=120)
+    if path is not None:  # the drawn area plus a background margin: nothing cut at an edge
+        fig.savefig(path, dpi=120, bbox_inches="tight", pad_inches=0.12)
     return fig
 
 
