@@ -174,6 +174,7 @@ class _Progress:
                 desc=f"stackik: {kind} kernels",
                 file=stream,
                 bar_format="{desc} {n_fmt}/{total_fmt} [{elapsed}{postfix}]",
+                mininterval=0.0,  # every tick shown (a few per family)
                 leave=False,
             )
         else:
