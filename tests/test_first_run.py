@@ -35,7 +35,7 @@ def _what_first_calls_cost() -> dict[str, tuple[list[str], list[str]]]:
     """Runs in a fresh process: warm up, then record the numba compilations and the new
     modules of each first call (planar n = 4 paper target as the issue measured it,
     spatial, an unreachable spatial target, the SQP engine's first solves (its QP
-    backends imported by the warm-up), a planar and a spatial path)."""
+    backends imported by the warm-up), a scipy baseline's, a planar and a spatial path)."""
     import sys
 
     from numba.core import event
@@ -54,6 +54,7 @@ def _what_first_calls_cost() -> dict[str, tuple[list[str], list[str]]]:
         "spatial sqp": lambda: sk.solve_ik(
             sk.Stack.reference(3), _spatial_target(3), method="sqp", starts=1
         ),
+        "planar slsqp": lambda: sk.solve_ik(stack, keys[1], method="slsqp", starts=1),
         "planar path": lambda: solve_path(stack, interpolate(keys, steps=3)),
         "spatial path": lambda: solve_path(
             stack, interpolate([t.to_spatial() for t in keys], steps=3)
