@@ -175,33 +175,35 @@ def test_headline_table_is_generated() -> None:
 
 def test_default_starts() -> None:
     """The README's default starts: "three for planar stacks up to n = 4", "eight for
-    spatial stacks up to n = 4", and the command line's one start."""
+    spatial stacks up to n = 4", and the command line's same default."""
     from stackik import PlanarTarget, SpatialTarget, Stack, solve_ik
     from stackik.cli import build_parser
     from stackik.rotations import euler_zyx
 
     assert "three for planar stacks up to n = 4" in PROSE
     assert "eight for spatial stacks up to n = 4" in PROSE
-    assert "The command line uses one start unless given `--starts K`" in PROSE
+    assert "The command line uses the same default unless given `--starts K`" in PROSE
     stack = Stack.reference(4)
     assert solve_ik(stack, PlanarTarget(600.0, 1000.0, -1.57)).n_starts == 3
     spatial = SpatialTarget(np.array([100.0, 50.0, 1000.0]), euler_zyx([0.1, 0.2, 0.0]))
     assert solve_ik(stack, spatial).n_starts == 8
     args = build_parser().parse_args(["solve", "--target", "600", "1000", "-1.57"])
-    assert args.starts == 1
+    assert args.starts is None  # None: solve_ik's default
 
 
 def test_kernel_families_claim() -> None:
     """The README's kernel families: "a planar solve compiles the planar family; a spatial
-    solve compiles the spatial family and, with the default method, the planar one too"."""
+    solve compiles only the spatial family" (the planar one only beyond the reach bound)."""
     from stackik import PlanarTarget, SpatialTarget, Stack
     from stackik.solve.pipeline import _kernels_needed
 
-    assert "with the default method, the planar one too" in PROSE
+    assert "a spatial solve compiles only the spatial family" in PROSE
     stack = Stack.reference(4)
-    assert _kernels_needed(stack, PlanarTarget(600.0, 1000.0, -1.57), "auto") == ("planar",)
+    assert _kernels_needed(stack, PlanarTarget(600.0, 1000.0, -1.57)) == ("planar",)
     spatial = SpatialTarget(np.array([100.0, 50.0, 1000.0]), np.eye(3))
-    assert set(_kernels_needed(stack, spatial, "auto")) == {"spatial", "planar"}
+    assert _kernels_needed(stack, spatial) == ("spatial",)
+    far = SpatialTarget(np.array([3000.0, 0.0, 500.0]), np.eye(3))
+    assert set(_kernels_needed(stack, far)) == {"spatial", "planar"}
 
 
 SUMMARY_LABELS = (
@@ -219,7 +221,7 @@ SUMMARY_LABELS = (
 
 def test_summary_line_claim(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The summary fields the README lists are the ones ``solve`` prints, in that order,
-    with the QP backend beside the method for the SQP engine only."""
+    with the QP backend beside the method (``none`` where no QP is solved)."""
     head = "`solve` prints a summary:"
     sentence = TEXT[TEXT.index(head) + len(head) : TEXT.index("Exit codes:")]
     listed = re.findall(r"`([a-z ]+)`", sentence)
@@ -231,7 +233,7 @@ def test_summary_line_claim(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> 
         summary = out.split("\n\n")[-1].splitlines()
         labels = tuple(line[:16].strip() for line in summary if line.strip())
         assert labels == SUMMARY_LABELS
-        assert ("(QP: " in summary[-1]) == qp
+        assert ("(QP backend: none)" in summary[-1]) != qp and "(QP backend: " in summary[-1]
 
 
 def test_exit_codes_claim(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
