@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from hs_problems import PROBLEMS
 
 from stackik.sqp import (
     Evaluation,
@@ -15,7 +16,6 @@ from stackik.sqp import (
     available_qp_solvers,
     solve,
 )
-from stackik.sqp.hs import PROBLEMS
 from stackik.sqp.qp import QPSolution, QPStatus, make_backend
 from stackik.sqp.qp.daqp_ import DAQPBackend
 

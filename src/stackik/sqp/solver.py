@@ -76,13 +76,11 @@ ETA_ACCEPT = 1e-4  # eta: step acceptance threshold on ared/pred, N&W Alg. 18.4 
 ETA_GOOD = 0.75  # very successful step -> enlarge radius, N&W Alg. 4.1
 ETA_BAD = 0.25  # poor step -> shrink radius, N&W Alg. 4.1
 SOC_BELOW = ETA_GOOD  # a second-order correction is tried when the ratio is below this
-SOC_MIN_NORM = True  # try the least-norm correction (no QP) before the QP correction
 SOC_REG = 1e-10  # relative regularisation of J_A J_A' in the least-norm correction
 SOC_DENSE_MAX = 1 << 16  # sparse J: a dense J_A (rows x columns) up to this size
 BACKTRACK_STEPS = 2  # rejected steps: shorter steps along d tried before shrinking
 BACKTRACK_FACTOR = 0.5
-SCREEN_ROWS = True  # sparse mode: QPs without the inequality rows that cannot bind
-SCREEN_KEEP = 2.0  # ... keeping rows screened in before, up to this many times those needed
+SCREEN_KEEP = 2.0  # screened QPs keep rows screened in before, up to this many times those needed
 GAMMA_SHRINK = 0.25  # radius factor on poor/rejected steps, N&W Alg. 4.1
 GAMMA_GROW = 2.0  # radius factor on very successful boundary steps, N&W Alg. 4.1
 BOUNDARY_FRACTION = 0.8  # a step "hits the boundary" if ||d|| >= 0.8 radius
@@ -110,15 +108,10 @@ DELTA_MIN = 1e-12  # trust-region collapse threshold (relative to 1 + ||x/xs||_i
 # Interior start phase (SQPOptions.barrier_start); constants as in IPOPT (W&B 2006, 3.1)
 BARRIER_MU0 = 0.1  # initial barrier parameter (IPOPT mu_init)
 # Hand over to the SQP once the barrier problem of this mu is solved: the barrier phase only
-# has to choose the basin. Planar IK, one start, Clarabel: 0.03 keeps the quality of 1e-4
-# (within 0.1 % of the best known on 77.5 % of 200 n = 4 targets, as one IPOPT run; 40 % of
-# 30 at n = 16) in half the iterations (n = 4: 14 vs 30; n = 16: 55.5 vs 110, 3x less time).
+# has to choose the basin (measurements: docs/benchmarks.md).
 BARRIER_MU_END = 0.03
-# A barrier problem counts as solved when its error <= kappa_eps mu. IPOPT's 10 left the
-# spatial basin to chance: one start, Clarabel, within 0.1 % of the best known (default
-# solve, IPOPT from 8 starts) with 1.0 instead of 10: spatial n = 4 48 vs 31 of 100 targets
-# (one IPOPT run 37), 61 vs 38 of 150 held-out targets (IPOPT 39); planar n = 4 166 vs 158
-# of 200 (IPOPT 160), n = 16 48 vs 45 of 100 (IPOPT 43); ~5-20 % more iterations.
+# A barrier problem counts as solved when its error <= kappa_eps mu (IPOPT's 10 leaves the
+# basin to chance; measurements: docs/benchmarks.md).
 BARRIER_KAPPA_EPS = 1.0
 BARRIER_KAPPA_MU = 0.2  # mu <- max(mu_end, min(kappa_mu mu, mu^theta_mu))
 BARRIER_THETA_MU = 1.5
@@ -456,7 +449,7 @@ class _Engine:
         the inequalities with ``c_i - sum_j |J_ij| max(-lb_j, ub_j) <= 0``; the others hold
         for every step in the box, so the QP without them has the same solution), or None
         when that is all of them."""
-        if not (self.sparse and SCREEN_ROWS and self.opts.qp_screening and self.mI):
+        if not (self.sparse and self.opts.qp_screening and self.mI):
             return None
         J, mE = self.J, self.mE
         r = np.maximum(-lb, ub)
@@ -561,7 +554,7 @@ class _Engine:
 
     def _dense_rows(self, rows: Any) -> FloatArray:
         """Rows ``rows`` (sorted) of the sparse ``J`` as a dense array, gathered from its
-        entries (no CSR conversion or sparse row slicing: ~10x faster at n = 16)."""
+        entries (no CSR conversion or sparse row slicing; docs/benchmarks.md)."""
         J = self.J
         pos = np.full(self.m, -1, dtype=np.int64)
         pos[rows] = np.arange(rows.size)
@@ -631,7 +624,7 @@ class _Engine:
         """The convexified exact Hessian of the (scaled) Lagrangian at ``lam``."""
         # A full pattern (a dense Hessian, e.g. the reduced IK problem's) is convexified
         # densely anyway: the Hessian stays dense, without the round trip dense -> CSC ->
-        # dense (~8 % of an SQP solve at n = 4; the same values in the same order)
+        # dense (the same values in the same order; docs/benchmarks.md)
         H = self._lagrangian_hessian(lam, dense=self.sparse and self.h_pat.full)
         t = time.perf_counter()
         B = self._convexify_sparse(H, lam) if self.sparse else self._convexify(H, lam)
@@ -1500,7 +1493,7 @@ class _Engine:
             ratio = (phi0 - phi_t + guard) / (pred + guard) if ok and pred > -guard else -math.inf
             kind = "elastic" if elastic else "qp"
             soc_done = False
-            if ratio < SOC_BELOW and not elastic and m and ok and pred > 0 and SOC_MIN_NORM:
+            if ratio < SOC_BELOW and not elastic and m and ok and pred > 0:
                 # Least-norm second-order correction first (no QP).
                 t = time.perf_counter()
                 d_m = self._soc_min_norm(c_t, lam, d)
