@@ -383,6 +383,7 @@ class _Engine:
         cI_raw = np.zeros(0) if ev.c_ineq is None else np.asarray(ev.c_ineq, float).ravel()
         sc = self.sc
         sc.mE, sc.mI = mE, mI = cE_raw.size, cI_raw.size
+        sc.m = mE + mI
         sparse = is_sparse(ev.J_eq) or is_sparse(ev.J_ineq)
         self.alg = make_algebra(sparse, n, mE, mI)
         JE_raw, JI_raw = self.alg.raw_jacobians(ev.J_eq, ev.J_ineq)

@@ -97,6 +97,7 @@ class Rows:
 
     mE: int = 0
     mI: int = 0
+    m: int = 0  # mE + mI
     sf: float = 1.0
     w: FloatArray = field(default_factory=lambda: np.ones(0))
     unit_w: bool = True
@@ -104,10 +105,6 @@ class Rows:
     ctol: float = 0.0  # constr_tol in scaled units
     viol_a: FloatArray = field(default_factory=lambda: np.zeros(0))
     viol_b: FloatArray = field(default_factory=lambda: np.zeros(0))
-
-    @property
-    def m(self) -> int:
-        return self.mE + self.mI
 
     def set_weights(self, w: FloatArray, constr_tol: float) -> None:
         """Row factors ``w`` (positive) and what follows from them."""
