@@ -14,6 +14,7 @@ import datetime as dt
 import json
 import platform
 import statistics
+import sys
 import time
 import warnings
 from pathlib import Path
@@ -23,7 +24,10 @@ import numpy as np
 from scipy.optimize import Bounds, NonlinearConstraint, minimize
 
 from stackik.sqp import solve
-from stackik.sqp.hs import PROBLEMS, HSProblem
+
+# The Hock-Schittkowski problems are test data: they live with the tests.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "sqp"))
+from hs_problems import PROBLEMS, HSProblem  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 REPEATS = 3

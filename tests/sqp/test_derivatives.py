@@ -12,8 +12,7 @@ from __future__ import annotations
 import fd
 import numpy as np
 import pytest
-
-from stackik.sqp.hs import PROBLEMS
+from hs_problems import PROBLEMS
 
 pytestmark = pytest.mark.derivatives
 

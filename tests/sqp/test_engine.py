@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from hs_problems import PROBLEMS
 
 from stackik.sqp import (
     Evaluation,
@@ -15,7 +16,6 @@ from stackik.sqp import (
     available_qp_solvers,
     solve,
 )
-from stackik.sqp.hs import PROBLEMS
 from stackik.sqp.qp import QPSolution, QPStatus, make_backend
 from stackik.sqp.qp.daqp_ import DAQPBackend
 
@@ -322,23 +322,20 @@ def test_least_norm_second_order_correction(sparse: bool) -> None:
     and positive-multiplier inequalities, duplicated rows included) and moves no further."""
     import scipy.sparse as sps
 
-    from stackik.sqp.solver import _Engine
+    from stackik.sqp.linalg import make_algebra
+    from stackik.sqp.solver import soc_min_norm
 
     rng = np.random.default_rng(3)
     n = 6
     J = rng.standard_normal((5, n))
     J[3] = J[2]  # an identical pair of inequality rows
-    eng = _Engine(
-        NonlinearProgram(lambda x: 0.0, lambda x: np.zeros(n)), np.zeros(n), SQPOptions(), "daqp"
-    )
-    eng.mE, eng.mI, eng.m = 1, 4, 5
-    eng.sparse = sparse
-    eng.J = sps.csc_matrix(J) if sparse else J
+    alg = make_algebra(sparse, n, 1, 4)
+    JJ = sps.csc_matrix(J) if sparse else J
     lam = np.array([-2.0, 0.0, 1.0, 1.0, 0.0])  # rows 0 (equality), 2 and 3 active
     d = rng.standard_normal(n)
     c_t = rng.standard_normal(5)
     c_t[3] = c_t[2]
-    dc = eng._soc_min_norm(c_t, lam, d)
+    dc = soc_min_norm(alg, JJ, c_t, lam, d, 1)
     assert dc is not None
     rows = [0, 2, 3]
     assert np.allclose(c_t[rows] + J[rows] @ (dc - d), 0.0, atol=1e-8)

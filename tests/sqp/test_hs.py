@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hs_problems import PROBLEMS
 
 from stackik.sqp import SQPOptions, SQPStatus, solve
-from stackik.sqp.hs import PROBLEMS
 
 #: Problems where the standard start point leads to a documented *local* minimiser
 #: (HS2: f=4.9412 at x1<0; HS16: f=23.14; HS20: f=40.20; HS33: f=-4), or to another KKT

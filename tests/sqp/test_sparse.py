@@ -7,9 +7,9 @@ import dataclasses
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from hs_problems import PROBLEMS
 
 from stackik.sqp import NonlinearProgram, SQPOptions, solve
-from stackik.sqp.hs import PROBLEMS
 from stackik.sqp.sparse import FixedPattern, StackedPattern, positive_definite
 
 SOLVERS = ("daqp", "osqp", "clarabel")

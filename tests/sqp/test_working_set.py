@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hs_problems import PROBLEMS
 
 from stackik.sqp import SQPOptions, solve
-from stackik.sqp.hs import PROBLEMS
 from stackik.sqp.qp import QPStatus, make_backend
 from stackik.sqp.working_set import WorkingSetStep
 

@@ -20,17 +20,15 @@ the paper), n = 4 and phi = 0:
 
 The same command gives the same numbers (fixed seeds, deterministic solver).
 
-Entry points for the command line (``stackik reproduce``, ``stackik mc``,
-``stackik map``) are :func:`main_reproduce`, :func:`main_mc` and :func:`main_map`; each
-returns a process exit code.
+The entry point of ``stackik reproduce`` is :func:`main_reproduce`; it returns a process
+exit code (``stackik mc`` and ``stackik map`` live in :mod:`stackik.cli`).
 """
 
 from __future__ import annotations
 
 import json
-import math
 import time
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor
 from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -64,8 +62,6 @@ __all__ = [
     "ReproduceResult",
     "ReproduceSettings",
     "TargetPoses",
-    "main_map",
-    "main_mc",
     "main_reproduce",
     "reproduce",
     "target_poses",
@@ -695,117 +691,3 @@ def main_reproduce(
     for k, v in res.checks.items():
         print(f"[{'PASS' if v else 'FAIL'}] {k}")
     return 1 if (strict and not res.ok) else 0
-
-
-def main_mc(
-    rho: float,
-    z: float,
-    theta: float,
-    phi: float = 0.0,
-    n: int = 4,
-    n_samples: int = 10_000,
-    sigma_t: float = 1.0,
-    sigma_theta: float = 0.005,
-    n_nonopt: int = 2,
-    seed: int = DEFAULT_SEED,
-    out: str | Path | None = None,
-    stack_file: str | Path | None = None,
-) -> int:
-    """``stackik mc RHO Z THETA [--phi] [--n] [--samples] [--sigma-t] [--sigma-theta]
-    [--nonopt K] [--seed] [--out DIR] [--stack FILE]``.
-
-    Solves the optimal and ``n_nonopt`` non-optimal poses of one planar target, runs the
-    Monte Carlo with common draws, prints median [95 % interval] and F factor per pose and,
-    with ``out``, writes ``mc.json``, ``poses.png`` and ``clouds.png``. Returns 0, or 2 if
-    the poses cannot be found.
-    """
-    from stackik.analysis import figures
-    from stackik.targets import PlanarTarget
-
-    stack = Stack.from_file(stack_file) if stack_file else Stack.reference(n)
-    target = PlanarTarget(rho=rho, z=z, theta=theta, phi=phi)
-    try:
-        tp = target_poses(stack, target, n_nonopt, seed + 1)
-    except RuntimeError as exc:
-        print(f"error: {exc}")
-        return 2
-    mc = monte_carlo(tp.poses, n_samples, sigma_t, sigma_theta, rng=seed + 10)
-    lin = linearity_check(mc)
-    names = ["optimal"] + [f"non-opt {i + 1}" for i in range(len(tp.nonoptimal))]
-    fns = [tp.optimal.frobenius_norm] + [r.frobenius_norm for r in tp.nonoptimal]
-    print(f"target {_fmt_target(target)}, phi = {phi:g} rad; {n_samples} samples")
-    for name, fn, pm, c in zip(names, fns, mc.poses, lin, strict=True):
-        print(
-            f"{name:>10}: FN {fn:8.1f}  median {pm.median:.3f} mm "
-            f"[{pm.interval[0]:.3f}, {pm.interval[1]:.3f}]  F {c.F:.1%}"
-        )
-    if out is not None:
-        o = Path(out)
-        o.mkdir(parents=True, exist_ok=True)
-        data = {
-            "target": asdict(target),
-            "poses": [r.to_dict() for r in [tp.optimal, *tp.nonoptimal]],
-            "monte_carlo": mc.summary(),
-            "F": [c.F for c in lin],
-        }
-        (o / "mc.json").write_text(json.dumps(data, indent=2, default=json_default_lenient))
-        figures.plot_pose_diagram(stack, tp.poses, phi, names, path=o / "poses.png")
-        figures.plot_perturbation_clouds(mc, names, path=o / "clouds.png")
-        print(f"wrote {o / 'mc.json'}, {o / 'poses.png'}, {o / 'clouds.png'}")
-    return 0
-
-
-def main_map(
-    out: str | Path,
-    n_targets: int = 300,
-    n: int = 4,
-    phi: float = 0.0,
-    n_samples: int = 10_000,
-    sigma_t: float = 1.0,
-    sigma_theta: float = 0.005,
-    seed: int = DEFAULT_SEED,
-    workers: int = 1,
-    progress: bool = True,
-    stack_file: str | Path | None = None,
-) -> int:
-    """``stackik map --out DIR [--targets M] [--n] [--phi] [--samples] [--sigma-t]
-    [--sigma-theta] [--seed] [--workers] [--stack FILE]``.
-
-    Workspace study: writes ``workspace.csv``, ``regression.json``, ``fn_ratio_map.png``
-    and ``regression.png`` into ``out`` and prints the regression. Returns 0, or 2 when
-    fewer than 3 targets were solved.
-    """
-    from stackik.analysis import figures
-
-    stack = Stack.from_file(stack_file) if stack_file else Stack.reference(n)
-    o = Path(out)
-    o.mkdir(parents=True, exist_ok=True)
-    pool = ProcessPoolExecutor(max_workers=workers) if workers > 1 else None
-    try:
-        study = workspace_study(
-            stack,
-            n_targets,
-            n_samples=n_samples,
-            sigma_t=sigma_t,
-            sigma_theta=sigma_theta,
-            seed=seed,
-            phi=phi,
-            progress=progress,
-            executor=pool,
-        )
-    finally:
-        if pool is not None:
-            pool.shutdown()
-    write_csv(o / "workspace.csv", study.rows())
-    figures.plot_fn_ratio_map(study, path=o / "fn_ratio_map.png")
-    figures.plot_regression(study, path=o / "regression.png")
-    reg = study.regression
-    (o / "regression.json").write_text(
-        json.dumps(None if reg is None else reg.to_dict(), indent=2, default=json_default_lenient)
-    )
-    print(f"{int(study.valid.sum())}/{len(study.targets)} targets solved")
-    if reg is None:
-        return 2
-    print(f"median ratio = {reg.slope:.3f} x FN ratio + {reg.intercept:.3f}, r^2 = {reg.r2:.3f}")
-    print(f"wrote {o}")
-    return 0 if math.isfinite(reg.r2) else 2

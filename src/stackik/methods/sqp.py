@@ -27,9 +27,8 @@ from stackik.sqp.qp import SPARSE_BACKENDS
 #: O(n) sparse; the Hessian's 3x3 chain and limit blocks each made positive semidefinite),
 #: ``"lifted-exact"`` (the same with the exact Hessian, convexified by the engine).
 FORMULATIONS = ("auto", "dense", "sparse", "lifted", "lifted-exact")
-#: From this many platforms ``"auto"`` lifts: at n = 64 a Clarabel QP with the reduced
-#: problem's dense (3n)^2 Hessian costs ~30x one with the lifted problem's O(n) one
-#: (benchmarks/results/sqp_scaling.md), more than the lifted problem's extra iterations.
+#: From this many platforms ``"auto"`` lifts: the reduced problem's dense (3n)^2 Hessian
+#: then costs the QPs more than the lifted problem's extra iterations (docs/benchmarks.md).
 LIFTED_FROM = 48
 #: OSQP's ADMM iteration cap in this method (the engine's default is 10,000): past it the
 #: approximate solution is used as a step and judged by the ratio test.
@@ -37,24 +36,21 @@ OSQP_MAX_ITER = 4000
 #: OSQP settings of this method (with ``max_iter``): each QP is first solved to 1e-4 and
 #: kept when OSQP's polishing succeeds (the polished solution is the exact one on the
 #: active set ADMM found), else ADMM continues to the engine's 1e-6
-#: (:data:`stackik.sqp.qp.osqp_.POLISH_FIRST`); no duality-gap termination test. At n = 16
-#: (6 targets) ~1.5-2x less time with the same iterates' FN on every target
-#: (benchmarks/results/sqp_profile.md).
+#: (:data:`stackik.sqp.qp.osqp_.POLISH_FIRST`); no duality-gap termination test
+#: (measurements: docs/benchmarks.md).
 OSQP_OPTIONS: dict[str, Any] = {
     "max_iter": OSQP_MAX_ITER,
     "polish_first": 1e-4,
     "check_dualgap": False,
 }
 #: Clarabel settings of this method: no iterative refinement of its KKT solves (the IK
-#: subproblems are well conditioned: ~25 % less per QP at n = 16 with the same SQP
-#: iterates; the engine's default keeps it, which Hock-Schittkowski needs: 62 -> 58 of 67
-#: without it).
+#: subproblems are well conditioned; the engine's default keeps it, which
+#: Hock-Schittkowski needs; docs/benchmarks.md).
 CLARABEL_OPTIONS = {"iterative_refinement_enable": False}
 #: With Clarabel, the QPs keep every limit row below this many platforms
-#: (``SQPOptions.qp_screening=False``): one solver updated in place instead of one rebuilt
-#: whenever the screened row set grows (21 of 59 QPs at n = 4): ~10 % less time at
-#: n = 4, ~8 % at n = 8, while from n = 16 the smaller screened QPs win (3-5 % at n = 16,
-#: 10-15 % at n = 32; benchmarks/results/sqp_profile.md).
+#: (``SQPOptions.qp_screening=False``): one solver updated in place beats one rebuilt
+#: whenever the screened row set grows; from about 16 platforms the smaller screened QPs
+#: win (docs/benchmarks.md).
 CLARABEL_SCREEN_FROM = 12
 
 __all__ = ["SQPMethod", "sqp_options"]
@@ -77,9 +73,8 @@ class SQPMethod(Method):
     Exact Lagrangian Hessian in spatial mode (the compiled problem of the spatial interior
     point, every objective) and in planar mode (``"frobenius"``, ``"feasible"``, or
     ``"weighted"`` with one ``sigma_theta``); damped BFGS otherwise (Gauss-Newton ignores
-    the curvature of active limits and stalls there). Spatial, one start: 8.5 / 39 / 120
-    median iterations at n = 4 / 8 / 16 instead of BFGS's 32-36 / 155-175 / 190-400
-    (benchmarks/results/sqp_scaling_spatial.md). With OSQP or
+    the curvature of active limits and stalls there); in spatial mode the exact Hessian
+    takes about 4x fewer iterations than BFGS (docs/benchmarks.md). With OSQP or
     Clarabel the problem is passed with its sparsity (``options["formulation"]``,
     :data:`FORMULATIONS`);
     ``options`` are otherwise :class:`stackik.sqp.SQPOptions` fields, e.g.

@@ -69,7 +69,7 @@ class SQPOptions:
         in :attr:`SQPResult.qp_working_set_solves` and ``qp_backend_solves``. Off by
         default: on the planar IK problem its misses (degenerate vertices where several
         limits meet, active sets that change far from the solution) cost more than its
-        hits save (benchmarks/results/sqp_scaling.md).
+        hits save (docs/benchmarks.md).
     qp_screening : bool
         Sparse mode: QPs without the inequality rows that cannot bind in the trust region
         (the same solution, smaller QPs; the backend's solver is rebuilt when that row set

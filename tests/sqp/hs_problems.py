@@ -1,5 +1,8 @@
 """Hock-Schittkowski test problems with analytic derivatives and published optima.
 
+Test data, not part of the library: imported by the tests in this folder and by
+``benchmarks/bench_sqp.py`` (which puts this folder on ``sys.path``).
+
 Source: W. Hock and K. Schittkowski, *Test Examples for Nonlinear Programming Codes*,
 Lecture Notes in Economics and Mathematical Systems 187, Springer, 1981 (standard start
 points ``x0`` and optimal values ``f_star`` from there).
@@ -15,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .problem import FloatArray, NonlinearProgram
+from stackik.sqp.problem import FloatArray, NonlinearProgram
 
 SQ2 = np.sqrt(2.0)
 SQ3 = np.sqrt(3.0)
