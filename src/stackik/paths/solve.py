@@ -170,6 +170,13 @@ def _request(
 ) -> _Request:
     if not isinstance(stack, Stack):
         raise ValueError(f"stack: expected a Stack, got {type(stack).__name__}")
+    if bool(np.isfinite(stack.force_max).any()):
+        # the path kernels do not know leg forces: refuse rather than call a pose over
+        # its force limit valid (solve_ik refuses such a pose by the independent check)
+        raise ValueError(
+            "stack: solve_path does not enforce leg force limits yet (force_max is finite); "
+            "use a stack without force_max, or check waypoints with stackik.statics"
+        )
     pts = as_waypoints(targets)
     planar = isinstance(pts[0], PlanarTarget)
     k = 3 if planar else 6
@@ -1135,7 +1142,8 @@ def solve_path(
         Bad input: not a Stack, empty or mixed waypoints, planar waypoints in different
         planes, NaN, ``max_jump`` not a pair of positive numbers, unknown mode, a
         ``start`` of the wrong shape or that misses ``targets[0]``, only one of
-        ``leg_speed``/``leg_accel``, non-positive limits.
+        ``leg_speed``/``leg_accel``, non-positive limits, a stack with a finite
+        ``force_max`` (paths do not enforce force limits yet).
     """
     t_start = time.perf_counter()
     req = _request(

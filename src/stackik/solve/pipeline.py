@@ -184,6 +184,15 @@ def _run(req: Request) -> Verdict:
     return local_stage(req, plan, handover)
 
 
+#: The message of a pose within every leg and joint limit whose leg forces (self-weight,
+#: earth gravity) exceed a finite ``force_max``: the solvers do not enforce force limits yet.
+FORCE_UNCHECKED_MESSAGE = (
+    "Leg force over its limit: the pose reaches the target within every leg and joint "
+    "limit, but its peak leg force is {ratio:.3g} x force_max (self-weight, earth "
+    "gravity); the solvers do not enforce force limits yet (stackik.statics gives the forces)."
+)
+
+
 def _result(req: Request, verdict: Verdict) -> IKResult:
     """The :class:`IKResult` of a verdict (the first start when it has no run)."""
     run = verdict.run
@@ -197,11 +206,19 @@ def _result(req: Request, verdict: Verdict) -> IKResult:
         else req.mode.frobenius(q)
     )
     start_method = req.method.name
+    status, message = verdict.status, verdict.message or STATUS_MESSAGES[verdict.status]
+    if status is IKStatus.SUCCESS and bool(np.isfinite(req.stack.force_max).any()):
+        # The solvers do not know leg forces yet: a finite force_max is enforced by the
+        # independent check alone, so a pose over it is refused here, never a success.
+        forces = check_pose(req.stack, req.target, q)
+        if not forces.ok:
+            status = IKStatus.FAILED
+            message = FORCE_UNCHECKED_MESSAGE.format(ratio=forces.peak_force_ratio)
     return IKResult(
         q=q,
-        success=verdict.status is IKStatus.SUCCESS,
-        status=verdict.status,
-        message=verdict.message or STATUS_MESSAGES[verdict.status],
+        success=status is IKStatus.SUCCESS,
+        status=status,
+        message=message,
         frobenius_norm=frobenius,
         objective=req.objective,
         objective_value=req.problem.objective_value(q) if run is None else run.obj,
