@@ -9,6 +9,7 @@ from typing import Any
 
 from stackik._version import __version__
 from stackik.check import PoseCheck, check_pose
+from stackik.clearance import Clearances, clearances
 from stackik.convex import ConvexStartError, convex_start
 from stackik.geometry import GeometryError, PlatformGeometry, Stack
 from stackik.kinematics import (
@@ -23,6 +24,7 @@ from stackik.kinematics import (
     spatial_jacobian,
     spatial_plate_origins,
 )
+from stackik.obstacles import Box, Capsule, HalfSpace, Sphere, load_obstacles
 from stackik.platform import leg_lengths, leg_vectors, platform_forward_kinematics
 from stackik.result import IKResult, IKStatus, OptionError
 from stackik.solve import solve_ik, solve_many
@@ -32,7 +34,11 @@ from stackik.targets import PlanarTarget, SpatialTarget, target_from_dict, targe
 
 __all__ = [
     "__version__",
+    "Box",
+    "Capsule",
     "check_pose",
+    "Clearances",
+    "clearances",
     "ConfidenceEllipse",
     "convex_start",
     "ConvexStartError",
@@ -40,6 +46,7 @@ __all__ = [
     "f_factor",
     "frobenius_norm",
     "GeometryError",
+    "HalfSpace",
     "IKResult",
     "IKStatus",
     "interpolate_targets",
@@ -48,6 +55,7 @@ __all__ = [
     "lift_planar",
     "linear_covariance",
     "linearity_check",
+    "load_obstacles",
     "monte_carlo",
     "MonteCarloResult",
     "nonoptimal_poses",
@@ -75,6 +83,7 @@ __all__ = [
     "spatial_jacobian",
     "spatial_plate_origins",
     "SpatialTarget",
+    "Sphere",
     "Stack",
     "target_from_dict",
     "target_to_dict",

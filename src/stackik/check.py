@@ -1,20 +1,26 @@
 """The independent check: the one place that decides whether a pose is a success.
 
 :func:`check_pose` re-evaluates a pose with the forward kinematics of
-:mod:`stackik.kinematics` and the constraint functions of :mod:`stackik.platform`, sharing no
-code with any solver. :func:`pose_ok` holds the acceptance rule; the compiled twin
-(:mod:`stackik._check`) imports only this module.
+:mod:`stackik.kinematics`, the constraint functions of :mod:`stackik.platform` and the
+exact distances of :mod:`stackik.clearance`, sharing no code with any solver.
+:func:`pose_ok` holds the acceptance rule; the compiled twin (:mod:`stackik._check`)
+imports only this module (it checks the limits and the target, not the clearances: a
+clearance is needed only with obstacles, a leg radius, a plate thickness or a margin,
+see :func:`stackik.clearance.needs_clearances`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from stackik.geometry import Stack
+from stackik.clearance import Clearances, clearances, needs_clearances
+from stackik.geometry import Stack, finite_number
 from stackik.kinematics import planar_forward, spatial_forward
+from stackik.obstacles import Obstacle, as_obstacles
 from stackik.targets import PlanarTarget, Target
 
 __all__ = [
@@ -75,6 +81,12 @@ class PoseCheck:
         The same as a length [mm]: leg-length blocks converted by ``|l| - limit``.
     constraints : ndarray, shape (n, 24)
         Raw constraint values.
+    clearances : Clearances or None
+        Signed distances of the pose's bodies and obstacles [mm]; None when the check
+        did not need them (no obstacle, zero leg radii and plate thickness, margin 0:
+        every clearance is then a distance, >= 0 by construction).
+    clearance_violation : float
+        ``max(0, clearance - clearances.minimum)`` [mm] (0 when not computed).
     """
 
     ok: bool
@@ -83,6 +95,8 @@ class PoseCheck:
     max_violation: float
     max_violation_mm: float
     constraints: FloatArray
+    clearances: Clearances | None = None
+    clearance_violation: float = 0.0
 
 
 def so3_log(R: FloatArray) -> FloatArray:
@@ -92,14 +106,46 @@ def so3_log(R: FloatArray) -> FloatArray:
     return Rotation.from_matrix(R).as_rotvec()  # type: ignore[no-any-return]
 
 
-def check_pose(stack: Stack, target: Target, q: ArrayLike) -> PoseCheck:
-    """Check a pose against a target and every limit, independently of any solver.
+def check_pose(
+    stack: Stack,
+    target: Target,
+    q: ArrayLike,
+    obstacles: Sequence[Obstacle] | Obstacle | None = (),
+    clearance: float = 0.0,
+) -> PoseCheck:
+    """Check a pose against a target, every limit and every clearance, independently of
+    any solver.
 
-    Uses only :func:`stackik.planar_forward` / :func:`stackik.spatial_forward` and
-    :meth:`Stack.planar_constraints` / :meth:`Stack.spatial_constraints`. Tolerances:
-    ``TARGET_POS_TOL`` = 1e-6 mm, ``TARGET_ANGLE_TOL`` = 1e-8 rad, ``FEAS_TOL`` = 1e-6 mm
-    (leg-length blocks are compared as lengths: ``|l| >= leg_min - FEAS_TOL``).
+    Uses only :func:`stackik.planar_forward` / :func:`stackik.spatial_forward`,
+    :meth:`Stack.planar_constraints` / :meth:`Stack.spatial_constraints` and
+    :func:`stackik.clearances`. Tolerances: ``TARGET_POS_TOL`` = 1e-6 mm,
+    ``TARGET_ANGLE_TOL`` = 1e-8 rad, ``FEAS_TOL`` = 1e-6 mm (leg-length blocks are
+    compared as lengths: ``|l| >= leg_min - FEAS_TOL``; clearances likewise:
+    ``clearances.minimum >= clearance - FEAS_TOL``).
+
+    Parameters
+    ----------
+    stack : Stack
+    target : PlanarTarget or SpatialTarget
+    q : array_like, shape (n, 3) or (n, 6)
+    obstacles : sequence of Obstacle, optional
+        Keep-out bodies in the base frame [mm].
+    clearance : float, optional
+        Margin [mm] >= 0 every signed distance must keep (default 0: touching passes, any
+        penetration fails). Legs of zero radius that cross exactly are at distance 0, so
+        with zero radii, zero thickness, no obstacle and margin 0 the clearances cannot
+        fail and are not computed (``PoseCheck.clearances`` is None).
+
+    Raises
+    ------
+    ValueError
+        A malformed ``obstacles`` or ``clearance``, or an obstacle that collides with the
+        base (every pose would).
     """
+    obs = as_obstacles(obstacles)
+    margin = finite_number(clearance, "clearance")
+    if margin < 0:
+        raise ValueError(f"clearance: must be >= 0 mm, got {margin}")
     qa = np.asarray(q, dtype=float)
     if isinstance(target, PlanarTarget):
         y = planar_forward(qa)
@@ -119,5 +165,14 @@ def check_pose(stack: Stack, target: Target, q: ArrayLike) -> PoseCheck:
     v_min = lmin - np.sqrt(np.maximum(lmin**2 - viol[:, 0:6], 0.0))
     v_max = np.sqrt(lmax**2 + viol[:, 6:12]) - lmax
     v_mm = float(max(v_min.max(), v_max.max(), viol[:, 12:].max()))
-    ok = pose_ok(pos_err, ang_err, v_mm, bool(np.all(np.isfinite(c))))
-    return PoseCheck(ok, pos_err, ang_err, max_v, v_mm, c)
+    finite = bool(np.all(np.isfinite(c)))
+    cl, v_cl = None, 0.0
+    if needs_clearances(stack, obs, margin):
+        if finite:
+            phi = target.phi if isinstance(target, PlanarTarget) else None
+            cl = clearances(stack, qa, obs, phi=phi)
+            v_cl = max(0.0, margin - cl.minimum)
+        else:  # no distances of a non-finite pose (it fails on its limits anyway)
+            v_cl = float("inf")
+    ok = pose_ok(pos_err, ang_err, max(v_mm, v_cl), finite)
+    return PoseCheck(ok, pos_err, ang_err, max_v, v_mm, c, cl, v_cl)

@@ -30,6 +30,10 @@ REF_LEG_MAX = 450.0  # [mm]
 REF_JOINT_MIN = math.radians(20.0)  # [rad]
 
 
+#: Optional fields of a platform in a geometry file (keyword arguments, default 0).
+_OPTIONAL = ("leg_radius", "plate_thickness")
+
+
 class GeometryError(ValueError):
     """A geometry (or geometry file) is malformed; the message names the bad field."""
 
@@ -93,6 +97,13 @@ class PlatformGeometry:
         Actuator length limits [mm], ``0 < leg_min < leg_max``.
     joint_min : float
         Minimum angle between a leg and either plate [rad], ``0 <= joint_min < pi/2``.
+    leg_radius : float, optional
+        Radius of each leg's capsule, joint to joint [mm], ``>= 0`` (default 0: legs of
+        zero thickness, which still may not pass through each other). See
+        ``docs/clearance.md``.
+    plate_thickness : float, optional
+        Thickness of the plates [mm], ``>= 0`` (default 0). A plate is the set of points
+        within ``plate_thickness / 2`` of the convex polygon of its nodes.
 
     Raises
     ------
@@ -105,6 +116,8 @@ class PlatformGeometry:
     leg_min: float
     leg_max: float
     joint_min: float
+    leg_radius: float = 0.0
+    plate_thickness: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "base_nodes", _nodes(self.base_nodes, "base_nodes"))
@@ -121,12 +134,17 @@ class PlatformGeometry:
         object.__setattr__(self, "leg_min", leg_min)
         object.__setattr__(self, "leg_max", leg_max)
         object.__setattr__(self, "joint_min", joint_min)
+        for name in ("leg_radius", "plate_thickness"):
+            value = _scalar(getattr(self, name), name)
+            if value < 0:
+                raise GeometryError(f"{name}: must be >= 0 mm, got {value}")
+            object.__setattr__(self, name, value)
 
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickle through the constructor: the node arrays come back validated and
         read-only (numpy's own pickling would make them writable)."""
         args = (self.base_nodes, self.top_nodes, self.leg_min, self.leg_max, self.joint_min)
-        return (PlatformGeometry, args)
+        return (PlatformGeometry, args + (self.leg_radius, self.plate_thickness))
 
     @classmethod
     def hexagonal(
@@ -138,6 +156,9 @@ class PlatformGeometry:
         leg_min: float = REF_LEG_MIN,
         leg_max: float = REF_LEG_MAX,
         joint_min: float = REF_JOINT_MIN,
+        *,
+        leg_radius: float = 0.0,
+        plate_thickness: float = 0.0,
     ) -> PlatformGeometry:
         """The symmetric layout of DESIGN §2 (radii in mm, angles in rad).
 
@@ -160,7 +181,15 @@ class PlatformGeometry:
         def ring(r: float, ang: FloatArray) -> FloatArray:
             return np.column_stack([r * np.cos(ang), r * np.sin(ang), np.zeros(6)])
 
-        return cls(ring(r_b, base_ang), ring(r_t, top_ang), leg_min, leg_max, joint_min)
+        nodes = (ring(r_b, base_ang), ring(r_t, top_ang))
+        return cls(
+            *nodes,
+            leg_min,
+            leg_max,
+            joint_min,
+            leg_radius=leg_radius,
+            plate_thickness=plate_thickness,
+        )
 
     @classmethod
     def reference(cls) -> PlatformGeometry:
@@ -171,14 +200,24 @@ class PlatformGeometry:
         return cls.hexagonal()
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain-data form (lists and floats), the inverse of :meth:`from_dict`."""
-        return {
+        """Plain-data form (lists and floats), the inverse of :meth:`from_dict`.
+
+        ``leg_radius`` and ``plate_thickness`` appear only when non-zero (files written
+        before they existed read the same).
+        """
+        out: dict[str, Any] = {
             "base_nodes": self.base_nodes.tolist(),
             "top_nodes": self.top_nodes.tolist(),
             "leg_min": self.leg_min,
             "leg_max": self.leg_max,
             "joint_min": self.joint_min,
         }
+        out.update({k: v for k, v in self._bodies().items() if v != 0.0})
+        return out
+
+    def _bodies(self) -> dict[str, float]:
+        """The clearance fields (``leg_radius``, ``plate_thickness``) [mm]."""
+        return {"leg_radius": self.leg_radius, "plate_thickness": self.plate_thickness}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], where: str = "platform") -> PlatformGeometry:
@@ -200,6 +239,7 @@ class PlatformGeometry:
                 "leg_min",
                 "leg_max",
                 "joint_min",
+                *_OPTIONAL,
             }
             unknown = set(spec) - allowed
             if unknown:
@@ -212,11 +252,11 @@ class PlatformGeometry:
         for key in required:
             if key not in data:
                 raise GeometryError(f"{where}.{key}: missing field")
-        unknown = set(data) - set(required)
+        unknown = set(data) - set(required) - set(_OPTIONAL)
         if unknown:
             raise GeometryError(f"{where}: unknown field(s) {sorted(unknown)}")
         try:
-            return cls(*(data[k] for k in required))
+            return cls(*(data[k] for k in required), **{k: data[k] for k in _OPTIONAL if k in data})
         except GeometryError as exc:
             raise GeometryError(f"{where}.{exc}") from None
 
@@ -228,6 +268,7 @@ class PlatformGeometry:
             and np.array_equal(self.top_nodes, other.top_nodes)
             and (self.leg_min, self.leg_max, self.joint_min)
             == (other.leg_min, other.leg_max, other.joint_min)
+            and self._bodies() == other._bodies()
         )
 
     def __hash__(self) -> int:
@@ -238,6 +279,8 @@ class PlatformGeometry:
                 self.leg_min,
                 self.leg_max,
                 self.joint_min,
+                self.leg_radius,
+                self.plate_thickness,
             )
         )
 
@@ -435,6 +478,7 @@ class Stack(Sequence[PlatformGeometry]):
             lines.append(f"leg_min = {p.leg_min!r}")
             lines.append(f"leg_max = {p.leg_max!r}")
             lines.append(f"joint_min = {p.joint_min!r}")
+            lines.extend(f"{k} = {v!r}" for k, v in p._bodies().items() if v != 0.0)
             for key, arr in (("base_nodes", p.base_nodes), ("top_nodes", p.top_nodes)):
                 rows = ",\n    ".join("[" + ", ".join(repr(float(v)) for v in r) + "]" for r in arr)
                 lines.append(f"{key} = [\n    {rows},\n]")
