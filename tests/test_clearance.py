@@ -52,7 +52,10 @@ def _naive(stack, q, obstacles, phi=None):
     def plate(j):
         return dist.Polygon(O[j], A[j], lay.uv[j])
 
-    vals = []
+    vals, adj = [], []
+    for i in range(n - 1):
+        for k, m in itertools.product(range(6), range(6)):
+            adj.append(dist.segment_segment(B[i, k], T[i, k], B[i + 1, m], T[i + 1, m]) - 2 * r[i])
     for i in range(n):
         for j in range(i + 2, n):
             for k, m in itertools.product(range(6), range(6)):
@@ -61,14 +64,15 @@ def _naive(stack, q, obstacles, phi=None):
             if j not in (i, i + 1):
                 vals.append(dist.segment_polygon(B[i, k], T[i, k], plate(j)) - r[i] - ht[j])
     for j in range(n + 1):
-        for jj in range(j + 2, n + 1):
+        for jj in range(j + 1, n + 1):
             vals.append(dist.polygon_polygon(plate(j), plate(jj)) - ht[j] - ht[jj])
     obs = []
     for ob in obstacles:
         v = [ob.segment_distance(B[i, k], T[i, k]) - r[i] for i in range(n) for k in range(6)]
         v += [ob.polygon_distance(plate(j)) - ht[j] for j in range(1, n + 1)]
         obs.append(float(np.min(v)))
-    return (float(np.min(vals)) if vals else np.inf), obs
+    least = float(np.min(vals)) if vals else np.inf
+    return (float(np.min(adj)) if adj else np.inf), least, obs
 
 
 OBSTACLES = [
@@ -84,19 +88,20 @@ def test_screened_pairs_equal_every_pair(n):
     stack = Stack.uniform(GEOM, n)
     for q in random_feasible_poses(stack, 4, rng=n, phi=PHI):
         c = clearances(stack, q, OBSTACLES, phi=PHI)
-        non_adj, obs = _naive(stack, q, OBSTACLES, PHI)
+        adj, non_adj, obs = _naive(stack, q, OBSTACLES, PHI)
         assert c.non_adjacent == pytest.approx(non_adj, abs=1e-9) or non_adj == c.non_adjacent
+        assert c.adjacent_legs == pytest.approx(adj, abs=1e-9) or adj == c.adjacent_legs
         np.testing.assert_allclose(c.obstacles, obs, rtol=0, atol=1e-9)
-        assert c.minimum == min(c.self_legs, c.non_adjacent, *c.obstacles)
+        assert c.minimum == min(c.self_legs, c.adjacent_legs, c.non_adjacent, *c.obstacles)
         assert c.closest is not None and c.closest.distance == c.minimum
 
 
-def test_one_platform_has_no_non_adjacent_pair():
-    c = clearances(
-        Stack.uniform(GEOM, 1), random_feasible_poses(Stack.uniform(GEOM, 1), 1, 0)[0], phi=0.0
-    )
-    assert c.non_adjacent == np.inf and c.obstacles == ()
-    assert len(c.contacts) == 1 and c.contacts[0].b is not None
+def test_one_platform_pairs_its_legs_and_its_two_plates():
+    stack = Stack.uniform(GEOM, 1)
+    c = clearances(stack, random_feasible_poses(stack, 1, 0)[0], phi=0.0)
+    assert c.adjacent_legs == np.inf and c.obstacles == ()
+    assert [(x.a.kind, x.b.kind) for x in c.contacts] == [("leg", "leg"), ("plate", "plate")]
+    assert str(c.contacts[1].a) == "base plate" and 0 < c.non_adjacent < GEOM.leg_max
 
 
 def test_self_legs_against_dense_sampling():
@@ -144,6 +149,7 @@ def test_planar_equals_the_same_pose_in_spatial_form():
         b = clearances(stack, _spatial_of_planar(q, PHI), OBSTACLES)
         assert a.self_legs == pytest.approx(b.self_legs, abs=1e-9)
         assert a.non_adjacent == pytest.approx(b.non_adjacent, abs=1e-9)
+        assert a.adjacent_legs == pytest.approx(b.adjacent_legs, abs=1e-9)
         np.testing.assert_allclose(a.obstacles, b.obstacles, atol=1e-9)
         np.testing.assert_allclose(a.self_legs_by_platform, b.self_legs_by_platform, atol=1e-9)
 
@@ -210,7 +216,7 @@ def test_zero_radius_legs_are_distances():
     assert needs_clearances(Stack.uniform(GEOM, 2))
     for q in random_feasible_poses(stack, 5, rng=2, phi=PHI):
         c = clearances(stack, q, phi=PHI)
-        assert c.self_legs >= 0 and c.non_adjacent >= 0
+        assert c.self_legs >= 0 and c.non_adjacent >= 0 and c.adjacent_legs >= 0
 
 
 # --- the check ----------------------------------------------------------------------------
@@ -292,3 +298,18 @@ def test_solve_never_claims_a_colliding_pose(planar):
     if res2.success:
         assert clearances(fat, res2.q, phi=phi).minimum >= -1e-6
     assert not (res2.success and np.allclose(res2.q, res.q))
+
+
+def test_adjacent_legs_that_share_a_joint_are_not_paired():
+    # platform 2's base nodes on platform 1's top nodes (a = 45 deg, b = 15 deg)
+    low = PlatformGeometry.hexagonal(leg_radius=12.0)
+    high = PlatformGeometry.hexagonal(base_half_angle=np.radians(45), leg_radius=12.0)
+    np.testing.assert_allclose(
+        np.sort(high.base_nodes, axis=0), np.sort(low.top_nodes, axis=0), atol=1e-12
+    )
+    stack = Stack((low, high))
+    assert len(_layout(stack).adj) == 30
+    assert len(_layout(Stack.uniform(low, 2)).adj) == 36
+    for q in random_feasible_poses(stack, 3, rng=4, phi=0.0):
+        c = clearances(stack, q, phi=0.0)
+        assert c.adjacent_legs > -2 * 12.0 + 1.0  # not the -2r of two legs on one joint

@@ -14,10 +14,13 @@ Pairs (each kind's least signed distance and its closest pair are reported):
 
 - ``self_legs``: two legs of one platform (its nodes are distinct, so no two legs share a
   joint: all 15 pairs);
-- ``non_adjacent``: two bodies of different platforms that are not adjacent: a leg and a
-  plate it does not join, legs of platforms two or more apart, plates two or more apart.
-  Legs of adjacent platforms are not paired: they lie on opposite sides of their shared
-  plate by the joint-angle limits (docs/clearance.md states the argument and its limits);
+- ``adjacent_legs``: a leg of platform i and a leg of platform i + 1 that share no joint.
+  Their axes lie on opposite sides of the shared plate by the joint-angle limits and never
+  cross, but with a radius the capsules can meet near the plate (docs/clearance.md gives
+  the argument and the numbers), so they are checked;
+- ``non_adjacent``: every other pair of bodies that are not joined: a leg and a plate it
+  does not join, legs of platforms two or more apart, any two plates (a leg is joined to
+  the two plates it connects, and touches them by design);
 - ``obstacles``: every leg and every plate but the base against each obstacle.
 
 This module shares no code with any solver; it is the check's geometry.
@@ -43,6 +46,9 @@ __all__ = ["Body", "Clearances", "Contact", "clearances", "needs_clearances", "p
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
+
+#: Relative distance under which two nodes are one joint (legs sharing it are not paired).
+_SHARED = 1e-9
 
 #: Tolerance [mm] of the base test: an obstacle closer than ``leg_radius`` minus this to a
 #: joint of the base collides with every pose.
@@ -115,8 +121,8 @@ class Contact:
 class Clearances:
     """Signed minimum distances [mm] of a pose, per pair kind (see the module docstring).
 
-    A kind with no pair (one platform has no non-adjacent bodies; no obstacles) has
-    distance ``inf`` and no contact.
+    A kind with no pair (one platform has no adjacent legs and no non-adjacent bodies; no
+    obstacles) has distance ``inf`` and no contact.
 
     Attributes
     ----------
@@ -124,17 +130,20 @@ class Clearances:
         Least over the pairs of legs of one platform.
     self_legs_by_platform : ndarray, shape (n,)
         The same per platform (bottom first).
+    adjacent_legs : float
+        Least over the pairs of legs of adjacent platforms.
     non_adjacent : float
         Least over the pairs of non-adjacent bodies.
     obstacles : tuple of float
         Least over the bodies, one per obstacle.
     contacts : tuple of Contact
-        The closest pair of each kind that has one: self legs, non-adjacent, then each
-        obstacle in order.
+        The closest pair of each kind that has one: self legs, adjacent legs,
+        non-adjacent, then each obstacle in order.
     """
 
     self_legs: float
     self_legs_by_platform: FloatArray
+    adjacent_legs: float
     non_adjacent: float
     obstacles: tuple[float, ...]
     contacts: tuple[Contact, ...] = field(default=())
@@ -142,7 +151,8 @@ class Clearances:
     @property
     def minimum(self) -> float:
         """Least signed distance over every pair [mm] (``inf`` if there is none)."""
-        return float(min((self.self_legs, self.non_adjacent, *self.obstacles)))
+        kinds = (self.self_legs, self.adjacent_legs, self.non_adjacent, *self.obstacles)
+        return float(min(kinds))
 
     @property
     def closest(self) -> Contact | None:
@@ -156,6 +166,7 @@ class Clearances:
             "minimum": self.minimum,
             "self_legs": self.self_legs,
             "self_legs_by_platform": self.self_legs_by_platform.tolist(),
+            "adjacent_legs": self.adjacent_legs,
             "non_adjacent": self.non_adjacent,
             "obstacles": list(self.obstacles),
             "closest": None if closest is None else closest.to_dict(),
@@ -225,6 +236,7 @@ class _Layout:
     self_k: IntArray  # (15,) and self_m (15,): leg pairs of one platform
     self_m: IntArray
     ll: IntArray  # (L, 4): platform_a, leg_a, platform_b, leg_b (0-based platforms)
+    adj: IntArray  # (36 (n - 1), 4): the same for legs of adjacent platforms
     lp: IntArray  # (K, 3): platform, leg, plate
     pp: IntArray  # (Q, 2): plate, plate
     centre: FloatArray  # (n+1, 2) centre of each plate polygon's vertices
@@ -254,11 +266,21 @@ def _layout(stack: Stack) -> _Layout:
     ll = [
         (i, k, j, m) for i in range(n) for j in range(i + 2, n) for k in range(6) for m in range(6)
     ]
+    # legs of adjacent platforms, but not two legs that share a joint (a top node of
+    # platform i on a base node of platform i + 1: they touch by design)
+    top, base = stack.top_nodes, stack.base_nodes
+    adj = [
+        (i, k, i + 1, m)
+        for i in range(n - 1)
+        for k in range(6)
+        for m in range(6)
+        if np.linalg.norm(top[i, k] - base[i + 1, m]) > _SHARED * (1.0 + np.abs(top[i]).max())
+    ]
     # leg of platform i (0-based) joins plates i and i + 1
     lp = [
         (i, k, j) for i in range(n) for k in range(6) for j in range(n + 1) if j not in (i, i + 1)
     ]
-    pp = [(j, jj) for j in range(n + 1) for jj in range(j + 2, n + 1)]
+    pp = [(j, jj) for j in range(n + 1) for jj in range(j + 1, n + 1)]
     out = _Layout(
         radius=radius,
         half_t=thick / 2.0,
@@ -266,12 +288,23 @@ def _layout(stack: Stack) -> _Layout:
         self_k=km[:, 0].copy(),
         self_m=km[:, 1].copy(),
         ll=np.array(ll, dtype=np.intp).reshape(-1, 4),
+        adj=np.array(adj, dtype=np.intp).reshape(-1, 4),
         lp=np.array(lp, dtype=np.intp).reshape(-1, 3),
         pp=np.array(pp, dtype=np.intp).reshape(-1, 2),
         centre=centre,
         reach=np.linalg.norm(uv - centre[:, None, :], axis=-1).max(axis=1),
     )
-    for a in (out.radius, out.half_t, out.uv, out.self_k, out.self_m, out.ll, out.lp, out.pp):
+    for a in (
+        out.radius,
+        out.half_t,
+        out.uv,
+        out.self_k,
+        out.self_m,
+        out.ll,
+        out.adj,
+        out.lp,
+        out.pp,
+    ):
         a.setflags(write=False)
     return out
 
@@ -315,6 +348,34 @@ class _Best:
             if d[x] < self.value:
                 self.value, found = float(d[x]), int(part[x])
         return found
+
+
+def _legs_vs_legs(
+    best: _Best,
+    pairs: IntArray,
+    B: FloatArray,
+    T: FloatArray,
+    r: FloatArray,
+    leg_c: FloatArray,
+    leg_R: FloatArray,
+) -> None:
+    """Offer the leg pairs ``pairs`` (L, 4) to ``best``, screened by bounding spheres."""
+    if not len(pairs):
+        return
+    ia, ka, ib, kb = pairs.T
+    lb = _gap(leg_c[ia, ka], leg_c[ib, kb]) - leg_R[ia, ka] - leg_R[ib, kb]
+
+    def exact(x: IntArray) -> FloatArray:
+        a_, b_ = (ia[x], ka[x]), (ib[x], kb[x])
+        core = dist.segment_segment(B[a_], T[a_], B[b_], T[b_])
+        return core - r[ia[x]] - r[ib[x]]  # type: ignore[no-any-return]
+
+    x = best.screen(lb, exact)
+    if x is not None:
+        best.bodies = (
+            Body("leg", int(ia[x]) + 1, int(ka[x])),
+            Body("leg", int(ib[x]) + 1, int(kb[x])),
+        )
 
 
 def _check_base(stack: Stack, obstacles: Sequence[Obstacle], radius: float) -> None:
@@ -390,23 +451,14 @@ def clearances(
     plate_c = O + np.einsum("nij,nj->ni", A[:, :, :2], lay.centre)  # (n+1, 3)
     plate_R = lay.reach + lay.half_t
 
-    # non-adjacent bodies: the least exact distance over the pairs their spheres allow
+    # legs of adjacent platforms, then the non-adjacent bodies: the least exact distance
+    # over the pairs their spheres allow
+    adjacent = _Best()
+    _legs_vs_legs(adjacent, lay.adj, B, T, r, leg_c, leg_R)
+    if adjacent.bodies is not None:
+        contacts.append(Contact(adjacent.value, *adjacent.bodies))
     best = _Best()
-    if len(lay.ll):
-        ia, ka, ib, kb = lay.ll.T
-        lb = _gap(leg_c[ia, ka], leg_c[ib, kb]) - leg_R[ia, ka] - leg_R[ib, kb]
-
-        def d_ll(x: IntArray) -> FloatArray:
-            a_, b_ = (ia[x], ka[x]), (ib[x], kb[x])
-            core = dist.segment_segment(B[a_], T[a_], B[b_], T[b_])
-            return core - r[ia[x]] - r[ib[x]]  # type: ignore[no-any-return]
-
-        x = best.screen(lb, d_ll)
-        if x is not None:
-            best.bodies = (
-                Body("leg", int(ia[x]) + 1, int(ka[x])),
-                Body("leg", int(ib[x]) + 1, int(kb[x])),
-            )
+    _legs_vs_legs(best, lay.ll, B, T, r, leg_c, leg_R)
     if len(lay.lp):
         il, kl, jl = lay.lp.T
         lb = _gap(leg_c[il, kl], plate_c[jl]) - leg_R[il, kl] - plate_R[jl]
@@ -465,7 +517,7 @@ def clearances(
             ob_min.append(best.value)
             contacts.append(Contact(best.value, best.bodies[0], obstacle=o_i))
     by_plat.setflags(write=False)
-    return Clearances(self_min, by_plat, non_adj, tuple(ob_min), tuple(contacts))
+    return Clearances(self_min, by_plat, adjacent.value, non_adj, tuple(ob_min), tuple(contacts))
 
 
 def needs_clearances(
