@@ -317,7 +317,7 @@ def _gap(a: FloatArray, b: FloatArray) -> FloatArray:
 #: Pairs of least lower bound evaluated first by :meth:`_Best.screen`, to get a bound.
 _HEAD = 8
 #: Up to this many candidate pairs are evaluated in one call (no head first).
-_ALL = 64
+_ALL = 256
 
 
 class _Best:
@@ -348,6 +348,14 @@ class _Best:
             if d[x] < self.value:
                 self.value, found = float(d[x]), int(part[x])
         return found
+
+
+def _side(V: FloatArray, origin: FloatArray, normal: FloatArray) -> FloatArray:
+    """Least |height| of the vertices ``V`` (P, M, 3) above planes (P, 3) when they all lie
+    on one side, else 0: a lower bound on the distance of their hull to the plane."""
+    h = np.einsum("pmi,pi->pm", V - origin[:, None, :], normal)
+    one_side = (h.min(axis=1) > 0.0) | (h.max(axis=1) < 0.0)
+    return np.where(one_side, np.abs(h).min(axis=1), 0.0)  # type: ignore[no-any-return]
 
 
 def _legs_vs_legs(
@@ -462,6 +470,13 @@ def clearances(
     if len(lay.lp):
         il, kl, jl = lay.lp.T
         lb = _gap(leg_c[il, kl], plate_c[jl]) - leg_R[il, kl] - plate_R[jl]
+        # a leg wholly on one side of a plate's plane is at least its nearer end's height
+        # from the plate
+        normal, origin = A[jl, :, 2], O[jl]
+        ha = np.sum((B[il, kl] - origin) * normal, axis=-1)
+        hb = np.sum((T[il, kl] - origin) * normal, axis=-1)
+        side = np.where(ha * hb > 0.0, np.minimum(np.abs(ha), np.abs(hb)), 0.0)
+        lb = np.maximum(lb, side - r[il] - lay.half_t[jl])
 
         def d_lp(x: IntArray) -> FloatArray:
             j = jl[x]
@@ -475,6 +490,10 @@ def clearances(
     if len(lay.pp):
         j1, j2 = lay.pp.T
         lb = _gap(plate_c[j1], plate_c[j2]) - plate_R[j1] - plate_R[j2]
+        # a plate wholly on one side of the other's plane: its least vertex height
+        V = O[:, None, :] + np.einsum("jik,jmk->jmi", A[:, :, :2], lay.uv)  # (n+1, M, 3)
+        side = np.maximum(_side(V[j2], O[j1], A[j1, :, 2]), _side(V[j1], O[j2], A[j2, :, 2]))
+        lb = np.maximum(lb, side - lay.half_t[j1] - lay.half_t[j2])
 
         def d_pp(x: IntArray) -> FloatArray:
             a_, b_ = j1[x], j2[x]
