@@ -122,3 +122,24 @@ def test_point_distances_are_signed():
     np.testing.assert_allclose(EXAMPLES[0].point_distance(p), [-50, 50])
     np.testing.assert_allclose(EXAMPLES[4].point_distance(p[:1] * 0), [30.0])
     np.testing.assert_allclose(EXAMPLES[2].point_distance(np.array([300.0, 0, 500])), -40.0)
+
+
+@pytest.mark.parametrize("ob", EXAMPLES, ids=lambda o: o.kind)
+def test_pickle_through_the_constructor(ob):
+    import pickle
+
+    back = pickle.loads(pickle.dumps(ob))
+    assert back == ob and type(back) is type(ob)
+    arrays = [v for v in vars(back).values() if isinstance(v, np.ndarray)]
+    assert arrays and not any(a.flags.writeable for a in arrays)
+
+
+def test_halfspace_with_any_normal_reads_back_equal():
+    import pickle
+
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        h = HalfSpace(rng.normal(0, 100, 3), rng.normal(size=3))
+        assert abs(np.linalg.norm(h.normal) - 1.0) < 1e-15
+        assert pickle.loads(pickle.dumps(h)) == h
+        assert obstacle_from_dict(json.loads(json.dumps(h.to_dict()))) == h

@@ -194,7 +194,10 @@ def plate_frames(
     O : ndarray, shape (n + 1, 3) [mm]
     """
     n = stack.n
-    qa = np.asarray(q, dtype=float) if not isinstance(q, np.ndarray) else q
+    try:
+        qa = np.asarray(q, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"q: expected an array of numbers ({exc})") from None
     if qa.ndim == 2 and qa.shape == (n, 3):
         if phi is None:
             raise ValueError("phi: required for a planar pose of shape (n, 3)")
@@ -258,7 +261,12 @@ def _layout(stack: Stack) -> _Layout:
         if j < n:
             pts.append(stack.base_nodes[j][:, :2])
         nodes.append(np.concatenate(pts))
-    hulls = [dist.convex_hull_2d(p) for p in nodes]
+    try:
+        hulls = [dist.convex_hull_2d(p) for p in nodes]
+    except ValueError:
+        raise ValueError(
+            "stack: a plate's nodes project onto a line in its plane (no plate polygon)"
+        ) from None
     M = max(len(h) for h in hulls)
     uv = np.stack([dist.convex_hull_2d(p, size=M) for p in nodes])
     centre = np.stack([h.mean(axis=0) for h in hulls])

@@ -86,6 +86,10 @@ class Obstacle:
         """Plain-data form with a ``type`` field, the inverse of :func:`obstacle_from_dict`."""
         raise NotImplementedError
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickle through the constructor (validated, read-only arrays in the receiver)."""
+        return (obstacle_from_dict, (self.to_dict(),))
+
 
 @dataclass(frozen=True, eq=False)
 class Sphere(Obstacle):
@@ -247,7 +251,8 @@ class HalfSpace(Obstacle):
         norm = float(np.linalg.norm(nv))
         if not norm > 0.0 or not math.isfinite(norm):
             raise ValueError("normal: must be a non-zero vector")
-        unit = nv / norm
+        # a unit normal is kept as given (so that a stored obstacle reads back equal)
+        unit = nv if abs(norm - 1.0) <= 4 * np.finfo(float).eps else nv / norm
         unit.setflags(write=False)
         object.__setattr__(self, "normal", unit)
 
