@@ -483,3 +483,11 @@ def test_clearance_fields_in_hexagonal_equality_pickle_and_files(tmp_path):
     d = PlatformGeometry.reference().to_dict() | {"plate_thickness": -1}
     with pytest.raises(GeometryError, match=r"platforms\[0\]\.plate_thickness"):
         Stack.from_dict({"platforms": [d]})
+
+
+def test_geometry_show_names_the_clearance_sizes():
+    from stackik.cli.geometry import describe_stack
+
+    text = describe_stack(Stack.uniform(PlatformGeometry.hexagonal(leg_radius=12), 2))
+    assert "leg radius 12 mm" in text and "plate thickness" not in text
+    assert "radius" not in describe_stack(Stack.reference(2)).splitlines()[1]
