@@ -25,14 +25,15 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("stackik.methods",),
     ("stackik.convex", "stackik.starts"),
     ("stackik.formulation", "stackik._check"),
-    ("stackik.check", "stackik.result", "stackik.targets", "stackik.sampling"),
+    ("stackik.check", "stackik.clearance", "stackik.result", "stackik.targets", "stackik.sampling"),
     ("stackik.loads",),  # statics: leg forces and singularity margins
     ("stackik.kinematics",),
-    ("stackik.geometry", "stackik.platform"),
+    ("stackik.geometry", "stackik.platform", "stackik.obstacles"),
     ("stackik.rotations",),
     # engines and utilities: import nothing of the layers above (rules below)
     (
         "stackik.sqp",
+        "stackik.distance",
         "stackik._ipm",
         "stackik._spatial",
         "stackik._spatial_ipm",
@@ -51,6 +52,7 @@ ENGINE_RULES: dict[str, tuple[str, ...]] = {
     "stackik._spatial_ipm": ("stackik._spatial",),  # the spatial evaluation it solves
     "stackik._check": ("stackik.check", "stackik._arrays"),  # the acceptance rule
     "stackik.batch": (),
+    "stackik.distance": (),
 }
 
 

@@ -438,3 +438,56 @@ def test_derived_cache_is_kept_and_bounded():
         st.derived(("phi", i), lambda s: 0)
     assert len(st._derived) <= _DERIVED_MAX
     assert st == Stack.reference(2)  # the cache does not take part in equality
+
+
+# --- clearance fields (docs/clearance.md) ------------------------------------------------
+def test_clearance_fields_default_zero_and_keep_the_old_forms():
+    g = PlatformGeometry.reference()
+    assert (g.leg_radius, g.plate_thickness) == (0.0, 0.0)
+    assert "leg_radius" not in g.to_dict() and "plate_thickness" not in g.to_dict()
+    assert "leg_radius" not in Stack.reference(2).to_toml()
+
+
+@pytest.mark.parametrize("field", ["leg_radius", "plate_thickness"])
+@pytest.mark.parametrize("bad", [-1.0, math.nan, math.inf, "12", True])
+def test_clearance_fields_validated(field, bad):
+    with pytest.raises(GeometryError, match=field):
+        PlatformGeometry.hexagonal(**{field: bad})
+
+
+def test_clearance_fields_in_hexagonal_equality_pickle_and_files(tmp_path):
+    import pickle
+
+    g = PlatformGeometry.hexagonal(leg_radius=12, plate_thickness=8.5)
+    assert (g.leg_radius, g.plate_thickness) == (12.0, 8.5)
+    assert isinstance(g.leg_radius, float)
+    assert g != PlatformGeometry.reference()
+    assert g != PlatformGeometry.hexagonal(leg_radius=12)
+    assert g == PlatformGeometry.hexagonal(leg_radius=12.0, plate_thickness=8.5)
+    assert hash(g) == hash(PlatformGeometry.hexagonal(leg_radius=12.0, plate_thickness=8.5))
+    back = pickle.loads(pickle.dumps(g))
+    assert back == g and back.leg_radius == 12.0 and back.plate_thickness == 8.5
+    stack = Stack.uniform(g, 3)
+    assert pickle.loads(pickle.dumps(stack)) == stack
+    for suffix in (".toml", ".json"):
+        path = tmp_path / f"g{suffix}"
+        stack.to_toml(path) if suffix == ".toml" else stack.to_json(path)
+        loaded = Stack.from_file(path)
+        assert loaded == stack and loaded[0].leg_radius == 12.0
+    spec = {"hexagonal": {"leg_radius": 10, "plate_thickness": 4}}
+    assert PlatformGeometry.from_dict(spec) == PlatformGeometry.hexagonal(
+        leg_radius=10, plate_thickness=4
+    )
+    with pytest.raises(GeometryError, match=r"platform\.hexagonal\.leg_radius"):
+        PlatformGeometry.from_dict({"hexagonal": {"leg_radius": -2}})
+    d = PlatformGeometry.reference().to_dict() | {"plate_thickness": -1}
+    with pytest.raises(GeometryError, match=r"platforms\[0\]\.plate_thickness"):
+        Stack.from_dict({"platforms": [d]})
+
+
+def test_geometry_show_names_the_clearance_sizes():
+    from stackik.cli.geometry import describe_stack
+
+    text = describe_stack(Stack.uniform(PlatformGeometry.hexagonal(leg_radius=12), 2))
+    assert "leg radius 12 mm" in text and "plate thickness" not in text
+    assert "radius" not in describe_stack(Stack.reference(2)).splitlines()[1]

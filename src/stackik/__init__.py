@@ -9,6 +9,7 @@ from typing import Any
 
 from stackik._version import __version__
 from stackik.check import PoseCheck, check_pose
+from stackik.clearance import Clearances, clearances
 from stackik.convex import ConvexStartError, convex_start
 from stackik.geometry import GeometryError, PlatformGeometry, Stack
 from stackik.kinematics import (
@@ -32,6 +33,7 @@ from stackik.loads import (
     statics,
     wrench_conditioning,
 )
+from stackik.obstacles import Box, Capsule, HalfSpace, Sphere, load_obstacles
 from stackik.platform import leg_lengths, leg_vectors, platform_forward_kinematics
 from stackik.result import IKResult, IKStatus, OptionError
 from stackik.solve import solve_ik, solve_many
@@ -41,7 +43,11 @@ from stackik.targets import PlanarTarget, SpatialTarget, target_from_dict, targe
 
 __all__ = [
     "__version__",
+    "Box",
+    "Capsule",
     "check_pose",
+    "Clearances",
+    "clearances",
     "ConfidenceEllipse",
     "Conditioning",
     "convex_start",
@@ -51,6 +57,7 @@ __all__ = [
     "frobenius_norm",
     "GeometryError",
     "GRAVITY",
+    "HalfSpace",
     "IKResult",
     "IKStatus",
     "interpolate_targets",
@@ -61,6 +68,7 @@ __all__ = [
     "linear_covariance",
     "linearity_check",
     "Load",
+    "load_obstacles",
     "monte_carlo",
     "MonteCarloResult",
     "nonoptimal_poses",
@@ -88,6 +96,7 @@ __all__ = [
     "spatial_jacobian",
     "spatial_plate_origins",
     "SpatialTarget",
+    "Sphere",
     "Stack",
     "statics",
     "Statics",

@@ -1,22 +1,28 @@
 """The independent check: the one place that decides whether a pose is a success.
 
 :func:`check_pose` re-evaluates a pose with the forward kinematics of
-:mod:`stackik.kinematics`, the constraint functions of :mod:`stackik.platform` and (under a
-load or a force limit) the leg forces of :mod:`stackik.loads`, sharing no code with any
-solver. :func:`pose_ok` holds the acceptance rule; the compiled twin
-(:mod:`stackik._check`) imports only this module.
+:mod:`stackik.kinematics`, the constraint functions of :mod:`stackik.platform`, (under a
+load or a force limit) the leg forces of :mod:`stackik.loads` and the exact distances of
+:mod:`stackik.clearance`, sharing no code with any solver. :func:`pose_ok` holds the
+acceptance rule; the compiled twin (:mod:`stackik._check`) imports only this module (it
+checks the limits and the target, not the forces or clearances: those are needed only
+with a load or force limit, or with obstacles, a leg radius, a plate thickness or a
+margin, see :func:`stackik.clearance.needs_clearances`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from stackik.geometry import Stack
+from stackik.clearance import Clearances, clearances, needs_clearances
+from stackik.geometry import Stack, finite_number
 from stackik.kinematics import planar_forward, spatial_forward
 from stackik.loads import Load, Statics, statics
+from stackik.obstacles import Obstacle, as_obstacles
 from stackik.targets import PlanarTarget, Target
 
 __all__ = [
@@ -99,6 +105,12 @@ class PoseCheck:
     statics : Statics or None
         Leg forces, margins and singularity measure (:func:`stackik.statics`) when they
         were checked (a load was given or some ``force_max`` is finite), else None.
+    clearances : Clearances or None
+        Signed distances of the pose's bodies and obstacles [mm]; None when the check
+        did not need them (no obstacle, zero leg radii and plate thickness, margin 0:
+        every clearance is then a distance, >= 0 by construction).
+    clearance_violation : float
+        ``max(0, clearance - clearances.minimum)`` [mm] (0 when not computed).
     """
 
     ok: bool
@@ -109,6 +121,8 @@ class PoseCheck:
     constraints: FloatArray
     peak_force_ratio: float = 0.0
     statics: Statics | None = None
+    clearances: Clearances | None = None
+    clearance_violation: float = 0.0
 
 
 def so3_log(R: FloatArray) -> FloatArray:
@@ -118,21 +132,56 @@ def so3_log(R: FloatArray) -> FloatArray:
     return Rotation.from_matrix(R).as_rotvec()  # type: ignore[no-any-return]
 
 
-def check_pose(stack: Stack, target: Target, q: ArrayLike, load: Load | None = None) -> PoseCheck:
-    """Check a pose against a target and every limit, independently of any solver.
+def check_pose(
+    stack: Stack,
+    target: Target,
+    q: ArrayLike,
+    load: Load | None = None,
+    *,
+    obstacles: Sequence[Obstacle] | Obstacle | None = (),
+    clearance: float = 0.0,
+) -> PoseCheck:
+    """Check a pose against a target, every limit, every force limit and every clearance,
+    independently of any solver.
 
     Uses only :func:`stackik.planar_forward` / :func:`stackik.spatial_forward`,
-    :meth:`Stack.planar_constraints` / :meth:`Stack.spatial_constraints` and, for the leg
-    forces, :func:`stackik.statics`. Tolerances: ``TARGET_POS_TOL`` = 1e-6 mm,
-    ``TARGET_ANGLE_TOL`` = 1e-8 rad, ``FEAS_TOL`` = 1e-6 mm (leg-length blocks are compared
-    as lengths: ``|l| >= leg_min - FEAS_TOL``), ``FORCE_TOL`` = 1e-6 (``|f| <= (1 +
-    FORCE_TOL) force_max``).
+    :meth:`Stack.planar_constraints` / :meth:`Stack.spatial_constraints`, for the leg
+    forces :func:`stackik.statics` and :func:`stackik.clearances`. Tolerances:
+    ``TARGET_POS_TOL`` = 1e-6 mm, ``TARGET_ANGLE_TOL`` = 1e-8 rad, ``FEAS_TOL`` = 1e-6 mm
+    (leg-length blocks are compared as lengths: ``|l| >= leg_min - FEAS_TOL``; clearances
+    likewise: ``clearances.minimum >= clearance - FEAS_TOL``), ``FORCE_TOL`` = 1e-6
+    (``|f| <= (1 + FORCE_TOL) force_max``).
 
     Leg forces are checked when ``load`` is given or some platform's ``force_max`` is
     finite (``load=None`` then means the stack's own weight under earth gravity): every
     force must be finite (no singular platform) and within its limit. Otherwise (no load,
     no limit) they are not computed and the verdict is that of the limits alone.
+
+    Parameters
+    ----------
+    stack : Stack
+    target : PlanarTarget or SpatialTarget
+    q : array_like, shape (n, 3) or (n, 6)
+    load : Load, optional
+        Payload, external wrench and gravity (:class:`stackik.Load`).
+    obstacles : sequence of Obstacle, optional
+        Keep-out bodies in the base frame [mm].
+    clearance : float, optional
+        Margin [mm] >= 0 every signed distance must keep (default 0: touching passes, any
+        penetration fails). Legs of zero radius that cross exactly are at distance 0, so
+        with zero radii, zero thickness, no obstacle and margin 0 the clearances cannot
+        fail and are not computed (``PoseCheck.clearances`` is None).
+
+    Raises
+    ------
+    ValueError
+        A malformed ``obstacles`` or ``clearance``, or an obstacle that collides with the
+        base (every pose would).
     """
+    obs = as_obstacles(obstacles)
+    margin = finite_number(clearance, "clearance")
+    if margin < 0:
+        raise ValueError(f"clearance: must be >= 0 mm, got {margin}")
     qa = np.asarray(q, dtype=float)
     if isinstance(target, PlanarTarget):
         y = planar_forward(qa)
@@ -155,10 +204,17 @@ def check_pose(stack: Stack, target: Target, q: ArrayLike, load: Load | None = N
     finite = bool(np.all(np.isfinite(c)))
     st = None
     ratio = 0.0
+    phi = target.phi if isinstance(target, PlanarTarget) else None
     if load is not None or bool(np.isfinite(stack.force_max).any()):
-        phi = target.phi if isinstance(target, PlanarTarget) else None
         st = statics(stack, qa, load, phi=phi)
         ratio = st.peak_force_ratio
         finite = finite and bool(np.all(np.isfinite(st.leg_forces)))
-    ok = pose_ok(pos_err, ang_err, v_mm, finite, ratio)
-    return PoseCheck(ok, pos_err, ang_err, max_v, v_mm, c, ratio, st)
+    cl, v_cl = None, 0.0
+    if needs_clearances(stack, obs, margin):
+        if finite:
+            cl = clearances(stack, qa, obs, phi=phi)
+            v_cl = max(0.0, margin - cl.minimum)
+        else:  # no distances of a non-finite pose (it fails on its limits anyway)
+            v_cl = float("inf")
+    ok = pose_ok(pos_err, ang_err, max(v_mm, v_cl), finite, ratio)
+    return PoseCheck(ok, pos_err, ang_err, max_v, v_mm, c, ratio, st, cl, v_cl)

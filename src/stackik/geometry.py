@@ -81,6 +81,10 @@ def _scalar(value: Any, name: str) -> float:
 #: The statics fields of :class:`PlatformGeometry` (DESIGN §10) and their defaults.
 STATICS_FIELDS = ("plate_mass", "leg_mass", "force_max")
 STATICS_DEFAULTS = (0.0, 0.0, math.inf)
+#: Every field beyond the paper's model (statics, DESIGN §10; bodies for clearance, §11):
+#: keyword arguments and optional geometry-file keys, written only when not at their default.
+EXTRA_FIELDS = (*STATICS_FIELDS, "leg_radius", "plate_thickness")
+EXTRA_DEFAULTS = (*STATICS_DEFAULTS, 0.0, 0.0)
 
 
 def _force_max(value: Any) -> float:
@@ -119,6 +123,13 @@ class PlatformGeometry:
         Each leg's actuator force limit [N]: ``|f| <= force_max`` in tension and
         compression; ``> 0``, default ``inf`` (no limit). The defaults (massless, no limit)
         are the paper's model: they change nothing of the kinematics or the solvers.
+    leg_radius : float, optional
+        Radius of each leg's capsule, joint to joint [mm], ``>= 0`` (default 0: legs of
+        zero thickness, which still may not pass through each other). See
+        ``docs/clearance.md``.
+    plate_thickness : float, optional
+        Thickness of the plates [mm], ``>= 0`` (default 0). A plate is the set of points
+        within ``plate_thickness / 2`` of the convex polygon of its nodes.
 
     Raises
     ------
@@ -134,6 +145,8 @@ class PlatformGeometry:
     plate_mass: float = 0.0  # [kg]
     leg_mass: float = 0.0  # [kg] per leg
     force_max: float = math.inf  # [N] per leg
+    leg_radius: float = 0.0  # [mm]
+    plate_thickness: float = 0.0  # [mm]
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "base_nodes", _nodes(self.base_nodes, "base_nodes"))
@@ -158,16 +171,27 @@ class PlatformGeometry:
         force_max = _force_max(self.force_max)
         object.__setattr__(self, "force_max", force_max)
 
+        for name in ("leg_radius", "plate_thickness"):
+            value = _scalar(getattr(self, name), name)
+            if value < 0:
+                raise GeometryError(f"{name}: must be >= 0 mm, got {value}")
+            object.__setattr__(self, name, value)
+
     @property
     def _statics(self) -> tuple[float, float, float]:
         """``(plate_mass, leg_mass, force_max)`` [kg, kg, N]."""
         return (self.plate_mass, self.leg_mass, self.force_max)
 
+    @property
+    def _extras(self) -> tuple[float, ...]:
+        """The fields beyond the paper's model, in :data:`EXTRA_FIELDS` order."""
+        return (*self._statics, self.leg_radius, self.plate_thickness)
+
     def __reduce__(self) -> tuple[Any, ...]:
         """Pickle through the constructor: the node arrays come back validated and
         read-only (numpy's own pickling would make them writable)."""
         args = (self.base_nodes, self.top_nodes, self.leg_min, self.leg_max, self.joint_min)
-        return (PlatformGeometry, args + self._statics)
+        return (PlatformGeometry, args + self._extras)
 
     @classmethod
     def hexagonal(
@@ -183,6 +207,8 @@ class PlatformGeometry:
         plate_mass: float = 0.0,
         leg_mass: float = 0.0,
         force_max: float = math.inf,
+        leg_radius: float = 0.0,
+        plate_thickness: float = 0.0,
     ) -> PlatformGeometry:
         """The symmetric layout of DESIGN §2 (radii in mm, angles in rad).
 
@@ -216,6 +242,8 @@ class PlatformGeometry:
             plate_mass=plate_mass,
             leg_mass=leg_mass,
             force_max=force_max,
+            leg_radius=leg_radius,
+            plate_thickness=plate_thickness,
         )
 
     @classmethod
@@ -229,8 +257,9 @@ class PlatformGeometry:
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (lists and floats), the inverse of :meth:`from_dict`.
 
-        ``plate_mass``, ``leg_mass`` and ``force_max`` appear only when they differ from
-        their defaults (so a massless, unlimited geometry reads as before; JSON has no inf).
+        ``plate_mass``, ``leg_mass``, ``force_max``, ``leg_radius`` and ``plate_thickness``
+        appear only when they differ from their defaults (so a geometry of the paper's model
+        reads as before; JSON has no inf).
         """
         out: dict[str, Any] = {
             "base_nodes": self.base_nodes.tolist(),
@@ -239,12 +268,12 @@ class PlatformGeometry:
             "leg_max": self.leg_max,
             "joint_min": self.joint_min,
         }
-        out.update(self._statics_fields())
+        out.update(self._extra_fields())
         return out
 
-    def _statics_fields(self) -> dict[str, float]:
-        """The statics fields that differ from their defaults, in declaration order."""
-        fields = zip(STATICS_FIELDS, self._statics, STATICS_DEFAULTS, strict=True)
+    def _extra_fields(self) -> dict[str, float]:
+        """The fields beyond the paper's model that differ from their defaults, in order."""
+        fields = zip(EXTRA_FIELDS, self._extras, EXTRA_DEFAULTS, strict=True)
         return {k: v for k, v, d in fields if v != d}
 
     @classmethod
@@ -267,7 +296,7 @@ class PlatformGeometry:
                 "leg_min",
                 "leg_max",
                 "joint_min",
-                *STATICS_FIELDS,
+                *EXTRA_FIELDS,
             }
             unknown = set(spec) - allowed
             if unknown:
@@ -280,10 +309,10 @@ class PlatformGeometry:
         for key in required:
             if key not in data:
                 raise GeometryError(f"{where}.{key}: missing field")
-        unknown = set(data) - set(required) - set(STATICS_FIELDS)
+        unknown = set(data) - set(required) - set(EXTRA_FIELDS)
         if unknown:
             raise GeometryError(f"{where}: unknown field(s) {sorted(unknown)}")
-        extra = {k: data[k] for k in STATICS_FIELDS if k in data}
+        extra = {k: data[k] for k in EXTRA_FIELDS if k in data}
         try:
             return cls(*(data[k] for k in required), **extra)
         except GeometryError as exc:
@@ -297,7 +326,7 @@ class PlatformGeometry:
             and np.array_equal(self.top_nodes, other.top_nodes)
             and (self.leg_min, self.leg_max, self.joint_min)
             == (other.leg_min, other.leg_max, other.joint_min)
-            and self._statics == other._statics
+            and self._extras == other._extras
         )
 
     def __hash__(self) -> int:
@@ -308,7 +337,7 @@ class PlatformGeometry:
                 self.leg_min,
                 self.leg_max,
                 self.joint_min,
-                *self._statics,
+                *self._extras,
             )
         )
 
@@ -519,14 +548,16 @@ class Stack(Sequence[PlatformGeometry]):
     def to_toml(self, path: str | Path | None = None) -> str:
         """TOML text (``[[platforms]]`` tables); also written to ``path`` when given."""
         lines = ["# stackik stack geometry: lengths in mm, angles in rad", ""]
-        if any(p._statics_fields() for p in self.platforms):
-            lines.insert(1, "# masses in kg, force limits in N")
+        if any(p._extra_fields() for p in self.platforms):
+            lines.insert(
+                1, "# masses in kg, force limits in N, leg radius and plate thickness in mm"
+            )
         for p in self.platforms:
             lines.append("[[platforms]]")
             lines.append(f"leg_min = {p.leg_min!r}")
             lines.append(f"leg_max = {p.leg_max!r}")
             lines.append(f"joint_min = {p.joint_min!r}")
-            lines.extend(f"{k} = {v!r}" for k, v in p._statics_fields().items())
+            lines.extend(f"{k} = {v!r}" for k, v in p._extra_fields().items())
             for key, arr in (("base_nodes", p.base_nodes), ("top_nodes", p.top_nodes)):
                 rows = ",\n    ".join("[" + ", ".join(repr(float(v)) for v in r) + "]" for r in arr)
                 lines.append(f"{key} = [\n    {rows},\n]")

@@ -48,9 +48,17 @@ def describe_stack(stack: Stack) -> str:
         if i > 0 and g == stack[i - 1]:
             lines.append(f"platform {i + 1}: same as platform {i}")
             continue
+        sizes = "".join(
+            f", {label} {value:g} mm"
+            for label, value in (
+                ("leg radius", g.leg_radius),
+                ("plate thickness", g.plate_thickness),
+            )
+            if value > 0
+        )
         lines.append(
             f"platform {i + 1}: legs {g.leg_min:g}-{g.leg_max:g} mm, "
-            f"joint_min {math.degrees(g.joint_min):.4g} deg"
+            f"joint_min {math.degrees(g.joint_min):.4g} deg{sizes}"
         )
         if g.plate_mass or g.leg_mass or math.isfinite(g.force_max):
             lines.append(

@@ -193,6 +193,7 @@ def ip_starts(
     :data:`RANK_VIOLATION` of feasibility), or the least-violation run when none passes."""
     from stackik._check import planar_check
     from stackik.check import check_pose
+    from stackik.clearance import needs_clearances
 
     U0 = np.stack([prob.u_of(q) for q in starts])
     opts = {"max_time": max_time, **options}
@@ -211,6 +212,8 @@ def ip_starts(
         if prob.planar:
             # the independent re-check (compiled; same values as check_pose, tested)
             chk, P, R, legs = planar_check(prob.stack, prob.target, q)
+            if chk.ok and needs_clearances(prob.stack):  # legs with a radius: the twin
+                chk = check_pose(prob.stack, prob.target, q)  # checks no clearance
             # the objective at the polished point, unscaled (f = objective / fscale)
             obj = objs[j] * prob.fscale
             run = Run(q, int(nits[j]), statuses[j], chk, obj, (P, R, legs), texts[j])

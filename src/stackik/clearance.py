@@ -1,0 +1,562 @@
+"""Clearances of a pose: signed distances between the stack's bodies and obstacles
+(docs/clearance.md).
+
+Bodies (all in the base frame, from the pose's plate frames):
+
+- leg k of platform i (1..n): the capsule of radius ``leg_radius`` around the segment from
+  its base joint to its top joint;
+- plate j (0 = the base .. n = the end effector): the set of points within
+  ``plate_thickness / 2`` of the convex polygon of its nodes (the top nodes of platform j
+  and the base nodes of platform j + 1, projected into the plate's plane ``z = 0``), the
+  thickness being the larger of the platforms it joins.
+
+Pairs (each kind's least signed distance and its closest pair are reported):
+
+- ``self_legs``: two legs of one platform (its nodes are distinct, so no two legs share a
+  joint: all 15 pairs);
+- ``adjacent_legs``: a leg of platform i and a leg of platform i + 1 that share no joint.
+  Their axes lie on opposite sides of the shared plate by the joint-angle limits and never
+  cross, but with a radius the capsules can meet near the plate (docs/clearance.md gives
+  the argument and the numbers), so they are checked;
+- ``non_adjacent``: every other pair of bodies that are not joined: a leg and a plate it
+  does not join, legs of platforms two or more apart, any two plates (a leg is joined to
+  the two plates it connects, and touches them by design);
+- ``obstacles``: every leg and every plate but the base against each obstacle.
+
+This module shares no code with any solver; it is the check's geometry.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from stackik import distance as dist
+from stackik.geometry import Stack
+from stackik.obstacles import Obstacle, as_obstacles
+from stackik.platform import check_pose as _check_q
+from stackik.rotations import euler_zyx, plane_axis, rodrigues
+
+__all__ = ["Body", "Clearances", "Contact", "clearances", "needs_clearances", "plate_frames"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.intp]
+
+#: Relative distance under which two nodes are one joint (legs sharing it are not paired).
+_SHARED = 1e-9
+
+#: Tolerance [mm] of the base test: an obstacle closer than ``leg_radius`` minus this to a
+#: joint of the base collides with every pose.
+BASE_TOL = 1e-9
+
+
+@dataclass(frozen=True)
+class Body:
+    """A body of the stack.
+
+    Attributes
+    ----------
+    kind : str
+        ``"leg"`` or ``"plate"``.
+    index : int
+        Leg: its platform, 1..n (bottom first). Plate: its plate, 0 (base) .. n.
+    leg : int or None
+        Leg: its number k = 0..5 (leg k joins ``b_k`` to ``t_k``); None for a plate.
+    """
+
+    kind: str
+    index: int
+    leg: int | None = None
+
+    def __str__(self) -> str:
+        if self.kind == "leg":
+            return f"platform {self.index} leg {self.leg}"
+        return "base plate" if self.index == 0 else f"plate {self.index}"
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"kind", "index", "leg"}``."""
+        return {"kind": self.kind, "index": self.index, "leg": self.leg}
+
+
+@dataclass(frozen=True)
+class Contact:
+    """The closest pair of one pair kind.
+
+    Attributes
+    ----------
+    distance : float
+        Signed distance [mm] (negative = penetration, by the cores' depth plus both radii).
+    a : Body
+    b : Body or None
+        The other body; None when ``obstacle`` is set.
+    obstacle : int or None
+        Index of the obstacle in the sequence given.
+    """
+
+    distance: float
+    a: Body
+    b: Body | None = None
+    obstacle: int | None = None
+
+    def __str__(self) -> str:
+        other = f"obstacle {self.obstacle}" if self.b is None else str(self.b)
+        return f"{self.a} - {other}: {self.distance:.6g} mm"
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form."""
+        return {
+            "distance": self.distance,
+            "a": self.a.to_dict(),
+            "b": None if self.b is None else self.b.to_dict(),
+            "obstacle": self.obstacle,
+        }
+
+
+@dataclass(frozen=True)
+class Clearances:
+    """Signed minimum distances [mm] of a pose, per pair kind (see the module docstring).
+
+    A kind with no pair (one platform has no adjacent legs and no non-adjacent bodies; no
+    obstacles) has distance ``inf`` and no contact.
+
+    Attributes
+    ----------
+    self_legs : float
+        Least over the pairs of legs of one platform.
+    self_legs_by_platform : ndarray, shape (n,)
+        The same per platform (bottom first).
+    adjacent_legs : float
+        Least over the pairs of legs of adjacent platforms.
+    non_adjacent : float
+        Least over the pairs of non-adjacent bodies.
+    obstacles : tuple of float
+        Least over the bodies, one per obstacle.
+    contacts : tuple of Contact
+        The closest pair of each kind that has one: self legs, adjacent legs,
+        non-adjacent, then each obstacle in order.
+    """
+
+    self_legs: float
+    self_legs_by_platform: FloatArray
+    adjacent_legs: float
+    non_adjacent: float
+    obstacles: tuple[float, ...]
+    contacts: tuple[Contact, ...] = field(default=())
+
+    @property
+    def minimum(self) -> float:
+        """Least signed distance over every pair [mm] (``inf`` if there is none)."""
+        kinds = (self.self_legs, self.adjacent_legs, self.non_adjacent, *self.obstacles)
+        return float(min(kinds))
+
+    @property
+    def closest(self) -> Contact | None:
+        """The closest pair over every kind (None if there is none)."""
+        return min(self.contacts, key=lambda c: c.distance, default=None)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form (``inf`` stays a float: JSON writers spell it ``Infinity``)."""
+        closest = self.closest
+        return {
+            "minimum": self.minimum,
+            "self_legs": self.self_legs,
+            "self_legs_by_platform": self.self_legs_by_platform.tolist(),
+            "adjacent_legs": self.adjacent_legs,
+            "non_adjacent": self.non_adjacent,
+            "obstacles": list(self.obstacles),
+            "closest": None if closest is None else closest.to_dict(),
+        }
+
+
+# -----------------------------------------------------------------------------------------
+# pose -> plate frames
+# -----------------------------------------------------------------------------------------
+def plate_frames(
+    stack: Stack, q: ArrayLike, phi: float | None = None
+) -> tuple[FloatArray, FloatArray]:
+    """Rotations ``A_j`` and origins ``O_j`` of the plates j = 0..n in the base frame.
+
+    Parameters
+    ----------
+    q : array_like, shape (n, 6) or (n, 3)
+        A spatial pose, or a planar one with ``phi``.
+    phi : float, optional
+        Plane angle [rad] of a planar pose (required for shape (n, 3)).
+
+    Returns
+    -------
+    A : ndarray, shape (n + 1, 3, 3)
+    O : ndarray, shape (n + 1, 3) [mm]
+    """
+    n = stack.n
+    try:
+        qa = np.asarray(q, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"q: expected an array of numbers ({exc})") from None
+    if qa.ndim == 2 and qa.shape == (n, 3):
+        if phi is None:
+            raise ValueError("phi: required for a planar pose of shape (n, 3)")
+        try:
+            phi_f = float(phi)
+        except (TypeError, ValueError):
+            raise ValueError(f"phi: expected a number, got {phi!r}") from None
+        if not np.isfinite(phi_f):
+            raise ValueError("phi: must be finite")
+        qa = _check_q(qa, n, 3)
+        R = rodrigues(plane_axis(phi_f), qa[:, 2])
+        P = np.column_stack([qa[:, 0] * np.cos(phi_f), qa[:, 0] * np.sin(phi_f), qa[:, 1]])
+    else:
+        if phi is not None and qa.shape == (n, 6):
+            raise ValueError("phi: only a planar pose (n, 3) takes phi")
+        if qa.shape != (n, 6):
+            raise ValueError(f"q: expected shape ({n}, 6) or ({n}, 3) with phi, got {qa.shape}")
+        qa = _check_q(qa, n, 6)
+        R = euler_zyx(qa[:, 3:])
+        P = qa[:, :3]
+    A = np.empty((n + 1, 3, 3))
+    O = np.empty((n + 1, 3))
+    A[0] = np.eye(3)
+    O[0] = 0.0
+    for i in range(n):
+        O[i + 1] = O[i] + A[i] @ P[i]
+        A[i + 1] = A[i] @ R[i]
+    return A, O
+
+
+# -----------------------------------------------------------------------------------------
+# the stack's bodies and pairs (geometry only: cached per stack)
+# -----------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Layout:
+    radius: FloatArray  # (n,) leg radius per platform [mm]
+    half_t: FloatArray  # (n+1,) half plate thickness per plate [mm]
+    uv: FloatArray  # (n+1, M, 2) plate polygons in their plate frames
+    self_k: IntArray  # (15,) and self_m (15,): leg pairs of one platform
+    self_m: IntArray
+    ll: IntArray  # (L, 4): platform_a, leg_a, platform_b, leg_b (0-based platforms)
+    adj: IntArray  # (36 (n - 1), 4): the same for legs of adjacent platforms
+    lp: IntArray  # (K, 3): platform, leg, plate
+    pp: IntArray  # (Q, 2): plate, plate
+    centre: FloatArray  # (n+1, 2) centre of each plate polygon's vertices
+    reach: FloatArray  # (n+1,) largest distance of a vertex from the centre [mm]
+
+
+def _layout(stack: Stack) -> _Layout:
+    n = stack.n
+    radius = np.array([g.leg_radius for g in stack])
+    thick = np.zeros(n + 1)
+    for j in range(n + 1):
+        joined = [stack[i].plate_thickness for i in (j - 1, j) if 0 <= i < n]
+        thick[j] = max(joined)
+    nodes = []
+    for j in range(n + 1):
+        pts = []
+        if j >= 1:
+            pts.append(stack.top_nodes[j - 1][:, :2])
+        if j < n:
+            pts.append(stack.base_nodes[j][:, :2])
+        nodes.append(np.concatenate(pts))
+    try:
+        hulls = [dist.convex_hull_2d(p) for p in nodes]
+    except ValueError:
+        raise ValueError(
+            "stack: a plate's nodes project onto a line in its plane (no plate polygon)"
+        ) from None
+    M = max(len(h) for h in hulls)
+    uv = np.stack([dist.convex_hull_2d(p, size=M) for p in nodes])
+    centre = np.stack([h.mean(axis=0) for h in hulls])
+    km = np.array(list(itertools.combinations(range(6), 2)))
+    ll = [
+        (i, k, j, m) for i in range(n) for j in range(i + 2, n) for k in range(6) for m in range(6)
+    ]
+    # legs of adjacent platforms, but not two legs that share a joint (a top node of
+    # platform i on a base node of platform i + 1: they touch by design)
+    top, base = stack.top_nodes, stack.base_nodes
+    adj = [
+        (i, k, i + 1, m)
+        for i in range(n - 1)
+        for k in range(6)
+        for m in range(6)
+        if np.linalg.norm(top[i, k] - base[i + 1, m]) > _SHARED * (1.0 + np.abs(top[i]).max())
+    ]
+    # leg of platform i (0-based) joins plates i and i + 1
+    lp = [
+        (i, k, j) for i in range(n) for k in range(6) for j in range(n + 1) if j not in (i, i + 1)
+    ]
+    pp = [(j, jj) for j in range(n + 1) for jj in range(j + 1, n + 1)]
+    out = _Layout(
+        radius=radius,
+        half_t=thick / 2.0,
+        uv=uv,
+        self_k=km[:, 0].copy(),
+        self_m=km[:, 1].copy(),
+        ll=np.array(ll, dtype=np.intp).reshape(-1, 4),
+        adj=np.array(adj, dtype=np.intp).reshape(-1, 4),
+        lp=np.array(lp, dtype=np.intp).reshape(-1, 3),
+        pp=np.array(pp, dtype=np.intp).reshape(-1, 2),
+        centre=centre,
+        reach=np.linalg.norm(uv - centre[:, None, :], axis=-1).max(axis=1),
+    )
+    for a in (
+        out.radius,
+        out.half_t,
+        out.uv,
+        out.self_k,
+        out.self_m,
+        out.ll,
+        out.adj,
+        out.lp,
+        out.pp,
+    ):
+        a.setflags(write=False)
+    return out
+
+
+def _gap(a: FloatArray, b: FloatArray) -> FloatArray:
+    d = a - b
+    return np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2 + d[..., 2] ** 2)  # type: ignore[no-any-return]
+
+
+#: Pairs of least lower bound evaluated first by :meth:`_Best.screen`, to get a bound.
+_HEAD = 8
+#: Up to this many candidate pairs are evaluated in one call (no head first).
+_ALL = 256
+
+
+class _Best:
+    """The least exact distance of a pair kind so far (screening by lower bounds)."""
+
+    def __init__(self) -> None:
+        self.value = float("inf")
+        self.bodies: tuple[Body, Body | None] | None = None
+
+    def screen(self, lb: FloatArray, exact: Any) -> int | None:
+        """Evaluate ``exact`` on the pairs whose lower bound ``lb`` is below the best so
+        far (those of least bound first); return the index of a new best pair, or None.
+
+        Exact, not approximate: a pair left out has a distance >= its bound >= the best.
+        """
+        order = np.argsort(lb, kind="stable")
+        order = order[lb[order] < self.value]
+        if order.size == 0:
+            return None
+        found = None
+        parts = (order,) if order.size <= _ALL else (order[:_HEAD], order[_HEAD:])
+        for part in parts:
+            part = part[lb[part] < self.value]
+            if part.size == 0:
+                continue
+            d = exact(part)
+            x = int(np.argmin(d))
+            if d[x] < self.value:
+                self.value, found = float(d[x]), int(part[x])
+        return found
+
+
+def _side(V: FloatArray, origin: FloatArray, normal: FloatArray) -> FloatArray:
+    """Least |height| of the vertices ``V`` (P, M, 3) above planes (P, 3) when they all lie
+    on one side, else 0: a lower bound on the distance of their hull to the plane."""
+    h = np.einsum("pmi,pi->pm", V - origin[:, None, :], normal)
+    one_side = (h.min(axis=1) > 0.0) | (h.max(axis=1) < 0.0)
+    return np.where(one_side, np.abs(h).min(axis=1), 0.0)  # type: ignore[no-any-return]
+
+
+def _legs_vs_legs(
+    best: _Best,
+    pairs: IntArray,
+    B: FloatArray,
+    T: FloatArray,
+    r: FloatArray,
+    leg_c: FloatArray,
+    leg_R: FloatArray,
+) -> None:
+    """Offer the leg pairs ``pairs`` (L, 4) to ``best``, screened by bounding spheres."""
+    if not len(pairs):
+        return
+    ia, ka, ib, kb = pairs.T
+    lb = _gap(leg_c[ia, ka], leg_c[ib, kb]) - leg_R[ia, ka] - leg_R[ib, kb]
+
+    def exact(x: IntArray) -> FloatArray:
+        a_, b_ = (ia[x], ka[x]), (ib[x], kb[x])
+        core = dist.segment_segment(B[a_], T[a_], B[b_], T[b_])
+        return core - r[ia[x]] - r[ib[x]]  # type: ignore[no-any-return]
+
+    x = best.screen(lb, exact)
+    if x is not None:
+        best.bodies = (
+            Body("leg", int(ia[x]) + 1, int(ka[x])),
+            Body("leg", int(ib[x]) + 1, int(kb[x])),
+        )
+
+
+def _check_base(stack: Stack, obstacles: Sequence[Obstacle], radius: float) -> None:
+    base = stack.base_nodes[0]
+    for i, ob in enumerate(obstacles):
+        d = np.asarray(ob.point_distance(base))
+        k = int(np.argmin(d))
+        if d[k] < radius - BASE_TOL:
+            where = "inside it" if d[k] < 0 else f"{d[k]:.6g} mm from it, less than leg_radius"
+            raise ValueError(
+                f"obstacles[{i}]: collides with the base (base joint {k} of platform 1 is "
+                f"{where}), so every pose would collide"
+            )
+
+
+def clearances(
+    stack: Stack,
+    q: ArrayLike,
+    obstacles: Sequence[Obstacle] | Obstacle | None = (),
+    *,
+    phi: float | None = None,
+) -> Clearances:
+    """Signed minimum distances [mm] between the bodies of a pose and the obstacles.
+
+    Exact (no sampling, no smoothing, no screening threshold): see :mod:`stackik.distance`.
+    Negative values are penetrations. With zero leg radii, zero plate thickness and no
+    obstacle every value is >= 0 (two legs that cross exactly are at distance 0).
+
+    Parameters
+    ----------
+    stack : Stack
+    q : array_like, shape (n, 6) or (n, 3)
+        Spatial pose ``[x, y, z, yaw, pitch, roll]``, or planar ``[rho, z, theta]`` with
+        ``phi``.
+    obstacles : sequence of Obstacle, optional
+        Keep-out bodies in the base frame (:class:`stackik.Sphere`, :class:`stackik.Capsule`,
+        :class:`stackik.Box`, :class:`stackik.HalfSpace`).
+    phi : float, optional
+        Plane angle [rad] of a planar pose.
+
+    Returns
+    -------
+    Clearances
+
+    Raises
+    ------
+    ValueError
+        Malformed ``q``, ``phi`` or ``obstacles``, or an obstacle closer than the legs'
+        radius to a joint of the base (every pose would collide with it).
+    """
+    obs = as_obstacles(obstacles)
+    lay: _Layout = stack.derived("clearance_layout", _layout)
+    _check_base(stack, obs, float(lay.radius[0]))
+    A, O = plate_frames(stack, q, phi)
+    B = O[:-1, None, :] + np.einsum("nij,nkj->nki", A[:-1], stack.base_nodes)  # (n, 6, 3)
+    T = O[1:, None, :] + np.einsum("nij,nkj->nki", A[1:], stack.top_nodes)
+    r = lay.radius
+    contacts: list[Contact] = []
+
+    # legs of one platform
+    k, m = lay.self_k, lay.self_m
+    d_self = dist.segment_segment(B[:, k], T[:, k], B[:, m], T[:, m]) - 2.0 * r[:, None]
+    by_plat = d_self.min(axis=1)
+    i, p = np.unravel_index(int(np.argmin(d_self)), d_self.shape)
+    self_min = float(d_self[i, p])
+    contacts.append(
+        Contact(self_min, Body("leg", int(i) + 1, int(k[p])), Body("leg", int(i) + 1, int(m[p])))
+    )
+
+    # bounding spheres of the bodies: a pair's distance is at least that of its spheres
+    leg_c = 0.5 * (B + T)  # (n, 6, 3)
+    leg_R = 0.5 * np.linalg.norm(T - B, axis=-1) + r[:, None]
+    plate_c = O + np.einsum("nij,nj->ni", A[:, :, :2], lay.centre)  # (n+1, 3)
+    plate_R = lay.reach + lay.half_t
+
+    # legs of adjacent platforms, then the non-adjacent bodies: the least exact distance
+    # over the pairs their spheres allow
+    adjacent = _Best()
+    _legs_vs_legs(adjacent, lay.adj, B, T, r, leg_c, leg_R)
+    if adjacent.bodies is not None:
+        contacts.append(Contact(adjacent.value, *adjacent.bodies))
+    best = _Best()
+    _legs_vs_legs(best, lay.ll, B, T, r, leg_c, leg_R)
+    if len(lay.lp):
+        il, kl, jl = lay.lp.T
+        lb = _gap(leg_c[il, kl], plate_c[jl]) - leg_R[il, kl] - plate_R[jl]
+        # a leg wholly on one side of a plate's plane is at least its nearer end's height
+        # from the plate
+        normal, origin = A[jl, :, 2], O[jl]
+        ha = np.sum((B[il, kl] - origin) * normal, axis=-1)
+        hb = np.sum((T[il, kl] - origin) * normal, axis=-1)
+        side = np.where(ha * hb > 0.0, np.minimum(np.abs(ha), np.abs(hb)), 0.0)
+        lb = np.maximum(lb, side - r[il] - lay.half_t[jl])
+
+        def d_lp(x: IntArray) -> FloatArray:
+            j = jl[x]
+            poly = dist.Polygon(O[j], A[j], lay.uv[j])
+            core = dist.segment_polygon(B[il[x], kl[x]], T[il[x], kl[x]], poly)
+            return core - r[il[x]] - lay.half_t[j]  # type: ignore[no-any-return]
+
+        x = best.screen(lb, d_lp)
+        if x is not None:
+            best.bodies = (Body("leg", int(il[x]) + 1, int(kl[x])), Body("plate", int(jl[x])))
+    if len(lay.pp):
+        j1, j2 = lay.pp.T
+        lb = _gap(plate_c[j1], plate_c[j2]) - plate_R[j1] - plate_R[j2]
+        # a plate wholly on one side of the other's plane: its least vertex height
+        V = O[:, None, :] + np.einsum("jik,jmk->jmi", A[:, :, :2], lay.uv)  # (n+1, M, 3)
+        side = np.maximum(_side(V[j2], O[j1], A[j1, :, 2]), _side(V[j1], O[j2], A[j2, :, 2]))
+        lb = np.maximum(lb, side - lay.half_t[j1] - lay.half_t[j2])
+
+        def d_pp(x: IntArray) -> FloatArray:
+            a_, b_ = j1[x], j2[x]
+            p1 = dist.Polygon(O[a_], A[a_], lay.uv[a_])
+            p2 = dist.Polygon(O[b_], A[b_], lay.uv[b_])
+            return dist.polygon_polygon(p1, p2) - lay.half_t[a_] - lay.half_t[b_]  # type: ignore[no-any-return]
+
+        x = best.screen(lb, d_pp)
+        if x is not None:
+            best.bodies = (Body("plate", int(j1[x])), Body("plate", int(j2[x])))
+    non_adj = best.value
+    if best.bodies is not None:
+        contacts.append(Contact(best.value, *best.bodies))
+
+    # obstacles: every leg, every plate but the base (signed distances are 1-Lipschitz,
+    # so a sphere's centre bounds its body's distance from below)
+    ob_min: list[float] = []
+    if obs:
+        a, b = B.reshape(-1, 3), T.reshape(-1, 3)
+        r_leg = np.repeat(r, 6)
+        c_leg, R_leg = leg_c.reshape(-1, 3), leg_R.reshape(-1)
+        ht = lay.half_t[1:]
+        for o_i, ob in enumerate(obs):
+            best = _Best()
+
+            def d_leg(x: IntArray, ob: Obstacle = ob) -> FloatArray:
+                return ob.segment_distance(a[x], b[x]) - r_leg[x]  # type: ignore[no-any-return]
+
+            def d_plate(x: IntArray, ob: Obstacle = ob) -> FloatArray:
+                j = x + 1
+                return ob.polygon_distance(dist.Polygon(O[j], A[j], lay.uv[j])) - ht[x]  # type: ignore[no-any-return]
+
+            x = best.screen(ob.point_distance(c_leg) - R_leg, d_leg)
+            if x is not None:
+                best.bodies = (Body("leg", x // 6 + 1, x % 6), None)
+            x = best.screen(ob.point_distance(plate_c[1:]) - plate_R[1:], d_plate)
+            if x is not None:
+                best.bodies = (Body("plate", x + 1), None)
+            assert best.bodies is not None  # a stack has legs
+            ob_min.append(best.value)
+            contacts.append(Contact(best.value, best.bodies[0], obstacle=o_i))
+    by_plat.setflags(write=False)
+    return Clearances(self_min, by_plat, adjacent.value, non_adj, tuple(ob_min), tuple(contacts))
+
+
+def needs_clearances(
+    stack: Stack, obstacles: Sequence[Obstacle] = (), clearance: float = 0.0
+) -> bool:
+    """Whether a clearance can be negative or below the margin: False only with no
+    obstacle, zero leg radii and plate thickness and a zero margin (every clearance is then
+    a distance, >= 0 by construction, so the check need not compute it)."""
+    if obstacles or clearance > 0.0:
+        return True
+    return bool(stack.derived("clearance_bodies", _has_bodies))
+
+
+def _has_bodies(stack: Stack) -> bool:
+    return any(g.leg_radius > 0.0 or g.plate_thickness > 0.0 for g in stack)
