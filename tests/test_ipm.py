@@ -1,4 +1,5 @@
-"""Tests of the compiled interior-point path (stackik._ipm) and of method="ip"/"auto"."""
+"""Tests of the compiled interior-point path (stackik._compiled.planar) and of
+method="ip"/"auto"."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 import pytest
 
 import stackik as sk
-from stackik import _ipm
+from stackik._compiled import planar as _ipm
 from stackik.check import check_pose
 from stackik.formulation import Problem
 from stackik.geometry import Stack

@@ -8,9 +8,15 @@ import fd
 import numpy as np
 import pytest
 
-from stackik import _ipm, _spatial_ipm
 from stackik._arrays import readonly
-from stackik._check import _spatial_check, planar_check, planar_check_many, spatial_check_many
+from stackik._compiled import planar as _ipm
+from stackik._compiled import spatial as _spatial_ipm
+from stackik._compiled.check import (
+    _spatial_check,
+    planar_check,
+    planar_check_many,
+    spatial_check_many,
+)
 from stackik.check import check_pose
 from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
 from stackik.geometry import Stack

@@ -3,7 +3,7 @@
 :func:`check_pose` re-evaluates a pose with the forward kinematics of
 :mod:`stackik.kinematics` and the constraint functions of :mod:`stackik.platform`, sharing no
 code with any solver. :func:`pose_ok` holds the acceptance rule; the compiled twin
-(:mod:`stackik._check`) imports only this module.
+(:mod:`stackik._compiled.check`) imports only this module.
 """
 
 from __future__ import annotations

@@ -1,5 +1,6 @@
-"""``method="ip"``: the compiled primal-dual interior point, planar (:mod:`stackik._ipm`)
-and spatial (:mod:`stackik._spatial_ipm`, exact second derivatives in closed form).
+"""``method="ip"``: the compiled primal-dual interior point, planar
+(:mod:`stackik._compiled.planar`) and spatial (:mod:`stackik._compiled.spatial`, exact second
+derivatives in closed form).
 
 This module turns a :class:`~stackik.formulation.Problem` into the arrays the compiled
 kernels take, parses the method's options, runs every start in one compiled call and
@@ -25,7 +26,7 @@ __all__ = ["IP_DEFAULTS", "IPMethod", "ip_multi", "ip_solve", "problem_arrays", 
 
 
 def spatial_problem_arrays(prob: Any) -> tuple[Any, ...]:
-    """The tuple of arrays :func:`stackik._spatial_ipm.ip_loop` needs, from a spatial
+    """The tuple of arrays :func:`stackik._compiled.spatial.ip_loop` needs, from a spatial
     :class:`~stackik.formulation.Problem` (every array read-only)."""
     st = prob.stack
     tgt = prob.target
@@ -48,7 +49,7 @@ def spatial_problem_arrays(prob: Any) -> tuple[Any, ...]:
 
 
 def problem_arrays(prob: Any) -> tuple[Any, ...]:
-    """The tuple of arrays :func:`stackik._ipm._ip_loop` needs, from a planar
+    """The tuple of arrays :func:`stackik._compiled.planar._ip_loop` needs, from a planar
     :class:`~stackik.formulation.Problem`; every array read-only
     (:func:`stackik._arrays.readonly`: one compiled specialisation, whatever the source)."""
     fast = prob.fast
@@ -141,7 +142,7 @@ def ip_multi(
     U = np.ascontiguousarray(np.atleast_2d(U0), dtype=float)
     mus = np.full(U.shape[0], float(opts["mu0"])) if mu0 is None else np.asarray(mu0, float)
     if not prob.planar:  # the spatial kernels; the polish is the caller's (Problem's form)
-        from stackik import _spatial_ipm
+        from stackik._compiled import spatial as _spatial_ipm
 
         X, st, nit, obj, viol = _spatial_ipm.ip_multi(
             U,
@@ -154,7 +155,7 @@ def ip_multi(
         )
         return X, [_spatial_ipm.IP_STATUS[int(s)] for s in st], nit, obj, viol
     P = problem_arrays(prob)
-    from stackik import _ipm  # numba: imported when first needed
+    from stackik._compiled import planar as _ipm  # numba: imported when first needed
 
     X, st, nit, obj, viol = _ipm._ip_multi(
         U,
@@ -191,7 +192,7 @@ def ip_starts(
     """Interior-point runs from every start in one compiled call; the best that passes
     the independent check (tried in order of objective among the runs within
     :data:`RANK_VIOLATION` of feasibility), or the least-violation run when none passes."""
-    from stackik._check import planar_check
+    from stackik._compiled.check import planar_check
     from stackik.check import check_pose
 
     U0 = np.stack([prob.u_of(q) for q in starts])

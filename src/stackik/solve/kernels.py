@@ -1,8 +1,9 @@
 """The compiled kernels: loaded (or compiled) once per process, before any clock starts.
 
-The planar interior point and its re-check (:mod:`stackik._ipm`, :mod:`stackik._check`),
-the spatial evaluation (:mod:`stackik._spatial`) and the spatial interior point
-(:mod:`stackik._spatial_ipm`) are compiled by numba with
+The planar interior point and its re-check (:mod:`stackik._compiled.planar`,
+:mod:`stackik._compiled.check`), the spatial evaluation
+(:mod:`stackik._compiled.spatial_kinematics`) and the spatial interior point
+(:mod:`stackik._compiled.spatial`) are compiled by numba with
 ``cache=True``: the first use on a machine compiles them (tens of seconds) and writes
 machine code beside the sources (or to ``NUMBA_CACHE_DIR``); later processes load it
 (a fraction of a second). :func:`solve_ik` calls :func:`ensure_kernels` for what the
@@ -31,12 +32,15 @@ _LOCK = threading.Lock()
 
 def _dispatchers(kind: str) -> list[Any]:
     if kind == "planar":
-        from stackik import _check, _ipm
+        from stackik._compiled import check as _check
+        from stackik._compiled import planar as _ipm
 
         return [_ipm._ip_multi, _ipm.ip_box, _ipm.ip_path, _ipm._evaluate,
                 _ipm._lagrangian_hessian, _check._planar_check,
                 _check._planar_check_many, _check._planar_path_arrays]  # fmt: skip
-    from stackik import _check, _spatial, _spatial_ipm
+    from stackik._compiled import check as _check
+    from stackik._compiled import spatial as _spatial_ipm
+    from stackik._compiled import spatial_kinematics as _spatial
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _spatial_ipm.ip_multi,
             _spatial_ipm.ip_box, _spatial_ipm.ip_path, _spatial_ipm.evaluate,
@@ -86,9 +90,10 @@ def _warm_path_kernels(planar: bool) -> None:
     types the paths pass (read-only arrays), so that a path's clock sees no loading."""
     import numpy as np
 
-    from stackik import _ipm, _spatial_ipm
     from stackik._arrays import readonly
-    from stackik._check import planar_check_many, planar_path_arrays, spatial_check_many
+    from stackik._compiled import planar as _ipm
+    from stackik._compiled import spatial as _spatial_ipm
+    from stackik._compiled.check import planar_check_many, planar_path_arrays, spatial_check_many
     from stackik.formulation import POLISH_MARGIN, POLISH_REACH
     from stackik.methods.ip import problem_arrays, spatial_problem_arrays
 

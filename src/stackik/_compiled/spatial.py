@@ -8,10 +8,10 @@ The spatial problem of :class:`stackik.formulation.Problem` (scaled variables
     s.t. c_E(u) = 0   (end-effector position / L, and the orientation, 6 rows)
          c_I(u) >= 0  (24 n limits, scaled by ``cs``)
 
-is solved by the barrier method of :mod:`stackik._ipm` (IPOPT-like: slacks, Fiacco-McCormick
-``mu``, Newton steps on the perturbed KKT conditions with inertia correction, fraction to
-the boundary, filter line search), here with a null-space KKT solve through the SVD of the
-6 x 6n equality Jacobian. The orientation rows are the skew part
+is solved by the barrier method of :mod:`stackik._compiled.planar` (IPOPT-like: slacks,
+Fiacco-McCormick ``mu``, Newton steps on the perturbed KKT conditions with inertia correction,
+fraction to the boundary, filter line search), here with a null-space KKT solve through the SVD of
+the 6 x 6n equality Jacobian. The orientation rows are the skew part
 ``vee(E - E^T) / 2 = sin(angle) axis`` of ``E = R_target^T R_ee``: smooth everywhere and
 equal to the rotation vector to third order at ``E = I``, so the KKT points with ``E = I``
 are those of the rotation-vector form :class:`Problem` uses (the caller polishes with that
@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 from numba import njit, objmode
 
-from stackik._spatial import spatial_parts
+from stackik._compiled.spatial_kinematics import spatial_parts
 
 FloatArray = Any
 
@@ -191,7 +191,7 @@ def fn2_hessian(Jp: FloatArray, w: FloatArray, r: FloatArray, Jr: FloatArray,
                 wa: FloatArray) -> FloatArray:  # fmt: skip
     """Exact Hessian of ``sum_a wa[platform(a)] |Jp[:, a]|^2`` over the angle columns a
     (raw variables), shape (6n, 6n), from the outputs of
-    :func:`stackik._spatial.spatial_parts`."""
+    :func:`stackik._compiled.spatial_kinematics.spatial_parts`."""
     N = Jp.shape[1]
     n = N // 6
     Wr = np.empty((9 * n, N))
@@ -666,7 +666,7 @@ def _now() -> float:
 
 
 # =========================================================================================
-# The barrier method (as stackik._ipm._ip_loop, 6 equalities, 6 x 6 limit blocks)
+# The barrier method (as stackik._compiled.planar._ip_loop, 6 equalities, 6 x 6 limit blocks)
 # =========================================================================================
 @_jit
 def _with_fscale(P0: Any, fscale: float) -> Any:
@@ -902,9 +902,9 @@ def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArra
 
 
 # =========================================================================================
-# Path runs: continuation steps and warm steps in one call (as stackik._ipm.ip_path)
+# Path runs: continuation steps and warm steps in one call (as stackik._compiled.planar.ip_path)
 # =========================================================================================
-#: As :mod:`stackik._ipm`: Newton iterations and active-set changes of a continuation
+#: As :mod:`stackik._compiled.planar`: Newton iterations and active-set changes of a continuation
 #: step, the offset its active limits are held at, and its residual tolerance.
 PC_NEWTON = 16
 PC_CHANGES = 3
@@ -916,7 +916,7 @@ PC_OFFSET = 1e-10
 PC_PRIMAL_TOL = 1e-13
 #: A platform's active limit rows with less than this part of their length outside the
 #: span of its other active rows (Gram-Schmidt, the largest remaining part first) depend
-#: on those (as :data:`stackik._ipm.PC_DEPENDENT`): where several limits of a platform
+#: on those (as :data:`stackik._compiled.planar.PC_DEPENDENT`): where several limits of a platform
 #: meet (a leg's base and top joint limits at parallel plates; more limits than the
 #: platform's 6 variables) they stay active, out of the Newton system (multiplier 0,
 #: their residuals still converged), and take no freedom.
@@ -957,7 +957,7 @@ def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> Fl
 
 @_jit
 def _twins(act: FloatArray, cI: FloatArray, D: FloatArray) -> FloatArray:
-    """As :func:`stackik._ipm._twins` (6 variables per platform)."""
+    """As :func:`stackik._compiled.planar._twins` (6 variables per platform)."""
     m = cI.size
     parent = np.full(m, -1)
     for r in range(m):
@@ -1050,7 +1050,7 @@ def _weakest(idx: FloatArray, dep: FloatArray, zf: FloatArray, new: FloatArray) 
 def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: FloatArray,
              tol: float, constr_tol: float, max_newton: int,
              max_changes: int) -> tuple[Any, ...]:  # fmt: skip
-    """The continuation step of :func:`stackik._ipm._pc_step` for the spatial problem
+    """The continuation step of :func:`stackik._compiled.planar._pc_step` for the spatial problem
     (6 equalities, 6 variables per platform): Newton on the KKT conditions with the
     active limits held at ``PC_OFFSET``, the first iteration the tangent predictor, the
     active set corrected (most negative multiplier released, else violated or nearly met
@@ -1219,7 +1219,7 @@ def ip_path(u0: FloatArray, pos: FloatArray, rot: FloatArray, P0: Any, jump: Flo
             tol: float, constr_tol: float, mu0: float, max_iter: int, reach: float,
             margin: float, pos_tol: float, ang_tol: float, pc: bool, yE0: FloatArray,
             z0: FloatArray, act0: FloatArray, have0: bool) -> tuple[Any, ...]:  # fmt: skip
-    """:func:`stackik._ipm.ip_path` for spatial targets (positions ``pos`` (m, 3) [mm],
+    """:func:`stackik._compiled.planar.ip_path` for spatial targets (positions ``pos`` (m, 3) [mm],
     rotations ``rot`` (m, 3, 3)): each step from the previous point, the continuation
     step first (``pc``) and the barrier solve (initial barrier ``mu0``) when it is not
     verified, then :func:`polish`; stops before the first step whose point misses its
