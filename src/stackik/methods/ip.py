@@ -142,6 +142,7 @@ def ip_multi(
     U = np.ascontiguousarray(np.atleast_2d(U0), dtype=float)
     mus = np.full(U.shape[0], float(opts["mu0"])) if mu0 is None else np.asarray(mu0, float)
     if not prob.planar:  # the spatial kernels; the polish is the caller's (Problem's form)
+        from stackik._compiled import core as _ip_core
         from stackik._compiled import spatial as _spatial_ipm
 
         X, st, nit, obj, viol = _spatial_ipm.ip_multi(
@@ -153,8 +154,9 @@ def ip_multi(
             int(opts["max_iter"]),
             deadline if math.isfinite(deadline) else 1e300,
         )
-        return X, [_spatial_ipm.IP_STATUS[int(s)] for s in st], nit, obj, viol
+        return X, [_ip_core.IP_STATUS[int(s)] for s in st], nit, obj, viol
     P = problem_arrays(prob)
+    from stackik._compiled import core as _ip_core
     from stackik._compiled import planar as _ipm  # numba: imported when first needed
 
     X, st, nit, obj, viol = _ipm._ip_multi(
@@ -168,7 +170,7 @@ def ip_multi(
         POLISH_REACH,
         POLISH_MARGIN,
     )
-    return X, [_ipm.IP_STATUS[int(s)] for s in st], nit, obj, viol
+    return X, [_ip_core.IP_STATUS[int(s)] for s in st], nit, obj, viol
 
 
 @dataclass

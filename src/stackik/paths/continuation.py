@@ -218,8 +218,8 @@ class Tracker:
         ``max_iter``: iterations of each barrier solve (default: the interior point's)."""
         if not targets:
             return []
-        from stackik._compiled import planar as _ipm
-        from stackik._compiled import spatial as _spatial_ipm
+        from stackik._compiled import planar_path as _ipm_path
+        from stackik._compiled import spatial_path as _spatial_ipm_path
         from stackik._compiled.check import planar_checks, spatial_check_many
         from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
         from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
@@ -242,13 +242,13 @@ class Tracker:
                 self.pc, *state)  # fmt: skip
         if self.planar:
             Y = readonly([(t.rho, t.z, t.theta) for t in targets])  # type: ignore[union-attr]
-            X, reached, how, *end = _ipm.ip_path(
+            X, reached, how, *end = _ipm_path.ip_path(
                 readonly(prob.u_of(q)), Y, arrays, jump, tol, ctol, WARM_MU0, max_iter, *tail,
             )  # fmt: skip
         else:
             pos = np.array([t.position for t in targets])  # type: ignore[union-attr]
             rot = np.array([t.rotation for t in targets])  # type: ignore[union-attr]
-            X, reached, how, *end = _spatial_ipm.ip_path(
+            X, reached, how, *end = _spatial_ipm_path.ip_path(
                 readonly(prob.u_of(q)), readonly(pos), readonly(rot),
                 arrays, jump, tol, ctol, WARM_MU0, max_iter, *tail,
             )  # fmt: skip
