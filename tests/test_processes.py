@@ -84,6 +84,7 @@ def _path_kernels_in_fresh_process() -> dict:
     its clock, then run every compiled call of a path (boxed and transit steps, planar and
     spatial, both modes); report the kernels that got a new specialisation after that."""
     from stackik._compiled import check as _check
+    from stackik._compiled import core, linalg, path, planar_path, spatial_path
     from stackik._compiled import planar as _ipm
     from stackik._compiled import spatial as _spatial_ipm
     from stackik._compiled import spatial_kinematics as _spatial
@@ -91,7 +92,7 @@ def _path_kernels_in_fresh_process() -> dict:
     from stackik.solve.kernels import warm_up
 
     warm_up()
-    mods = (_ipm, _spatial_ipm, _check, _spatial)
+    mods = (_ipm, _spatial_ipm, _check, _spatial, core, linalg, path, planar_path, spatial_path)
 
     def count() -> dict[str, int]:
         return {f"{m.__name__}.{k}": len(v.signatures) for m in mods
