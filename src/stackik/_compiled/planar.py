@@ -25,7 +25,7 @@ per machine, then loaded from ``__pycache__``). The caller re-checks every retur
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -45,6 +45,44 @@ from stackik._compiled.core import (
     _now,
 )
 from stackik._compiled.linalg import _AI_dot, _AIT_dot, _cho_solve, _cholesky, _inv3
+
+
+class PlanarData(NamedTuple):
+    """The planar problem as the kernels take it (every array read-only: one compiled
+    specialisation), built by :func:`stackik.methods.ip.problem_arrays`; variables are
+    scaled, ``u = q / xs``."""
+
+    xs: Any  #: variable scales (3 n,)
+    cs: Any  #: limit row scales (24 n,)
+    es: Any  #: equality scales (3,)
+    target: Any  #: the target ``(rho [mm], z [mm], theta [rad])`` (3,)
+    fscale: float  #: objective scale
+    c0: float  #: objective constant
+    w: float  #: FN weight of the angle columns
+    tf: Any  #: top nodes in the plane's frame (n, 6, 2) [mm]
+    tz: Any  #: top nodes' out-of-plane coordinate (n, 6) [mm]
+    bf: Any  #: base nodes in the plane's frame (n, 6, 2) [mm]
+    bz: Any  #: base nodes' out-of-plane coordinate (n, 6) [mm]
+    ls0: Any  #: squared leg lengths' constant part (n, 6) [mm^2]
+    lmin2: Any  #: squared minimum leg length (n,) [mm^2]
+    lmax2: Any  #: squared maximum leg length (n,) [mm^2]
+    sj: Any  #: sine of the minimum joint angle (n,)
+    feasible: bool  #: the feasibility objective (f = 0) instead of FN^2
+
+
+@_jit
+def _with_fscale(P0: Any, fscale: float) -> Any:
+    """``P0`` with the objective scale ``fscale``."""
+    return PlanarData(P0.xs, P0.cs, P0.es, P0.target, fscale, P0.c0, P0.w, P0.tf, P0.tz, P0.bf,
+                      P0.bz, P0.ls0, P0.lmin2, P0.lmax2, P0.sj, P0.feasible)  # fmt: skip
+
+
+@_jit
+def _with_target(P0: Any, target: Any) -> Any:
+    """``P0`` with the target ``target`` (3,)."""
+    return PlanarData(P0.xs, P0.cs, P0.es, target, P0.fscale, P0.c0, P0.w, P0.tf, P0.tz, P0.bf,
+                      P0.bz, P0.ls0, P0.lmin2, P0.lmax2, P0.sj, P0.feasible)  # fmt: skip
+
 
 FloatArray = np.ndarray
 
@@ -351,7 +389,7 @@ def _lagrangian_hessian_ext(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any
                             wq: float) -> FloatArray:  # fmt: skip
     """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem (``z``: 24 n or, with
     a box, 30 n multipliers): the box rows are linear, the distance term adds ``2 wq I``."""
-    H = _lagrangian_hessian(u, yE, _limit_rows(z, P[7].shape[0]), P)
+    H = _lagrangian_hessian(u, yE, _limit_rows(z, P.tf.shape[0]), P)
     if wq > 0.0:
         for a in range(H.shape[0]):
             H[a, a] += 2.0 * wq
@@ -522,7 +560,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     (multipliers of the problem as ``P0`` states it, i.e. without the objective scaling
     the loop applies: a continuation step starts from them,
     :func:`stackik._compiled.planar_path._pc_step`)."""
-    n = P0[7].shape[0]
+    n = P0.tf.shape[0]
     R = 24 if lo.size == 0 else 30
     m = R * n
     N = 3 * n
@@ -533,8 +571,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     # objective scaling as IPOPT's gradient-based rule: max |grad f(x0)| <= OBJ_MAX_GRAD
     gmax = np.abs(g).max()
     fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
-    P = (P0[0], P0[1], P0[2], P0[3], P0[4] / fs, P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
-         P0[11], P0[12], P0[13], P0[14], P0[15])  # fmt: skip
+    P = _with_fscale(P0, P0.fscale / fs)
     f, g = f * fs, g * fs
     wq = wq * fs
     mu = mu0
@@ -725,7 +762,7 @@ def _polished(cE: FloatArray, cI: FloatArray, reach: float) -> bool:
 def _polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> FloatArray:
     """Min-norm Newton corrections of the equalities and of limits violated by less than
     ``reach`` (scaled), as :func:`stackik.formulation.polish` (tiny moves only)."""
-    n = P[7].shape[0]
+    n = P.tf.shape[0]
     N = 3 * n
     for _ in range(iters):
         f, g, cE, AE, cI, D = _evaluate(u, P)

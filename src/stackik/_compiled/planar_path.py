@@ -30,6 +30,8 @@ from stackik._compiled.planar import (
     _lagrangian_hessian,
     _polish,
     _polished,
+    _with_fscale,
+    _with_target,
 )
 
 FloatArray = Any
@@ -330,14 +332,13 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     solve's tolerances. Returns ``(x, ok, yE, z, active, iterations, c_E, c_I)``
     (multipliers of ``P0``'s problem, ``z`` zero off the active set; the constraint
     values at ``x``); the caller polishes and checks ``x``."""
-    n = P0[7].shape[0]
+    n = P0.tf.shape[0]
     N = 3 * n
     m = 24 * n
     f, g, cE, AE, cI, D = _evaluate(x0, P0)
     gmax = np.abs(g).max()
     fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
-    P = (P0[0], P0[1], P0[2], P0[3], P0[4] / fs, P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
-         P0[11], P0[12], P0[13], P0[14], P0[15])  # fmt: skip
+    P = _with_fscale(P0, P0.fscale / fs)
     g = g * fs
     x = x0.copy()
     yE = yE0 * fs
@@ -456,7 +457,7 @@ def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: f
     ``ang_tol`` [rad], from the scaled equalities), violates no limit (scaled) and moves
     no variable from ``x`` by more than ``jump`` (scaled, per variable)."""
     f, g, cE, AE, cI, D = _evaluate(xn, P)
-    return _reaches_at(xn, x, cE, cI, P[2], jump, pos_tol, ang_tol)
+    return _reaches_at(xn, x, cE, cI, P.es, jump, pos_tol, ang_tol)
 
 
 @_jit
@@ -566,7 +567,7 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
     yE = yE0.copy()
     z = z0.copy()
     active = act0.copy()
-    es = P0[2]
+    es = P0.es
     # the point before x and the targets of both (known: a secant predictor); cur_ok:
     # ycur is x's target (after a run's first step, not before it when hist0 is empty)
     known = hist0.size >= N + 6
@@ -601,8 +602,7 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
         pcrun = int(hist0[3])
     for k in range(m):
         yt = targets[k]
-        P = (P0[0], P0[1], P0[2], yt, P0[4], P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
-             P0[11], P0[12], P0[13], P0[14], P0[15])  # fmt: skip
+        P = _with_target(P0, yt)
         if pc:
             if not have:
                 yE, z, active = _ls_state(x, P)

@@ -35,7 +35,7 @@ Everything is tested against finite differences (``tests/test_spatial_quality.py
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -64,6 +64,27 @@ from stackik._compiled.linalg import (
 from stackik._compiled.spatial_kinematics import spatial_parts
 
 FloatArray = Any
+
+
+class SpatialData(NamedTuple):
+    """The spatial problem as the kernels take it (every array read-only: one compiled
+    specialisation), built by :func:`stackik.methods.ip.spatial_problem_arrays`;
+    variables are scaled, ``u = q / xs``."""
+
+    xs: Any  #: variable scales (6 n,)
+    cs: Any  #: limit row scales (24 n,)
+    es: Any  #: equality scales (6,)
+    position: Any  #: target position (3,) [mm]
+    rotation: Any  #: target rotation (3, 3)
+    fscale: float  #: objective scale
+    c0: float  #: objective constant
+    w: Any  #: FN weights of the angle columns
+    top: Any  #: top nodes (n, 6, 3) [mm]
+    base: Any  #: base nodes (n, 6, 3) [mm]
+    leg_min: Any  #: minimum leg lengths [mm]
+    leg_max: Any  #: maximum leg lengths [mm]
+    sin_joint: Any  #: sine of the minimum joint angles
+    feasible: bool  #: the feasibility objective (f = 0) instead of FN^2
 
 
 # =========================================================================================
@@ -345,7 +366,7 @@ def _hessian_ext(parts: Any, yE: FloatArray, z: FloatArray, P: Any, wq: float) -
     """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem from its kinematic
     parts (``z``: 24 n or, with a box, 36 n multipliers): the box rows are linear, the
     distance term adds ``2 wq I``."""
-    H = _hessian(parts, yE, _limit_rows(z, P[8].shape[0]), P)
+    H = _hessian(parts, yE, _limit_rows(z, P.top.shape[0]), P)
     if wq > 0.0:
         for a in range(H.shape[0]):
             H[a, a] += 2.0 * wq
@@ -535,8 +556,18 @@ def _ls_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArr
 # =========================================================================================
 @_jit
 def _with_fscale(P0: Any, fscale: float) -> Any:
-    return (P0[0], P0[1], P0[2], P0[3], P0[4], fscale, P0[6], P0[7], P0[8], P0[9], P0[10],
-            P0[11], P0[12], P0[13])  # fmt: skip
+    """``P0`` with the objective scale ``fscale``."""
+    return SpatialData(P0.xs, P0.cs, P0.es, P0.position, P0.rotation, fscale, P0.c0, P0.w,
+                       P0.top, P0.base, P0.leg_min, P0.leg_max, P0.sin_joint,
+                       P0.feasible)  # fmt: skip
+
+
+@_jit
+def _with_target(P0: Any, position: Any, rotation: Any) -> Any:
+    """``P0`` with the target ``position`` (3,) [mm] and ``rotation`` (3, 3)."""
+    return SpatialData(P0.xs, P0.cs, P0.es, position, rotation, P0.fscale, P0.c0, P0.w,
+                       P0.top, P0.base, P0.leg_min, P0.leg_max, P0.sin_joint,
+                       P0.feasible)  # fmt: skip
 
 
 @_jit
@@ -548,7 +579,7 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     iteration count and the final slacks ``s`` and multipliers ``z``, ``yE`` (of the
     problem as ``P0`` states it, without the loop's objective scaling; a continuation
     step starts from them, :func:`stackik._compiled.spatial_path._pc_step`)."""
-    n = P0[8].shape[0]
+    n = P0.top.shape[0]
     R = 24 if lo.size == 0 else 36
     m = R * n
     x = u0.copy()
@@ -557,7 +588,7 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         return x, IP_NONFINITE, 0, cI, np.ones(m), np.zeros(6)
     gmax = np.abs(g).max()
     fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
-    P = _with_fscale(P0, P0[5] / fs)
+    P = _with_fscale(P0, P0.fscale / fs)
     f, g = f * fs, g * fs
     wq = wq * fs
     mu = mu0
@@ -771,7 +802,7 @@ def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> Fl
     """:func:`stackik.formulation.polish` compiled: min-norm Newton corrections of the
     end-effector equalities and of the limits violated by less than ``reach`` (scaled),
     put at ``margin``."""
-    n = P[8].shape[0]
+    n = P.top.shape[0]
     N = 6 * n
     for _ in range(iters):
         f, g, cE, AE, cI, D = evaluate(u, P)

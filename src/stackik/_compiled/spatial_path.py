@@ -25,6 +25,7 @@ from stackik._compiled.path import (
 )
 from stackik._compiled.spatial import (
     _with_fscale,
+    _with_target,
     evaluate,
     ip_loop,
     lagrangian_hessian,
@@ -111,13 +112,13 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     singular with them) and take no freedom; while the independent rows exceed the
     freedom ``N - 6`` the weakest goes, not one the last change added
     (:func:`_weakest`). Returns ``(x, ok, yE, z, active, iterations)``."""
-    n = P0[8].shape[0]
+    n = P0.top.shape[0]
     N = 6 * n
     m = 24 * n
     f, g, cE, AE, cI, D = evaluate(x0, P0)
     gmax = np.abs(g).max()
     fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
-    P = _with_fscale(P0, P0[5] / fs)
+    P = _with_fscale(P0, P0.fscale / fs)
     g = g * fs
     x = x0.copy()
     yE = yE0 * fs
@@ -252,7 +253,7 @@ def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: f
     """Whether the polished point ``xn`` reaches ``P``'s target (``pos_tol`` [mm]; the
     orientation error's sine from the scaled equalities within ``ang_tol``), violates no
     limit (scaled) and moves no variable from ``x`` by more than ``jump`` (scaled)."""
-    es = P[2]
+    es = P.es
     f, g, cE, AE, cI, D = evaluate(xn, P)
     pe = math.sqrt((cE[0] / es[0]) ** 2 + (cE[1] / es[1]) ** 2 + (cE[2] / es[2]) ** 2)
     ae = math.sqrt((cE[3] / es[3]) ** 2 + (cE[4] / es[4]) ** 2 + (cE[5] / es[5]) ** 2)
@@ -289,8 +290,7 @@ def ip_path(u0: FloatArray, pos: FloatArray, rot: FloatArray, P0: Any, jump: Flo
     z = z0.copy()
     active = act0.copy()
     for k in range(m):
-        P = (P0[0], P0[1], P0[2], pos[k], rot[k], P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
-             P0[11], P0[12], P0[13])  # fmt: skip
+        P = _with_target(P0, pos[k], rot[k])
         if pc and have:
             xn, ok, yE1, z1, act1, _ = _pc_step(
                 x, P, yE, z, active, tol, constr_tol, PC_NEWTON, PC_CHANGES

@@ -55,7 +55,7 @@ class CompiledNLP:
 
             self._evaluate: Any = _ipm._evaluate
             self._hessian: Any = _ipm._lagrangian_hessian
-            self.P = problem_arrays(prob)
+            self.P: Any = problem_arrays(prob)
         else:
             from stackik._compiled import spatial as _spatial_ipm
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -22,15 +22,21 @@ from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem, polish
 from stackik.methods.base import FloatArray, Method, Run, RunStatus, run_status
 from stackik.result import OptionError
 
+if TYPE_CHECKING:
+    from stackik._compiled.planar import PlanarData
+    from stackik._compiled.spatial import SpatialData
+
 __all__ = ["IP_DEFAULTS", "IPMethod", "ip_multi", "ip_solve", "problem_arrays", "warm_up"]
 
 
-def spatial_problem_arrays(prob: Any) -> tuple[Any, ...]:
-    """The tuple of arrays :func:`stackik._compiled.spatial.ip_loop` needs, from a spatial
+def spatial_problem_arrays(prob: Any) -> SpatialData:
+    """The arrays :func:`stackik._compiled.spatial.ip_loop` needs, named, from a spatial
     :class:`~stackik.formulation.Problem` (every array read-only)."""
+    from stackik._compiled.spatial import SpatialData
+
     st = prob.stack
     tgt = prob.target
-    return (
+    return SpatialData(
         readonly(prob.xs),
         readonly(prob.cs),
         readonly(prob.es),
@@ -48,8 +54,8 @@ def spatial_problem_arrays(prob: Any) -> tuple[Any, ...]:
     )
 
 
-def problem_arrays(prob: Any) -> tuple[Any, ...]:
-    """The tuple of arrays :func:`stackik._compiled.planar._ip_loop` needs, from a planar
+def problem_arrays(prob: Any) -> PlanarData:
+    """The arrays :func:`stackik._compiled.planar._ip_loop` needs, named, from a planar
     :class:`~stackik.formulation.Problem`; every array read-only
     (:func:`stackik._arrays.readonly`: one compiled specialisation, whatever the source)."""
     fast = prob.fast
@@ -58,7 +64,9 @@ def problem_arrays(prob: Any) -> tuple[Any, ...]:
     tgt = prob.target
     feasible = prob.objective == "feasible"
     w = float(prob.w_th[0])
-    return (
+    from stackik._compiled.planar import PlanarData
+
+    return PlanarData(
         readonly(prob.xs),
         readonly(prob.cs),
         readonly(prob.es),

@@ -121,13 +121,13 @@ def bounded_ip(
         if prob.planar:
             from stackik._compiled import planar as _ipm
 
-            P = P[:4] + (P[4] * f0,) + P[5:]
+            P = P._replace(fscale=P.fscale * f0)
             u, st, _ = _ipm.ip_box(u0, P, lo, hi, ug, wq, tol, ctol, IP_BOX_MU0, max_iter,
                                    POLISH_REACH, POLISH_MARGIN)  # fmt: skip
         else:
             from stackik._compiled import spatial as _spatial_ipm
 
-            P = P[:5] + (P[5] * f0,) + P[6:]
+            P = P._replace(fscale=P.fscale * f0)
             u, st, _ = _spatial_ipm.ip_box(u0, P, lo, hi, ug, wq, tol, ctol, IP_BOX_MU0,
                                            max_iter)  # fmt: skip
             # the compiled polish (the continuation's; ~20 us, the Problem's ~0.5 ms)
