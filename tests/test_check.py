@@ -1,4 +1,4 @@
-"""The compiled planar re-check (stackik._check) agrees with check_pose and lift_planar."""
+"""The compiled planar re-check (stackik._compiled.check) agrees with check_pose and lift_planar."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import stackik as sk
-from stackik._check import planar_check
+from stackik._compiled.check import planar_check
 from stackik.check import check_pose
 from stackik.sampling import random_stack
 from stackik.starts import paper_initial_guess
@@ -61,7 +61,7 @@ def test_compiled_check_flags_non_finite_and_misses():
 
 
 def test_planar_check_many_rejects_mismatched_shapes() -> None:
-    from stackik._check import planar_check_many
+    from stackik._compiled.check import planar_check_many
     from stackik.geometry import Stack
     from stackik.targets import PlanarTarget
 

@@ -1,4 +1,5 @@
-"""Tests of the compiled interior-point path (stackik._ipm) and of method="ip"/"auto"."""
+"""Tests of the compiled interior-point path (stackik._compiled.planar) and of
+method="ip"/"auto"."""
 
 from __future__ import annotations
 
@@ -8,7 +9,8 @@ import numpy as np
 import pytest
 
 import stackik as sk
-from stackik import _ipm
+from stackik._compiled import linalg as _ip_linalg
+from stackik._compiled import planar as _ipm
 from stackik.check import check_pose
 from stackik.formulation import Problem
 from stackik.geometry import Stack
@@ -113,15 +115,15 @@ def test_cholesky_and_kkt_step():
     rng = np.random.default_rng(4)
     A = rng.standard_normal((6, 6))
     S = A @ A.T + 0.1 * np.eye(6)
-    L, ok = _ipm._cholesky(S, 0.0)
+    L, ok = _ip_linalg._cholesky(S, 0.0)
     assert ok
     np.testing.assert_allclose(L @ L.T, S, atol=1e-12)
     b = rng.standard_normal(6)
-    np.testing.assert_allclose(_ipm._cho_solve(L, b), np.linalg.solve(S, b), rtol=1e-10)
-    assert not _ipm._cholesky(S - 10.0 * np.eye(6), 0.0)[1]
+    np.testing.assert_allclose(_ip_linalg._cho_solve(L, b), np.linalg.solve(S, b), rtol=1e-10)
+    assert not _ip_linalg._cholesky(S - 10.0 * np.eye(6), 0.0)[1]
     big = rng.standard_normal((40, 40))
-    assert _ipm._cholesky(big @ big.T + np.eye(40), 0.0)[1]  # the LAPACK branch
-    assert not _ipm._cholesky(-np.eye(40), 0.0)[1]
+    assert _ip_linalg._cholesky(big @ big.T + np.eye(40), 0.0)[1]  # the LAPACK branch
+    assert not _ip_linalg._cholesky(-np.eye(40), 0.0)[1]
     # KKT: [W -A^T; A 0][dx; dy] = [r; -c] with W positive definite on null(A)
     N = 9
     W = rng.standard_normal((N, N))

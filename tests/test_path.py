@@ -771,7 +771,7 @@ def test_tracker_box_first_step_is_warm_inside_the_box(stack4):
     # off the optimum, a spatial fast path's ladder tries the boxed solve first: a small
     # step from a solved pose ends inside the box (a minimum without it, "warm"); a tight
     # jump limit leaves a variable at the box ("bounded"); both checked, within one jump
-    from stackik._check import spatial_check_many
+    from stackik._compiled.check import spatial_check_many
     from stackik.paths.continuation import BOX_INSIDE, Tracker
 
     pts = _spatial_bench_curve()

@@ -8,9 +8,19 @@ import fd
 import numpy as np
 import pytest
 
-from stackik import _ipm, _spatial_ipm
 from stackik._arrays import readonly
-from stackik._check import _spatial_check, planar_check, planar_check_many, spatial_check_many
+from stackik._compiled import core as _ip_core
+from stackik._compiled import path as _ip_paths
+from stackik._compiled import planar as _ipm
+from stackik._compiled import planar_path as _ipm_path
+from stackik._compiled import spatial as _spatial_ipm
+from stackik._compiled import spatial_path as _spatial_ipm_path
+from stackik._compiled.check import (
+    _spatial_check,
+    planar_check,
+    planar_check_many,
+    spatial_check_many,
+)
 from stackik.check import check_pose
 from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
 from stackik.geometry import Stack
@@ -117,7 +127,7 @@ def test_ip_box_stays_in_its_box_and_ip_path_repeats_the_one_start_solve():
     P = problem_arrays(prob)
     # the run of warm steps: the points of _ip_multi from the previous point, bit for bit
     Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:]])
-    X, reached, how = _ipm.ip_path(
+    X, reached, how = _ipm_path.ip_path(
         readonly(prob.u_of(q0)), Y, P, readonly(np.full(12, np.inf)), 1e-7, 1e-9, 1e-3, 300,
         POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, False, *_NO_STATE3,
     )[:3]  # fmt: skip
@@ -140,7 +150,7 @@ def test_ip_box_stays_in_its_box_and_ip_path_repeats_the_one_start_solve():
         lo, hi = readonly(u0 - box), readonly(u0 + box)
         x, st, _ = _ipm.ip_box(u0, problem_arrays(prob1), lo, hi, none, 0.0, 1e-7, 1e-9,
                                1e-3, 300, POLISH_REACH, POLISH_MARGIN)  # fmt: skip
-        if st == _ipm.IP_SUCCESS:
+        if st == _ip_core.IP_SUCCESS:
             assert np.all(x >= lo - 1e-9) and np.all(x <= hi + 1e-9)
             walls.append(float(np.min(np.minimum(x - lo, hi - x))))
     assert walls and walls[0] > 0.0
@@ -169,8 +179,8 @@ def test_ip_path_continuation_steps_are_verified_kkt_points_near_the_barrier_sol
     Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:]])
     args = (readonly(prob.u_of(q0)), Y, P, readonly(np.full(3 * n, np.inf)), 1e-7, 1e-9,
             1e-3, 300, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, *_NO_STATE3)  # fmt: skip
-    X, reached, how, *state = _ipm.ip_path(*args)
-    X2, reached2, how2, *_ = _ipm.ip_path(*args)
+    X, reached, how, *state = _ipm_path.ip_path(*args)
+    X2, reached2, how2, *_ = _ipm_path.ip_path(*args)
     assert reached == reached2 and np.array_equal(X[:reached], X2[:reached])
     assert np.array_equal(how, how2)
     assert reached >= 5 and how[:reached].sum() >= reached // 2
@@ -179,9 +189,9 @@ def test_ip_path_continuation_steps_are_verified_kkt_points_near_the_barrier_sol
     # and the continuation count only; the secant and quadratic predictors start as in
     # the whole run)
     for h in sorted({1, 2, 3, reached // 2}):
-        Xa, ra, _, *end = _ipm.ip_path(args[0], readonly(Y[:h]), *args[2:13], *_NO_STATE3)
+        Xa, ra, _, *end = _ipm_path.ip_path(args[0], readonly(Y[:h]), *args[2:13], *_NO_STATE3)
         assert ra == h and end[3]
-        Xb, rb, howb, *_ = _ipm.ip_path(readonly(Xa[h - 1]), readonly(Y[h:reached]),
+        Xb, rb, howb, *_ = _ipm_path.ip_path(readonly(Xa[h - 1]), readonly(Y[h:reached]),
                                         *args[2:13], *end)  # fmt: skip
         assert rb == reached - h and howb[0] == how[h]
         np.testing.assert_array_equal(np.concatenate([Xa[:h], Xb[:rb]]), X[:reached])
@@ -216,13 +226,15 @@ def test_ip_path_starts_with_a_continuation_step_from_least_squares_multipliers(
     starts with a continuation step instead of a barrier solve."""
     stack, pts, q0, prob, P = _straight_run(n, seed)
     u0 = prob.u_of(q0)
-    yE, z, act = _ipm._ls_state(u0, P)
+    yE, z, act = _ipm_path._ls_state(u0, P)
     assert act.any() and np.all(z[~act] == 0.0)
-    x, ok, *_ = _ipm._pc_step(u0, P, yE, z, act, 1e-7, 1e-9, _ipm.PC_NEWTON, _ipm.PC_CHANGES)
+    x, ok, *_ = _ipm_path._pc_step(
+        u0, P, yE, z, act, 1e-7, 1e-9, _ip_paths.PC_NEWTON, _ip_paths.PC_CHANGES
+    )
     assert ok
     assert np.max(np.abs(x - u0)) <= 1e-6
     Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:]])
-    X, reached, how, *_ = _ipm.ip_path(
+    X, reached, how, *_ = _ipm_path.ip_path(
         readonly(u0), Y, P, readonly(np.full(3 * n, np.inf)), 1e-7, 1e-9, 1e-3, 300,
         POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, *_NO_STATE3,
     )  # fmt: skip
@@ -242,11 +254,13 @@ def test_continuation_step_keeps_a_platform_in_a_corner_of_dependent_limits():
     prob = Problem(stack, t, "frobenius", None)
     P = problem_arrays(prob)
     u = prob.u_of(solve_ik(stack, t).q)
-    yE, z, act = _ipm._ls_state(u, P)
+    yE, z, act = _ipm_path._ls_state(u, P)
     _, _, _, _, cI, D = _ipm._evaluate(u, P)
-    rows = np.nonzero(act & (_ipm._twins(act, cI, D) < 0))[0]
+    rows = np.nonzero(act & (_ip_paths._twins(act, cI, D) < 0))[0]
     assert np.bincount(rows // 24, minlength=4).max() > 3
-    x, ok, *_ = _ipm._pc_step(u, P, yE, z, act, 1e-7, 1e-9, _ipm.PC_NEWTON, _ipm.PC_CHANGES)
+    x, ok, *_ = _ipm_path._pc_step(
+        u, P, yE, z, act, 1e-7, 1e-9, _ip_paths.PC_NEWTON, _ip_paths.PC_CHANGES
+    )
     assert ok
     assert np.max(np.abs(x - u)) <= 1e-6
 
@@ -277,14 +291,14 @@ def test_continuation_kkt_solve_by_platforms(seed):
     K = np.block([[W, -AE.T, -A.T], [AE, np.zeros((3, 3 + idx.size))],
                   [A, np.zeros((idx.size, 3 + idx.size))]])  # fmt: skip
     want = np.linalg.solve(K, np.concatenate([r1, r2, rA]))
-    dx, dy, dz, ok = _ipm._pc_kkt(W, AE, D, idx, r1, r2, rA, n)
+    dx, dy, dz, ok = _ipm_path._pc_kkt(W, AE, D, idx, r1, r2, rA, n)
     assert ok
     np.testing.assert_allclose(np.concatenate([dx, dy, dz]), want, rtol=0, atol=1e-9)
     # a fourth row on platform 3, in the span of its three others, consistent
     D[3, 3] = 0.7 * D[3, 0] - 0.2 * D[3, 1] + 0.5 * D[3, 2]
     idx4 = np.array([1, 5, 30, 50, 51, 72, 73, 74, 75])
     rA4 = np.append(rA, 0.7 * rA[5] - 0.2 * rA[6] + 0.5 * rA[7])
-    dx, dy, dz, ok = _ipm._pc_kkt(W, AE, D, idx4, r1, r2, rA4, n)
+    dx, dy, dz, ok = _ipm_path._pc_kkt(W, AE, D, idx4, r1, r2, rA4, n)
     assert ok
     A4 = dense_rows(idx4)
     np.testing.assert_allclose(W @ dx - AE.T @ dy - A4.T @ dz, r1, rtol=0, atol=1e-11)
@@ -304,11 +318,11 @@ def test_degenerate_active_set_releases_an_old_limit_that_frees_a_variable():
     zf[[1, 2, 3, 30, 50, 51, 52, 53]] = [0.5, 0.4, 0.3, 0.0, 0.01, 0.02, 0.03, 0.04]
     new = np.zeros(96, dtype=bool)
     new[30] = True
-    cnt = _ipm._platform_counts(idx, 4)
+    cnt = _ipm_path._platform_counts(idx, 4)
     assert list(cnt) == [3, 1, 4, 0]
-    assert _ipm._weakest(idx, zf, new, cnt) == 3  # not 30 (new), not 50 (dependent)
+    assert _ipm_path._weakest(idx, zf, new, cnt) == 3  # not 30 (new), not 50 (dependent)
     new[:] = False
-    assert _ipm._weakest(idx, zf, new, cnt) == 30
+    assert _ipm_path._weakest(idx, zf, new, cnt) == 30
 
 
 def test_ip_path_marks_a_stop_where_the_barrier_solve_left_its_basin():
@@ -322,7 +336,7 @@ def test_ip_path_marks_a_stop_where_the_barrier_solve_left_its_basin():
     stack, pts, q0, prob, P = _straight_run(n, 5)
     Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:4]])
     for pc in (False, True):
-        X, reached, how, *_ = _ipm.ip_path(
+        X, reached, how, *_ = _ipm_path.ip_path(
             readonly(prob.u_of(q0)), Y, P, readonly(np.full(3 * n, 1e-9)), 1e-7, 1e-9,
             1e-3, 300, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, pc, *_NO_STATE3,
         )  # fmt: skip
@@ -381,19 +395,19 @@ def test_spatial_continuation_step_keeps_a_platform_in_a_corner_of_dependent_lim
     u = readonly(prob.u_of(solve_ik(stack, t).q))
     x, st, _, s, z, yE = _spatial_ipm.ip_loop(u, P, 1e-7, 1e-9, 1e-3, 300, 1e300, none, none,
                                               none, 0.0)  # fmt: skip
-    assert st == _spatial_ipm.IP_SUCCESS
+    assert st == _ip_core.IP_SUCCESS
     act = z > s
     _, _, _, _, cI, D = _spatial_ipm.evaluate(x, P)
-    rows = np.nonzero(act & (_spatial_ipm._twins(act, cI, D) < 0))[0]
-    dep = _spatial_ipm._dependent(D, rows)
+    rows = np.nonzero(act & (_ip_paths._twins(act, cI, D) < 0))[0]
+    dep = _spatial_ipm_path._dependent(D, rows)
     assert dep.sum() >= 2
     for i in range(n):  # the independent rows of a platform span what all its rows span
         mine = rows // 24 == i
         if mine.any():
             rank = np.linalg.matrix_rank(D[i, rows[mine] % 24], tol=1e-6)
             assert rank == np.sum(mine & ~dep) <= 6
-    xn, ok, *_ = _spatial_ipm._pc_step(x, P, yE, z, act, 1e-7, 1e-9, _spatial_ipm.PC_NEWTON,
-                                       _spatial_ipm.PC_CHANGES)  # fmt: skip
+    xn, ok, *_ = _spatial_ipm_path._pc_step(x, P, yE, z, act, 1e-7, 1e-9, _ip_paths.PC_NEWTON,
+                                       _ip_paths.PC_CHANGES)  # fmt: skip
     assert ok
     assert np.max(np.abs(xn - x)) <= 1e-6
 
@@ -412,14 +426,14 @@ def test_spatial_continuation_step_budget_and_early_exit():
     u = readonly(prob.u_of(solve_ik(stack, pts[0]).q))
     x, st, _, s, z, yE = _spatial_ipm.ip_loop(u, P, 1e-7, 1e-9, 1e-3, 300, 1e300, none, none,
                                               none, 0.0)  # fmt: skip
-    assert st == _spatial_ipm.IP_SUCCESS
+    assert st == _ip_core.IP_SUCCESS
     out = []
     for j in (1, 15):
         Pj = spatial_problem_arrays(Problem(stack, pts[j], "frobenius", None))
-        r = _spatial_ipm._pc_step(x, Pj, yE, z, z > s, 1e-7, 1e-9, _spatial_ipm.PC_NEWTON,
-                                  _spatial_ipm.PC_CHANGES)  # fmt: skip
+        r = _spatial_ipm_path._pc_step(x, Pj, yE, z, z > s, 1e-7, 1e-9, _ip_paths.PC_NEWTON,
+                                  _ip_paths.PC_CHANGES)  # fmt: skip
         out.append((r[1], r[5]))
-    assert out[0][0] and 8 < out[0][1] <= _spatial_ipm.PC_NEWTON
+    assert out[0][0] and 8 < out[0][1] <= _ip_paths.PC_NEWTON
     assert not out[1][0] and out[1][1] <= 4
 
 
@@ -432,18 +446,18 @@ def test_spatial_degenerate_active_set_releases_an_old_independent_limit():
     zf[idx] = [0.5, -1.0, 0.0, 0.3, 0.01]
     new = np.zeros(96, dtype=bool)
     new[30] = True
-    assert _spatial_ipm._weakest(idx, dep, zf, new) == 50  # not 2 (dependent), not 30 (new)
+    assert _spatial_ipm_path._weakest(idx, dep, zf, new) == 50  # not 2 (dependent), not 30 (new)
     new[:] = False
-    assert _spatial_ipm._weakest(idx, dep, zf, new) == 30
+    assert _spatial_ipm_path._weakest(idx, dep, zf, new) == 30
     # a row in the span of its platform's others is dependent; other platforms' are not
     D = np.zeros((4, 24, 6))
     rng = np.random.default_rng(5)
     D[0, :8] = rng.normal(size=(8, 6))
     D[0, 3] = 0.5 * D[0, 0] - 2.0 * D[0, 1]
     D[1, 0] = D[0, 0]
-    dep = _spatial_ipm._dependent(D, np.array([0, 1, 3, 24]))
+    dep = _spatial_ipm_path._dependent(D, np.array([0, 1, 3, 24]))
     assert dep[:3].sum() == 1 and not dep[3]  # which of the three: the largest parts first
-    assert _spatial_ipm._dependent(D, np.arange(8)).sum() == 2  # 8 rows, rank 6
+    assert _spatial_ipm_path._dependent(D, np.arange(8)).sum() == 2  # 8 rows, rank 6
 
 
 def test_spatial_ip_path_steps_are_checked_and_deterministic():
@@ -463,8 +477,8 @@ def test_spatial_ip_path_steps_are_checked_and_deterministic():
     args = (readonly(prob.u_of(q0)), pos, rot, P, readonly(jump / prob.xs), 1e-7, 1e-9, 1e-3,
             300, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, np.zeros(6), np.zeros(0),
             np.zeros(0, dtype=bool), False)  # fmt: skip
-    X, reached, how, *_ = _spatial_ipm.ip_path(*args)
-    X2, reached2, how2, *_ = _spatial_ipm.ip_path(*args)
+    X, reached, how, *_ = _spatial_ipm_path.ip_path(*args)
+    X2, reached2, how2, *_ = _spatial_ipm_path.ip_path(*args)
     assert reached == reached2 and np.array_equal(X[:reached], X2[:reached])
     assert np.array_equal(how, how2)
     assert reached >= 10 and how[:reached].sum() >= 3
@@ -496,11 +510,11 @@ def test_ip_path_secant_history_starts_with_a_known_target():
     Y = readonly([[t.rho, t.z, t.theta] for t in pts[1:3]])
     args = (P, readonly(np.full(3 * n, np.inf)), 1e-7, 1e-9, 1e-3, 300,
             POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, *_NO_STATE3)  # fmt: skip
-    X1, r1, _, *end1 = _ipm.ip_path(u0, readonly(Y[:1]), *args)
+    X1, r1, _, *end1 = _ipm_path.ip_path(u0, readonly(Y[:1]), *args)
     # after one step: no point before the last, only its target and the continuation count
     assert r1 == 1 and end1[4].size == 4
     np.testing.assert_array_equal(end1[4][:3], Y[0])
-    X2, r2, _, *end2 = _ipm.ip_path(u0, Y, *args)
+    X2, r2, _, *end2 = _ipm_path.ip_path(u0, Y, *args)
     assert r2 == 2
     hist = end2[4]
     N = 3 * n

@@ -27,7 +27,8 @@ def _spatial_target() -> sk.SpatialTarget:
 
 def _solve_in_worker(payload: bytes) -> dict:
     """Runs in a fresh (spawned) process: unpickle a used stack, solve, report."""
-    from stackik import _check, _ipm
+    from stackik._compiled import check as _check
+    from stackik._compiled import planar as _ipm
 
     stack, target = pickle.loads(payload)
     r = sk.solve_ik(stack, target)
@@ -35,7 +36,7 @@ def _solve_in_worker(payload: bytes) -> dict:
     if isinstance(target, sk.PlanarTarget):
         out["signatures"] = (len(_ipm._ip_multi.signatures), len(_check._planar_check.signatures))
     else:
-        from stackik import _spatial
+        from stackik._compiled import spatial_kinematics as _spatial
 
         out["signatures"] = (
             len(_spatial.spatial_parts.signatures),
@@ -82,12 +83,16 @@ def _path_kernels_in_fresh_process() -> dict:
     """Runs in a fresh (spawned) process: load the kernels as a path's solve does before
     its clock, then run every compiled call of a path (boxed and transit steps, planar and
     spatial, both modes); report the kernels that got a new specialisation after that."""
-    from stackik import _check, _ipm, _spatial, _spatial_ipm
+    from stackik._compiled import check as _check
+    from stackik._compiled import core, linalg, path, planar_path, spatial_path
+    from stackik._compiled import planar as _ipm
+    from stackik._compiled import spatial as _spatial_ipm
+    from stackik._compiled import spatial_kinematics as _spatial
     from stackik.paths.bounded import bounded_ip
     from stackik.solve.kernels import warm_up
 
     warm_up()
-    mods = (_ipm, _spatial_ipm, _check, _spatial)
+    mods = (_ipm, _spatial_ipm, _check, _spatial, core, linalg, path, planar_path, spatial_path)
 
     def count() -> dict[str, int]:
         return {f"{m.__name__}.{k}": len(v.signatures) for m in mods

@@ -1,5 +1,5 @@
-"""The compiled spatial evaluation (stackik._spatial) against the numpy implementations
-and finite differences."""
+"""The compiled spatial evaluation (stackik._compiled.spatial_kinematics) against the numpy
+implementations and finite differences."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import stackik as sk
-from stackik._spatial import spatial_parts
+from stackik._compiled.spatial_kinematics import spatial_parts
 from stackik.formulation import Problem
 from stackik.kinematics import spatial_chain
 from stackik.platform import constraints_from_legs, spatial_legs
@@ -74,7 +74,7 @@ def test_spatial_solve_uses_the_compiled_parts_and_checks():
 
 
 def test_block_jacobian_matches_dense_assembly():
-    from stackik._spatial import block_jacobian
+    from stackik._compiled.spatial_kinematics import block_jacobian
 
     rng = np.random.default_rng(5)
     n = 3

@@ -69,8 +69,8 @@ def _case(n: int, seed: int) -> tuple[Stack, SpatialTarget, Problem, np.ndarray]
 
 @pytest.mark.parametrize("n", [1, 3])
 def test_limit_hessians_match_differences(n: int) -> None:
-    from stackik._spatial import spatial_parts
-    from stackik._spatial_ipm import limit_hessians
+    from stackik._compiled.spatial import limit_hessians
+    from stackik._compiled.spatial_kinematics import spatial_parts
 
     stack, _, _, q = _case(n, 9401 + n)
     geo = (
@@ -96,8 +96,8 @@ def test_limit_hessians_match_differences(n: int) -> None:
 
 @pytest.mark.parametrize("n", [2, 4])
 def test_spatial_ip_evaluation_and_lagrangian_hessian(n: int) -> None:
-    from stackik._spatial import spatial_parts
-    from stackik._spatial_ipm import evaluate, fn2_hessian, lagrangian_hessian
+    from stackik._compiled.spatial import evaluate, fn2_hessian, lagrangian_hessian
+    from stackik._compiled.spatial_kinematics import spatial_parts
     from stackik.kinematics import spatial_chain
     from stackik.methods.ip import spatial_problem_arrays
 

@@ -165,7 +165,7 @@ def test_sqp_formulation_option_checked() -> None:
 @pytest.mark.parametrize("objective", ["frobenius", "feasible"])
 @pytest.mark.parametrize("n", [2, 5])
 def test_compiled_planar_nlp_equals_reduced(objective: str, n: int) -> None:
-    # the SQP method's compiled evaluation (stackik._ipm kernels) has ReducedPlanarNLP's
+    # the SQP method's compiled evaluation (stackik._compiled.planar kernels) has ReducedPlanarNLP's
     # values, sparsity pattern and Hessian
     from stackik.methods._sqp_compiled import CompiledNLP, compiled_supported
 
@@ -214,11 +214,11 @@ def test_qp_screening_off_gives_the_same_pose() -> None:
 
 @pytest.mark.parametrize("objective", ["frobenius", "feasible"])
 def test_compiled_spatial_nlp_has_the_problems_values(objective: str) -> None:
-    # the SQP method's spatial evaluation (stackik._spatial_ipm kernels, whose derivatives
+    # the SQP method's spatial evaluation (stackik._compiled.spatial kernels, whose derivatives
     # are tested against differences in test_spatial_quality.py): Problem's objective and
     # limits, the limit Jacobian in one fixed block-diagonal CSC pattern, the kernel's
     # Lagrangian Hessian
-    from stackik import _spatial_ipm
+    from stackik._compiled import spatial as _spatial_ipm
     from stackik.methods._sqp_compiled import CompiledNLP, compiled_supported
     from stackik.sampling import random_spatial_targets
 

@@ -4,7 +4,7 @@
 :mod:`stackik.kinematics`, the constraint functions of :mod:`stackik.platform`, (under a
 load or a force limit) the leg forces of :mod:`stackik.loads` and the exact distances of
 :mod:`stackik.clearance`, sharing no code with any solver. :func:`pose_ok` holds the
-acceptance rule; the compiled twin (:mod:`stackik._check`) imports only this module (it
+acceptance rule; the compiled twin (:mod:`stackik._compiled.check`) imports only this module (it
 checks the limits and the target, not the forces or clearances: those are needed only
 with a load or force limit, or with obstacles, a leg radius, a plate thickness or a
 margin, see :func:`stackik.clearance.needs_clearances`).

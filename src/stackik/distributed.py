@@ -54,7 +54,11 @@ def _use_cache_dir(cache_dir: str | os.PathLike[str] | None) -> bool:
         return True
     path = str(Path(cache_dir).expanduser().resolve())
     Path(path).mkdir(parents=True, exist_ok=True)
-    kernels = ("stackik._ipm", "stackik._check", "stackik._spatial")  # and _spatial_ipm
+    kernels = (
+        "stackik._compiled.planar",
+        "stackik._compiled.check",
+        "stackik._compiled.spatial_kinematics",
+    )  # and _spatial_ipm
     if any(m.startswith(kernels) for m in list(sys.modules)):
         return os.environ.get("NUMBA_CACHE_DIR") == path
     os.environ["NUMBA_CACHE_DIR"] = path

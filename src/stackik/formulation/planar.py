@@ -1,7 +1,7 @@
 """Planar evaluation for the solvers: limits and their Jacobian, kinematics, Hessians.
 
 The hot path of the Python engines (SQP, scipy) in planar mode; the compiled interior point
-(:mod:`stackik._ipm`) has its own twin of these loops. Values equal the reference
+(:mod:`stackik._compiled.planar`) has its own twin of these loops. Values equal the reference
 implementations of :mod:`stackik.platform` and :mod:`stackik.kinematics` (tested).
 """
 

@@ -8,7 +8,7 @@ with ``u = x / xs`` (translations scaled by ``L = max leg_max`` [mm], angles by 
 leg-length limits (mm^2) by ``leg_max^2``, the joint limits (mm) by ``leg_max``, position
 errors by ``L``. Results are reported raw. The target's :class:`~stackik.formulation.modes.Mode`
 says which evaluation applies (planar: :class:`PlanarEvaluator`; spatial: the compiled
-:mod:`stackik._spatial`).
+:mod:`stackik._compiled.spatial_kinematics`).
 """
 
 from __future__ import annotations
@@ -176,7 +176,7 @@ class Problem:
             Jeq = Jy * self.es[:, None] * self.xs
             cin, Jin = self.fast(q)  # scaled (set_scaling in __init__)
         else:
-            from stackik._spatial import block_jacobian, spatial_parts
+            from stackik._compiled.spatial_kinematics import block_jacobian, spatial_parts
 
             tgs = self.target
             assert isinstance(tgs, SpatialTarget)

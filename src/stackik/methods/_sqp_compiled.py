@@ -5,11 +5,12 @@ matrix of one fixed block-diagonal pattern (platform ``i``'s 24 limit rows touch
 own ``k`` variables, ``k = 3`` planar, ``6`` spatial) and the exact Lagrangian Hessian,
 each from one compiled call:
 
-* planar (:func:`stackik._ipm._evaluate`, :func:`stackik._ipm._lagrangian_hessian`): the
-  values of :class:`stackik.formulation.structured.ReducedPlanarNLP`, ~0.1 ms less per
-  evaluation at n = 4 .. 16 (benchmarks/results/sqp_profile.md);
-* spatial (:func:`stackik._spatial_ipm.evaluate`,
-  :func:`stackik._spatial_ipm.lagrangian_hessian`): the spatial interior point's problem,
+* planar (:func:`stackik._compiled.planar._evaluate`,
+  :func:`stackik._compiled.planar._lagrangian_hessian`): the values of
+  :class:`stackik.formulation.structured.ReducedPlanarNLP`, ~0.1 ms less per evaluation at
+  n = 4 .. 16 (benchmarks/results/sqp_profile.md);
+* spatial (:func:`stackik._compiled.spatial.evaluate`,
+  :func:`stackik._compiled.spatial.lagrangian_hessian`): the spatial interior point's problem,
   whose orientation equality is ``vee(skew(R_target' R_ee)) = 0`` (the rotation-vector
   form of :meth:`stackik.formulation.Problem.evaluate` has no closed-form second
   derivatives there). Exact second derivatives instead of damped BFGS.
@@ -50,13 +51,13 @@ class CompiledNLP:
         if not compiled_supported(prob):
             raise ValueError("CompiledNLP: spatial problems, or planar with one FN weight")
         if prob.planar:
-            from stackik import _ipm  # numba: imported when first needed
+            from stackik._compiled import planar as _ipm  # numba: imported when first needed
 
             self._evaluate: Any = _ipm._evaluate
             self._hessian: Any = _ipm._lagrangian_hessian
-            self.P = problem_arrays(prob)
+            self.P: Any = problem_arrays(prob)
         else:
-            from stackik import _spatial_ipm
+            from stackik._compiled import spatial as _spatial_ipm
 
             self._evaluate = _spatial_ipm.evaluate
             self._hessian = _spatial_ipm.lagrangian_hessian

@@ -1,5 +1,6 @@
-"""``method="ip"``: the compiled primal-dual interior point, planar (:mod:`stackik._ipm`)
-and spatial (:mod:`stackik._spatial_ipm`, exact second derivatives in closed form).
+"""``method="ip"``: the compiled primal-dual interior point, planar
+(:mod:`stackik._compiled.planar`) and spatial (:mod:`stackik._compiled.spatial`, exact second
+derivatives in closed form).
 
 This module turns a :class:`~stackik.formulation.Problem` into the arrays the compiled
 kernels take, parses the method's options, runs every start in one compiled call and
@@ -12,7 +13,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -21,15 +22,21 @@ from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem, polish
 from stackik.methods.base import FloatArray, Method, Run, RunStatus, run_status
 from stackik.result import OptionError
 
+if TYPE_CHECKING:
+    from stackik._compiled.planar import PlanarData
+    from stackik._compiled.spatial import SpatialData
+
 __all__ = ["IP_DEFAULTS", "IPMethod", "ip_multi", "ip_solve", "problem_arrays", "warm_up"]
 
 
-def spatial_problem_arrays(prob: Any) -> tuple[Any, ...]:
-    """The tuple of arrays :func:`stackik._spatial_ipm.ip_loop` needs, from a spatial
+def spatial_problem_arrays(prob: Any) -> SpatialData:
+    """The arrays :func:`stackik._compiled.spatial.ip_loop` needs, named, from a spatial
     :class:`~stackik.formulation.Problem` (every array read-only)."""
+    from stackik._compiled.spatial import SpatialData
+
     st = prob.stack
     tgt = prob.target
-    return (
+    return SpatialData(
         readonly(prob.xs),
         readonly(prob.cs),
         readonly(prob.es),
@@ -47,8 +54,8 @@ def spatial_problem_arrays(prob: Any) -> tuple[Any, ...]:
     )
 
 
-def problem_arrays(prob: Any) -> tuple[Any, ...]:
-    """The tuple of arrays :func:`stackik._ipm._ip_loop` needs, from a planar
+def problem_arrays(prob: Any) -> PlanarData:
+    """The arrays :func:`stackik._compiled.planar._ip_loop` needs, named, from a planar
     :class:`~stackik.formulation.Problem`; every array read-only
     (:func:`stackik._arrays.readonly`: one compiled specialisation, whatever the source)."""
     fast = prob.fast
@@ -57,7 +64,9 @@ def problem_arrays(prob: Any) -> tuple[Any, ...]:
     tgt = prob.target
     feasible = prob.objective == "feasible"
     w = float(prob.w_th[0])
-    return (
+    from stackik._compiled.planar import PlanarData
+
+    return PlanarData(
         readonly(prob.xs),
         readonly(prob.cs),
         readonly(prob.es),
@@ -141,7 +150,8 @@ def ip_multi(
     U = np.ascontiguousarray(np.atleast_2d(U0), dtype=float)
     mus = np.full(U.shape[0], float(opts["mu0"])) if mu0 is None else np.asarray(mu0, float)
     if not prob.planar:  # the spatial kernels; the polish is the caller's (Problem's form)
-        from stackik import _spatial_ipm
+        from stackik._compiled import core as _ip_core
+        from stackik._compiled import spatial as _spatial_ipm
 
         X, st, nit, obj, viol = _spatial_ipm.ip_multi(
             U,
@@ -152,9 +162,10 @@ def ip_multi(
             int(opts["max_iter"]),
             deadline if math.isfinite(deadline) else 1e300,
         )
-        return X, [_spatial_ipm.IP_STATUS[int(s)] for s in st], nit, obj, viol
+        return X, [_ip_core.IP_STATUS[int(s)] for s in st], nit, obj, viol
     P = problem_arrays(prob)
-    from stackik import _ipm  # numba: imported when first needed
+    from stackik._compiled import core as _ip_core
+    from stackik._compiled import planar as _ipm  # numba: imported when first needed
 
     X, st, nit, obj, viol = _ipm._ip_multi(
         U,
@@ -167,7 +178,7 @@ def ip_multi(
         POLISH_REACH,
         POLISH_MARGIN,
     )
-    return X, [_ipm.IP_STATUS[int(s)] for s in st], nit, obj, viol
+    return X, [_ip_core.IP_STATUS[int(s)] for s in st], nit, obj, viol
 
 
 @dataclass
@@ -191,7 +202,7 @@ def ip_starts(
     """Interior-point runs from every start in one compiled call; the best that passes
     the independent check (tried in order of objective among the runs within
     :data:`RANK_VIOLATION` of feasibility), or the least-violation run when none passes."""
-    from stackik._check import planar_check
+    from stackik._compiled.check import planar_check
     from stackik.check import check_pose
     from stackik.clearance import needs_clearances
 

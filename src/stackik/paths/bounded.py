@@ -77,11 +77,11 @@ def _transit_terms(prob: Problem, q_prev: FloatArray, goal: FloatArray,
     if P is None:
         f = float(prob.evaluate(u_prev)[0])
     elif prob.planar:
-        from stackik import _ipm
+        from stackik._compiled import planar as _ipm
 
         f = float(_ipm._evaluate(u_prev, P)[0])
     else:
-        from stackik import _spatial_ipm
+        from stackik._compiled import spatial as _spatial_ipm
 
         f = float(_spatial_ipm.evaluate(u_prev, P)[0])
     f0 = max(f, 1e-12)
@@ -98,8 +98,8 @@ def bounded_ip(
     goal: FloatArray | None = None,
 ) -> FloatArray | None:
     """:func:`bounded_step`'s problem (the same objective, box and transit objective) on
-    the compiled interior point (:func:`stackik._ipm.ip_box`,
-    :func:`stackik._spatial_ipm.ip_box`, exact Hessians) instead of the SQP engine: a few
+    the compiled interior point (:func:`stackik._compiled.planar.ip_box`,
+    :func:`stackik._compiled.spatial.ip_box`, exact Hessians) instead of the SQP engine: a few
     hundred microseconds instead of tens of milliseconds. Starts at ``q_prev``, the
     centre of the box. Returns the pose (polished) or None when the solver failed; the
     caller checks it."""
@@ -119,15 +119,15 @@ def bounded_ip(
     max_iter = int(IP_DEFAULTS["max_iter"])
     try:
         if prob.planar:
-            from stackik import _ipm
+            from stackik._compiled import planar as _ipm
 
-            P = P[:4] + (P[4] * f0,) + P[5:]
+            P = P._replace(fscale=P.fscale * f0)
             u, st, _ = _ipm.ip_box(u0, P, lo, hi, ug, wq, tol, ctol, IP_BOX_MU0, max_iter,
                                    POLISH_REACH, POLISH_MARGIN)  # fmt: skip
         else:
-            from stackik import _spatial_ipm
+            from stackik._compiled import spatial as _spatial_ipm
 
-            P = P[:5] + (P[5] * f0,) + P[6:]
+            P = P._replace(fscale=P.fscale * f0)
             u, st, _ = _spatial_ipm.ip_box(u0, P, lo, hi, ug, wq, tol, ctol, IP_BOX_MU0,
                                            max_iter)  # fmt: skip
             # the compiled polish (the continuation's; ~20 us, the Problem's ~0.5 ms)

@@ -196,7 +196,7 @@ class Tracker:
         if not self.planar:
             r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options=opts)
             return r.success, r.q
-        from stackik._check import planar_check
+        from stackik._compiled.check import planar_check
         from stackik.formulation import Problem
         from stackik.methods.ip import ip_multi
 
@@ -208,18 +208,19 @@ class Tracker:
     def warm_many(
         self, q: FloatArray, targets: list[Target], max_iter: int | None = None
     ) -> list[FloatArray]:
-        """The warm rung along ``targets``, each from the pose before, in one compiled
-        call (:func:`stackik._ipm.ip_path`, :func:`stackik._spatial_ipm.ip_path`): the
-        continuation step (``pc``) where it is verified, else the warm rung's first solve
-        (initial barrier ``WARM_MU0``). Returns the poses of the leading targets that it
-        reaches, as :meth:`warm` would accept them (checked by the compiled twin of
-        ``check_pose``, each within one jump of the one before). Stops at the first it
+        """The warm rung along ``targets``, each from the pose before, in one compiled call
+        (:func:`stackik._compiled.planar.ip_path`, :func:`stackik._compiled.spatial.ip_path`): the
+        continuation step (``pc``) where it is verified, else the warm rung's first solve (initial
+        barrier ``WARM_MU0``). Returns the poses of the leading targets that it reaches, as
+        :meth:`warm` would accept them (checked by the compiled twin of ``check_pose``, each within
+        one jump of the one before). Stops at the first it
         does not reach; the caller takes that one through the ladder (:meth:`step`).
         ``max_iter``: iterations of each barrier solve (default: the interior point's)."""
         if not targets:
             return []
-        from stackik import _ipm, _spatial_ipm
-        from stackik._check import planar_checks, spatial_check_many
+        from stackik._compiled import planar_path as _ipm_path
+        from stackik._compiled import spatial_path as _spatial_ipm_path
+        from stackik._compiled.check import planar_checks, spatial_check_many
         from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
         from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
@@ -241,13 +242,13 @@ class Tracker:
                 self.pc, *state)  # fmt: skip
         if self.planar:
             Y = readonly([(t.rho, t.z, t.theta) for t in targets])  # type: ignore[union-attr]
-            X, reached, how, *end = _ipm.ip_path(
+            X, reached, how, *end = _ipm_path.ip_path(
                 readonly(prob.u_of(q)), Y, arrays, jump, tol, ctol, WARM_MU0, max_iter, *tail,
             )  # fmt: skip
         else:
             pos = np.array([t.position for t in targets])  # type: ignore[union-attr]
             rot = np.array([t.rotation for t in targets])  # type: ignore[union-attr]
-            X, reached, how, *end = _spatial_ipm.ip_path(
+            X, reached, how, *end = _spatial_ipm_path.ip_path(
                 readonly(prob.u_of(q)), readonly(pos), readonly(rot),
                 arrays, jump, tol, ctol, WARM_MU0, max_iter, *tail,
             )  # fmt: skip
@@ -329,10 +330,10 @@ class Tracker:
         if qb is None or not self.ratio(q, qb) <= 1.0:
             return False
         if self.planar:  # the compiled twin of check_pose (same verdicts, tested), ~30x faster
-            from stackik._check import planar_check
+            from stackik._compiled.check import planar_check
 
             return bool(planar_check(self.stack, target, qb)[0].ok)
-        from stackik._check import spatial_check_many  # its verdict; 15 instead of 190 us
+        from stackik._compiled.check import spatial_check_many  # its verdict; 15 instead of 190 us
 
         return bool(spatial_check_many(self.stack, [target], qb[None])[0])
 

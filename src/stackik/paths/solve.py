@@ -281,7 +281,7 @@ def path_arrays(stack: Stack, targets: Sequence[Target], q: ArrayLike) -> dict[s
         }
     t0 = targets[0]
     if isinstance(t0, PlanarTarget):  # compiled (~20 us for 60 poses at n = 4, not ~200)
-        from stackik._check import planar_path_arrays
+        from stackik._compiled.check import planar_path_arrays
 
         fn, legs, margins = planar_path_arrays(stack, t0.phi, Q)
         return {"frobenius_norm": fn, "leg_lengths": legs, "margins": margins}

@@ -1,8 +1,9 @@
 """The compiled kernels: loaded (or compiled) once per process, before any clock starts.
 
-The planar interior point and its re-check (:mod:`stackik._ipm`, :mod:`stackik._check`),
-the spatial evaluation (:mod:`stackik._spatial`) and the spatial interior point
-(:mod:`stackik._spatial_ipm`) are compiled by numba with
+The planar interior point and its re-check (:mod:`stackik._compiled.planar`,
+:mod:`stackik._compiled.check`), the spatial evaluation
+(:mod:`stackik._compiled.spatial_kinematics`) and the spatial interior point
+(:mod:`stackik._compiled.spatial`) are compiled by numba with
 ``cache=True``: the first use on a machine compiles them (a minute or more each on a
 loaded 2-core machine: ``benchmarks/results/first_run.md``) and writes machine code beside
 the sources (or to ``NUMBA_CACHE_DIR``); later processes load it (a fraction of a
@@ -40,15 +41,20 @@ _LOCK = threading.Lock()
 
 def _dispatchers(kind: str) -> list[Any]:
     if kind == "planar":
-        from stackik import _check, _ipm
+        from stackik._compiled import check as _check
+        from stackik._compiled import planar as _ipm
+        from stackik._compiled import planar_path as _ipm_path
 
-        return [_ipm._ip_multi, _ipm.ip_box, _ipm.ip_path, _ipm._evaluate,
+        return [_ipm._ip_multi, _ipm.ip_box, _ipm_path.ip_path, _ipm._evaluate,
                 _ipm._lagrangian_hessian, _check._planar_check,
                 _check._planar_check_many, _check._planar_path_arrays]  # fmt: skip
-    from stackik import _check, _spatial, _spatial_ipm
+    from stackik._compiled import check as _check
+    from stackik._compiled import spatial as _spatial_ipm
+    from stackik._compiled import spatial_kinematics as _spatial
+    from stackik._compiled import spatial_path as _spatial_ipm_path
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _spatial_ipm.ip_multi,
-            _spatial_ipm.ip_box, _spatial_ipm.ip_path, _spatial_ipm.evaluate,
+            _spatial_ipm.ip_box, _spatial_ipm_path.ip_path, _spatial_ipm.evaluate,
             _spatial_ipm.polish, _spatial_ipm.lagrangian_hessian, _check._spatial_check,
             _check._spatial_check_many]  # fmt: skip
 
@@ -95,9 +101,12 @@ def _warm_path_kernels(planar: bool) -> None:
     types the paths pass (read-only arrays), so that a path's clock sees no loading."""
     import numpy as np
 
-    from stackik import _ipm, _spatial_ipm
     from stackik._arrays import readonly
-    from stackik._check import planar_check_many, planar_path_arrays, spatial_check_many
+    from stackik._compiled import planar as _ipm
+    from stackik._compiled import planar_path as _ipm_path
+    from stackik._compiled import spatial as _spatial_ipm
+    from stackik._compiled import spatial_path as _spatial_ipm_path
+    from stackik._compiled.check import planar_check_many, planar_path_arrays, spatial_check_many
     from stackik.formulation import POLISH_MARGIN, POLISH_REACH
     from stackik.methods.ip import problem_arrays, spatial_problem_arrays
 
@@ -114,18 +123,19 @@ def _warm_path_kernels(planar: bool) -> None:
             _spatial_ipm.polish(u, P, 3, POLISH_REACH, POLISH_MARGIN)  # as bounded_ip
     if planar:
         Y = readonly([[pt.rho, pt.z, pt.theta]])
-        _ipm.ip_path(u0, Y, problem_arrays(prob), readonly(np.ones(u0.size)), 1e-7, 1e-9,
-                     1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True, np.zeros(3),
-                     np.zeros(0), np.zeros(0, dtype=bool), False, np.zeros(0))  # fmt: skip
+        _ipm_path.ip_path(u0, Y, problem_arrays(prob), readonly(np.ones(u0.size)), 1e-7,
+                          1e-9, 1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8, True,
+                          np.zeros(3), np.zeros(0), np.zeros(0, dtype=bool), False,
+                          np.zeros(0))  # fmt: skip
         planar_check_many(stack, [pt], q0[None])
         planar_path_arrays(stack, pt.phi, q0[None])
     else:
         st = pt.to_spatial()
-        _spatial_ipm.ip_path(u0, readonly([st.position]), readonly([st.rotation]),
-                             spatial_problem_arrays(prob), readonly(np.ones(u0.size)), 1e-7,
-                             1e-9, 1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6, 1e-8,
-                             True, np.zeros(6), np.zeros(0), np.zeros(0, dtype=bool),
-                             False)  # fmt: skip
+        _spatial_ipm_path.ip_path(u0, readonly([st.position]), readonly([st.rotation]),
+                                  spatial_problem_arrays(prob), readonly(np.ones(u0.size)),
+                                  1e-7, 1e-9, 1e-3, 3, POLISH_REACH, POLISH_MARGIN, 1e-6,
+                                  1e-8, True, np.zeros(6), np.zeros(0),
+                                  np.zeros(0, dtype=bool), False)  # fmt: skip
         spatial_check_many(stack, [st], q0[None])
 
 

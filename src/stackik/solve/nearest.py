@@ -75,7 +75,7 @@ def nearest_reachable(
     reachable set need not be convex along the segment: this is a nearby pose within
     limits, not the nearest one.
     """
-    from stackik._check import planar_check
+    from stackik._compiled.check import planar_check
 
     n = stack.n
     q_lo = np.column_stack([np.zeros(n), nominal_height(stack), np.zeros(n)])

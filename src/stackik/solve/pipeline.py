@@ -63,7 +63,7 @@ def solve_ik(
         with ``C_x = diag(sigma_t^2, ..., sigma_theta^2)`` (per platform if arrays).
     method : {"auto", "sqp", "ip", "slsqp", "trust-constr", "ipopt"}
         ``"ip"``: stackik's compiled primal-dual interior-point solver (planar:
-        :mod:`stackik._ipm`; spatial: :mod:`stackik._spatial_ipm`, exact second
+        :mod:`stackik._compiled.planar`; spatial: :mod:`stackik._compiled.spatial`, exact second
         derivatives); ``"sqp"``: stackik's SQP engine (:mod:`stackik.sqp`, any QP
         backend, planar and spatial); ``"auto"`` (default) picks ``"ip"`` for planar targets
         with the ``"frobenius"`` objective (or ``"weighted"`` with one ``sigma_theta``) and
@@ -121,7 +121,7 @@ def solve_ik(
     -------
     IKResult
         ``success`` only when :func:`check_pose` passes (for interior-point poses its
-        compiled twin :func:`stackik._check.planar_check`, tested to agree, does the
+        compiled twin :func:`stackik._compiled.check.planar_check`, tested to agree, does the
         check).
     """
     for kind in _kernels_needed(stack, target):

@@ -61,9 +61,9 @@ def auto_method(
 ) -> str:
     """``method="auto"``: the compiled interior-point path where it applies, else SQP.
 
-    The interior-point path covers planar targets (:mod:`stackik._ipm`) with the
+    The interior-point path covers planar targets (:mod:`stackik._compiled.planar`) with the
     ``"frobenius"`` objective or ``"weighted"`` with one ``sigma_theta`` for all platforms,
-    and spatial targets (:mod:`stackik._spatial_ipm`) with either objective.
+    and spatial targets (:mod:`stackik._compiled.spatial`) with either objective.
     ``"feasible"`` stays with the SQP engine: its poses are the paper's "first feasible
     pose from the start", which a barrier method (drawn to the centre of the feasible
     set) does not reproduce. A given ``qp_solver``, or ``options`` that are not all

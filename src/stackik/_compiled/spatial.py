@@ -8,10 +8,10 @@ The spatial problem of :class:`stackik.formulation.Problem` (scaled variables
     s.t. c_E(u) = 0   (end-effector position / L, and the orientation, 6 rows)
          c_I(u) >= 0  (24 n limits, scaled by ``cs``)
 
-is solved by the barrier method of :mod:`stackik._ipm` (IPOPT-like: slacks, Fiacco-McCormick
-``mu``, Newton steps on the perturbed KKT conditions with inertia correction, fraction to
-the boundary, filter line search), here with a null-space KKT solve through the SVD of the
-6 x 6n equality Jacobian. The orientation rows are the skew part
+is solved by the barrier method of :mod:`stackik._compiled.planar` (IPOPT-like: slacks,
+Fiacco-McCormick ``mu``, Newton steps on the perturbed KKT conditions with inertia correction,
+fraction to the boundary, filter line search), here with a null-space KKT solve through the SVD of
+the 6 x 6n equality Jacobian. The orientation rows are the skew part
 ``vee(E - E^T) / 2 = sin(angle) axis`` of ``E = R_target^T R_ee``: smooth everywhere and
 equal to the rotation vector to third order at ``E = I``, so the KKT points with ``E = I``
 are those of the rotation-vector form :class:`Problem` uses (the caller polishes with that
@@ -35,50 +35,61 @@ Everything is tested against finite differences (``tests/test_spatial_quality.py
 from __future__ import annotations
 
 import math
-import time
-import warnings
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit, objmode
 
-from stackik._spatial import spatial_parts
+from stackik._compiled.core import (
+    GIVE_UP_AFTER,
+    GIVE_UP_VIOLATION,
+    IP_MAX_ITER,
+    IP_MAX_TIME,
+    IP_NONFINITE,
+    IP_SKIPPED,
+    IP_STALLED,
+    IP_SUCCESS,
+    OBJ_MAX_GRAD,
+    _jit,
+    _limit_rows,
+    _now,
+)
+from stackik._compiled.linalg import (
+    _AI_dot,
+    _AIT_dot,
+    _cho_solve,
+    _cholesky,
+    _mm3,
+    _solve6,
+)
+from stackik._compiled.spatial_kinematics import spatial_parts
 
 FloatArray = Any
 
-_jit = njit(cache=True, error_model="numpy", nogil=True)
-warnings.filterwarnings(
-    "ignore", message="Code running in object mode won't allow parallel execution"
-)
 
-#: Stop after this many starts when all end farther than GIVE_UP_VIOLATION (scaled) from
-#: feasibility (an unreachable target).
-GIVE_UP_AFTER = 3
-GIVE_UP_VIOLATION = 1e-4
-OBJ_MAX_GRAD = 100.0
+class SpatialData(NamedTuple):
+    """The spatial problem as the kernels take it (every array read-only: one compiled
+    specialisation), built by :func:`stackik.methods.ip.spatial_problem_arrays`;
+    variables are scaled, ``u = q / xs``."""
 
-IP_SUCCESS, IP_MAX_ITER, IP_STALLED, IP_NONFINITE, IP_MAX_TIME, IP_SKIPPED = 0, 1, 2, 3, 4, 5
-IP_STATUS = {
-    IP_SKIPPED: "skipped",
-    IP_SUCCESS: "success",
-    IP_MAX_ITER: "max_iter",
-    IP_STALLED: "stalled",
-    IP_NONFINITE: "nonfinite",
-    IP_MAX_TIME: "max_time",
-}
+    xs: Any  #: variable scales (6 n,)
+    cs: Any  #: limit row scales (24 n,)
+    es: Any  #: equality scales (6,)
+    position: Any  #: target position (3,) [mm]
+    rotation: Any  #: target rotation (3, 3)
+    fscale: float  #: objective scale
+    c0: float  #: objective constant
+    w: Any  #: FN weights of the angle columns
+    top: Any  #: top nodes (n, 6, 3) [mm]
+    base: Any  #: base nodes (n, 6, 3) [mm]
+    leg_min: Any  #: minimum leg lengths [mm]
+    leg_max: Any  #: maximum leg lengths [mm]
+    sin_joint: Any  #: sine of the minimum joint angles
+    feasible: bool  #: the feasibility objective (f = 0) instead of FN^2
 
 
 # =========================================================================================
 # Derivatives
 # =========================================================================================
-@_jit
-def _mm3(A: FloatArray, B: FloatArray) -> FloatArray:
-    """3 x 3 product by loops (BLAS costs more than the arithmetic at this size)."""
-    out = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
-    return out
 
 
 @_jit
@@ -191,7 +202,7 @@ def fn2_hessian(Jp: FloatArray, w: FloatArray, r: FloatArray, Jr: FloatArray,
                 wa: FloatArray) -> FloatArray:  # fmt: skip
     """Exact Hessian of ``sum_a wa[platform(a)] |Jp[:, a]|^2`` over the angle columns a
     (raw variables), shape (6n, 6n), from the outputs of
-    :func:`stackik._spatial.spatial_parts`."""
+    :func:`stackik._compiled.spatial_kinematics.spatial_parts`."""
     N = Jp.shape[1]
     n = N // 6
     Wr = np.empty((9 * n, N))
@@ -351,24 +362,11 @@ def _evaluate_ext(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Flo
 
 
 @_jit
-def _limit_rows(z: FloatArray, n: int) -> FloatArray:
-    """The multipliers of the 24 n limit rows among the 36 n rows of a boxed problem
-    (``z`` itself without a box): the box is linear and has no Hessian."""
-    if z.size == 24 * n:
-        return z
-    out = np.empty(24 * n)
-    for i in range(n):
-        for r in range(24):
-            out[24 * i + r] = z[36 * i + r]
-    return out
-
-
-@_jit
 def _hessian_ext(parts: Any, yE: FloatArray, z: FloatArray, P: Any, wq: float) -> FloatArray:
     """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem from its kinematic
     parts (``z``: 24 n or, with a box, 36 n multipliers): the box rows are linear, the
     distance term adds ``2 wq I``."""
-    H = _hessian(parts, yE, _limit_rows(z, P[8].shape[0]), P)
+    H = _hessian(parts, yE, _limit_rows(z, P.top.shape[0]), P)
     if wq > 0.0:
         for a in range(H.shape[0]):
             H[a, a] += 2.0 * wq
@@ -450,111 +448,6 @@ def _hessian(parts: Any, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
 # =========================================================================================
 # Linear algebra
 # =========================================================================================
-@_jit
-def _AI_dot(D: FloatArray, dx: FloatArray) -> FloatArray:
-    """``A_I dx`` (R n,) from the blocks ``D`` (n, R, 6) (R = 24, 36 with a box)."""
-    n, R = D.shape[0], D.shape[1]
-    out = np.empty(R * n)
-    for i in range(n):
-        for r in range(R):
-            acc = 0.0
-            for k in range(6):
-                acc += D[i, r, k] * dx[6 * i + k]
-            out[R * i + r] = acc
-    return out
-
-
-@_jit
-def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
-    n, R = D.shape[0], D.shape[1]
-    out = np.zeros(6 * n)
-    for i in range(n):
-        for r in range(R):
-            vr = v[R * i + r]
-            for k in range(6):
-                out[6 * i + k] += D[i, r, k] * vr
-    return out
-
-
-@_jit
-def _cholesky(A: FloatArray) -> tuple[FloatArray, bool]:
-    """Lower Cholesky factor of ``A``; ``ok`` False when not positive definite."""
-    k = A.shape[0]
-    if k >= 24:  # LAPACK pays off beyond small sizes
-        try:
-            L = np.linalg.cholesky(A)
-        except Exception:  # noqa: BLE001 - numba raises LinAlgError when not PD
-            return A, False
-        for i in range(k):
-            if not L[i, i] > 1e-7 * math.sqrt(abs(A[i, i]) + 1e-300):
-                return L, False
-        return L, True
-    L = np.zeros((k, k))
-    dmax = 0.0
-    for i in range(k):
-        dmax = max(dmax, abs(A[i, i]))
-    for j in range(k):
-        acc = A[j, j]
-        for p in range(j):
-            acc -= L[j, p] * L[j, p]
-        if not acc > 1e-14 * dmax:
-            return L, False
-        L[j, j] = math.sqrt(acc)
-        for i in range(j + 1, k):
-            acc = A[i, j]
-            for p in range(j):
-                acc -= L[i, p] * L[j, p]
-            L[i, j] = acc / L[j, j]
-    return L, True
-
-
-@_jit
-def _cho_solve(L: FloatArray, b: FloatArray) -> FloatArray:
-    k = L.shape[0]
-    y = np.empty(k)
-    for i in range(k):
-        acc = b[i]
-        for p in range(i):
-            acc -= L[i, p] * y[p]
-        y[i] = acc / L[i, i]
-    x = np.empty(k)
-    for i in range(k - 1, -1, -1):
-        acc = y[i]
-        for p in range(i + 1, k):
-            acc -= L[p, i] * x[p]
-        x[i] = acc / L[i, i]
-    return x
-
-
-@_jit
-def _solve6(B: FloatArray) -> tuple[FloatArray, bool]:
-    """Inverse of a 6 x 6 matrix by Gauss-Jordan with partial pivoting (no LAPACK);
-    ``ok`` False when a pivot is below 1e-10 of the largest entry."""
-    A = B.copy()
-    inv = np.eye(6)
-    big = np.abs(A).max()
-    for c in range(6):
-        p = c
-        for r in range(c + 1, 6):
-            if abs(A[r, c]) > abs(A[p, c]):
-                p = r
-        if not abs(A[p, c]) > 1e-10 * big:
-            return inv, False
-        if p != c:
-            for k in range(6):
-                A[c, k], A[p, k] = A[p, k], A[c, k]
-                inv[c, k], inv[p, k] = inv[p, k], inv[c, k]
-        d = 1.0 / A[c, c]
-        for k in range(6):
-            A[c, k] *= d
-            inv[c, k] *= d
-        for r in range(6):
-            if r != c and A[r, c] != 0.0:
-                m = A[r, c]
-                for k in range(6):
-                    A[r, k] -= m * A[c, k]
-                    inv[r, k] -= m * inv[c, k]
-    return inv, True
 
 
 @_jit
@@ -629,7 +522,7 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
         rz = Z.T @ res
     K = Hz.shape[0]
     shift = 0.0
-    L, ok = _cholesky(Hz)
+    L, ok = _cholesky(Hz, 0.0)
     if not ok:
         scale = 0.0
         for i in range(K):
@@ -638,7 +531,7 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
         shift = max(last_shift / 3.0, 1e-4) if last_shift > 0.0 else 1e-4
         grow = 8.0 if last_shift > 0.0 else 100.0
         for _ in range(60):
-            L, ok = _cholesky(Hz + shift * ZtZ)
+            L, ok = _cholesky(Hz + shift * ZtZ, 0.0)
             if ok or not shift <= 1e20 * (1.0 + scale):
                 break
             shift *= grow
@@ -658,20 +551,23 @@ def _ls_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArr
     return np.linalg.solve(G, AE @ (g - AItz))
 
 
-@_jit
-def _now() -> float:
-    with objmode(t="float64"):
-        t = time.perf_counter()
-    return t
-
-
 # =========================================================================================
-# The barrier method (as stackik._ipm._ip_loop, 6 equalities, 6 x 6 limit blocks)
+# The barrier method (as stackik._compiled.planar._ip_loop, 6 equalities, 6 x 6 limit blocks)
 # =========================================================================================
 @_jit
 def _with_fscale(P0: Any, fscale: float) -> Any:
-    return (P0[0], P0[1], P0[2], P0[3], P0[4], fscale, P0[6], P0[7], P0[8], P0[9], P0[10],
-            P0[11], P0[12], P0[13])  # fmt: skip
+    """``P0`` with the objective scale ``fscale``."""
+    return SpatialData(P0.xs, P0.cs, P0.es, P0.position, P0.rotation, fscale, P0.c0, P0.w,
+                       P0.top, P0.base, P0.leg_min, P0.leg_max, P0.sin_joint,
+                       P0.feasible)  # fmt: skip
+
+
+@_jit
+def _with_target(P0: Any, position: Any, rotation: Any) -> Any:
+    """``P0`` with the target ``position`` (3,) [mm] and ``rotation`` (3, 3)."""
+    return SpatialData(P0.xs, P0.cs, P0.es, position, rotation, P0.fscale, P0.c0, P0.w,
+                       P0.top, P0.base, P0.leg_min, P0.leg_max, P0.sin_joint,
+                       P0.feasible)  # fmt: skip
 
 
 @_jit
@@ -682,8 +578,8 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     a distance term (:func:`_evaluate_ext`). Returns the point, the status, the
     iteration count and the final slacks ``s`` and multipliers ``z``, ``yE`` (of the
     problem as ``P0`` states it, without the loop's objective scaling; a continuation
-    step starts from them, :func:`_pc_step`)."""
-    n = P0[8].shape[0]
+    step starts from them, :func:`stackik._compiled.spatial_path._pc_step`)."""
+    n = P0.top.shape[0]
     R = 24 if lo.size == 0 else 36
     m = R * n
     x = u0.copy()
@@ -692,7 +588,7 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         return x, IP_NONFINITE, 0, cI, np.ones(m), np.zeros(6)
     gmax = np.abs(g).max()
     fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
-    P = _with_fscale(P0, P0[5] / fs)
+    P = _with_fscale(P0, P0.fscale / fs)
     f, g = f * fs, g * fs
     wq = wq * fs
     mu = mu0
@@ -901,34 +797,12 @@ def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArra
     return x, st, it
 
 
-# =========================================================================================
-# Path runs: continuation steps and warm steps in one call (as stackik._ipm.ip_path)
-# =========================================================================================
-#: As :mod:`stackik._ipm`: Newton iterations and active-set changes of a continuation
-#: step, the offset its active limits are held at, and its residual tolerance.
-PC_NEWTON = 16
-PC_CHANGES = 3
-#: ... and it gives up early when Newton's method does not converge: after PC_FREE
-#: iterations in one active set, each must shrink the error by PC_CONTRACT.
-PC_FREE = 2
-PC_CONTRACT = 0.5
-PC_OFFSET = 1e-10
-PC_PRIMAL_TOL = 1e-13
-#: A platform's active limit rows with less than this part of their length outside the
-#: span of its other active rows (Gram-Schmidt, the largest remaining part first) depend
-#: on those (as :data:`stackik._ipm.PC_DEPENDENT`): where several limits of a platform
-#: meet (a leg's base and top joint limits at parallel plates; more limits than the
-#: platform's 6 variables) they stay active, out of the Newton system (multiplier 0,
-#: their residuals still converged), and take no freedom.
-PC_DEPENDENT = 1e-6
-
-
 @_jit
 def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> FloatArray:
     """:func:`stackik.formulation.polish` compiled: min-norm Newton corrections of the
     end-effector equalities and of the limits violated by less than ``reach`` (scaled),
     put at ``margin``."""
-    n = P[8].shape[0]
+    n = P.top.shape[0]
     N = 6 * n
     for _ in range(iters):
         f, g, cE, AE, cI, D = evaluate(u, P)
@@ -953,314 +827,3 @@ def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> Fl
             break
         u = u - np.linalg.lstsq(A, rr)[0]
     return u
-
-
-@_jit
-def _twins(act: FloatArray, cI: FloatArray, D: FloatArray) -> FloatArray:
-    """As :func:`stackik._ipm._twins` (6 variables per platform)."""
-    m = cI.size
-    parent = np.full(m, -1)
-    for r in range(m):
-        if not act[r]:
-            continue
-        i = r // 24
-        for r2 in range(24 * i, r):
-            same = act[r2] and parent[r2] < 0 and abs(cI[r2] - cI[r]) <= 1e-12
-            for k in range(6):
-                dk = D[i, r % 24, k]
-                same = same and abs(D[i, r2 % 24, k] - dk) <= 1e-9 * (1.0 + abs(dk))
-            if same:
-                parent[r] = r2
-                break
-    return parent
-
-
-@_jit
-def _release(act: FloatArray, zf: FloatArray, parent: FloatArray, rj: int) -> None:
-    act[rj] = False
-    zf[rj] = 0.0
-    for r in range(act.size):
-        if parent[r] == rj:
-            act[r] = False
-
-
-@_jit
-def _dependent(D: FloatArray, idx: FloatArray) -> FloatArray:
-    """Mask of the rows ``idx`` (sorted active limit rows) that depend on the others of
-    their platform: per platform, Gram-Schmidt on its rows ``D[i, r % 24]`` taking the row
-    with the largest remaining part first; rows left with less than PC_DEPENDENT of their
-    length are dependent (at most 6 rows a platform are independent)."""
-    k = idx.size
-    dep = np.ones(k, dtype=np.bool_)
-    Q = np.zeros((6, 6))
-    v = np.empty(6)
-    j0 = 0
-    while j0 < k:
-        i = idx[j0] // 24
-        j1 = j0
-        while j1 < k and idx[j1] // 24 == i:
-            j1 += 1
-        rank = 0
-        while rank < 6:
-            best = -1
-            bn = 0.0
-            for j in range(j0, j1):
-                if not dep[j]:
-                    continue
-                a = D[i, idx[j] % 24]
-                v[:] = a
-                for s in range(rank):
-                    v -= (a @ Q[s]) * Q[s]
-                nv = math.sqrt(v @ v)
-                if nv > PC_DEPENDENT * math.sqrt(a @ a) and nv > bn:
-                    best = j
-                    bn = nv
-            if best < 0:
-                break
-            v[:] = D[i, idx[best] % 24]
-            for _ in range(2):  # Gram-Schmidt twice: orthogonal to rounding
-                for s in range(rank):
-                    v -= (v @ Q[s]) * Q[s]
-            Q[rank] = v / math.sqrt(v @ v)
-            dep[best] = False
-            rank += 1
-        j0 = j1
-    return dep
-
-
-@_jit
-def _weakest(idx: FloatArray, dep: FloatArray, zf: FloatArray, new: FloatArray) -> int:
-    """The independent row of ``idx`` (not ``dep``) with the least multiplier, among
-    those not ``new`` when there are any (a limit just added because the point violates
-    it stays; the set makes room with an older one)."""
-    rj = -1
-    for rank in range(2):
-        for j in range(idx.size):
-            r = idx[j]
-            if dep[j] or (rank == 0 and new[r]):
-                continue
-            if rj < 0 or zf[r] < zf[rj]:
-                rj = r
-        if rj >= 0:
-            break
-    return rj
-
-
-@_jit
-def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: FloatArray,
-             tol: float, constr_tol: float, max_newton: int,
-             max_changes: int) -> tuple[Any, ...]:  # fmt: skip
-    """The continuation step of :func:`stackik._ipm._pc_step` for the spatial problem
-    (6 equalities, 6 variables per platform): Newton on the KKT conditions with the
-    active limits held at ``PC_OFFSET``, the first iteration the tangent predictor, the
-    active set corrected (most negative multiplier released, else violated or nearly met
-    limits added), and verified as a KKT point to the barrier solve's tolerances. Active
-    rows that depend on others of their platform (:func:`_dependent`: where more limits
-    meet than the platform has variables, e.g. a leg's base and top joint limits at
-    parallel plates) stay active with multiplier 0, out of the Newton system (which is
-    singular with them) and take no freedom; while the independent rows exceed the
-    freedom ``N - 6`` the weakest goes, not one the last change added
-    (:func:`_weakest`). Returns ``(x, ok, yE, z, active, iterations)``."""
-    n = P0[8].shape[0]
-    N = 6 * n
-    m = 24 * n
-    f, g, cE, AE, cI, D = evaluate(x0, P0)
-    gmax = np.abs(g).max()
-    fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
-    P = _with_fscale(P0, P0[5] / fs)
-    g = g * fs
-    x = x0.copy()
-    yE = yE0 * fs
-    zf = z0 * fs
-    act = active.copy()
-    new = np.zeros(m, dtype=np.bool_)  # the limits the last change added
-    ok = False
-    it = 0
-    changes = 0
-    while True:
-        parent = _twins(act, cI, D)
-        for r in range(m):
-            if act[r] and parent[r] >= 0:
-                zf[parent[r]] += zf[r]
-                zf[r] = 0.0
-            elif not act[r]:
-                zf[r] = 0.0
-        # rows that depend on others of their platform stay active, out of the Newton
-        # system; the independent ones beyond the freedom N - 6 (degenerate): the weakest go
-        allidx = np.nonzero(act & (parent < 0))[0]
-        dep = _dependent(D, allidx)
-        while 6 + allidx.size - dep.sum() > N:
-            _release(act, zf, parent, _weakest(allidx, dep, zf, new))
-            allidx = np.nonzero(act & (parent < 0))[0]
-            dep = _dependent(D, allidx)
-        for j in range(allidx.size):
-            if dep[j]:
-                zf[allidx[j]] = 0.0
-        idx = allidx[~dep]
-        na = idx.size
-        zA = np.empty(na)
-        for j in range(na):
-            zA[j] = zf[idx[j]]
-        K = np.zeros((N + 6 + na, N + 6 + na))
-        rhs = np.empty(N + 6 + na)
-        conv = False
-        inner = 0  # Newton iterations in this active set
-        err_prev = math.inf
-        while True:
-            if not (np.all(np.isfinite(g)) and np.all(np.isfinite(cE))
-                    and np.all(np.isfinite(cI))):  # fmt: skip
-                break
-            for j in range(na):
-                zf[idx[j]] = zA[j]
-            rd = g - AE.T @ yE - _AIT_dot(D, zf)
-            sd_acc = np.abs(yE).sum()
-            for j in range(na):
-                sd_acc += abs(zA[j])
-            sd = max(100.0, sd_acc / (m + 6)) / 100.0
-            e_du = np.abs(rd).max() / sd
-            e_pr = np.abs(cE).max()
-            comp = 0.0
-            for j in range(allidx.size):  # the dependent rows' residuals too
-                e_pr = max(e_pr, abs(cI[allidx[j]] - PC_OFFSET))
-            for j in range(na):
-                comp = max(comp, abs(cI[idx[j]] * zA[j]))
-            ptol = min(constr_tol, PC_PRIMAL_TOL)
-            if e_du <= tol and comp / sd <= tol and e_pr <= ptol:
-                conv = True
-                break
-            if it >= max_newton:
-                break
-            # as the planar step: an iteration that does not at least halve the error (in
-            # units of the tolerances) after the first two of this active set does not
-            # converge, and the barrier solve takes the step at once
-            err = max(e_du / tol, max(comp / sd / tol, e_pr / ptol))
-            if inner >= PC_FREE and not err <= PC_CONTRACT * err_prev:
-                break
-            err_prev = err
-            inner += 1
-            it += 1
-            W = lagrangian_hessian(x, yE, zf, P)
-            K[:] = 0.0
-            K[:N, :N] = W
-            for a in range(N):
-                for r in range(6):
-                    K[a, N + r] = -AE[r, a]
-                    K[N + r, a] = AE[r, a]
-                rhs[a] = -rd[a]
-            for r in range(6):
-                rhs[N + r] = -cE[r]
-            for j in range(na):
-                i = idx[j] // 24
-                for k in range(6):
-                    K[6 * i + k, N + 6 + j] = -D[i, idx[j] % 24, k]
-                    K[N + 6 + j, 6 * i + k] = D[i, idx[j] % 24, k]
-                rhs[N + 6 + j] = PC_OFFSET - cI[idx[j]]
-            if not np.all(np.isfinite(K)):
-                break
-            try:
-                sol = np.linalg.solve(K, rhs)
-            except Exception:  # noqa: BLE001 - singular KKT matrix: the barrier solve decides
-                break
-            if not np.all(np.isfinite(sol)):
-                break
-            x = x + sol[:N]
-            for r in range(6):
-                yE[r] += sol[N + r]
-            for j in range(na):
-                zA[j] += sol[N + 6 + j]
-            f, g, cE, AE, cI, D = evaluate(x, P)
-        if not conv:
-            break
-        jmin = -1
-        for j in range(na):
-            if zA[j] < 0.0 and (jmin < 0 or zA[j] < zA[jmin]):
-                jmin = j
-        nadd = 0
-        for r in range(m):
-            if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
-                nadd += 1
-        if jmin < 0 and nadd == 0:
-            ok = True
-            break
-        if changes >= max_changes:
-            break
-        changes += 1
-        new[:] = False
-        if jmin >= 0:
-            _release(act, zf, parent, idx[jmin])
-        else:
-            for r in range(m):
-                if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
-                    act[r] = True
-                    new[r] = True
-    return x, ok, yE / fs, zf / fs, act, it
-
-
-@_jit
-def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: float,
-             ang_tol: float) -> bool:  # fmt: skip
-    """Whether the polished point ``xn`` reaches ``P``'s target (``pos_tol`` [mm]; the
-    orientation error's sine from the scaled equalities within ``ang_tol``), violates no
-    limit (scaled) and moves no variable from ``x`` by more than ``jump`` (scaled)."""
-    es = P[2]
-    f, g, cE, AE, cI, D = evaluate(xn, P)
-    pe = math.sqrt((cE[0] / es[0]) ** 2 + (cE[1] / es[1]) ** 2 + (cE[2] / es[2]) ** 2)
-    ae = math.sqrt((cE[3] / es[3]) ** 2 + (cE[4] / es[4]) ** 2 + (cE[5] / es[5]) ** 2)
-    if not (pe <= pos_tol and ae <= ang_tol and cI.min() >= -1e-12):
-        return False
-    for a in range(x.size):
-        if not abs(xn[a] - x[a]) <= jump[a]:
-            return False
-    return True
-
-
-@_jit
-def ip_path(u0: FloatArray, pos: FloatArray, rot: FloatArray, P0: Any, jump: FloatArray,
-            tol: float, constr_tol: float, mu0: float, max_iter: int, reach: float,
-            margin: float, pos_tol: float, ang_tol: float, pc: bool, yE0: FloatArray,
-            z0: FloatArray, act0: FloatArray, have0: bool) -> tuple[Any, ...]:  # fmt: skip
-    """:func:`stackik._ipm.ip_path` for spatial targets (positions ``pos`` (m, 3) [mm],
-    rotations ``rot`` (m, 3, 3)): each step from the previous point, the continuation
-    step first (``pc``) and the barrier solve (initial barrier ``mu0``) when it is not
-    verified, then :func:`polish`; stops before the first step whose point misses its
-    target, violates a limit or jumps (:func:`_reaches`). The first step carries the
-    state ``yE0, z0, act0`` of ``u0`` when ``have0``. Returns the points (m, N), the
-    number of steps taken, per step 1 (continuation step) or 0 (barrier solve), and the
-    state of the last point reached (``yE, z, active, have``); the caller re-checks
-    every point with the independent check."""
-    m = pos.shape[0]
-    N = u0.size
-    X = np.empty((m, N))
-    how = np.zeros(m, dtype=np.int64)
-    none = np.empty(0)
-    x = u0.copy()
-    have = have0  # the state of u0 (multipliers, active set) when it is a solved point
-    yE = yE0.copy()
-    z = z0.copy()
-    active = act0.copy()
-    for k in range(m):
-        P = (P0[0], P0[1], P0[2], pos[k], rot[k], P0[5], P0[6], P0[7], P0[8], P0[9], P0[10],
-             P0[11], P0[12], P0[13])  # fmt: skip
-        if pc and have:
-            xn, ok, yE1, z1, act1, _ = _pc_step(
-                x, P, yE, z, active, tol, constr_tol, PC_NEWTON, PC_CHANGES
-            )
-            if ok:
-                xn = polish(xn, P, 3, reach, margin)
-                if _reaches(xn, x, P, jump, pos_tol, ang_tol):
-                    X[k] = xn
-                    how[k] = 1
-                    x, yE, z, active = xn, yE1, z1, act1
-                    continue
-        xn, st, _, s1, z1, yE1 = ip_loop(x, P, tol, constr_tol, mu0, max_iter, 1e300, none,
-                                         none, none, 0.0)  # fmt: skip
-        if st == IP_NONFINITE or not np.all(np.isfinite(xn)):
-            return X, k, how, yE, z, active, have
-        xn = polish(xn, P, 3, reach, margin)
-        if not _reaches(xn, x, P, jump, pos_tol, ang_tol):
-            return X, k, how, yE, z, active, have
-        X[k] = xn
-        x, yE, z = xn, yE1, z1
-        active = z1 > s1
-        have = st == IP_SUCCESS
-    return X, m, how, yE, z, active, have

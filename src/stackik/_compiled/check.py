@@ -2,7 +2,7 @@
 
 A second implementation of DESIGN §1-2 for planar poses, written from the 3D leg vectors
 (Rodrigues rotation about ``s(phi)``, leg ``l_k = R t_k + P - b_k``) and sharing no code
-with the solver it checks (:mod:`stackik._ipm` works in the plane's basis). It returns
+with the solver it checks (:mod:`stackik._compiled.planar` works in the plane's basis). It returns
 the same numbers as :func:`stackik.check.check_pose` (tested on random poses, feasible and
 not, mixed geometries and several phi) in a few microseconds instead of ~50, plus the
 per-platform ``P``, ``R`` and leg lengths that :class:`stackik.result.IKResult` reports.

@@ -1,0 +1,82 @@
+"""What every compiled interior point shares: the jit options, the status codes, the
+give-up rule of a multi-start call, the objective scaling, the clock and two array tests.
+
+The planar (:mod:`stackik._compiled.planar`) and spatial (:mod:`stackik._compiled.spatial`)
+barrier methods and their path kernels take these from here, one definition each.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from typing import Any
+
+import numpy as np
+from numba import njit, objmode
+
+FloatArray = Any
+
+
+#: Compiled once per machine and cached; floating-point errors give inf/nan (numpy's
+#: model) rather than exceptions, and the loop treats non-finite values as failures.
+#: nogil: solves in threads (``solve_many(executor=ThreadPoolExecutor(...))``) run in
+#: parallel; only the occasional clock read (:func:`_now`, object mode) takes the GIL,
+#: which numba warns about at compile time.
+_jit = njit(cache=True, error_model="numpy", nogil=True)
+warnings.filterwarnings(
+    "ignore", message="Code running in object mode won't allow parallel execution"
+)
+
+#: The multi-start kernels (planar ``_ip_multi``, spatial ``ip_multi``) stop when their
+#: first GIVE_UP_AFTER starts all end farther than GIVE_UP_VIOLATION (scaled) from
+#: feasibility: an unreachable target is then reported by the SQP fallback in a fraction
+#: of the time the remaining starts would take.
+GIVE_UP_AFTER = 3
+GIVE_UP_VIOLATION = 1e-4
+#: The objective is scaled so that its gradient at the start is at most this (IPOPT's
+#: nlp_scaling_max_gradient).
+OBJ_MAX_GRAD = 100.0
+
+#: Status codes of a barrier solve (``ip_loop``), and their names.
+IP_SUCCESS, IP_MAX_ITER, IP_STALLED, IP_NONFINITE, IP_MAX_TIME, IP_SKIPPED = 0, 1, 2, 3, 4, 5
+IP_STATUS = {
+    IP_SKIPPED: "skipped",
+    IP_SUCCESS: "success",
+    IP_MAX_ITER: "max_iter",
+    IP_STALLED: "stalled",
+    IP_NONFINITE: "nonfinite",
+    IP_MAX_TIME: "max_time",
+}
+
+
+@_jit
+def _finite(a: FloatArray) -> bool:
+    """``np.all(np.isfinite(a))`` without the boolean temporary (a kernel's hot loops
+    test a few arrays every iteration)."""
+    for v in a.flat:
+        if not math.isfinite(v):
+            return False
+    return True
+
+
+@_jit
+def _now() -> float:
+    with objmode(t="float64"):
+        t = time.perf_counter()
+    return t
+
+
+@_jit
+def _limit_rows(z: FloatArray, n: int) -> FloatArray:
+    """The multipliers of the 24 n limit rows among the ``z.size / n`` rows per platform
+    of a boxed problem (a box adds two rows a variable; ``z`` itself without a box): the
+    box is linear, so only these enter the Hessian."""
+    if z.size == 24 * n:
+        return z
+    R = z.size // n
+    out = np.empty(24 * n)
+    for i in range(n):
+        for r in range(24):
+            out[24 * i + r] = z[R * i + r]
+    return out

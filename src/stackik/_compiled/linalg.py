@@ -1,0 +1,188 @@
+"""Small dense linear algebra the compiled kernels share, written as loops (LAPACK's call
+overhead costs more than the arithmetic at these sizes): Cholesky factor and solve, 3 x 3
+and 6 x 6 inverses, Gaussian elimination, and the products with the block-diagonal limit
+Jacobian (``n`` blocks of ``R`` rows by ``k`` variables, ``k`` = 3 planar, 6 spatial).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from stackik._compiled.core import _jit
+
+FloatArray = Any
+
+
+@_jit
+def _inv3(A: FloatArray) -> FloatArray:
+    """Inverse of a 3x3 matrix by its adjugate (no LAPACK call for so small a matrix)."""
+    out = np.empty((3, 3))
+    out[0, 0] = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
+    out[0, 1] = A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]
+    out[0, 2] = A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]
+    out[1, 0] = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
+    out[1, 1] = A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]
+    out[1, 2] = A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]
+    out[2, 0] = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
+    out[2, 1] = A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]
+    out[2, 2] = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+    det = A[0, 0] * out[0, 0] + A[0, 1] * out[1, 0] + A[0, 2] * out[2, 0]
+    return out / det
+
+
+@_jit
+def _mm3(A: FloatArray, B: FloatArray) -> FloatArray:
+    """3 x 3 product by loops (BLAS costs more than the arithmetic at this size)."""
+    out = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
+    return out
+
+
+@_jit
+def _cholesky(A: FloatArray, shift: float) -> tuple[FloatArray, bool]:
+    """Lower Cholesky factor of ``A + shift I``; ``ok`` False when not positive definite."""
+    k = A.shape[0]
+    if k >= 24:  # LAPACK pays off beyond small sizes
+        B = A.copy()
+        for i in range(k):
+            B[i, i] += shift
+        try:
+            L = np.linalg.cholesky(B)
+        except Exception:  # noqa: BLE001 - numba raises LinAlgError when not PD
+            return B, False
+        for i in range(k):
+            if not L[i, i] > 1e-7 * math.sqrt(abs(B[i, i]) + 1e-300):
+                return L, False
+        return L, True
+    L = np.zeros((k, k))
+    dmax = 0.0
+    for i in range(k):
+        dmax = max(dmax, abs(A[i, i]) + shift)
+    for j in range(k):
+        acc = A[j, j] + shift
+        for p in range(j):
+            acc -= L[j, p] * L[j, p]
+        if not acc > 1e-14 * dmax:
+            return L, False
+        L[j, j] = math.sqrt(acc)
+        for i in range(j + 1, k):
+            acc = A[i, j]
+            for p in range(j):
+                acc -= L[i, p] * L[j, p]
+            L[i, j] = acc / L[j, j]
+    return L, True
+
+
+@_jit
+def _cho_solve(L: FloatArray, b: FloatArray) -> FloatArray:
+    k = L.shape[0]
+    y = np.empty(k)
+    for i in range(k):
+        acc = b[i]
+        for p in range(i):
+            acc -= L[i, p] * y[p]
+        y[i] = acc / L[i, i]
+    x = np.empty(k)
+    for i in range(k - 1, -1, -1):
+        acc = y[i]
+        for p in range(i + 1, k):
+            acc -= L[p, i] * x[p]
+        x[i] = acc / L[i, i]
+    return x
+
+
+@_jit
+def _solve6(B: FloatArray) -> tuple[FloatArray, bool]:
+    """Inverse of a 6 x 6 matrix by Gauss-Jordan with partial pivoting (no LAPACK);
+    ``ok`` False when a pivot is below 1e-10 of the largest entry."""
+    A = B.copy()
+    inv = np.eye(6)
+    big = np.abs(A).max()
+    for c in range(6):
+        p = c
+        for r in range(c + 1, 6):
+            if abs(A[r, c]) > abs(A[p, c]):
+                p = r
+        if not abs(A[p, c]) > 1e-10 * big:
+            return inv, False
+        if p != c:
+            for k in range(6):
+                A[c, k], A[p, k] = A[p, k], A[c, k]
+                inv[c, k], inv[p, k] = inv[p, k], inv[c, k]
+        d = 1.0 / A[c, c]
+        for k in range(6):
+            A[c, k] *= d
+            inv[c, k] *= d
+        for r in range(6):
+            if r != c and A[r, c] != 0.0:
+                m = A[r, c]
+                for k in range(6):
+                    A[r, k] -= m * A[c, k]
+                    inv[r, k] -= m * inv[c, k]
+    return inv, True
+
+
+@_jit
+def _lu_solve(M: FloatArray, b: FloatArray) -> tuple[FloatArray, bool]:
+    """``M^{-1} b`` by Gaussian elimination with partial pivoting, in place on copies
+    (small systems: no LAPACK call); ``ok`` False at a zero or non-finite pivot."""
+    A = M.copy()
+    x = b.copy()
+    m = x.size
+    for c in range(m):
+        p = c
+        for r in range(c + 1, m):
+            if abs(A[r, c]) > abs(A[p, c]):
+                p = r
+        if not (A[p, c] != 0.0 and math.isfinite(A[p, c])):
+            return x, False
+        if p != c:
+            for k in range(c, m):
+                A[c, k], A[p, k] = A[p, k], A[c, k]
+            x[c], x[p] = x[p], x[c]
+        for r in range(c + 1, m):
+            f = A[r, c] / A[c, c]
+            if f != 0.0:
+                for k in range(c + 1, m):
+                    A[r, k] -= f * A[c, k]
+                x[r] -= f * x[c]
+    for c in range(m - 1, -1, -1):
+        acc = x[c]
+        for k in range(c + 1, m):
+            acc -= A[c, k] * x[k]
+        x[c] = acc / A[c, c]
+    return x, True
+
+
+@_jit
+def _AI_dot(D: FloatArray, dx: FloatArray) -> FloatArray:
+    """``A_I dx`` (R n,) from the block-diagonal limit Jacobian's blocks ``D`` (n, R, k)
+    (``k`` variables a platform: 3 planar, 6 spatial; R = 24 limit rows per platform,
+    more with a box)."""
+    n, R, k = D.shape[0], D.shape[1], D.shape[2]
+    out = np.empty(R * n)
+    for i in range(n):
+        for r in range(R):
+            acc = 0.0
+            for j in range(k):
+                acc += D[i, r, j] * dx[k * i + j]
+            out[R * i + r] = acc
+    return out
+
+
+@_jit
+def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
+    """``A_I^T v`` (k n,) from the blocks ``D`` (n, R, k) of the limit Jacobian."""
+    n, R, k = D.shape[0], D.shape[1], D.shape[2]
+    out = np.zeros(k * n)
+    for i in range(n):
+        for r in range(R):
+            vr = v[R * i + r]
+            for j in range(k):
+                out[k * i + j] += D[i, r, j] * vr
+    return out

@@ -1,0 +1,848 @@
+"""Compiled primal-dual interior-point solver for the planar IK problem (the fast path).
+
+The planar problem of :class:`stackik.formulation.Problem` (scaled variables ``u = q / xs``):
+
+    min f(u) = (c0 + w |r(u)|^2) / fscale
+    s.t. c_E(u) = 0   (3 end-effector equalities, scaled by ``es``)
+         c_I(u) >= 0  (24 n limits, scaled by ``cs``)
+
+is solved by a primal-dual barrier method in the spirit of IPOPT (Waechter & Biegler 2006;
+Nocedal & Wright 2006, ch. 19): slacks ``s > 0`` with ``c_I(u) - s = 0``, barrier
+parameter ``mu`` decreased Fiacco-McCormick style, Newton steps on the perturbed KKT
+conditions with the exact Hessian of the Lagrangian, a null-space solve of the KKT system
+whose reduced Hessian is made positive definite by eigenvalue modification, the
+fraction-to-the-boundary rule, and a backtracking line search on the l1 merit function
+``f - mu sum log s + nu (|c_E|_1 + |c_I - s|_1)``. The interior path is what makes the
+method find good local minima from few starts: it keeps away from the limits until the
+objective has shaped the pose, where an active-set SQP commits early to the limits it
+meets first.
+
+Everything that runs per iteration is compiled with numba (``cache=True``: compiled once
+per machine, then loaded from ``__pycache__``). The caller re-checks every returned pose
+(:func:`stackik.check.check_pose`); this module makes no claim of its own.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from stackik._compiled.core import (
+    GIVE_UP_AFTER,
+    GIVE_UP_VIOLATION,
+    IP_MAX_ITER,
+    IP_MAX_TIME,
+    IP_NONFINITE,
+    IP_SKIPPED,
+    IP_STALLED,
+    IP_SUCCESS,
+    OBJ_MAX_GRAD,
+    _finite,
+    _jit,
+    _limit_rows,
+    _now,
+)
+from stackik._compiled.linalg import _AI_dot, _AIT_dot, _cho_solve, _cholesky, _inv3
+
+
+class PlanarData(NamedTuple):
+    """The planar problem as the kernels take it (every array read-only: one compiled
+    specialisation), built by :func:`stackik.methods.ip.problem_arrays`; variables are
+    scaled, ``u = q / xs``."""
+
+    xs: Any  #: variable scales (3 n,)
+    cs: Any  #: limit row scales (24 n,)
+    es: Any  #: equality scales (3,)
+    target: Any  #: the target ``(rho [mm], z [mm], theta [rad])`` (3,)
+    fscale: float  #: objective scale
+    c0: float  #: objective constant
+    w: float  #: FN weight of the angle columns
+    tf: Any  #: top nodes in the plane's frame (n, 6, 2) [mm]
+    tz: Any  #: top nodes' out-of-plane coordinate (n, 6) [mm]
+    bf: Any  #: base nodes in the plane's frame (n, 6, 2) [mm]
+    bz: Any  #: base nodes' out-of-plane coordinate (n, 6) [mm]
+    ls0: Any  #: squared leg lengths' constant part (n, 6) [mm^2]
+    lmin2: Any  #: squared minimum leg length (n,) [mm^2]
+    lmax2: Any  #: squared maximum leg length (n,) [mm^2]
+    sj: Any  #: sine of the minimum joint angle (n,)
+    feasible: bool  #: the feasibility objective (f = 0) instead of FN^2
+
+
+@_jit
+def _with_fscale(P0: Any, fscale: float) -> Any:
+    """``P0`` with the objective scale ``fscale``."""
+    return PlanarData(P0.xs, P0.cs, P0.es, P0.target, fscale, P0.c0, P0.w, P0.tf, P0.tz, P0.bf,
+                      P0.bz, P0.ls0, P0.lmin2, P0.lmax2, P0.sj, P0.feasible)  # fmt: skip
+
+
+@_jit
+def _with_target(P0: Any, target: Any) -> Any:
+    """``P0`` with the target ``target`` (3,)."""
+    return PlanarData(P0.xs, P0.cs, P0.es, target, P0.fscale, P0.c0, P0.w, P0.tf, P0.tz, P0.bf,
+                      P0.bz, P0.ls0, P0.lmin2, P0.lmax2, P0.sj, P0.feasible)  # fmt: skip
+
+
+FloatArray = np.ndarray
+
+
+# =========================================================================================
+# Evaluation (raw kinematics, then scaled)
+# =========================================================================================
+@_jit
+def _kinematics(q: FloatArray) -> tuple[Any, ...]:
+    """Cumulative cos/sin, end effector y, its Jacobian (3, 3n), lever arms d (n, 2)."""
+    n = q.shape[0]
+    c = np.empty(n)
+    s = np.empty(n)
+    O = np.zeros((n + 1, 2))
+    th = 0.0
+    for i in range(n):
+        c[i] = math.cos(th)
+        s[i] = math.sin(th)
+        O[i + 1, 0] = O[i, 0] + c[i] * q[i, 0] - s[i] * q[i, 1]
+        O[i + 1, 1] = O[i, 1] + s[i] * q[i, 0] + c[i] * q[i, 1]
+        th += q[i, 2]
+    d = np.empty((n, 2))
+    for i in range(n):
+        d[i, 0] = O[n, 0] - O[i + 1, 0]
+        d[i, 1] = O[n, 1] - O[i + 1, 1]
+    y = np.array([O[n, 0], O[n, 1], th])
+    J = np.zeros((3, 3 * n))
+    for i in range(n):
+        J[0, 3 * i] = c[i]
+        J[1, 3 * i] = s[i]
+        J[0, 3 * i + 1] = -s[i]
+        J[1, 3 * i + 1] = c[i]
+        J[0, 3 * i + 2] = -d[i, 1]
+        J[1, 3 * i + 2] = d[i, 0]
+        J[2, 3 * i + 2] = 1.0
+    return c, s, y, J, d
+
+
+@_jit
+def _gauss_newton(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatArray:
+    """``Jr^T Jr`` of the FN residuals ``r_i = d_i`` (i < n-1) in O(n^2), shape (3n, 3n).
+
+    With ``u_m0 = (c_m, s_m)``, ``u_m1 = (-s_m, c_m)`` (the translation columns, present in
+    the rows i < m), the angle columns ``J2 d_max(i,m)`` and prefix sums ``P_k`` of the
+    lever arms d and ``Q_k`` of their squared norms (``d_(n-1) = 0``):
+    trans.trans = min(m, l) u.u'; trans_m.angle_l = u . J2 (min(m, l+1) d_l + P_m - P_(l+1));
+    angle.angle = (a+1) d_m.d_l + d_b.(P_(b+1) - P_(a+1)) + Q_n - Q_(b+1), a/b = min/max.
+    """
+    n = c.shape[0]
+    N = 3 * n
+    P = np.zeros((n + 1, 2))
+    Q = np.zeros(n + 1)
+    for i in range(n):
+        P[i + 1, 0] = P[i, 0] + d[i, 0]
+        P[i + 1, 1] = P[i, 1] + d[i, 1]
+        Q[i + 1] = Q[i] + d[i, 0] * d[i, 0] + d[i, 1] * d[i, 1]
+    H = np.empty((N, N))
+    for m in range(n):
+        um = ((c[m], s[m]), (-s[m], c[m]))
+        for l in range(n):
+            ul = ((c[l], s[l]), (-s[l], c[l]))
+            k = min(m, l)
+            for t in range(2):
+                for t2 in range(2):
+                    H[3 * m + t, 3 * l + t2] = k * (um[t][0] * ul[t2][0] + um[t][1] * ul[t2][1])
+            # translation of m against the angle of l
+            k2 = min(m, l + 1)
+            Sx = k2 * d[l, 0]
+            Sy = k2 * d[l, 1]
+            if m > l + 1:
+                Sx += P[m, 0] - P[l + 1, 0]
+                Sy += P[m, 1] - P[l + 1, 1]
+            for t in range(2):
+                val = um[t][0] * (-Sy) + um[t][1] * Sx  # u . J2 S, J2 S = (-S_y, S_x)
+                H[3 * m + t, 3 * l + 2] = val
+                H[3 * l + 2, 3 * m + t] = val
+            a = min(m, l)
+            b = max(m, l)
+            val = (a + 1) * (d[m, 0] * d[l, 0] + d[m, 1] * d[l, 1])
+            val += d[b, 0] * (P[b + 1, 0] - P[a + 1, 0]) + d[b, 1] * (P[b + 1, 1] - P[a + 1, 1])
+            val += Q[n] - Q[b + 1]
+            H[3 * m + 2, 3 * l + 2] = val
+    return H
+
+
+@_jit
+def _fn2_hessian(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatArray:
+    """Exact Hessian of ``sum_i |d_i|^2`` (i < n-1) in raw q, shape (3n, 3n)."""
+    n = c.shape[0]
+    H = 2.0 * _gauss_newton(c, s, d)
+    # angle-angle part: -sum_{i<n-1} r_i . d_max(i, m, l) depends on b = max(m, l) only:
+    # sum_{i<b} d_i . d_b + sum_{b<=i<n-1} |d_i|^2 (O(n^2) with prefix sums)
+    Pb0 = 0.0
+    Pb1 = 0.0
+    tail = np.zeros(n + 1)
+    for i in range(n - 2, -1, -1):
+        tail[i] = tail[i + 1] + d[i, 0] * d[i, 0] + d[i, 1] * d[i, 1]
+    Hb = np.empty(n)
+    for b in range(n):
+        Hb[b] = Pb0 * d[b, 0] + Pb1 * d[b, 1] + tail[b]
+        Pb0 += d[b, 0]
+        Pb1 += d[b, 1]
+    for m in range(n):
+        for l in range(n):
+            H[3 * m + 2, 3 * l + 2] -= 2.0 * Hb[max(m, l)]
+    c0 = 0.0
+    c1 = 0.0  # sum_{i<k} r_i
+    for k in range(n):
+        t0 = -s[k] * c0 + c[k] * c1
+        t1 = -c[k] * c0 - s[k] * c1
+        for m in range(k):
+            H[3 * k, 3 * m + 2] += 2.0 * t0
+            H[3 * k + 1, 3 * m + 2] += 2.0 * t1
+            H[3 * m + 2, 3 * k] += 2.0 * t0
+            H[3 * m + 2, 3 * k + 1] += 2.0 * t1
+        if k < n - 1:
+            c0 += d[k, 0]
+            c1 += d[k, 1]
+    return H
+
+
+@_jit
+def _leg(q: FloatArray, i: int, j: int, c: float, sn: float, tf: FloatArray, tz: FloatArray,
+         bf: FloatArray, bz: FloatArray, ls: FloatArray) -> tuple[float, ...]:  # fmt: skip
+    """Leg ``j`` of platform ``i`` (``c``, ``sn``: cos and sin of its angle): the top
+    joint ``R t`` and the leg ``l`` in the plane, and ``|l|^2`` (scalars: no arrays to
+    allocate, ~2 us of a continuation step's ~7 us Newton iteration at n = 4 went to
+    allocations)."""
+    Rtf = c * tf[i, j] - sn * tz[i, j]
+    Rtz = sn * tf[i, j] + c * tz[i, j]
+    lf = Rtf + q[i, 0] - bf[i, j]
+    lz = Rtz + q[i, 1] - bz[i, j]
+    sq = lf**2 + ls[i, j] ** 2 + lz**2
+    return Rtf, Rtz, lf, lz, sq
+
+
+@_jit
+def _constraints(q: FloatArray, tf: FloatArray, tz: FloatArray, bf: FloatArray, bz: FloatArray,
+                 ls: FloatArray, lmin2: FloatArray, lmax2: FloatArray,
+                 sj: FloatArray) -> tuple[FloatArray, FloatArray]:  # fmt: skip
+    """Raw limits (n*24,) and their Jacobian blocks (n, 24, 3), DESIGN §2 order."""
+    n = q.shape[0]
+    g = np.empty(24 * n)
+    D = np.empty((n, 24, 3))
+    for i in range(n):
+        c = math.cos(q[i, 2])
+        sn = math.sin(q[i, 2])
+        for j in range(6):
+            Rtf, Rtz, lf, lz, sq = _leg(q, i, j, c, sn, tf, tz, bf, bz, ls)
+            nrm = math.sqrt(sq)
+            k = sj[i] / nrm
+            g[24 * i + j] = sq - lmin2[i]
+            g[24 * i + 6 + j] = lmax2[i] - sq
+            g[24 * i + 12 + j] = lz - nrm * sj[i]
+            g[24 * i + 18 + j] = c * lz - sn * lf - nrm * sj[i]
+            dsq_t = 2.0 * (lz * Rtf - lf * Rtz)
+            D[i, j, 0] = 2.0 * lf
+            D[i, j, 1] = 2.0 * lz
+            D[i, j, 2] = dsq_t
+            D[i, 6 + j, 0] = -2.0 * lf
+            D[i, 6 + j, 1] = -2.0 * lz
+            D[i, 6 + j, 2] = -dsq_t
+            D[i, 12 + j, 0] = -k * lf
+            D[i, 12 + j, 1] = 1.0 - k * lz
+            D[i, 12 + j, 2] = Rtf - 0.5 * k * dsq_t
+            D[i, 18 + j, 0] = -sn - k * lf
+            D[i, 18 + j, 1] = c - k * lz
+            D[i, 18 + j, 2] = (sn * Rtz + c * Rtf) - (c * lf + sn * lz) - 0.5 * k * dsq_t
+    return g, D
+
+
+@_jit
+def _constraint_hessian(q: FloatArray, yraw: FloatArray, tf: FloatArray, tz: FloatArray,
+                        bf: FloatArray, bz: FloatArray, ls: FloatArray,
+                        sj: FloatArray) -> FloatArray:  # fmt: skip
+    """``sum_r yraw_r Hessian(c_r)`` per platform, shape (n, 3, 3) (block diagonal).
+    Legs whose four multipliers are zero are skipped: they add exact zeros wherever the
+    leg's terms are finite (a leg of non-zero length at a finite pose)."""
+    n = q.shape[0]
+    H = np.zeros((n, 3, 3))
+    for i in range(n):
+        c = math.cos(q[i, 2])
+        sn = math.sin(q[i, 2])
+        h00 = h11 = h01 = h02 = h12 = h22 = 0.0
+        for j in range(6):
+            y0 = yraw[24 * i + j]
+            y1 = yraw[24 * i + 6 + j]
+            y2 = yraw[24 * i + 12 + j]
+            y3 = yraw[24 * i + 18 + j]
+            if y0 == 0.0 and y1 == 0.0 and y2 == 0.0 and y3 == 0.0:
+                continue  # adds exact zeros (a continuation step: limits off its active set)
+            Rtf, Rtz, lf, lz, sq = _leg(q, i, j, c, sn, tf, tz, bf, bz, ls)
+            nrm = math.sqrt(sq)
+            inv = 1.0 / nrm
+            S_rt = -2.0 * Rtz
+            S_zt = 2.0 * Rtf
+            S_tt = 2.0 * (Rtf**2 + Rtz**2 - lf * Rtf - lz * Rtz)
+            d_r = lf * inv
+            d_z = lz * inv
+            d_t = (lz * Rtf - lf * Rtz) * inv
+            N_rr = (1.0 - d_r * d_r) * inv
+            N_zz = (1.0 - d_z * d_z) * inv
+            N_rz = -d_r * d_z * inv
+            N_rt = (0.5 * S_rt - d_r * d_t) * inv
+            N_zt = (0.5 * S_zt - d_z * d_t) * inv
+            N_tt = (0.5 * S_tt - d_t * d_t) * inv
+            ys = y0 - y1
+            yn = -sj[i] * (y2 + y3)
+            rf = lf - Rtf
+            rz = lz - Rtz
+            h00 += ys * 2.0 + yn * N_rr
+            h11 += ys * 2.0 + yn * N_zz
+            h01 += yn * N_rz
+            h02 += ys * S_rt + yn * N_rt - y3 * c
+            h12 += ys * S_zt + yn * N_zt - y3 * sn
+            h22 += ys * S_tt + yn * N_tt - y2 * Rtz + y3 * (rf * sn - rz * c)
+        H[i, 0, 0] = h00
+        H[i, 1, 1] = h11
+        H[i, 2, 2] = h22
+        H[i, 0, 1] = H[i, 1, 0] = h01
+        H[i, 0, 2] = H[i, 2, 0] = h02
+        H[i, 1, 2] = H[i, 2, 1] = h12
+    return H
+
+
+@_jit
+def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
+    """Scaled f, grad f, c_E, A_E (3, N), c_I (m,), A_I blocks (n, 24, 3) at ``u``."""
+    (xs, cs, es, yt, fscale, c0, w, tf, tz, bf, bz, ls, lmin2, lmax2, sj, feasible) = P
+    n = tf.shape[0]
+    q = (u * xs).reshape(n, 3)
+    c, s, y, J, d = _kinematics(q)
+    # elementwise in loops (numba's broadcasting allocates temporaries: ~1 us at n = 4)
+    cE = np.empty(3)
+    AE = np.empty((3, 3 * n))
+    for r in range(3):
+        cE[r] = (y[r] - yt[r]) * es[r]
+        for a in range(3 * n):
+            AE[r, a] = J[r, a] * es[r] * xs[a]
+    cI, D = _constraints(q, tf, tz, bf, bz, ls, lmin2, lmax2, sj)
+    for r in range(24 * n):
+        cI[r] *= cs[r]
+    for i in range(n):
+        for r in range(24):
+            for k in range(3):
+                D[i, r, k] *= cs[24 * i + r] * xs[3 * i + k]
+    if feasible:
+        return 0.0, np.zeros(3 * n), cE, AE, cI, D
+    # f = (c0 + w sum_{i<n-1} |d_i|^2) / fscale; its gradient by prefix sums of d (O(n)):
+    # d/d(rho_m, z_m) = R(Theta_m) e . sum_{i<m} d_i, d/dtheta_m = (sum_{i<=m} d_i) . J2 d_m
+    k = 2.0 * w / fscale
+    grad = np.empty(3 * n)
+    acc = 0.0
+    p0 = 0.0
+    p1 = 0.0
+    for m_ in range(n):
+        grad[3 * m_] = k * (c[m_] * p0 + s[m_] * p1) * xs[3 * m_]
+        grad[3 * m_ + 1] = k * (-s[m_] * p0 + c[m_] * p1) * xs[3 * m_ + 1]
+        if m_ < n - 1:
+            p0 += d[m_, 0]
+            p1 += d[m_, 1]
+            acc += d[m_, 0] * d[m_, 0] + d[m_, 1] * d[m_, 1]
+        grad[3 * m_ + 2] = k * (d[m_, 0] * p1 - d[m_, 1] * p0) * xs[3 * m_ + 2]
+    f = (c0 + w * acc) / fscale
+    return f, grad, cE, AE, cI, D
+
+
+@_jit
+def _evaluate_ext(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+                  wq: float) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`_evaluate` with the extensions of a path step: the objective plus
+    ``wq |u - ug|^2`` (when ``wq > 0``), and, when ``lo`` is not empty, the box
+    ``lo <= u <= hi`` as 6 more limit rows per platform (rows 24-26: ``u - lo``, rows
+    27-29: ``hi - u``), so that ``c_I`` has ``30 n`` rows and ``D`` is (n, 30, 3). Without
+    extensions it returns :func:`_evaluate`'s values unchanged."""
+    f, g, cE, AE, cI, D = _evaluate(u, P)
+    if wq > 0.0:
+        acc = 0.0
+        for a in range(u.size):
+            d = u[a] - ug[a]
+            acc += d * d
+            g[a] += 2.0 * wq * d
+        f += wq * acc
+    if lo.size == 0:
+        return f, g, cE, AE, cI, D
+    n = D.shape[0]
+    cB = np.empty(30 * n)
+    DB = np.zeros((n, 30, 3))
+    for i in range(n):
+        for r in range(24):
+            cB[30 * i + r] = cI[24 * i + r]
+            for k in range(3):
+                DB[i, r, k] = D[i, r, k]
+        for k in range(3):
+            cB[30 * i + 24 + k] = u[3 * i + k] - lo[3 * i + k]
+            cB[30 * i + 27 + k] = hi[3 * i + k] - u[3 * i + k]
+            DB[i, 24 + k, k] = 1.0
+            DB[i, 27 + k, k] = -1.0
+    return f, g, cE, AE, cB, DB
+
+
+@_jit
+def _lagrangian_hessian_ext(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
+                            wq: float) -> FloatArray:  # fmt: skip
+    """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem (``z``: 24 n or, with
+    a box, 30 n multipliers): the box rows are linear, the distance term adds ``2 wq I``."""
+    H = _lagrangian_hessian(u, yE, _limit_rows(z, P.tf.shape[0]), P)
+    if wq > 0.0:
+        for a in range(H.shape[0]):
+            H[a, a] += 2.0 * wq
+    return H
+
+
+@_jit
+def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
+    """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (N, N)."""
+    (xs, cs, es, yt, fscale, c0, w, tf, tz, bf, bz, ls, lmin2, lmax2, sj, feasible) = P
+    n = tf.shape[0]
+    N = 3 * n
+    q = (u * xs).reshape(n, 3)
+    c, s, y, J, d = _kinematics(q)
+    if feasible:
+        H = np.zeros((N, N))
+    else:
+        H = _fn2_hessian(c, s, d) * (w / fscale)
+    # end-effector equalities: sum_r yE_r d2 y_r = [min(a,b) is an angle] * v[max(a,b)]
+    yp0 = yE[0] * es[0]
+    yp1 = yE[1] * es[1]
+    v = yp1 * J[0] - yp0 * J[1]
+    for a in range(2, N, 3):  # angle columns a: every (a, b) with b >= a
+        H[a, a] -= v[a]
+        for b in range(a + 1, N):
+            H[a, b] -= v[b]
+            H[b, a] -= v[b]
+    Hb = _constraint_hessian(q, z * cs, tf, tz, bf, bz, ls, sj)
+    for i in range(n):
+        for a in range(3):
+            for b in range(3):
+                H[3 * i + a, 3 * i + b] -= Hb[i, a, b]
+    for a in range(N):
+        for b in range(N):
+            H[a, b] *= xs[a] * xs[b]
+    return H
+
+
+@_jit
+def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
+              last_shift: float) -> tuple[FloatArray, FloatArray, float, float]:  # fmt: skip
+    """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` by a null-space method.
+
+    The null-space basis ``Z = [-B^-1 C; I]`` uses the first platform's three columns
+    ``B`` of ``AE = [B C]`` (always invertible: a rotation and a unit angle row). When the
+    reduced Hessian ``Z^T W Z`` is not positive definite, a multiple of the identity is
+    added until it is (the shift), so that ``dx`` is a descent direction of the merit
+    function. Returns ``dx``, ``dy``, the curvature ``dx^T W dx`` and the shift used.
+    """
+    N = W.shape[0]
+    K = N - 3
+    Binv = _inv3(AE[:, :3])
+    # E = -B^-1 C (3, K): dependent part of Z; dxp = -B^-1 cE. Explicit loops: the inner
+    # dimension is 3, where BLAS calls cost more than the arithmetic.
+    E = np.empty((3, K))
+    dxp = np.empty(3)
+    for i in range(3):
+        dxp[i] = -(Binv[i, 0] * cE[0] + Binv[i, 1] * cE[1] + Binv[i, 2] * cE[2])
+        for a in range(K):
+            E[i, a] = -(Binv[i, 0] * AE[0, 3 + a] + Binv[i, 1] * AE[1, 3 + a]
+                        + Binv[i, 2] * AE[2, 3 + a])  # fmt: skip
+    # M = W Z (N, K) = W[:, :3] E + W[:, 3:]
+    M = np.empty((N, K))
+    for i in range(N):
+        w0 = W[i, 0]
+        w1 = W[i, 1]
+        w2 = W[i, 2]
+        for a in range(K):
+            M[i, a] = w0 * E[0, a] + w1 * E[1, a] + w2 * E[2, a] + W[i, 3 + a]
+    # Hz = Z^T W Z = E^T M[:3] + M[3:]
+    Hz = np.empty((K, K))
+    for a in range(K):
+        for b in range(K):
+            Hz[a, b] = E[0, a] * M[0, b] + E[1, a] * M[1, b] + E[2, a] * M[2, b] + M[3 + a, b]
+    # rz = Z^T (rhs - W[:, :3] dxp)
+    res = np.empty(N)
+    for i in range(N):
+        res[i] = rhs[i] - (W[i, 0] * dxp[0] + W[i, 1] * dxp[1] + W[i, 2] * dxp[2])
+    rz = np.empty(K)
+    for a in range(K):
+        rz[a] = E[0, a] * res[0] + E[1, a] * res[1] + E[2, a] * res[2] + res[3 + a]
+    Et = E.T.copy()
+    # inertia correction as in IPOPT: the smallest shift (tried in factors of 8, starting
+    # from a third of the last one) that makes the reduced Hessian positive definite
+    shift = 0.0
+    L, ok = _cholesky(Hz, 0.0)
+    if not ok:
+        scale = 0.0
+        for i in range(Hz.shape[0]):
+            scale = max(scale, abs(Hz[i, i]))
+        ZtZ = Et @ E  # the shift is delta I in x-space: Z^T (W + delta I) Z
+        for i in range(ZtZ.shape[0]):
+            ZtZ[i, i] += 1.0
+        shift = max(last_shift / 3.0, 1e-4) if last_shift > 0.0 else 1e-4
+        grow = 8.0 if last_shift > 0.0 else 100.0
+        for _ in range(60):  # bounded: NaN entries never factor
+            L, ok = _cholesky(Hz + shift * ZtZ, 0.0)
+            if ok or not shift <= 1e20 * (1.0 + scale):
+                break
+            shift *= grow
+    if shift > 0.0:  # the particular part sees the shifted Hessian too
+        rz -= shift * (Et @ dxp)
+    w = _cho_solve(L, rz)
+    dx = np.empty(N)
+    for i in range(3):
+        acc = dxp[i]
+        for a in range(K):
+            acc += E[i, a] * w[a]
+        dx[i] = acc
+    dx[3:] = w
+    Wdx = np.empty(N)
+    curv = 0.0
+    for i in range(N):
+        acc = shift * dx[i]
+        for j in range(N):
+            acc += W[i, j] * dx[j]
+        Wdx[i] = acc
+        curv += dx[i] * acc
+    dy = np.empty(3)
+    for j in range(3):
+        dy[j] = ((Wdx[0] - rhs[0]) * Binv[0, j] + (Wdx[1] - rhs[1]) * Binv[1, j]
+                 + (Wdx[2] - rhs[2]) * Binv[2, j])  # fmt: skip
+    return dx, dy, curv, shift
+
+
+@_jit
+def _AET_dot(AE: FloatArray, y: FloatArray) -> FloatArray:
+    """``AE^T y`` for the (3, N) equality Jacobian."""
+    N = AE.shape[1]
+    out = np.empty(N)
+    for a in range(N):
+        out[a] = AE[0, a] * y[0] + AE[1, a] * y[1] + AE[2, a] * y[2]
+    return out
+
+
+@_jit
+def _ls_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArray:
+    """Least-squares equality multipliers: ``argmin |g - AI^T z - AE^T y|``."""
+    N = AE.shape[1]
+    G = np.zeros((3, 3))
+    b = np.zeros(3)
+    for i in range(3):
+        for a in range(N):
+            b[i] += AE[i, a] * (g[a] - AItz[a])
+        for j in range(3):
+            acc = 0.0
+            for a in range(N):
+                acc += AE[i, a] * AE[j, a]
+            G[i, j] = acc
+    Gi = _inv3(G)
+    y = np.empty(3)
+    for i in range(3):
+        y[i] = Gi[i, 0] * b[0] + Gi[i, 1] * b[1] + Gi[i, 2] * b[2]
+    return y
+
+
+# =========================================================================================
+# The barrier method
+# =========================================================================================
+@_jit
+def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
+             max_iter: int, deadline: float, lo: FloatArray, hi: FloatArray,
+             ug: FloatArray, wq: float) -> tuple[Any, ...]:  # fmt: skip
+    """The barrier method from ``u0``; ``lo``/``hi`` (empty: none) add the box
+    ``lo <= u <= hi`` as limit rows and ``wq |u - ug|^2`` is added to the objective
+    (:func:`_evaluate_ext`; a path step's extensions). Returns the point, the status,
+    the iteration count and the final slacks ``s`` and multipliers ``z``, ``yE``
+    (multipliers of the problem as ``P0`` states it, i.e. without the objective scaling
+    the loop applies: a continuation step starts from them,
+    :func:`stackik._compiled.planar_path._pc_step`)."""
+    n = P0.tf.shape[0]
+    R = 24 if lo.size == 0 else 30
+    m = R * n
+    N = 3 * n
+    x = u0.copy()
+    f, g, cE, AE, cI, D = _evaluate_ext(x, P0, lo, hi, ug, wq)
+    if not (_finite(cI) and _finite(cE) and math.isfinite(f)):
+        return x, IP_NONFINITE, 0, cI, np.ones(m), np.zeros(3)
+    # objective scaling as IPOPT's gradient-based rule: max |grad f(x0)| <= OBJ_MAX_GRAD
+    gmax = np.abs(g).max()
+    fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
+    P = _with_fscale(P0, P0.fscale / fs)
+    f, g = f * fs, g * fs
+    wq = wq * fs
+    mu = mu0
+    mu_min = min(tol, constr_tol) / 10.0
+    s = np.maximum(cI, 1e-2)
+    z = np.ones(m)  # bound multipliers start at 1, as IPOPT's
+    # least-squares equality multipliers
+    yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
+    last_shift = 0.0
+    logsum = np.log(s).sum()
+    logsum_t = logsum
+    theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
+    theta_max = 1e4 * max(1.0, theta0)
+    theta_min = 1e-4 * max(1.0, theta0)
+    filt = np.empty((max_iter + 1, 2))
+    nfilt = 0
+    status = IP_MAX_ITER
+    fails = 0
+    it = 0
+    for it in range(max_iter):
+        if it % 16 == 15 and _now() > deadline:
+            status = IP_MAX_TIME
+            break
+        # --- optimality errors (fused loops: these vectors are short) ----------------
+        AEty = _AET_dot(AE, yE)
+        AItz = _AIT_dot(D, z)
+        sd_acc = abs(yE[0]) + abs(yE[1]) + abs(yE[2])
+        for r in range(m):
+            sd_acc += abs(z[r])
+        sd = max(100.0, sd_acc / (m + 3)) / 100.0
+        e_du = 0.0
+        for a in range(N):
+            e_du = max(e_du, abs(g[a] - AEty[a] - AItz[a]))
+        e_du /= sd
+        e_pr = max(abs(cE[0]), max(abs(cE[1]), abs(cE[2])))
+        comp = 0.0
+        for r in range(m):
+            e_pr = max(e_pr, abs(cI[r] - s[r]))
+            comp = max(comp, abs(s[r] * z[r]))
+        if max(e_du, comp / sd) <= tol and e_pr <= constr_tol:
+            status = IP_SUCCESS
+            break
+        while mu > mu_min:
+            comp_mu = 0.0
+            for r in range(m):
+                comp_mu = max(comp_mu, abs(s[r] * z[r] - mu))
+            e_mu = max(e_du, max(comp_mu / sd, e_pr))
+            if e_mu > 10.0 * mu:
+                break
+            mu = max(mu_min, min(0.2 * mu, mu**1.5))
+            nfilt = 0
+        # --- Newton step -----------------------------------------------------------
+        W = _lagrangian_hessian_ext(x, yE, z, P, wq)
+        if not (_finite(W) and _finite(g) and _finite(AE)):
+            status = IP_NONFINITE
+            break
+        Sig = z / s
+        for i in range(n):
+            for a in range(3):
+                for b in range(3):
+                    acc = 0.0
+                    for r in range(R):
+                        acc += D[i, r, a] * Sig[R * i + r] * D[i, r, b]
+                    W[3 * i + a, 3 * i + b] += acc
+        v = np.empty(m)
+        for r in range(m):
+            v[r] = mu / s[r] - Sig[r] * (cI[r] - s[r])
+        AIv = _AIT_dot(D, v)
+        rhs = np.empty(N)
+        for a in range(N):
+            rhs[a] = -g[a] + AEty[a] + AIv[a]
+        dx, _, _, shift = _kkt_step(W, AE, cE, rhs, last_shift)
+        if not _finite(dx):
+            status = IP_NONFINITE
+            break
+        if shift > 0.0:
+            last_shift = shift
+        AIdx = _AI_dot(D, dx)
+        ds = np.empty(m)
+        dz = np.empty(m)
+        for r in range(m):
+            ds[r] = AIdx[r] + cI[r] - s[r]
+            dz[r] = -z[r] + mu / s[r] - Sig[r] * ds[r]
+        # --- fraction to the boundary -------------------------------------------------
+        tau = max(0.99, 1.0 - mu)
+        a_s = 1.0
+        a_z = 1.0
+        for r in range(m):
+            if ds[r] < 0.0:
+                a_s = min(a_s, -tau * s[r] / ds[r])
+            if dz[r] < 0.0:
+                a_z = min(a_z, -tau * z[r] / dz[r])
+        # --- filter line search (Waechter & Biegler 2006, sec. 2.3) -------------------
+        theta = abs(cE[0]) + abs(cE[1]) + abs(cE[2])
+        dsum = 0.0
+        for r in range(m):
+            theta += abs(cI[r] - s[r])
+            dsum += ds[r] / s[r]
+        gdx = 0.0
+        for a in range(N):
+            gdx += g[a] * dx[a]
+        phi = f - mu * logsum
+        gphi = gdx - mu * dsum
+        alpha = a_s
+        accepted = False
+        ftype = False
+        for _ in range(40):
+            xt = x + alpha * dx
+            st = np.empty(m)
+            for r in range(m):
+                st[r] = s[r] + alpha * ds[r]
+            ft, gt, cEt, AEt, cIt, Dt = _evaluate_ext(xt, P, lo, hi, ug, wq)
+            theta_t = abs(cEt[0]) + abs(cEt[1]) + abs(cEt[2])
+            logsum_t = 0.0
+            for r in range(m):
+                theta_t += abs(cIt[r] - st[r])
+                logsum_t += math.log(st[r])
+            if math.isfinite(ft) and math.isfinite(theta_t):  # NaN/inf anywhere shows here
+                phi_t = ft - mu * logsum_t
+                ok = theta_t <= theta_max
+                for j in range(nfilt):
+                    if theta_t >= filt[j, 0] and phi_t >= filt[j, 1]:
+                        ok = False
+                        break
+                if ok:
+                    switching = gphi < 0.0 and alpha * (-gphi) ** 2.3 > theta**1.1
+                    if switching and theta <= theta_min:
+                        if phi_t <= phi + 1e-4 * alpha * gphi + 1e-14 * abs(phi):
+                            accepted = True
+                            ftype = True
+                    elif theta_t <= (1.0 - 1e-5) * theta or phi_t <= phi - 1e-8 * theta:
+                        accepted = True
+                    elif switching and phi_t <= phi + 1e-4 * alpha * gphi + 1e-14 * abs(phi):
+                        accepted = True
+                        ftype = True
+                if accepted:
+                    break
+            alpha *= 0.5
+            if alpha < 1e-12:
+                break
+        if accepted and not ftype and nfilt < filt.shape[0]:
+            filt[nfilt, 0] = (1.0 - 1e-5) * theta
+            filt[nfilt, 1] = phi - 1e-8 * theta
+            nfilt += 1
+        if not accepted:
+            fails += 1
+            if fails >= 3:
+                status = IP_STALLED
+                break
+            # a tiny step keeps the iteration going; the barrier will be re-centred
+            nfilt = 0
+            alpha = min(alpha, 1e-8)
+            xt = x + alpha * dx
+            st = s + alpha * ds
+            ft, gt, cEt, AEt, cIt, Dt = _evaluate_ext(xt, P, lo, hi, ug, wq)
+            if not (math.isfinite(ft) and _finite(cIt)):
+                status = IP_NONFINITE
+                break
+        else:
+            fails = 0
+        x = xt
+        # slack reset: a slack below its constraint value only adds violation
+        s = st
+        logsum = logsum_t if accepted else np.log(s).sum()
+        for r in range(m):
+            if cIt[r] > s[r]:
+                logsum += math.log(cIt[r]) - math.log(s[r])
+                s[r] = cIt[r]
+            zr = z[r] + a_z * dz[r]
+            z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
+        f, g, cE, AE, cI, D = ft, gt, cEt, AEt, cIt, Dt
+        yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
+    return x, status, it + 1 if status != IP_SUCCESS else it, s, z / fs, yE / fs
+
+
+@_jit
+def _polished(cE: FloatArray, cI: FloatArray, reach: float) -> bool:
+    """Whether :func:`_polish` leaves a point with these constraint values as it is."""
+    if not np.abs(cE).max() < 1e-13:
+        return False
+    for r in range(cI.size):
+        if -reach < cI[r] < 0.0:
+            return False
+    return True
+
+
+@_jit
+def _polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> FloatArray:
+    """Min-norm Newton corrections of the equalities and of limits violated by less than
+    ``reach`` (scaled), as :func:`stackik.formulation.polish` (tiny moves only)."""
+    n = P.tf.shape[0]
+    N = 3 * n
+    for _ in range(iters):
+        f, g, cE, AE, cI, D = _evaluate(u, P)
+        if _polished(cE, cI, reach):
+            break
+        nv = 0
+        for r in range(cI.size):
+            if -reach < cI[r] < 0.0:
+                nv += 1
+        A = np.zeros((3 + nv, N))
+        rr = np.empty(3 + nv)
+        A[:3] = AE
+        rr[:3] = cE
+        k = 3
+        for r in range(cI.size):
+            if -reach < cI[r] < 0.0:
+                i = r // 24
+                A[k, 3 * i : 3 * i + 3] = D[i, r % 24]
+                rr[k] = cI[r] - margin
+                k += 1
+        if not (_finite(A) and _finite(rr)):
+            break
+        du = np.linalg.lstsq(A, rr)[0]
+        u = u - du
+    return u
+
+
+@_jit
+def _ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatArray,
+              max_iter: int, deadline: float, reach: float,
+              margin: float) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`_ip_loop` and :func:`_polish` from each row of ``U0``.
+
+    ``mu0[j]`` is the initial barrier parameter of start j. Returns the points (k, N),
+    statuses, iteration counts, scaled objective values and
+    the worst scaled violation of each (equalities and limits), for ranking; the caller
+    re-checks the pose it returns.
+    """
+    k, N = U0.shape
+    X = np.empty((k, N))
+    status = np.full(k, IP_SKIPPED)
+    nit = np.zeros(k, dtype=np.int64)
+    obj = np.full(k, np.inf)
+    viol = np.full(k, np.inf)
+    none = np.empty(0)
+    for j in range(k):
+        X[j] = U0[j]
+        if j > 0 and _now() > deadline:
+            break
+        x, st, it, _, _, _ = _ip_loop(
+            U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline, none, none, none, 0.0
+        )
+        if st == IP_NONFINITE or not _finite(x):
+            x = U0[j].copy()
+        x = _polish(x, P, 3, reach, margin)
+        X[j] = x
+        status[j] = st
+        nit[j] = it
+        f, g, cE, AE, cI, D = _evaluate(x, P)
+        obj[j] = f
+        viol[j] = max(np.abs(cE).max(), max(0.0, -cI.min()))
+        if j + 1 == GIVE_UP_AFTER and viol[: j + 1].min() > GIVE_UP_VIOLATION:
+            break  # likely unreachable: the caller's SQP fallback decides, quickly
+    return X, status, nit, obj, viol
+
+
+# =========================================================================================
+# Path steps (stackik.paths): a boxed / goal-seeking solve, and many warm steps in one call
+# =========================================================================================
+@_jit
+def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray, wq: float,
+           tol: float, constr_tol: float, mu0: float, max_iter: int, reach: float,
+           margin: float) -> tuple[FloatArray, int, int]:  # fmt: skip
+    """One barrier solve inside the box ``lo <= u <= hi`` (scaled) with ``wq |u - ug|^2``
+    added to the objective (``wq = 0``: none), then :func:`_polish`. Returns the point,
+    the status and the iteration count; the caller checks the pose and the box."""
+    # copies: the barrier loop sees writable arrays whatever the caller passes, as from
+    # _ip_multi (one compiled specialisation of the loop, not one per array flag)
+    x, st, it, _, _, _ = _ip_loop(u0.copy(), P, tol, constr_tol, mu0, max_iter, 1e300,
+                                  lo.copy(), hi.copy(), ug.copy(), wq)  # fmt: skip
+    if st == IP_NONFINITE or not _finite(x):
+        return u0.copy(), IP_NONFINITE, it
+    return _polish(x, P, 3, reach, margin), st, it

@@ -1,0 +1,316 @@
+"""Compiled path kernels for spatial targets: :mod:`stackik._compiled.planar_path`'s
+continuation step and run of warm steps (:func:`ip_path`) on the spatial evaluation and
+barrier method of :mod:`stackik._compiled.spatial` (6 variables a platform).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from stackik._compiled.core import IP_NONFINITE, IP_SUCCESS, OBJ_MAX_GRAD, _jit
+from stackik._compiled.linalg import _AIT_dot
+from stackik._compiled.path import (
+    PC_CHANGES,
+    PC_CONTRACT,
+    PC_DEPENDENT,
+    PC_FREE,
+    PC_NEWTON,
+    PC_OFFSET,
+    PC_PRIMAL_TOL,
+    _release,
+    _twins,
+)
+from stackik._compiled.spatial import (
+    _with_fscale,
+    _with_target,
+    evaluate,
+    ip_loop,
+    lagrangian_hessian,
+    polish,
+)
+
+FloatArray = Any
+
+
+@_jit
+def _dependent(D: FloatArray, idx: FloatArray) -> FloatArray:
+    """Mask of the rows ``idx`` (sorted active limit rows) that depend on the others of
+    their platform: per platform, Gram-Schmidt on its rows ``D[i, r % 24]`` taking the row
+    with the largest remaining part first; rows left with less than PC_DEPENDENT of their
+    length are dependent (at most 6 rows a platform are independent)."""
+    k = idx.size
+    dep = np.ones(k, dtype=np.bool_)
+    Q = np.zeros((6, 6))
+    v = np.empty(6)
+    j0 = 0
+    while j0 < k:
+        i = idx[j0] // 24
+        j1 = j0
+        while j1 < k and idx[j1] // 24 == i:
+            j1 += 1
+        rank = 0
+        while rank < 6:
+            best = -1
+            bn = 0.0
+            for j in range(j0, j1):
+                if not dep[j]:
+                    continue
+                a = D[i, idx[j] % 24]
+                v[:] = a
+                for s in range(rank):
+                    v -= (a @ Q[s]) * Q[s]
+                nv = math.sqrt(v @ v)
+                if nv > PC_DEPENDENT * math.sqrt(a @ a) and nv > bn:
+                    best = j
+                    bn = nv
+            if best < 0:
+                break
+            v[:] = D[i, idx[best] % 24]
+            for _ in range(2):  # Gram-Schmidt twice: orthogonal to rounding
+                for s in range(rank):
+                    v -= (v @ Q[s]) * Q[s]
+            Q[rank] = v / math.sqrt(v @ v)
+            dep[best] = False
+            rank += 1
+        j0 = j1
+    return dep
+
+
+@_jit
+def _weakest(idx: FloatArray, dep: FloatArray, zf: FloatArray, new: FloatArray) -> int:
+    """The independent row of ``idx`` (not ``dep``) with the least multiplier, among
+    those not ``new`` when there are any (a limit just added because the point violates
+    it stays; the set makes room with an older one)."""
+    rj = -1
+    for rank in range(2):
+        for j in range(idx.size):
+            r = idx[j]
+            if dep[j] or (rank == 0 and new[r]):
+                continue
+            if rj < 0 or zf[r] < zf[rj]:
+                rj = r
+        if rj >= 0:
+            break
+    return rj
+
+
+@_jit
+def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: FloatArray,
+             tol: float, constr_tol: float, max_newton: int,
+             max_changes: int) -> tuple[Any, ...]:  # fmt: skip
+    """The continuation step of :func:`stackik._compiled.planar_path._pc_step` for the spatial
+    problem (6 equalities, 6 variables per platform): Newton on the KKT conditions with the
+    active limits held at ``PC_OFFSET``, the first iteration the tangent predictor, the
+    active set corrected (most negative multiplier released, else violated or nearly met
+    limits added), and verified as a KKT point to the barrier solve's tolerances. Active
+    rows that depend on others of their platform (:func:`_dependent`: where more limits
+    meet than the platform has variables, e.g. a leg's base and top joint limits at
+    parallel plates) stay active with multiplier 0, out of the Newton system (which is
+    singular with them) and take no freedom; while the independent rows exceed the
+    freedom ``N - 6`` the weakest goes, not one the last change added
+    (:func:`_weakest`). Returns ``(x, ok, yE, z, active, iterations)``."""
+    n = P0.top.shape[0]
+    N = 6 * n
+    m = 24 * n
+    f, g, cE, AE, cI, D = evaluate(x0, P0)
+    gmax = np.abs(g).max()
+    fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
+    P = _with_fscale(P0, P0.fscale / fs)
+    g = g * fs
+    x = x0.copy()
+    yE = yE0 * fs
+    zf = z0 * fs
+    act = active.copy()
+    new = np.zeros(m, dtype=np.bool_)  # the limits the last change added
+    ok = False
+    it = 0
+    changes = 0
+    while True:
+        parent = _twins(act, cI, D)
+        for r in range(m):
+            if act[r] and parent[r] >= 0:
+                zf[parent[r]] += zf[r]
+                zf[r] = 0.0
+            elif not act[r]:
+                zf[r] = 0.0
+        # rows that depend on others of their platform stay active, out of the Newton
+        # system; the independent ones beyond the freedom N - 6 (degenerate): the weakest go
+        allidx = np.nonzero(act & (parent < 0))[0]
+        dep = _dependent(D, allidx)
+        while 6 + allidx.size - dep.sum() > N:
+            _release(act, zf, parent, _weakest(allidx, dep, zf, new))
+            allidx = np.nonzero(act & (parent < 0))[0]
+            dep = _dependent(D, allidx)
+        for j in range(allidx.size):
+            if dep[j]:
+                zf[allidx[j]] = 0.0
+        idx = allidx[~dep]
+        na = idx.size
+        zA = np.empty(na)
+        for j in range(na):
+            zA[j] = zf[idx[j]]
+        K = np.zeros((N + 6 + na, N + 6 + na))
+        rhs = np.empty(N + 6 + na)
+        conv = False
+        inner = 0  # Newton iterations in this active set
+        err_prev = math.inf
+        while True:
+            if not (np.all(np.isfinite(g)) and np.all(np.isfinite(cE))
+                    and np.all(np.isfinite(cI))):  # fmt: skip
+                break
+            for j in range(na):
+                zf[idx[j]] = zA[j]
+            rd = g - AE.T @ yE - _AIT_dot(D, zf)
+            sd_acc = np.abs(yE).sum()
+            for j in range(na):
+                sd_acc += abs(zA[j])
+            sd = max(100.0, sd_acc / (m + 6)) / 100.0
+            e_du = np.abs(rd).max() / sd
+            e_pr = np.abs(cE).max()
+            comp = 0.0
+            for j in range(allidx.size):  # the dependent rows' residuals too
+                e_pr = max(e_pr, abs(cI[allidx[j]] - PC_OFFSET))
+            for j in range(na):
+                comp = max(comp, abs(cI[idx[j]] * zA[j]))
+            ptol = min(constr_tol, PC_PRIMAL_TOL)
+            if e_du <= tol and comp / sd <= tol and e_pr <= ptol:
+                conv = True
+                break
+            if it >= max_newton:
+                break
+            # as the planar step: an iteration that does not at least halve the error (in
+            # units of the tolerances) after the first two of this active set does not
+            # converge, and the barrier solve takes the step at once
+            err = max(e_du / tol, max(comp / sd / tol, e_pr / ptol))
+            if inner >= PC_FREE and not err <= PC_CONTRACT * err_prev:
+                break
+            err_prev = err
+            inner += 1
+            it += 1
+            W = lagrangian_hessian(x, yE, zf, P)
+            K[:] = 0.0
+            K[:N, :N] = W
+            for a in range(N):
+                for r in range(6):
+                    K[a, N + r] = -AE[r, a]
+                    K[N + r, a] = AE[r, a]
+                rhs[a] = -rd[a]
+            for r in range(6):
+                rhs[N + r] = -cE[r]
+            for j in range(na):
+                i = idx[j] // 24
+                for k in range(6):
+                    K[6 * i + k, N + 6 + j] = -D[i, idx[j] % 24, k]
+                    K[N + 6 + j, 6 * i + k] = D[i, idx[j] % 24, k]
+                rhs[N + 6 + j] = PC_OFFSET - cI[idx[j]]
+            if not np.all(np.isfinite(K)):
+                break
+            try:
+                sol = np.linalg.solve(K, rhs)
+            except Exception:  # noqa: BLE001 - singular KKT matrix: the barrier solve decides
+                break
+            if not np.all(np.isfinite(sol)):
+                break
+            x = x + sol[:N]
+            for r in range(6):
+                yE[r] += sol[N + r]
+            for j in range(na):
+                zA[j] += sol[N + 6 + j]
+            f, g, cE, AE, cI, D = evaluate(x, P)
+        if not conv:
+            break
+        jmin = -1
+        for j in range(na):
+            if zA[j] < 0.0 and (jmin < 0 or zA[j] < zA[jmin]):
+                jmin = j
+        nadd = 0
+        for r in range(m):
+            if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
+                nadd += 1
+        if jmin < 0 and nadd == 0:
+            ok = True
+            break
+        if changes >= max_changes:
+            break
+        changes += 1
+        new[:] = False
+        if jmin >= 0:
+            _release(act, zf, parent, idx[jmin])
+        else:
+            for r in range(m):
+                if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
+                    act[r] = True
+                    new[r] = True
+    return x, ok, yE / fs, zf / fs, act, it
+
+
+@_jit
+def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: float,
+             ang_tol: float) -> bool:  # fmt: skip
+    """Whether the polished point ``xn`` reaches ``P``'s target (``pos_tol`` [mm]; the
+    orientation error's sine from the scaled equalities within ``ang_tol``), violates no
+    limit (scaled) and moves no variable from ``x`` by more than ``jump`` (scaled)."""
+    es = P.es
+    f, g, cE, AE, cI, D = evaluate(xn, P)
+    pe = math.sqrt((cE[0] / es[0]) ** 2 + (cE[1] / es[1]) ** 2 + (cE[2] / es[2]) ** 2)
+    ae = math.sqrt((cE[3] / es[3]) ** 2 + (cE[4] / es[4]) ** 2 + (cE[5] / es[5]) ** 2)
+    if not (pe <= pos_tol and ae <= ang_tol and cI.min() >= -1e-12):
+        return False
+    for a in range(x.size):
+        if not abs(xn[a] - x[a]) <= jump[a]:
+            return False
+    return True
+
+
+@_jit
+def ip_path(u0: FloatArray, pos: FloatArray, rot: FloatArray, P0: Any, jump: FloatArray,
+            tol: float, constr_tol: float, mu0: float, max_iter: int, reach: float,
+            margin: float, pos_tol: float, ang_tol: float, pc: bool, yE0: FloatArray,
+            z0: FloatArray, act0: FloatArray, have0: bool) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`stackik._compiled.planar_path.ip_path` for spatial targets (positions ``pos``
+    (m, 3) [mm], rotations ``rot`` (m, 3, 3)): each step from the previous point, the continuation
+    step first (``pc``) and the barrier solve (initial barrier ``mu0``) when it is not
+    verified, then :func:`polish`; stops before the first step whose point misses its
+    target, violates a limit or jumps (:func:`_reaches`). The first step carries the
+    state ``yE0, z0, act0`` of ``u0`` when ``have0``. Returns the points (m, N), the
+    number of steps taken, per step 1 (continuation step) or 0 (barrier solve), and the
+    state of the last point reached (``yE, z, active, have``); the caller re-checks
+    every point with the independent check."""
+    m = pos.shape[0]
+    N = u0.size
+    X = np.empty((m, N))
+    how = np.zeros(m, dtype=np.int64)
+    none = np.empty(0)
+    x = u0.copy()
+    have = have0  # the state of u0 (multipliers, active set) when it is a solved point
+    yE = yE0.copy()
+    z = z0.copy()
+    active = act0.copy()
+    for k in range(m):
+        P = _with_target(P0, pos[k], rot[k])
+        if pc and have:
+            xn, ok, yE1, z1, act1, _ = _pc_step(
+                x, P, yE, z, active, tol, constr_tol, PC_NEWTON, PC_CHANGES
+            )
+            if ok:
+                xn = polish(xn, P, 3, reach, margin)
+                if _reaches(xn, x, P, jump, pos_tol, ang_tol):
+                    X[k] = xn
+                    how[k] = 1
+                    x, yE, z, active = xn, yE1, z1, act1
+                    continue
+        xn, st, _, s1, z1, yE1 = ip_loop(x, P, tol, constr_tol, mu0, max_iter, 1e300, none,
+                                         none, none, 0.0)  # fmt: skip
+        if st == IP_NONFINITE or not np.all(np.isfinite(xn)):
+            return X, k, how, yE, z, active, have
+        xn = polish(xn, P, 3, reach, margin)
+        if not _reaches(xn, x, P, jump, pos_tol, ang_tol):
+            return X, k, how, yE, z, active, have
+        X[k] = xn
+        x, yE, z = xn, yE1, z1
+        active = z1 > s1
+        have = st == IP_SUCCESS
+    return X, m, how, yE, z, active, have
