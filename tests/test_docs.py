@@ -83,3 +83,22 @@ def test_guide_pages_are_in_the_index() -> None:
     index = (DOCS / "index.md").read_text(encoding="utf-8")
     for page in (DOCS / "guide").glob("*.md"):
         assert f"guide/{page.stem}\n" in index, page.name
+
+
+def test_every_public_name_has_a_docstring() -> None:
+    """Every public function and class of ``stackik`` and ``stackik.sqp`` (the API
+    reference's names) has a docstring beyond a one-word stub."""
+    import inspect
+
+    import stackik
+    import stackik.sqp
+
+    short = []
+    for module in (stackik, stackik.sqp):
+        for name in module.__all__:
+            obj = getattr(module, name)
+            if not name.startswith("__") and (callable(obj) or isinstance(obj, type)):
+                doc = inspect.getdoc(obj) or ""
+                if len(doc) < 40:
+                    short.append(f"{module.__name__}.{name}")
+    assert short == []

@@ -20,7 +20,13 @@ class OptionError(ValueError):
 
 
 class IKStatus(Enum):
-    """Outcome of :func:`solve_ik`."""
+    """Outcome of :func:`solve_ik` (``IKResult.status``); ``STATUS_MESSAGES`` has each one's text.
+
+    ``SUCCESS``: the pose passed the independent check (:func:`stackik.check_pose`);
+    ``INFEASIBLE``: no feasible pose was found (an unreachable target: ``q`` is the
+    least-violation pose); ``MAX_ITER`` / ``MAX_TIME``: the iteration or time limit ended
+    the search first; ``FAILED``: the solvers stopped without a checked pose.
+    """
 
     SUCCESS = "success"
     INFEASIBLE = "infeasible"

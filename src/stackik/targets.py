@@ -172,7 +172,12 @@ def target_to_dict(target: Target) -> dict[str, Any]:
 
 
 def target_from_dict(data: dict[str, Any]) -> Target:
-    """Inverse of :func:`target_to_dict`."""
+    """The target of a plain-data mapping, the inverse of :func:`target_to_dict`.
+
+    A mapping with ``position`` (3,) [mm] and ``rotation`` (3, 3) is a
+    :class:`SpatialTarget`; one with ``rho``, ``z`` [mm], ``theta`` [rad] and optionally
+    ``phi`` [rad] (default 0) a :class:`PlanarTarget`.
+    """
     if "position" in data:
         return SpatialTarget(data["position"], data["rotation"])
     return PlanarTarget(data["rho"], data["z"], data["theta"], data.get("phi", 0.0))
