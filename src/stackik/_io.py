@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import csv
+import json
+import tomllib
 from collections.abc import Sequence
 from enum import Enum
 from pathlib import Path
@@ -39,3 +41,22 @@ def json_default_lenient(obj: Any) -> Any:
         return json_default(obj)
     except TypeError:
         return str(obj)
+
+
+def read_data_file(path: Path, what: str, error: type[Exception]) -> Any:
+    """The parsed contents of a ``.toml`` or ``.json`` file (``what`` names it in messages:
+    "geometry file", "obstacle file"), or ``error`` saying why not: unreadable, an unknown
+    suffix, or not valid TOML/JSON."""
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise error(f"{path}: cannot read {what} ({exc.strerror})") from None
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".toml":
+            return tomllib.loads(raw.decode())
+        if suffix == ".json":
+            return json.loads(raw.decode())
+    except (tomllib.TOMLDecodeError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise error(f"{path}: not valid {suffix[1:].upper()} ({exc})") from None
+    raise error(f"{path}: unknown {what} type (use .toml or .json)")

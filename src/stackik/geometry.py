@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import tomllib
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,6 +16,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from stackik._io import read_data_file
 
 __all__ = ["GeometryError", "PlatformGeometry", "Stack", "finite_number"]
 
@@ -577,20 +578,7 @@ class Stack(Sequence[PlatformGeometry]):
             If the file cannot be parsed or a field is malformed (the message names it).
         """
         path = Path(path)
-        try:
-            raw = path.read_bytes()
-        except OSError as exc:
-            raise GeometryError(f"{path}: cannot read geometry file ({exc.strerror})") from None
-        suffix = path.suffix.lower()
-        try:
-            if suffix == ".toml":
-                data = tomllib.loads(raw.decode())
-            elif suffix == ".json":
-                data = json.loads(raw.decode())
-            else:
-                raise GeometryError(f"{path}: unknown geometry file type (use .toml or .json)")
-        except (tomllib.TOMLDecodeError, json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise GeometryError(f"{path}: not valid {suffix[1:].upper()} ({exc})") from None
+        data = read_data_file(path, "geometry file", GeometryError)
         try:
             return cls.from_dict(data)
         except GeometryError as exc:

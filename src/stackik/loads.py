@@ -37,6 +37,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from stackik._arrays import finite_array, readonly
 from stackik.geometry import Stack, finite_number
 from stackik.kinematics import lift_planar
 from stackik.platform import _check_phi, _cross, check_pose
@@ -81,21 +82,7 @@ _MM_PER_M = 1000.0  # N m -> N mm
 
 def _vector3(value: Any, name: str) -> FloatArray:
     """A finite (3,) float array (read-only), or a ValueError naming ``name``."""
-    if isinstance(value, str | bytes):
-        raise ValueError(f"{name}: expected 3 numbers, got {value!r}")
-    try:
-        raw = np.asarray(value)
-        if raw.dtype.kind not in "iuf":
-            raise TypeError(f"got elements of type {raw.dtype}")
-        arr = np.array(raw, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: expected 3 numbers ({exc})") from None
-    if arr.shape != (3,):
-        raise ValueError(f"{name}: expected 3 numbers, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: contains NaN or infinite values")
-    arr.setflags(write=False)
-    return arr
+    return readonly(finite_array(value, name, (3,)))
 
 
 @dataclass(frozen=True, eq=False)

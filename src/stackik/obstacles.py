@@ -9,9 +9,7 @@ check has no branch per obstacle kind.
 
 from __future__ import annotations
 
-import json
 import math
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,6 +19,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from stackik import distance as dist
+from stackik._arrays import finite_array, readonly
+from stackik._io import read_data_file
 from stackik.geometry import finite_number
 
 __all__ = [
@@ -39,19 +39,8 @@ FloatArray = NDArray[np.float64]
 
 
 def _vector(value: Any, name: str, shape: tuple[int, ...] = (3,)) -> FloatArray:
-    try:
-        raw = np.asarray(value)
-        if raw.dtype.kind not in "iuf":
-            raise TypeError(f"got elements of type {raw.dtype}")
-        arr = np.array(raw, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: expected an array of shape {shape} of numbers ({exc})") from None
-    if arr.shape != shape:
-        raise ValueError(f"{name}: expected shape {shape}, got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: contains NaN or infinite values")
-    arr.setflags(write=False)
-    return arr
+    """A finite float array of ``shape`` (read-only), or a ValueError naming ``name``."""
+    return readonly(finite_array(value, name, shape))
 
 
 def _radius(value: Any, name: str = "radius") -> float:
@@ -332,20 +321,7 @@ def load_obstacles(path: str | Path) -> tuple[Obstacle, ...]:
         the file and the field, e.g. ``obstacles[1].radius``).
     """
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise ValueError(f"{path}: cannot read obstacle file ({exc.strerror})") from None
-    suffix = path.suffix.lower()
-    try:
-        if suffix == ".toml":
-            data = tomllib.loads(raw.decode())
-        elif suffix == ".json":
-            data = json.loads(raw.decode())
-        else:
-            raise ValueError(f"{path}: unknown obstacle file type (use .toml or .json)")
-    except (tomllib.TOMLDecodeError, json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{path}: not valid {suffix[1:].upper()} ({exc})") from None
+    data = read_data_file(path, "obstacle file", ValueError)
     try:
         return obstacles_from_data(data)
     except ValueError as exc:
