@@ -515,3 +515,13 @@ def test_version_subprocess() -> None:
         [sys.executable, "-m", "stackik", "--version"], capture_output=True, text=True, timeout=60
     )
     assert proc.returncode == 0 and proc.stdout.strip() == f"stackik {stackik.__version__}"
+
+
+def test_help_texts_print_no_format_escapes(capsys: pytest.CaptureFixture[str]) -> None:
+    """Every subcommand's --help prints plain text: no '%%' left from argparse escaping
+    (descriptions are not %-formatted, help strings are)."""
+    for module in COMMANDS:
+        with pytest.raises(SystemExit):
+            main([module.NAME, "--help"])
+        out = capsys.readouterr().out
+        assert "%%" not in out, module.NAME

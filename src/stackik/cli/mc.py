@@ -51,7 +51,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help=HELP,
         description="Paper Algorithm 1: perturb the least-FN pose and NONOPT non-optimised "
         "poses of the same target with the same Gaussian noise and report the median "
-        "end-effector displacement, its 95%% interval and the F factor of the linear "
+        "end-effector displacement, its 95 % interval and the F factor of the linear "
         "estimate J C_x J^T.",
     )
     add_stack_args(p)
