@@ -522,6 +522,6 @@ def test_help_texts_print_no_format_escapes(capsys: pytest.CaptureFixture[str]) 
     (descriptions are not %-formatted, help strings are)."""
     for module in COMMANDS:
         with pytest.raises(SystemExit):
-            main([module.NAME, "--help"])
+            build_parser().parse_args([module.NAME, "--help"])
         out = capsys.readouterr().out
         assert "%%" not in out, module.NAME
