@@ -211,6 +211,34 @@ def test_cli_view_reads_solve_and_path_json(tmp_path, capsys):
     assert "expected a JSON object" in capsys.readouterr().err
 
 
+def test_cli_view_colours_legs_by_force_and_draws_obstacles(tmp_path, capsys):
+    """``--color force`` colours every leg by its force [N] (stackik.leg_forces under the
+    payload, earth gravity) on a scale symmetric about 0; ``--obstacles`` draws the file's."""
+    from stackik import Load, leg_forces
+    from stackik.cli import main
+    from stackik.cli.view import figure_of
+
+    doc = _solve_json(
+        Q_SPATIAL, "spatial", None, {"position": [0, 0, 1050], "euler_zyx": [0, 0, 0]}
+    )
+    fig = figure_of(doc, STACK, load=Load(mass=10.0))
+    want = leg_forces(STACK, Q_SPATIAL, Load(mass=10.0))
+    legs = [tr for tr in fig.data if tr.name == "legs"]
+    colours = np.concatenate([np.asarray(tr.line.color, dtype=float) for tr in legs])
+    assert set(np.round(want.ravel(), 6)) <= set(np.round(colours[np.isfinite(colours)], 6))
+    bar = legs[0].line
+    assert bar.cmin == -bar.cmax and bar.cmax >= np.abs(want).max() - 1e-9
+    pj = tmp_path / "pose.json"
+    pj.write_text(json.dumps(doc))
+    obs = tmp_path / "obstacles.json"
+    obs.write_text(json.dumps([{"type": "sphere", "center": [400, 0, 600], "radius": 50}]))
+    out = tmp_path / "force.html"
+    argv = ["view", str(pj), "--out", str(out), "--color", "force", "--payload-mass", "10"]
+    assert main([*argv, "--obstacles", str(obs)]) == 0 and out.stat().st_size > 1_000_000
+    assert main([*argv[:-1], "-1"]) == 2
+    assert "--payload-mass" in capsys.readouterr().err
+
+
 def test_cli_solve_html(tmp_path, capsys):
     from stackik.cli import main
 

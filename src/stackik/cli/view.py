@@ -40,6 +40,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                    help="HTML file to write (default: RESULT.html)")  # fmt: skip
     add_stack_args(p, n_help="number of platforms, for a file without its geometry")
     p.add_argument("--title", default=None, help="figure title")
+    p.add_argument("--color", choices=("margin", "force"), default="margin",
+                   help="leg colour: margin to the nearest limit (default), or leg force [N] "
+                   "(compression positive) under the stack's masses, the payload and "
+                   "earth gravity (stackik.statics)")  # fmt: skip
+    p.add_argument("--payload-mass", type=float, default=0.0, metavar="KG",
+                   help="payload [kg] at the end effector, for --color force (0)")  # fmt: skip
+    p.add_argument("--obstacles", type=Path, default=None, metavar="FILE",
+                   help="obstacles to draw (TOML/JSON list, stackik.load_obstacles)")  # fmt: skip
     return p
 
 
@@ -65,15 +73,29 @@ def _solve_target(data: dict[str, Any]) -> Any:
     return PlanarTarget(t["rho"], t["z"], t["theta"], t.get("phi", data.get("phi") or 0.0))
 
 
-def figure_of(data: dict[str, Any], stack: Stack, title: str | None = None) -> Any:
+def figure_of(
+    data: dict[str, Any],
+    stack: Stack,
+    title: str | None = None,
+    *,
+    load: Any = None,
+    obstacles: Any = None,
+) -> Any:
     """The :mod:`stackik.viz` figure of a solve (``q``) or path (``format: stackik-path``)
-    JSON document."""
+    JSON document; with a ``load`` (:class:`stackik.Load`) the legs are coloured by their
+    force [N] (:func:`stackik.leg_forces`, compression positive) instead of their margin."""
     from stackik import viz
 
     if data.get("format") == "stackik-path":
         from stackik.paths.result import PathResult
 
-        return viz.path_figure(stack, PathResult.from_dict(data), title=title)
+        path = PathResult.from_dict(data)
+        t0 = path.targets[0]
+        reached = path.q[: max(path.completed, 1)]  # the poses path_figure draws
+        extra = (
+            {} if load is None else _force_colours(stack, reached, load, getattr(t0, "phi", None))
+        )
+        return viz.path_figure(stack, path, title=title, obstacles=obstacles, **extra)
     if "q" not in data:
         raise CLIError("not a stackik result: expected `stackik solve --json` or path.json")
     import numpy as np
@@ -87,7 +109,29 @@ def figure_of(data: dict[str, Any], stack: Stack, title: str | None = None) -> A
         title = f"{stack.n}-platform stack, {data.get('mode', '')} pose, {ok}" + (
             f", FN {fn:.1f}" if isinstance(fn, int | float) else ""
         )
-    return viz.pose_figure(stack, q, phi=data.get("phi"), target=_solve_target(data), title=title)
+    phi = data.get("phi")
+    extra = {} if load is None else _force_colours(stack, q, load, phi)
+    return viz.pose_figure(
+        stack, q, phi=phi, target=_solve_target(data), title=title, obstacles=obstacles, **extra
+    )
+
+
+def _force_colours(stack: Stack, q: Any, load: Any, phi: float | None) -> dict[str, Any]:
+    """``pose_figure`` / ``path_figure`` keywords colouring the legs by force [N]: a
+    diverging scale symmetric about 0 (compression positive, tension negative)."""
+    import numpy as np
+
+    from stackik.loads import leg_forces
+
+    f = leg_forces(stack, np.asarray(q, dtype=float), load, phi=phi)
+    finite = np.abs(f[np.isfinite(f)])
+    top = float(finite.max()) if finite.size and finite.max() > 0 else 1.0
+    return {
+        "leg_values": np.nan_to_num(f, nan=0.0, posinf=top, neginf=-top),
+        "leg_values_title": "leg force [N]<br>(+ compression)",
+        "value_range": (-top, top),
+        "colorscale": "RdBu_r",
+    }
 
 
 def run(args: argparse.Namespace) -> int:
@@ -101,7 +145,23 @@ def run(args: argparse.Namespace) -> int:
         raise CLIError(f"{args.result}: not JSON ({exc})") from None
     if not isinstance(data, dict):
         raise CLIError(f"{args.result}: expected a JSON object")
-    fig = figure_of(data, _stack(data, args), args.title)
+    load = None
+    if args.color == "force":
+        from stackik.loads import Load
+
+        try:
+            load = Load(mass=args.payload_mass)
+        except ValueError as exc:
+            raise CLIError(f"--payload-mass: {exc}") from None
+    obstacles = None
+    if args.obstacles is not None:
+        from stackik.obstacles import load_obstacles
+
+        try:
+            obstacles = load_obstacles(args.obstacles)
+        except ValueError as exc:
+            raise CLIError(str(exc)) from None
+    fig = figure_of(data, _stack(data, args), args.title, load=load, obstacles=obstacles)
     out = args.out if args.out is not None else Path(args.result).with_suffix(".html")
     print(f"wrote {write_html(fig, out)}")
     return EXIT_OK
