@@ -210,7 +210,7 @@ def _result(req: Request, verdict: Verdict) -> IKResult:
     if status is IKStatus.SUCCESS and bool(np.isfinite(req.stack.force_max).any()):
         # The solvers do not know leg forces yet: a finite force_max is enforced by the
         # independent check alone, so a pose over it is refused here, never a success.
-        forces = check_pose(req.stack, req.target, q)
+        forces = chk if chk.statics is not None else check_pose(req.stack, req.target, q)
         if not forces.ok:
             status = IKStatus.FAILED
             message = FORCE_UNCHECKED_MESSAGE.format(ratio=forces.peak_force_ratio)
