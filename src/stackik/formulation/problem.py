@@ -21,11 +21,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from stackik._arrays import readonly
+from stackik.formulation.forces import ForceLimits, force_limited
 from stackik.formulation.modes import mode_of
 from stackik.formulation.planar import PlanarEvaluator
 from stackik.formulation.spatial import so3_log_fast, so3_right_jac_inv
 from stackik.geometry import Stack
 from stackik.kinematics import _J2, planar_fn_residuals, spatial_chain
+from stackik.loads import Load
 from stackik.targets import PlanarTarget, SpatialTarget, Target
 
 __all__ = ["POLISH_MARGIN", "POLISH_REACH", "Problem", "polish", "problem_scalings"]
@@ -77,8 +79,10 @@ class Problem:
         objective: str,
         weights: tuple[FloatArray, FloatArray] | None,
         x_ref: FloatArray | None = None,
+        load: Load | None = None,
     ) -> None:
         self.stack = stack
+        self.load = load
         self.target = target
         self.mode = mode_of(target)
         self.planar = self.mode.planar
@@ -105,6 +109,12 @@ class Problem:
         self._fn_cache: tuple[FloatArray, FloatArray] = (np.zeros(0), np.zeros((0, 0)))
         self._cache: tuple[Any, ...] | None = None
         self.nfev = 0
+        #: the leg-force limit rows (appended after the limits), or None: no finite force_max
+        self.forces = (
+            ForceLimits(stack, load, self.mode.phi(target)) if force_limited(stack) else None
+        )
+        #: number of inequality rows: the 24 n limits, then the force rows
+        self.n_ineq = self.cs.size + (0 if self.forces is None else self.forces.size)
 
     # --- index arrays (built on first use) ------------------------------------------
     @cached_property
@@ -201,6 +211,10 @@ class Problem:
             Jeq = np.vstack([Jp, Jphi]) * self.es[:, None] * self.xs
             cin = c.ravel() * self.cs
             Jin = block_jacobian(Jc, readonly(self.cs), readonly(self.xs))
+        if self.forces is not None:
+            c_f, J_f = self.forces(q)
+            cin = np.concatenate([cin, c_f])
+            Jin = np.vstack([Jin, J_f * self.xs])
         if self.objective == "feasible":
             f, g = 0.0, np.zeros(n * k)
         else:
@@ -233,7 +247,8 @@ class Problem:
         yp = y_eq[:2] * self.es[:2]
         v = (yp @ _J2) @ Jy[:2]  # (3n,)
         H_eq = self._theta_lo * v[self._hi]
-        H_in = self.fast.constraint_hessian(q, y_in * self.cs)
+        # (the force rows' curvature is not formed: engines use quasi-Newton with them)
+        H_in = self.fast.constraint_hessian(q, y_in[: self.cs.size] * self.cs)
         H = Hx - H_eq - H_in
         return H * np.outer(self.xs, self.xs)  # type: ignore[no-any-return]
 
