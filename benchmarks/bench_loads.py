@@ -205,9 +205,7 @@ def markdown(lines: list[dict[str, Any]], meta: dict[str, Any]) -> str:
         f"{BIND} x the peak leg force of the unloaded optimum (5 kg plates, 1.5 kg legs, "
         "4 kg payload, earth gravity); best known = least FN over IPOPT from "
         f"{meta['ref_starts']} starts and every other success of the row. Times are wall "
-        "times on a shared machine; the ratio is the median of per-target ratios.\n\n"
-        + head
-        + body
+        "times on a shared machine; the ratio is the median of per-target ratios.\n\n" + head + body
     )
 
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import math
 
+import fd
 import numpy as np
 import pytest
 
-import fd
 from stackik import (
     IKStatus,
     Load,

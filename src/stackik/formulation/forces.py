@@ -27,6 +27,8 @@ equalities instead: the two formulations check each other.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -37,6 +39,8 @@ from stackik.rotations import plane_axis
 __all__ = ["ForceLimits", "force_limited"]
 
 FloatArray = NDArray[np.float64]
+#: real or complex (the complex step passes through the same code)
+Array = NDArray[Any]
 
 #: Complex-step size: the imaginary part carries the derivative; any tiny value is exact.
 STEP = 1e-30
@@ -47,7 +51,7 @@ def force_limited(stack: Stack) -> bool:
     return bool(np.isfinite(stack.force_max).any())
 
 
-def _rot_zyx(a: NDArray[np.complex128]) -> NDArray[np.complex128]:
+def _rot_zyx(a: Array) -> Array:
     """``Rz(a0) Ry(a1) Rx(a2)`` for (..., 3) angles, real or complex, shape (..., 3, 3)."""
     c, s = np.cos(a), np.sin(a)
     cz, cy, cx = c[..., 0], c[..., 1], c[..., 2]
@@ -94,7 +98,7 @@ class ForceLimits:
             K = np.array([[0.0, -s[2], s[1]], [s[2], 0.0, -s[0]], [-s[1], s[0], 0.0]])
             self._plane = (np.array([np.cos(phi), np.sin(phi)]), np.eye(3), K, np.outer(s, s))
 
-    def _parts(self, q: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], ...]:
+    def _parts(self, q: Array) -> tuple[Array, ...]:
         """Per-platform translations (..., n, 3) and rotations (..., n, 3, 3) of poses
         (..., n, k), real or complex (the arithmetic of :func:`stackik.loads.leg_forces`'s
         pose parts, written without ``dtype=float`` so that the complex step passes)."""
@@ -106,14 +110,14 @@ class ForceLimits:
         c, s = np.cos(th)[..., None, None], np.sin(th)[..., None, None]
         return P, c * eye + s * K + (1.0 - c) * ss
 
-    def forces(self, q: FloatArray) -> NDArray[np.complex128]:
+    def forces(self, q: Array) -> Array:
         """Leg forces (..., n, 6) [N] of poses (..., n, k), compression positive (the
         limited platforms' only matter); complex in, complex out."""
         P, R = self._parts(q)
         G, w = _system(self.stack, P, R, self.load)
-        return -np.linalg.solve(G, w[..., None])[..., 0]  # type: ignore[no-any-return]
+        return -np.linalg.solve(G, w[..., None])[..., 0]
 
-    def _rows(self, f: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    def _rows(self, f: Array) -> Array:
         r = f[..., self.platforms, :] * self._inv[:, None]  # (..., p, 6)
         return np.concatenate([1.0 - r, 1.0 + r], axis=-1).reshape(f.shape[:-2] + (-1,))
 
@@ -121,7 +125,7 @@ class ForceLimits:
         """Row values (size,) at a pose (n, k); non-finite where a platform is singular."""
         q = np.asarray(q, dtype=float).reshape(self.stack.n, self.k)
         try:
-            return self._rows(self.forces(q)).real  # type: ignore[no-any-return]
+            return np.asarray(self._rows(self.forces(q)).real, dtype=float)
         except np.linalg.LinAlgError:
             return np.full(self.size, np.nan)
 

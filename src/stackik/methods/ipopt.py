@@ -333,9 +333,7 @@ def run_ipopt(
         par = target.y
     else:
         assert isinstance(target, SpatialTarget)
-        solver, lbg, ubg = _spatial_solver(
-            prob.stack, prob.objective, tuple(prob.xs), key, load
-        )
+        solver, lbg, ubg = _spatial_solver(prob.stack, prob.objective, tuple(prob.xs), key, load)
         par = np.concatenate(
             [
                 target.position,
@@ -344,7 +342,9 @@ def run_ipopt(
                 [prob.c0, prob.fscale],
             ]
         )
-    x0, lbx, ubx = u0, -np.inf, np.inf
+    x0: FloatArray = u0
+    lbx: Any = -np.inf
+    ubx: Any = np.inf
     if prob.forces is not None:  # the lifted forces start at the start pose's, clipped
         f0 = prob.forces.forces(prob.q_of(u0)).real[prob.forces.platforms]
         fmax = np.asarray(prob.stack.force_max, dtype=float)[prob.forces.platforms]

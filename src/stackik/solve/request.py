@@ -15,8 +15,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from stackik._arrays import finite_array
 from stackik.formulation import Mode, Problem, mode_of
-from stackik.loads import Load
 from stackik.geometry import Stack
+from stackik.loads import Load
 from stackik.methods import AUTO, Method, get_method
 from stackik.solve.blas import BlasLimit
 from stackik.solve.kernels import ensure_kernels
