@@ -149,3 +149,52 @@ def test_a_load_no_pose_can_carry_is_not_a_success() -> None:
 def test_load_must_be_a_load() -> None:
     with pytest.raises(ValueError, match="load"):
         solve_ik(Stack.reference(2), PlanarTarget(0.0, 700.0, 0.0), load={"mass": 1.0})
+
+
+def test_result_carries_leg_forces_margins_and_singularity() -> None:
+    """With a load (or a finite force_max) IKResult has the statics of its pose, equal to
+    stackik.statics, and they survive to_record/from_record; without either, None."""
+    import json
+
+    from stackik import IKResult, statics
+
+    stack, target, _ = _binding_stack(0.85)
+    load = Load(mass=0.0)
+    r = solve_ik(stack, target, load=load)
+    st = statics(stack, r.q, load, phi=target.phi)
+    assert r.leg_forces is not None and r.force_margin is not None
+    np.testing.assert_array_equal(r.leg_forces, st.leg_forces)
+    np.testing.assert_array_equal(r.force_margin, st.force_margin)
+    np.testing.assert_array_equal(r.sigma_min, st.sigma_min)
+    np.testing.assert_array_equal(r.condition, st.condition)
+    assert r.peak_force == pytest.approx(st.peak_force)
+    back = IKResult.from_record(json.loads(json.dumps(r.to_record())))
+    np.testing.assert_array_equal(back.leg_forces, r.leg_forces)
+    free = solve_ik(Stack.reference(2), PlanarTarget(0.0, 700.0, 0.0))
+    assert free.leg_forces is None and free.peak_force is None
+    assert free.to_dict()["leg_forces"] is None
+
+
+def test_cli_solve_load_options(capsys: pytest.CaptureFixture[str], tmp_path) -> None:
+    """stackik solve --payload-mass/--gravity/...: the load reaches the solve, the table
+    shows leg forces, margins and the singularity measure, JSON has them; bad values are
+    a clear CLI error naming the option."""
+    import json
+
+    from stackik.cli import main
+
+    geo = tmp_path / "g.toml"
+    geo.write_text("n = 4\n[platform.hexagonal]\nplate_mass = 5.0\nleg_mass = 1.5\n")
+    args = ["solve", "--geometry", str(geo), "--target", "600", "1000", "-1.57"]
+    assert main([*args, "--payload-mass", "2", "--gravity", "moon"]) == 0
+    out = capsys.readouterr().out
+    assert "Leg forces [N] (compression positive)" in out and "sigma_min" in out
+    assert main([*args, "--payload-mass", "2", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert len(data["leg_forces"]) == 4 and len(data["condition"]) == 4
+    assert main([*args, "--gravity", "0", "0", "-9.81", "--load-frame", "end_effector"]) == 0
+    capsys.readouterr()
+    assert main([*args, "--gravity", "jupiter"]) != 0
+    assert "gravity" in capsys.readouterr().err
+    assert main([*args, "--payload-mass", "-1"]) != 0
+    assert "mass" in capsys.readouterr().err

@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike
 from stackik.check import check_pose
 from stackik.formulation import mode_of, reach_bound
 from stackik.geometry import Stack
-from stackik.loads import Load
+from stackik.loads import Load, statics
 from stackik.result import STATUS_MESSAGES, IKResult, IKStatus
 from stackik.solve.blas import BlasLimit
 from stackik.solve.kernels import ensure_kernels
@@ -227,4 +227,21 @@ def _result(req: Request, verdict: Verdict) -> IKResult:
         leg_lengths=legs,
         phi=req.mode.phi(req.target),
         mode=req.mode.name,
+        **_statics_fields(req, chk, q),
     )
+
+
+def _statics_fields(req: Request, chk: Any, q: Any) -> dict[str, Any]:
+    """``IKResult``'s force fields: from the check when it computed them (a load given or a
+    finite ``force_max``), else none."""
+    if req.problem.load is None and req.problem.forces is None:
+        return {}
+    st = chk.statics
+    if st is None:
+        st = statics(req.stack, q, req.problem.load, phi=req.mode.phi(req.target))
+    return {
+        "leg_forces": st.leg_forces,
+        "force_margin": st.force_margin,
+        "sigma_min": st.sigma_min,
+        "condition": st.condition,
+    }
