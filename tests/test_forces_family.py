@@ -198,3 +198,25 @@ def test_cli_solve_load_options(capsys: pytest.CaptureFixture[str], tmp_path) ->
     assert "gravity" in capsys.readouterr().err
     assert main([*args, "--payload-mass", "-1"]) != 0
     assert "mass" in capsys.readouterr().err
+
+
+def test_payload_capacity_brackets_the_largest_payload() -> None:
+    """payload_capacity: the pose at ``mass`` carries it (independent check with that load),
+    ``upper`` is not carried, and they are within ``tol``; bad input is a ValueError."""
+    import dataclasses
+
+    from stackik import payload_capacity
+
+    g = PlatformGeometry.hexagonal(plate_mass=5.0, leg_mass=1.5, force_max=450.0)
+    stack = Stack.uniform(g, 4)
+    target = PlanarTarget(600.0, 1000.0, -1.57)
+    cap = payload_capacity(stack, target, tol=0.5)
+    assert 0.0 < cap.mass < cap.upper <= cap.mass + 0.5 and cap.result.success
+    chk = check_pose(stack, target, cap.result.q, Load(mass=cap.mass))
+    assert chk.ok and chk.peak_force_ratio <= 1 + 1e-6
+    over = solve_ik(stack, target, load=dataclasses.replace(Load(), mass=cap.upper))
+    assert not over.success
+    with pytest.raises(ValueError, match="force_max"):
+        payload_capacity(Stack.reference(2), PlanarTarget(0.0, 700.0, 0.0))
+    with pytest.raises(ValueError, match="tol"):
+        payload_capacity(stack, target, tol=0.0)
