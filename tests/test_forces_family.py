@@ -220,3 +220,44 @@ def test_payload_capacity_brackets_the_largest_payload() -> None:
         payload_capacity(Stack.reference(2), PlanarTarget(0.0, 700.0, 0.0))
     with pytest.raises(ValueError, match="tol"):
         payload_capacity(stack, target, tol=0.0)
+
+
+@pytest.mark.parametrize("kw", [dict(), dict(method="sqp"), dict(method="trust-constr")])
+def test_force_objective_balances_the_legs(kw: dict) -> None:
+    """objective="force" minimises the sum of squared scaled leg forces: its value equals
+    that sum at the returned pose and is below the least-FN pose's (with the same load and
+    force limit); "ip" refuses it with a clear error."""
+    g = PlatformGeometry.hexagonal(plate_mass=5.0, leg_mass=1.5, force_max=450.0)
+    stack = Stack.uniform(g, 4)
+    target = PlanarTarget(600.0, 1000.0, -1.57)
+    load = Load(mass=2.0)
+    fn_pose = solve_ik(stack, target, load=load)
+    r = solve_ik(stack, target, load=load, objective="force", **kw)
+    assert r.success and r.leg_forces is not None and fn_pose.leg_forces is not None
+    value = float(np.sum((r.leg_forces / 450.0) ** 2))
+    assert r.objective_value == pytest.approx(value, rel=1e-9)
+    assert value < 0.5 * float(np.sum((fn_pose.leg_forces / 450.0) ** 2))
+    assert r.frobenius_norm >= fn_pose.frobenius_norm * (1 - 1e-9)
+    with pytest.raises(ValueError, match="force"):
+        solve_ik(stack, target, objective="force", method="ip")
+
+
+@pytest.mark.derivatives
+def test_force_residuals_jacobian() -> None:
+    """The force objective's residual Jacobian (complex step) against Richardson central
+    differences of stackik.leg_forces, spatial, a mixed stack."""
+    from stackik.formulation.forces import ForceResiduals, force_scales
+
+    rng = np.random.default_rng(5)
+    stack = _mixed_stack(3)
+    q = _pose(False, 3, rng)
+    res = ForceResiduals(stack, LOAD, None)
+    r, J = res.residuals(q)
+    s = force_scales(stack)
+    np.testing.assert_allclose(r, (leg_forces(stack, q, LOAD) / s[:, None]).ravel(), atol=1e-12)
+
+    def values(x: np.ndarray) -> np.ndarray:
+        return (leg_forces(stack, x.reshape(q.shape), LOAD) / s[:, None]).ravel()
+
+    num = fd.central(values, q.ravel(), typical=np.tile(fd.TYPICAL_SPATIAL, 3), richardson=True)
+    fd.assert_derivative_close(J, num, f_scale=1.0 + float(np.abs(r).max()), what="force residuals")

@@ -36,7 +36,7 @@ from stackik.geometry import Stack
 from stackik.loads import Load, _load, _system
 from stackik.rotations import plane_axis
 
-__all__ = ["ForceLimits", "force_limited"]
+__all__ = ["ForceLimits", "ForceResiduals", "force_limited", "force_scales"]
 
 FloatArray = NDArray[np.float64]
 #: real or complex (the complex step passes through the same code)
@@ -143,3 +143,36 @@ class ForceLimits:
         except np.linalg.LinAlgError:
             return np.full(self.size, np.nan), np.full((self.size, N), np.nan)
         return rows[0].real, (rows[1:].imag / STEP).T
+
+
+def force_scales(stack: Stack) -> FloatArray:
+    """Per platform, the force [N] that the ``"force"`` objective divides its legs' forces
+    by: ``force_max`` where finite, else 1 N (unscaled). Shape (n,)."""
+    fmax = np.asarray(stack.force_max, dtype=float)
+    return np.where(np.isfinite(fmax), fmax, 1.0)
+
+
+class ForceResiduals(ForceLimits):
+    """The residuals of ``objective="force"``: ``r = f_ik / s_i`` for every leg of every
+    platform (``s = force_scales(stack)``), so that the objective ``|r|^2`` is the sum of
+    squared leg forces scaled by the force limits where they are finite (the load-balancing
+    pose); :meth:`residuals` gives ``r`` (6 n,) and its Jacobian (6 n, k n) by the complex
+    step, as the rows of :class:`ForceLimits`."""
+
+    def __init__(self, stack: Stack, load: Load | None, phi: float | None) -> None:
+        super().__init__(stack, load, phi)
+        self._scale = 1.0 / force_scales(stack)
+
+    def residuals(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """``r`` (6 n,) and ``dr/dq`` (6 n, k n) [unscaled q: mm, rad]; NaN if singular."""
+        n, k = self.stack.n, self.k
+        q = np.asarray(q, dtype=float).reshape(n, k)
+        N = n * k
+        Q = np.empty((N + 1, n, k), dtype=complex)
+        Q[:] = q
+        Q[1:].reshape(N, N)[np.arange(N), np.arange(N)] += 1j * STEP
+        try:
+            r = (self.forces(Q) * self._scale[:, None]).reshape(N + 1, 6 * n)
+        except np.linalg.LinAlgError:
+            return np.full(6 * n, np.nan), np.full((6 * n, N), np.nan)
+        return r[0].real.copy(), (r[1:].imag / STEP).T

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from stackik._arrays import readonly
-from stackik.formulation.forces import ForceLimits, force_limited
+from stackik.formulation.forces import ForceLimits, ForceResiduals, force_limited
 from stackik.formulation.modes import mode_of
 from stackik.formulation.planar import PlanarEvaluator
 from stackik.formulation.spatial import so3_log_fast, so3_right_jac_inv
@@ -113,6 +113,10 @@ class Problem:
         self.forces = (
             ForceLimits(stack, load, self.mode.phi(target)) if force_limited(stack) else None
         )
+        #: objective="force": the scaled leg forces as residuals (stackik.formulation.forces)
+        self.force_residuals = (
+            ForceResiduals(stack, load, self.mode.phi(target)) if objective == "force" else None
+        )
         #: number of inequality rows: the 24 n limits, then the force rows
         self.n_ineq = self.cs.size + (0 if self.forces is None else self.forces.size)
 
@@ -160,6 +164,9 @@ class Problem:
     def gauss_newton(self, u: FloatArray) -> tuple[FloatArray, FloatArray]:
         if self.objective == "feasible":
             return np.zeros(1), np.zeros((1, u.size))
+        if self.force_residuals is not None:
+            r, Jr = self.force_residuals.residuals(self.q_of(u))
+            return r, Jr * self.xs
         gc = self._gn_cache
         if gc is not None and np.array_equal(gc[0], u):
             return gc[1], gc[2]
@@ -217,6 +224,11 @@ class Problem:
             Jin = np.vstack([Jin, J_f * self.xs])
         if self.objective == "feasible":
             f, g = 0.0, np.zeros(n * k)
+        elif self.force_residuals is not None:  # |r|^2 of the scaled leg forces
+            r, Jr = self.force_residuals.residuals(q)
+            Jr = Jr * self.xs
+            self._gn_cache = (u.copy(), r, Jr)
+            f, g = float(r @ r), 2.0 * Jr.T @ r
         else:
             if self.fast is not None:
                 sc = 1.0 / math.sqrt(self.fscale)
@@ -256,6 +268,8 @@ class Problem:
         """Unscaled objective value at q."""
         if self.objective == "feasible":
             return 0.0
+        if self.force_residuals is not None:
+            return float(np.sum(self.force_residuals.residuals(q)[0] ** 2))
         r, _ = self.residuals(q)
         return float(self.c0 + r @ r)
 

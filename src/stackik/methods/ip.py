@@ -265,6 +265,8 @@ class IPMethod(Method):
     uses_blas: ClassVar[bool] = False
 
     def supports(self, prob: Problem) -> str | None:
+        if prob.objective == "force":
+            return 'method "ip" does not take objective="force"; use "auto", "slsqp" or "sqp"'
         if prob.planar and prob.objective == "weighted" and np.ptp(prob.w_th) != 0:
             return 'method "ip" needs one sigma_theta for all platforms; use "sqp"'
         return None

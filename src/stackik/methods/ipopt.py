@@ -367,6 +367,8 @@ class IpoptMethod(Method):
     modes: ClassVar[frozenset[str]] = frozenset({"planar", "spatial"})
 
     def supports(self, prob: Problem) -> str | None:
+        if prob.objective == "force":
+            return 'method "ipopt" does not take objective="force"; use "auto", "slsqp" or "sqp"'
         return None  # run_ipopt reports what it cannot do as an OptionError
 
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:

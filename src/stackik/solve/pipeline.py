@@ -37,7 +37,7 @@ def solve_ik(
     stack: Stack,
     target: Target,
     *,
-    objective: Literal["frobenius", "feasible", "weighted"] = "frobenius",
+    objective: Literal["frobenius", "feasible", "weighted", "force"] = "frobenius",
     method: MethodName = "auto",
     qp_solver: str | None = None,
     x0: ArrayLike | None = None,
@@ -63,6 +63,10 @@ def solve_ik(
         target within the limits (the paper's non-optimised pose: the first feasible pose
         the solver reaches from its start); ``"weighted"`` minimises ``trace(J C_x J^T)``
         with ``C_x = diag(sigma_t^2, ..., sigma_theta^2)`` (per platform if arrays).
+        ``"force"`` minimises the sum of squared leg forces, each divided by its
+        platform's ``force_max`` where finite (else in N): the load-balancing pose under
+        ``load`` (:class:`stackik.formulation.forces.ForceResiduals`; methods ``"slsqp"``
+        (the ``"auto"`` choice), ``"sqp"``, ``"trust-constr"``).
     method : {"auto", "sqp", "ip", "slsqp", "trust-constr", "ipopt"}
         ``"ip"``: stackik's compiled primal-dual interior-point solver (planar:
         :mod:`stackik._compiled.planar`; spatial: :mod:`stackik._compiled.spatial`, exact second
@@ -234,7 +238,8 @@ def _result(req: Request, verdict: Verdict) -> IKResult:
 def _statics_fields(req: Request, chk: Any, q: Any) -> dict[str, Any]:
     """``IKResult``'s force fields: from the check when it computed them (a load given or a
     finite ``force_max``), else none."""
-    if req.problem.load is None and req.problem.forces is None:
+    prob = req.problem
+    if prob.load is None and prob.forces is None and prob.force_residuals is None:
         return {}
     st = chk.statics
     if st is None:

@@ -81,6 +81,8 @@ def auto_method(
     """
     from stackik.methods.ip import IP_DEFAULTS
 
+    if objective == "force":  # the leg forces' residuals: no compiled kernel has them
+        return "sqp" if qp_solver is not None else FORCE_METHOD
     if objective == "feasible" or qp_solver is not None:
         return "sqp"
     if options and any(key not in IP_DEFAULTS for key in options):

@@ -28,7 +28,7 @@ __all__ = ["OBJECTIVES", "Request", "build_request", "sigma_weights"]
 
 FloatArray = NDArray[np.float64]
 
-OBJECTIVES = ("frobenius", "feasible", "weighted")
+OBJECTIVES = ("frobenius", "feasible", "weighted", "force")
 
 
 @dataclass
