@@ -573,21 +573,25 @@ def test_geometry_statics_fields_round_trip(tmp_path):
     assert "plate 5 kg, each leg 1.5 kg, leg force limit 300 N" in describe_stack(stack)
 
 
-# --- solves with a finite force limit (the solvers do not enforce it yet) -------------
+# --- solves with a finite force limit -----------------------------------------------
 
 
 def test_solve_ik_never_calls_a_pose_over_its_force_limit_a_success() -> None:
-    """A finite ``force_max`` is enforced by the independent check on the final pose: a pose
-    within every leg and joint limit but over its force limit is FAILED, with the peak ratio
-    in the message; a limit the pose keeps leaves the verdict a success."""
-    from stackik import IKStatus, PlanarTarget, solve_ik
+    """A finite ``force_max`` is enforced (the solvers keep it; the check decides): the
+    result is a success only with every leg within its limit, and a pose within every
+    leg and joint limit that only its forces fail is never a success; a limit the
+    unconstrained pose keeps leaves the verdict a success."""
+    from stackik import PlanarTarget, solve_ik
 
     target = PlanarTarget(600.0, 1000.0, -1.57)
     tight = PlatformGeometry.hexagonal(plate_mass=5.0, leg_mass=1.5, force_max=200.0)
     r = solve_ik(Stack((tight,) * 4), target)
-    assert r.status is IKStatus.FAILED and not r.success
-    assert "force" in r.message and "x force_max" in r.message
-    assert check_pose(Stack((tight,) * 4), target, r.q).peak_force_ratio > 1.0
+    chk = check_pose(Stack((tight,) * 4), target, r.q)
+    assert r.success == chk.ok
+    if not r.success:
+        assert chk.peak_force_ratio > 1.0 or chk.max_violation_mm > 1e-6
+    else:
+        assert chk.peak_force_ratio <= 1.0 + 1e-6
     loose = PlatformGeometry.hexagonal(plate_mass=5.0, leg_mass=1.5, force_max=1e6)
     assert solve_ik(Stack((loose,) * 4), target).success
 

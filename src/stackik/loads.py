@@ -222,8 +222,9 @@ def _system(
     n = stack.n
     batch = P.shape[:-2]
     # chain: A[i] = orientation of plate i, O[i] = its origin (base frame) [mm]
-    A = np.empty(batch + (n + 1, 3, 3))
-    O = np.empty(batch + (n + 1, 3))
+    dtype = np.result_type(P, R)  # complex too: stackik.formulation.forces differentiates
+    A = np.empty(batch + (n + 1, 3, 3), dtype=dtype)  # by the complex step through here
+    O = np.empty(batch + (n + 1, 3), dtype=dtype)
     A[..., 0, :, :] = np.eye(3)
     O[..., 0, :] = 0.0
     for i in range(n):
@@ -234,7 +235,7 @@ def _system(
     # legs in each bottom plate's frame; unit directions; moment arms about the top centre
     Rt = np.einsum("...ij,...kj->...ki", R, stack.top_nodes)  # (..., n, 6, 3)
     l = Rt + P[..., None, :] - stack.base_nodes
-    u = l / np.linalg.norm(l, axis=-1, keepdims=True)
+    u = l / np.sqrt(np.sum(l * l, axis=-1, keepdims=True))  # (no abs: complex-step safe)
     L = characteristic_length(stack)
     G = np.concatenate([u, _cross(Rt, u) / L[:, None, None]], axis=-1)  # (..., n, 6 legs, 6)
     G = np.swapaxes(G, -1, -2)  # columns = legs

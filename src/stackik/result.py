@@ -85,6 +85,16 @@ class IKResult:
         Actuator lengths [mm].
     phi : float or None
         Plane azimuth of a planar solve.
+    leg_forces : ndarray, shape (n, 6), or None
+        Axial leg forces at ``q`` [N], compression positive (:func:`stackik.leg_forces`),
+        under the solve's load; computed when a ``load`` was given or some ``force_max``
+        is finite, else None. ``inf`` on a singular platform.
+    force_margin : ndarray, shape (n, 6), or None
+        ``force_max - |f|`` per leg [N] (negative = over the limit, ``inf`` without one).
+    sigma_min, condition : ndarray, shape (n,), or None
+        Per platform, the smallest singular value and the condition number of its leg
+        wrench matrix made dimensionless by the characteristic length
+        (:func:`stackik.wrench_conditioning`): the distance to a singularity.
     """
 
     q: FloatArray
@@ -108,6 +118,15 @@ class IKResult:
     phi: float | None = None
     mode: str = "planar"
     info: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    leg_forces: FloatArray | None = field(default=None, compare=False)
+    force_margin: FloatArray | None = field(default=None, compare=False)
+    sigma_min: FloatArray | None = field(default=None, compare=False)
+    condition: FloatArray | None = field(default=None, compare=False)
+
+    @property
+    def peak_force(self) -> float | None:
+        """Largest ``|f|`` over every leg [N], or None when forces were not computed."""
+        return None if self.leg_forces is None else float(np.abs(self.leg_forces).max())
 
     def to_record(self) -> dict[str, Any]:
         """Lossless JSON-ready form (floats round-trip exactly); see :meth:`from_record`."""
@@ -147,6 +166,7 @@ class IKResult:
             phi=None if d.get("phi") is None else float(d["phi"]),
             mode=str(d.get("mode", "planar")),
             info=dict(d.get("info", {})),
+            **{k: _array_or_none(d.get(k)) for k in STATICS_KEYS},
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -170,7 +190,19 @@ class IKResult:
             "qp_solver": self.qp_solver,
             "n_starts": self.n_starts,
             "leg_lengths": self.leg_lengths.tolist(),
+            **{
+                k: None if getattr(self, k) is None else getattr(self, k).tolist()
+                for k in STATICS_KEYS
+            },
         }
+
+
+#: The optional statics fields of a result (None when forces were not computed).
+STATICS_KEYS = ("leg_forces", "force_margin", "sigma_min", "condition")
+
+
+def _array_or_none(v: Any) -> FloatArray | None:
+    return None if v is None else np.array(v, dtype=float)
 
 
 def _jsonable(v: Any) -> bool:

@@ -359,3 +359,52 @@ def call_entry(module: str, names: Sequence[str], argv: list[str], what: str) ->
         return not_available(what, exc)
     rc = fn(argv)
     return int(rc) if rc is not None else EXIT_OK
+
+
+def add_load_arguments(p: argparse.ArgumentParser) -> None:
+    """The load options (``stackik.Load``): payload, external wrench, frame, gravity."""
+    g = p.add_argument_group("load (leg forces; enforced where force_max is finite)")
+    g.add_argument("--payload-mass", type=finite_float, default=None, metavar="KG",
+                   help="payload [kg] at the end-effector origin")  # fmt: skip
+    g.add_argument("--payload-force", nargs=3, type=finite_float, default=None,
+                   metavar=("FX", "FY", "FZ"),
+                   help="external force on the end effector [N]")  # fmt: skip
+    g.add_argument("--payload-moment", nargs=3, type=finite_float, default=None,
+                   metavar=("MX", "MY", "MZ"),
+                   help="external moment about the end-effector origin [N m]")  # fmt: skip
+    g.add_argument("--load-frame", choices=("base", "end_effector"), default="base",
+                   help="frame of --payload-force/--payload-moment (base)")  # fmt: skip
+    g.add_argument("--gravity", nargs="+", default=None, metavar="G",
+                   help="earth, moon, mars, none, or GX GY GZ [m/s^2] in the base frame "
+                   "(earth)")  # fmt: skip
+
+
+def load_of(args: argparse.Namespace) -> Any:
+    """The :class:`stackik.Load` of the load options, or None when none is given."""
+    given = (args.payload_mass, args.payload_force, args.payload_moment, args.gravity)
+    if all(v is None for v in given) and args.load_frame == "base":
+        return None
+    from stackik.loads import Load
+
+    gravity: Any = "earth"
+    if args.gravity is not None:
+        if len(args.gravity) == 1:
+            gravity = args.gravity[0]
+        elif len(args.gravity) == 3:
+            try:
+                gravity = [finite_float(v) for v in args.gravity]
+            except argparse.ArgumentTypeError as exc:
+                raise CLIError(f"--gravity: {exc}") from None
+        else:
+            raise CLIError("--gravity: a preset name or three numbers GX GY GZ [m/s^2]")
+    zero: Any = (0.0, 0.0, 0.0)
+    try:
+        return Load(
+            force=args.payload_force or zero,
+            moment=args.payload_moment or zero,
+            frame=args.load_frame,
+            mass=0.0 if args.payload_mass is None else args.payload_mass,
+            gravity=gravity,
+        )
+    except ValueError as exc:
+        raise CLIError(f"load: {exc}") from None

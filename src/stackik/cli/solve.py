@@ -13,12 +13,14 @@ from ._common import (
     EXIT_INFEASIBLE,
     EXIT_OK,
     CLIError,
+    add_load_arguments,
     add_method_args,
     add_planar_target_args,
     add_stack_args,
     add_starts_arg,
     dump_json,
     finite_float,
+    load_of,
     load_stack,
     planar_target,
     resolve_qp,
@@ -91,6 +93,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument("--html", type=Path, default=None, metavar="FILE",
                    help="also write an interactive 3D view of the pose (needs plotly)")  # fmt: skip
+    add_load_arguments(p)
     return p
 
 
@@ -122,6 +125,30 @@ def pose_margins(stack: Stack, result: IKResult) -> dict[str, list[float]]:
         "joint_base_deg": (ang_base - jmin).min(axis=1).tolist(),
         "joint_top_deg": (ang_top - jmin).min(axis=1).tolist(),
     }
+
+
+def _force_lines(result: IKResult) -> list[str]:
+    """The leg-force block of the table (when the solve computed forces)."""
+    if result.leg_forces is None or result.force_margin is None:
+        return []
+    assert result.sigma_min is not None and result.condition is not None
+    lines = [
+        "",
+        "Leg forces [N] (compression positive), least force margin [N], singularity measure:",
+        f"{'i':>2} " + " ".join(f"{'f' + str(k + 1):>8}" for k in range(6))
+        + f"  {'margin':>8} {'sigma_min':>9} {'cond':>8}",
+    ]  # fmt: skip
+    for i, f in enumerate(result.leg_forces):
+        m = float(result.force_margin[i].min())
+        lines.append(
+            f"{i + 1:>2} " + " ".join(f"{v:>8.1f}" for v in f)
+            + f"  {m:>8.3g} {result.sigma_min[i]:>9.3g} {result.condition[i]:>8.3g}"
+        )  # fmt: skip
+    lines.append(
+        "  margin = force_max - |f| (inf: no limit; negative = over it); sigma_min, cond: "
+        "of the leg wrench matrix made dimensionless (0 / inf = singular)"
+    )
+    return lines
 
 
 def format_result(stack: Stack, result: IKResult) -> str:
@@ -160,6 +187,7 @@ def format_result(stack: Stack, result: IKResult) -> str:
         "  margins: >lmin = min |l| - leg_min, <lmax = leg_max - max |l|, jb/jt = leg-plate "
         f"angle - joint_min at base/top (worst {worst:.3g}; negative = violated)"
     )
+    lines += _force_lines(result)
     lines.append("")
     width = 16
     headline, details = split_message(result.message)
@@ -255,6 +283,7 @@ def run(args: argparse.Namespace) -> int:
         starts=args.starts,
         rng=args.seed,
         start=args.start,
+        load=load_of(args),
         **kwargs,
     )
     if args.json:

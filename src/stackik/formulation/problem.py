@@ -21,11 +21,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from stackik._arrays import readonly
+from stackik.formulation.forces import ForceLimits, ForceResiduals, force_limited
 from stackik.formulation.modes import mode_of
 from stackik.formulation.planar import PlanarEvaluator
 from stackik.formulation.spatial import so3_log_fast, so3_right_jac_inv
 from stackik.geometry import Stack
 from stackik.kinematics import _J2, planar_fn_residuals, spatial_chain
+from stackik.loads import Load
 from stackik.targets import PlanarTarget, SpatialTarget, Target
 
 __all__ = ["POLISH_MARGIN", "POLISH_REACH", "Problem", "polish", "problem_scalings"]
@@ -77,8 +79,10 @@ class Problem:
         objective: str,
         weights: tuple[FloatArray, FloatArray] | None,
         x_ref: FloatArray | None = None,
+        load: Load | None = None,
     ) -> None:
         self.stack = stack
+        self.load = load
         self.target = target
         self.mode = mode_of(target)
         self.planar = self.mode.planar
@@ -105,6 +109,16 @@ class Problem:
         self._fn_cache: tuple[FloatArray, FloatArray] = (np.zeros(0), np.zeros((0, 0)))
         self._cache: tuple[Any, ...] | None = None
         self.nfev = 0
+        #: the leg-force limit rows (appended after the limits), or None: no finite force_max
+        self.forces = (
+            ForceLimits(stack, load, self.mode.phi(target)) if force_limited(stack) else None
+        )
+        #: objective="force": the scaled leg forces as residuals (stackik.formulation.forces)
+        self.force_residuals = (
+            ForceResiduals(stack, load, self.mode.phi(target)) if objective == "force" else None
+        )
+        #: number of inequality rows: the 24 n limits, then the force rows
+        self.n_ineq = self.cs.size + (0 if self.forces is None else self.forces.size)
 
     # --- index arrays (built on first use) ------------------------------------------
     @cached_property
@@ -150,6 +164,9 @@ class Problem:
     def gauss_newton(self, u: FloatArray) -> tuple[FloatArray, FloatArray]:
         if self.objective == "feasible":
             return np.zeros(1), np.zeros((1, u.size))
+        if self.force_residuals is not None:
+            r, Jr = self.force_residuals.residuals(self.q_of(u))
+            return r, Jr * self.xs
         gc = self._gn_cache
         if gc is not None and np.array_equal(gc[0], u):
             return gc[1], gc[2]
@@ -201,8 +218,17 @@ class Problem:
             Jeq = np.vstack([Jp, Jphi]) * self.es[:, None] * self.xs
             cin = c.ravel() * self.cs
             Jin = block_jacobian(Jc, readonly(self.cs), readonly(self.xs))
+        if self.forces is not None:
+            c_f, J_f = self.forces(q)
+            cin = np.concatenate([cin, c_f])
+            Jin = np.vstack([Jin, J_f * self.xs])
         if self.objective == "feasible":
             f, g = 0.0, np.zeros(n * k)
+        elif self.force_residuals is not None:  # |r|^2 of the scaled leg forces
+            r, Jr = self.force_residuals.residuals(q)
+            Jr = Jr * self.xs
+            self._gn_cache = (u.copy(), r, Jr)
+            f, g = float(r @ r), 2.0 * Jr.T @ r
         else:
             if self.fast is not None:
                 sc = 1.0 / math.sqrt(self.fscale)
@@ -233,7 +259,8 @@ class Problem:
         yp = y_eq[:2] * self.es[:2]
         v = (yp @ _J2) @ Jy[:2]  # (3n,)
         H_eq = self._theta_lo * v[self._hi]
-        H_in = self.fast.constraint_hessian(q, y_in * self.cs)
+        # (the force rows' curvature is not formed: engines use quasi-Newton with them)
+        H_in = self.fast.constraint_hessian(q, y_in[: self.cs.size] * self.cs)
         H = Hx - H_eq - H_in
         return H * np.outer(self.xs, self.xs)  # type: ignore[no-any-return]
 
@@ -241,6 +268,8 @@ class Problem:
         """Unscaled objective value at q."""
         if self.objective == "feasible":
             return 0.0
+        if self.force_residuals is not None:
+            return float(np.sum(self.force_residuals.residuals(q)[0] ** 2))
         r, _ = self.residuals(q)
         return float(self.c0 + r @ r)
 

@@ -132,7 +132,7 @@ class Method:
             u = u0
         u = polish(prob, u)
         q = prob.q_of(u)
-        chk = check_pose(prob.stack, prob.target, q)
+        chk = check_pose(prob.stack, prob.target, q, prob.load)
         status = RunStatus.ERROR if text.startswith("error:") else run_status(text)
         return Run(q, nit, status, chk, prob.objective_value(q), detail=text)
 

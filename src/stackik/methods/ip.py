@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -187,13 +187,17 @@ class IPBatch:
 
     ``best``: the best run that passes the check (None when none does); ``least``: the
     least-violation run among those checked otherwise; ``nit``: iterations over all
-    starts; ``statuses``: the solver's status per start.
+    starts; ``statuses``: the solver's status per start; ``bound``: with leg force limits
+    (which the compiled kernels do not see), the poses of the runs that ranked before
+    ``best`` (lower objective, near feasible) and failed the check only on their forces:
+    starts for an engine that enforces them (:func:`stackik.solve.stages.ip_stage`).
     """
 
     best: Run | None
     least: Run | None
     nit: int
     statuses: list[RunStatus]
+    bound: list[Run] = field(default_factory=list)
 
 
 def ip_starts(
@@ -203,7 +207,7 @@ def ip_starts(
     the independent check (tried in order of objective among the runs within
     :data:`RANK_VIOLATION` of feasibility), or the least-violation run when none passes."""
     from stackik._compiled.check import planar_check
-    from stackik.check import check_pose
+    from stackik.check import check_pose, pose_ok
     from stackik.clearance import needs_clearances
 
     U0 = np.stack([prob.u_of(q) for q in starts])
@@ -217,29 +221,38 @@ def ip_starts(
     statuses = [run_status(t) for t in texts]
     order = sorted(range(len(starts)), key=lambda j: (not viols[j] <= RANK_VIOLATION, objs[j]))
     least: Run | None = None
+    bound: list[Run] = []
     total = int(np.sum(nits))
     for j in order:
         q = prob.q_of(X[j])
         if prob.planar:
             # the independent re-check (compiled; same values as check_pose, tested)
             chk, P, R, legs = planar_check(prob.stack, prob.target, q)
-            if chk.ok and needs_clearances(prob.stack):  # legs with a radius: the twin
-                chk = check_pose(prob.stack, prob.target, q)  # checks no clearance
+            if chk.ok and (needs_clearances(prob.stack) or prob.forces is not None):
+                # legs with a radius or a force limit: the twin checks neither
+                chk = check_pose(prob.stack, prob.target, q, prob.load)
             # the objective at the polished point, unscaled (f = objective / fscale)
             obj = objs[j] * prob.fscale
             run = Run(q, int(nits[j]), statuses[j], chk, obj, (P, R, legs), texts[j])
         else:  # polished here, only the runs checked (Problem's rotation-vector form)
             q = prob.q_of(polish(prob, X[j]))
-            chk = check_pose(prob.stack, prob.target, q)
+            chk = check_pose(prob.stack, prob.target, q, prob.load)
             obj = prob.objective_value(q)
             run = Run(q, int(nits[j]), statuses[j], chk, obj, None, texts[j])
         if chk.ok:
-            return IPBatch(run, least, total, statuses)
+            return IPBatch(run, least, total, statuses, bound)
+        if prob.forces is not None and pose_ok(
+            chk.position_error,
+            chk.angle_error,
+            max(chk.max_violation_mm, chk.clearance_violation),
+            True,
+        ):
+            bound.append(run)  # at the target within every limit, over a force limit
         if least is None or chk.max_violation_mm < least.check.max_violation_mm:
             least = run
         if viols[j] > RANK_VIOLATION:  # the rest are farther off: stop checking
             break
-    return IPBatch(None, least, total, statuses)
+    return IPBatch(None, least, total, statuses, bound)
 
 
 class IPMethod(Method):
@@ -252,6 +265,8 @@ class IPMethod(Method):
     uses_blas: ClassVar[bool] = False
 
     def supports(self, prob: Problem) -> str | None:
+        if prob.objective == "force":
+            return 'method "ip" does not take objective="force"; use "auto", "slsqp" or "sqp"'
         if prob.planar and prob.objective == "weighted" and np.ptp(prob.w_th) != 0:
             return 'method "ip" needs one sigma_theta for all platforms; use "sqp"'
         return None

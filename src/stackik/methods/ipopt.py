@@ -67,6 +67,67 @@ def _nlpsol(ca: Any, name: str, nlp: dict[str, Any], user: tuple[tuple[str, Any]
         raise OptionError(f"options: IPOPT rejected them ({msg})") from None
 
 
+def _force_equilibrium(
+    ca: Any, stack: Stack, load: Any, O: list[Any], A: list[Any], sf: Any
+) -> list[Any]:
+    """Equilibrium equalities of the lifted leg forces (the loads issue's lifted form,
+    written apart from :mod:`stackik.loads` and :mod:`stackik.formulation.forces`, which
+    eliminate the forces): for each platform i with a finite ``force_max``, the body above
+    its legs is in equilibrium in the **base frame**, moments about the base origin,
+
+        sum_k f_k u_k + F_i = 0,    sum_k T_k x (f_k u_k) + M_i = 0,
+
+    with ``f_k = force_max_i sf_k`` (``sf``: the scaled forces, bounds [-1, 1]),
+    compression positive (leg k pushes its top joint ``T_k`` along the unit leg vector
+    ``u_k`` from its bottom joint), ``F_i, M_i`` the weight of every mass above the cut
+    (plates i..n at their origins, leg halves at their joints, the payload at the end
+    effector plus its offset) and the external wrench. Rows divided by ``force_max_i``
+    (forces) and ``force_max_i r_i`` (moments, ``r_i`` the largest top-node radius).
+    ``O[j]``, ``A[j]``: origin [mm] and orientation of plate j (0 = base), symbolic."""
+    n = stack.n
+    fmax = np.asarray(stack.force_max, dtype=float)
+    g = np.asarray(load.g, dtype=float)
+    half = 0.5 * np.asarray(stack.leg_mass, dtype=float)
+    T = [[O[i + 1] + A[i + 1] @ stack.top_nodes[i, k] for k in range(6)] for i in range(n)]
+    B = [[O[i] + A[i] @ stack.base_nodes[i, k] for k in range(6)] for i in range(n)]
+    F_ext = np.asarray(load.force, dtype=float)
+    M_ext = np.asarray(load.moment, dtype=float) * 1000.0  # N m -> N mm
+    if load.frame == "end_effector":
+        F_ext, M_ext = A[n] @ F_ext, A[n] @ M_ext
+    ee = O[n]
+    rows: list[Any] = []
+    col = 0
+    for i in np.flatnonzero(np.isfinite(fmax)):
+        # the masses above platform i's legs: (kg, position)
+        masses: list[tuple[float, Any]] = [(float(half[i]), T[i][k]) for k in range(6)]
+        for j in range(i, n):
+            masses.append((float(stack.plate_mass[j]), O[j + 1]))
+        for j in range(i + 1, n):
+            masses += [(float(half[j]), T[j][k]) for k in range(6)]
+            masses += [(float(half[j]), B[j][k]) for k in range(6)]
+        masses.append((float(load.mass), O[n] + A[n] @ np.asarray(load.com, dtype=float)))
+        force: Any = F_ext + sum(m for m, _ in masses) * g
+        moment: Any = M_ext + ca.cross(ee, F_ext)
+        for m, r in masses:
+            if m != 0.0:
+                moment = moment + ca.cross(r, m * g)
+        for k in range(6):
+            leg = T[i][k] - B[i][k]
+            fk = fmax[i] * sf[col + k] * leg / ca.sqrt(ca.dot(leg, leg))
+            force = force + fk
+            moment = moment + ca.cross(T[i][k], fk)
+        col += 6
+        arm = float(np.linalg.norm(stack.top_nodes[i], axis=1).max())
+        rows += [force / fmax[i], moment / (fmax[i] * arm)]
+    return rows
+
+
+def _lift_forces(ca: Any, stack: Stack, load: Any) -> tuple[Any, int]:
+    """The scaled force variables of the platforms with a finite ``force_max`` (or None)."""
+    m = 6 * int(np.isfinite(stack.force_max).sum()) if load is not None else 0
+    return (ca.SX.sym("sf", m) if m else None), m
+
+
 @lru_cache(maxsize=32)
 def _solver(
     stack: Stack,
@@ -74,6 +135,7 @@ def _solver(
     objective: str,
     xs: tuple[float, ...],
     user: tuple[tuple[str, Any], ...] = (),
+    load: Any = None,
 ) -> Any:
     ca = _casadi()
     n = stack.n
@@ -118,11 +180,25 @@ def _solver(
             rows[2].append((lz - nrm * sj) / lm)
             rows[3].append((c * lz - s * lf - nrm * sj) / lm)
         g_in += rows[0] + rows[1] + rows[2] + rows[3]
-    g = ca.vertcat(g_eq, *g_in)
-    nlp = {"x": u, "p": p, "f": f, "g": g}
+    sf, m = _lift_forces(ca, stack, load)
+    g_f: list[Any] = []
+    if sf is not None:  # the plates' frames in 3D: O_j = O_{j-1} + A_{j-1} P_j
+        axis = plane_axis(phi)
+        K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+        Os: list[Any] = [ca.SX.zeros(3, 1)]
+        As: list[Any] = [ca.SX.eye(3)]
+        for i in range(n):
+            Pi = rho[i] * e_phi + z[i] * np.array([0.0, 0.0, 1.0])
+            Ri = ca.cos(th[i]) * np.eye(3) + ca.sin(th[i]) * K
+            Ri = Ri + (1 - ca.cos(th[i])) * np.outer(axis, axis)
+            Os.append(Os[-1] + As[-1] @ Pi)
+            As.append(As[-1] @ Ri)
+        g_f = _force_equilibrium(ca, stack, load, Os, As, sf)
+    g = ca.vertcat(g_eq, *g_f, *g_in)
+    nlp = {"x": u if sf is None else ca.vertcat(u, sf), "p": p, "f": f, "g": g}
     solver = _nlpsol(ca, "stackik_ipopt", nlp, user)
-    lbg = np.concatenate([np.zeros(3), np.zeros(24 * n)])
-    ubg = np.concatenate([np.zeros(3), np.full(24 * n, np.inf)])
+    lbg = np.concatenate([np.zeros(3 + m), np.zeros(24 * n)])
+    ubg = np.concatenate([np.zeros(3 + m), np.full(24 * n, np.inf)])
     return solver, lbg, ubg
 
 
@@ -147,8 +223,10 @@ def _spatial_solver(
     objective: str,
     xs: tuple[float, ...],
     user: tuple[tuple[str, Any], ...] = (),
+    load: Any = None,
 ) -> Any:
-    """IPOPT for the scaled spatial problem; parameters ``p = (P_target (3),
+    """IPOPT for the scaled spatial problem (with ``load``: the lifted leg forces of
+    :func:`_force_equilibrium`, appended to the variables); parameters ``p = (P_target (3),
     R_target.ravel() (9), per-platform angle weights w_th (n), c0, fscale)``."""
     ca = _casadi()
     n = stack.n
@@ -169,6 +247,8 @@ def _spatial_solver(
     axes: list[tuple[Any, int]] = []  # (world axis, platform) of every angle variable
     origins = []
     g_in = []
+    Os: list[Any] = [O]
+    As: list[Any] = [A]
     ez = np.array([0.0, 0.0, 1.0])
     for i in range(n):
         px, ang = x[6 * i : 6 * i + 3], x[6 * i + 3 : 6 * i + 6]
@@ -186,6 +266,8 @@ def _spatial_solver(
         O = O + A @ px
         origins.append(O)
         A = A @ R
+        Os.append(O)
+        As.append(A)
         # limits of platform i in its own frame: l_k = R t_k + p - b_k
         sj = float(stack.sin_joint_min[i])
         lmin2, lmax2, lm = stack.leg_min[i] ** 2, stack.leg_max[i] ** 2, stack.leg_max[i]
@@ -211,10 +293,13 @@ def _spatial_solver(
             r_a = ca.cross(w_a, P_ee - origins[i])
             acc = acc + w_th[i] * ca.dot(r_a, r_a)
         f = (c0 + acc) / fscale
-    nlp = {"x": u, "p": p, "f": f, "g": ca.vertcat(g_eq, *g_in)}
+    sf, m = _lift_forces(ca, stack, load)
+    g_f = [] if sf is None else _force_equilibrium(ca, stack, load, Os, As, sf)
+    x_all = u if sf is None else ca.vertcat(u, sf)
+    nlp = {"x": x_all, "p": p, "f": f, "g": ca.vertcat(g_eq, *g_f, *g_in)}
     solver = _nlpsol(ca, "stackik_ipopt_spatial", nlp, user)
-    lbg = np.zeros(6 + 24 * n)
-    ubg = np.concatenate([np.zeros(6), np.full(24 * n, np.inf)])
+    lbg = np.zeros(6 + m + 24 * n)
+    ubg = np.concatenate([np.zeros(6 + m), np.full(24 * n, np.inf)])
     return solver, lbg, ubg
 
 
@@ -240,12 +325,15 @@ def run_ipopt(
         hash(key)
     except TypeError:
         raise OptionError("options: IPOPT option values must be numbers or strings") from None
+    load = None if prob.forces is None else prob.forces.load
     if isinstance(target, PlanarTarget):
-        solver, lbg, ubg = _solver(prob.stack, target.phi, prob.objective, tuple(prob.xs), key)
+        solver, lbg, ubg = _solver(
+            prob.stack, target.phi, prob.objective, tuple(prob.xs), key, load
+        )
         par = target.y
     else:
         assert isinstance(target, SpatialTarget)
-        solver, lbg, ubg = _spatial_solver(prob.stack, prob.objective, tuple(prob.xs), key)
+        solver, lbg, ubg = _spatial_solver(prob.stack, prob.objective, tuple(prob.xs), key, load)
         par = np.concatenate(
             [
                 target.position,
@@ -254,9 +342,19 @@ def run_ipopt(
                 [prob.c0, prob.fscale],
             ]
         )
-    sol = solver(x0=u0, p=par, lbg=lbg, ubg=ubg)
+    x0: FloatArray = u0
+    lbx: Any = -np.inf
+    ubx: Any = np.inf
+    if prob.forces is not None:  # the lifted forces start at the start pose's, clipped
+        f0 = prob.forces.forces(prob.q_of(u0)).real[prob.forces.platforms]
+        fmax = np.asarray(prob.stack.force_max, dtype=float)[prob.forces.platforms]
+        s0 = np.clip(np.nan_to_num(f0 / fmax[:, None]), -1.0, 1.0).ravel()
+        x0 = np.concatenate([u0, s0])
+        lbx = np.concatenate([np.full(u0.size, -np.inf), -np.ones(s0.size)])
+        ubx = np.concatenate([np.full(u0.size, np.inf), np.ones(s0.size)])
+    sol = solver(x0=x0, p=par, lbg=lbg, ubg=ubg, lbx=lbx, ubx=ubx)
     stats = solver.stats()
-    u = np.asarray(sol["x"], dtype=float).ravel()
+    u = np.asarray(sol["x"], dtype=float).ravel()[: u0.size]
     status = "success" if stats.get("success") else str(stats.get("return_status"))
     return u, int(stats.get("iter_count", 0)), status
 
@@ -269,6 +367,8 @@ class IpoptMethod(Method):
     modes: ClassVar[frozenset[str]] = frozenset({"planar", "spatial"})
 
     def supports(self, prob: Problem) -> str | None:
+        if prob.objective == "force":
+            return 'method "ipopt" does not take objective="force"; use "auto", "slsqp" or "sqp"'
         return None  # run_ipopt reports what it cannot do as an OptionError
 
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:

@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike
 from stackik.check import check_pose
 from stackik.formulation import mode_of, reach_bound
 from stackik.geometry import Stack
+from stackik.loads import Load, statics
 from stackik.result import STATUS_MESSAGES, IKResult, IKStatus
 from stackik.solve.blas import BlasLimit
 from stackik.solve.kernels import ensure_kernels
@@ -36,7 +37,7 @@ def solve_ik(
     stack: Stack,
     target: Target,
     *,
-    objective: Literal["frobenius", "feasible", "weighted"] = "frobenius",
+    objective: Literal["frobenius", "feasible", "weighted", "force"] = "frobenius",
     method: MethodName = "auto",
     qp_solver: str | None = None,
     x0: ArrayLike | None = None,
@@ -48,6 +49,7 @@ def solve_ik(
     start: Literal["paper", "convex"] = "paper",
     max_time: float | None = None,
     blas_threads: int | None = 1,
+    load: Load | None = None,
 ) -> IKResult:
     """Solve the inverse kinematics of a stack for one target.
 
@@ -61,6 +63,10 @@ def solve_ik(
         target within the limits (the paper's non-optimised pose: the first feasible pose
         the solver reaches from its start); ``"weighted"`` minimises ``trace(J C_x J^T)``
         with ``C_x = diag(sigma_t^2, ..., sigma_theta^2)`` (per platform if arrays).
+        ``"force"`` minimises the sum of squared leg forces, each divided by its
+        platform's ``force_max`` where finite (else in N): the load-balancing pose under
+        ``load`` (:class:`stackik.formulation.forces.ForceResiduals`; methods ``"slsqp"``
+        (the ``"auto"`` choice), ``"sqp"``, ``"trust-constr"``).
     method : {"auto", "sqp", "ip", "slsqp", "trust-constr", "ipopt"}
         ``"ip"``: stackik's compiled primal-dual interior-point solver (planar:
         :mod:`stackik._compiled.planar`; spatial: :mod:`stackik._compiled.spatial`, exact second
@@ -112,6 +118,12 @@ def solve_ik(
         (:data:`stackik.methods.ip.IP_DEFAULTS`), scipy or IPOPT options otherwise.
     max_time : float, optional
         Wall-time budget over all starts [s]; default ``10 + 2 n``.
+    load : Load, optional
+        Payload, external wrench and gravity (:class:`stackik.Load`) the leg forces carry.
+        Where a platform's ``force_max`` [N] is finite, every method keeps every leg's
+        ``|f| <= force_max`` under it (None: the stack's own weight, earth gravity) and the
+        check enforces it (:mod:`stackik.formulation.forces`); without a finite
+        ``force_max`` the load changes nothing but the check's reported forces.
     blas_threads : int or None
         BLAS threads during the solve (default 1: the matrices are small and threads only
         contend, 5x slower at n = 32 on a loaded 2-core machine); None leaves the process
@@ -133,7 +145,7 @@ def solve_ik(
             stack, target, objective=objective, method=method, qp_solver=qp_solver, x0=x0,
             starts=starts, rng=rng, options=options, sigma_t=sigma_t,
             sigma_theta=sigma_theta, start=start, max_time=max_time, t_start=t_start,
-            blas=blas,
+            blas=blas, load=load,
         )  # fmt: skip
         return _result(req, _run(req))
     finally:
@@ -184,20 +196,11 @@ def _run(req: Request) -> Verdict:
     return local_stage(req, plan, handover)
 
 
-#: The message of a pose within every leg and joint limit whose leg forces (self-weight,
-#: earth gravity) exceed a finite ``force_max``: the solvers do not enforce force limits yet.
-FORCE_UNCHECKED_MESSAGE = (
-    "Leg force over its limit: the pose reaches the target within every leg and joint "
-    "limit, but its peak leg force is {ratio:.3g} x force_max (self-weight, earth "
-    "gravity); the solvers do not enforce force limits yet (stackik.statics gives the forces)."
-)
-
-
 def _result(req: Request, verdict: Verdict) -> IKResult:
     """The :class:`IKResult` of a verdict (the first start when it has no run)."""
     run = verdict.run
     q = req.q0 if run is None else run.q
-    chk = check_pose(req.stack, req.target, q) if run is None else run.check
+    chk = check_pose(req.stack, req.target, q, req.problem.load) if run is None else run.check
     lifted = None if run is None else run.lifted
     P, R, legs = lifted if lifted is not None else req.mode.lift(req.stack, req.target, q)
     frobenius = (
@@ -207,13 +210,6 @@ def _result(req: Request, verdict: Verdict) -> IKResult:
     )
     start_method = req.method.name
     status, message = verdict.status, verdict.message or STATUS_MESSAGES[verdict.status]
-    if status is IKStatus.SUCCESS and bool(np.isfinite(req.stack.force_max).any()):
-        # The solvers do not know leg forces yet: a finite force_max is enforced by the
-        # independent check alone, so a pose over it is refused here, never a success.
-        forces = chk if chk.statics is not None else check_pose(req.stack, req.target, q)
-        if not forces.ok:
-            status = IKStatus.FAILED
-            message = FORCE_UNCHECKED_MESSAGE.format(ratio=forces.peak_force_ratio)
     return IKResult(
         q=q,
         success=status is IKStatus.SUCCESS,
@@ -235,4 +231,22 @@ def _result(req: Request, verdict: Verdict) -> IKResult:
         leg_lengths=legs,
         phi=req.mode.phi(req.target),
         mode=req.mode.name,
+        **_statics_fields(req, chk, q),
     )
+
+
+def _statics_fields(req: Request, chk: Any, q: Any) -> dict[str, Any]:
+    """``IKResult``'s force fields: from the check when it computed them (a load given or a
+    finite ``force_max``), else none."""
+    prob = req.problem
+    if prob.load is None and prob.forces is None and prob.force_residuals is None:
+        return {}
+    st = chk.statics
+    if st is None:
+        st = statics(req.stack, q, req.problem.load, phi=req.mode.phi(req.target))
+    return {
+        "leg_forces": st.leg_forces,
+        "force_margin": st.force_margin,
+        "sigma_min": st.sigma_min,
+        "condition": st.condition,
+    }

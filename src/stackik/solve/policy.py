@@ -25,6 +25,9 @@ from stackik.starts import (
 )
 
 __all__ = [
+    "FORCE_METHOD",
+    "FORCE_QUEUE_STARTS",
+    "FORCE_STARTS",
     "RECENTRE_MU0",
     "SCREEN_FEAS_MM",
     "SCREEN_OPTIONS",
@@ -47,6 +50,13 @@ SHARED_OPTIONS = ("tol", "constr_tol", "max_iter", "max_time")
 #: SPATIAL_GIVE_UP_MM from satisfying the target and the limits.
 SPATIAL_GIVE_UP = 3
 SPATIAL_GIVE_UP_MM = 1.0
+#: Leg force limits that bind (:func:`stackik.solve.stages.ip_stage`): the engine that
+#: enforces them, how many of the interior point's lower-objective poses over a force
+#: limit it starts from, and how many of the plan's structured starts follow.
+FORCE_METHOD = "slsqp"
+FORCE_STARTS = 4
+FORCE_QUEUE_STARTS = 1
+
 #: Spatial ``starts=1`` from the paper's guess: initial barriers of the interior point's
 #: runs from its own pose after the first (:func:`stackik.solve.stages.ip_stage`).
 RECENTRE_MU0 = (0.1, 1.0)
@@ -71,6 +81,8 @@ def auto_method(
     """
     from stackik.methods.ip import IP_DEFAULTS
 
+    if objective == "force":  # the leg forces' residuals: no compiled kernel has them
+        return "sqp" if qp_solver is not None else FORCE_METHOD
     if objective == "feasible" or qp_solver is not None:
         return "sqp"
     if options and any(key not in IP_DEFAULTS for key in options):

@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from stackik._arrays import finite_array
 from stackik.formulation import Mode, Problem, mode_of
 from stackik.geometry import Stack
+from stackik.loads import Load
 from stackik.methods import AUTO, Method, get_method
 from stackik.solve.blas import BlasLimit
 from stackik.solve.kernels import ensure_kernels
@@ -27,7 +28,7 @@ __all__ = ["OBJECTIVES", "Request", "build_request", "sigma_weights"]
 
 FloatArray = NDArray[np.float64]
 
-OBJECTIVES = ("frobenius", "feasible", "weighted")
+OBJECTIVES = ("frobenius", "feasible", "weighted", "force")
 
 
 @dataclass
@@ -139,6 +140,7 @@ def build_request(
     max_time: float | None,
     t_start: float,
     blas: BlasLimit,
+    load: Load | None = None,
 ) -> Request:
     """Validate the arguments of :func:`stackik.solve_ik` and formulate the problem."""
     budget = _check_scalars(stack, max_time, objective, starts, start)
@@ -159,7 +161,9 @@ def build_request(
     weights = sigma_weights(stack.n, sigma_t, sigma_theta) if objective == "weighted" else None
     q0 = _first_start(stack, target, mode, x0, start)
     sampler.q0 = q0
-    prob = Problem(stack, target, objective, weights)
+    if load is not None and not isinstance(load, Load):
+        raise ValueError(f"load: expected a stackik.Load or None, got {type(load).__name__}")
+    prob = Problem(stack, target, objective, weights, load=load)
     reason = chosen.supports(prob)
     if reason is not None:
         raise ValueError(reason)

@@ -25,6 +25,9 @@ from stackik.solve.nearest import (
     stretch_toward,
 )
 from stackik.solve.policy import (
+    FORCE_METHOD,
+    FORCE_QUEUE_STARTS,
+    FORCE_STARTS,
     RECENTRE_MU0,
     SCREEN_FEAS_MM,
     SCREEN_OPTIONS,
@@ -37,7 +40,7 @@ from stackik.solve.request import Request
 from stackik.starts import spatial_hop_count, spatial_hops
 
 if TYPE_CHECKING:
-    from stackik.methods.ip import IPMethod
+    from stackik.methods.ip import IPBatch, IPMethod
 
 __all__ = ["PLANAR_BLAS_N", "Handover", "Tally", "Verdict", "ip_stage", "local_stage"]
 
@@ -74,6 +77,11 @@ class Handover:
     tried: int
     quick: bool
     options: dict[str, object]
+    #: leg force limits: the interior point's best passing run (None: none passed), the
+    #: engine that enforces them and how many of ``queue`` it runs (None: the plan's)
+    best: Run | None = None
+    method: str = "sqp"
+    n_planned: int | None = None
 
 
 def _lower(run: Run, best: Run) -> bool:
@@ -154,6 +162,8 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         req.blas.apply()
     left = req.time_left(time.perf_counter())
     batch = method.run_many(req.problem, starts, req.options, left)
+    if batch.bound:
+        return _force_handover(req, plan, batch, len(starts))
     if batch.best is not None:
         best, nit, tried = batch.best, batch.nit, len(starts)
         if plan.spatial_default:
@@ -184,6 +194,22 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
             queue.insert(0, near.q)
     shared = {key: v for key, v in req.options.items() if key in SHARED_OPTIONS}
     return Handover(queue, batch.least, batch.nit, len(starts), stalled, shared)
+
+
+def _force_handover(req: Request, plan: StartPlan, batch: IPBatch, tried: int) -> Handover:
+    """Leg force limits bind: the interior point (which does not see them) found poses of
+    lower objective than its best passing one (if any) that fail the check only on their
+    leg forces. The engine that enforces them (:data:`FORCE_METHOD`, with the force rows of
+    :mod:`stackik.formulation.forces`) starts from the :data:`FORCE_STARTS` best of those
+    (the constrained optimum lies on the force limit next to one of them, as a rule), then
+    from the plan's structured starts; the interior point's passing run competes."""
+    queue = [run.q for run in batch.bound[:FORCE_STARTS]]
+    queue += plan.queue[: max(0, FORCE_QUEUE_STARTS)]
+    shared = {key: v for key, v in req.options.items() if key in SHARED_OPTIONS}
+    return Handover(
+        queue, batch.least, batch.nit, tried, False, shared,
+        best=batch.best, method=FORCE_METHOD, n_planned=len(queue),
+    )  # fmt: skip
 
 
 def _hop(req: Request, method: IPMethod, best: Run, nit: int, tried: int) -> tuple[Run, int, int]:
@@ -260,15 +286,18 @@ def local_stage(req: Request, plan: StartPlan, handover: Handover | None) -> Ver
     """Local runs one start at a time (SQP, scipy, IPOPT; the SQP engine after a handover),
     with screening of the structured starts, fallback starts when none passes, the
     spatial early stop on unreachable targets and the time budget."""
-    method = req.method if handover is None else get_method("sqp")
+    method = req.method if handover is None else get_method(handover.method)
     options = req.options if handover is None else dict(handover.options)
     queue = plan.queue if handover is None else handover.queue
     quick = handover is not None and handover.quick
     tally = Tally()
+    n_planned = plan.n_planned
     if handover is not None:
         req.blas.apply()
         tally.nit, tally.least = handover.nit, handover.least
-    n_planned = plan.n_planned
+        tally.best = handover.best  # (its iterations are in handover.nit)
+        if handover.n_planned is not None:
+            n_planned = handover.n_planned
     if plan.starts is None and len(queue) > 1 and method.name == "sqp" and not quick:
         _screen(req, method, queue, tally)
         queue = [r.q for r in tally.screened]
