@@ -54,8 +54,8 @@ SPATIAL_GIVE_UP_MM = 1.0
 #: enforces them, how many of the interior point's lower-objective poses over a force
 #: limit it starts from, and how many of the plan's structured starts follow.
 FORCE_METHOD = "slsqp"
-FORCE_STARTS = 4
-FORCE_QUEUE_STARTS = 1
+FORCE_STARTS = 2
+FORCE_QUEUE_STARTS = 0
 
 #: Spatial ``starts=1`` from the paper's guess: initial barriers of the interior point's
 #: runs from its own pose after the first (:func:`stackik.solve.stages.ip_stage`).

@@ -202,7 +202,8 @@ def _force_handover(req: Request, plan: StartPlan, batch: IPBatch, tried: int) -
     leg forces. The engine that enforces them (:data:`FORCE_METHOD`, with the force rows of
     :mod:`stackik.formulation.forces`) starts from the :data:`FORCE_STARTS` best of those
     (the constrained optimum lies on the force limit next to one of them, as a rule), then
-    from the plan's structured starts; the interior point's passing run competes."""
+    from :data:`FORCE_QUEUE_STARTS` of the plan's structured starts; the interior point's
+    passing run competes."""
     queue = [run.q for run in batch.bound[:FORCE_STARTS]]
     queue += plan.queue[: max(0, FORCE_QUEUE_STARTS)]
     shared = {key: v for key, v in req.options.items() if key in SHARED_OPTIONS}
