@@ -6,8 +6,8 @@ import itertools
 
 import numpy as np
 import pytest
-
 from fd import assert_derivative_close, central
+
 from stackik._compiled.self_legs import self_leg_rows
 
 PAIRS = np.array(list(itertools.combinations(range(6), 2)), dtype=np.int64)
