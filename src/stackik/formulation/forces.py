@@ -132,6 +132,13 @@ class ForceLimits:
     def __call__(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Row values (size,) and their Jacobian (size, n k) with respect to ``q`` (unscaled:
         mm and rad); NaN where a platform is singular."""
+        return self._complex_step(q, self._rows, self.size)
+
+    def _complex_step(
+        self, q: FloatArray, of_forces: Any, size: int
+    ) -> tuple[FloatArray, FloatArray]:
+        """``of_forces(f)`` (size,) and its Jacobian (size, n k) at pose ``q``, by the complex
+        step: every direction in one batch of poses ``q + i h e_a``; NaN if singular."""
         n, k = self.stack.n, self.k
         q = np.asarray(q, dtype=float).reshape(n, k)
         N = n * k
@@ -139,10 +146,10 @@ class ForceLimits:
         Q[:] = q
         Q[1:].reshape(N, N)[np.arange(N), np.arange(N)] += 1j * STEP
         try:
-            rows = self._rows(self.forces(Q))  # (N + 1, size)
+            out = of_forces(self.forces(Q)).reshape(N + 1, size)
         except np.linalg.LinAlgError:
-            return np.full(self.size, np.nan), np.full((self.size, N), np.nan)
-        return rows[0].real, (rows[1:].imag / STEP).T
+            return np.full(size, np.nan), np.full((size, N), np.nan)
+        return out[0].real.copy(), (out[1:].imag / STEP).T
 
 
 def force_scales(stack: Stack) -> FloatArray:
@@ -165,14 +172,4 @@ class ForceResiduals(ForceLimits):
 
     def residuals(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """``r`` (6 n,) and ``dr/dq`` (6 n, k n) [unscaled q: mm, rad]; NaN if singular."""
-        n, k = self.stack.n, self.k
-        q = np.asarray(q, dtype=float).reshape(n, k)
-        N = n * k
-        Q = np.empty((N + 1, n, k), dtype=complex)
-        Q[:] = q
-        Q[1:].reshape(N, N)[np.arange(N), np.arange(N)] += 1j * STEP
-        try:
-            r = (self.forces(Q) * self._scale[:, None]).reshape(N + 1, 6 * n)
-        except np.linalg.LinAlgError:
-            return np.full(6 * n, np.nan), np.full((6 * n, N), np.nan)
-        return r[0].real.copy(), (r[1:].imag / STEP).T
+        return self._complex_step(q, lambda f: f * self._scale[:, None], 6 * self.stack.n)
