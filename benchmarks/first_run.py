@@ -57,7 +57,7 @@ with event.install_recorder("numba:compile") as rec:
     t0 = time.perf_counter()
     r = sk.solve_ik(stack, target)
     wall = time.perf_counter() - t0
-from stackik.solve.kernels import _dispatchers
+from stackik.solve.warmup import _dispatchers
 starts = [e.data["dispatcher"].py_func for _, e in rec.buffer if e.is_start]
 entry = [d.py_func for d in _dispatchers("planar")]  # planar entry points
 ipm = entry[0].__module__  # and the planar interior point's module, all of it

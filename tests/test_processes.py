@@ -89,7 +89,7 @@ def _path_kernels_in_fresh_process() -> dict:
     from stackik._compiled import spatial as _spatial_ipm
     from stackik._compiled import spatial_kinematics as _spatial
     from stackik.paths.bounded import bounded_ip
-    from stackik.solve.kernels import warm_up
+    from stackik.solve.warmup import warm_up
 
     warm_up()
     mods = (_ipm, _spatial_ipm, _check, _spatial, core, linalg, path, planar_path, spatial_path)

@@ -37,7 +37,7 @@ from stackik.obstacles import Box, Capsule, HalfSpace, Sphere, load_obstacles
 from stackik.platform import leg_lengths, leg_vectors, platform_forward_kinematics
 from stackik.result import IKResult, IKStatus, OptionError
 from stackik.solve import solve_ik, solve_many
-from stackik.solve.kernels import warm_up
+from stackik.solve.warmup import warm_up
 from stackik.starts import paper_initial_guess
 from stackik.targets import PlanarTarget, SpatialTarget, target_from_dict, target_to_dict
 

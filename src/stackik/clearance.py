@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 from stackik import distance as dist
 from stackik.geometry import Stack
 from stackik.obstacles import Obstacle, as_obstacles
-from stackik.platform import check_pose as _check_q
+from stackik.platform import validate_pose_array as _check_q
 from stackik.rotations import euler_zyx, plane_axis, rodrigues
 
 __all__ = ["Body", "Clearances", "Contact", "clearances", "needs_clearances", "plate_frames"]

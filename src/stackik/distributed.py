@@ -73,7 +73,7 @@ def _warm(kinds: tuple[str, ...], cache_dir: str | None) -> dict[str, Any]:
     """Load or compile the kernels in this process (a worker); what it did."""
     import time
 
-    from stackik.solve.kernels import warm_up
+    from stackik.solve.warmup import warm_up
 
     t0 = time.perf_counter()
     shared = _use_cache_dir(cache_dir)
@@ -121,7 +121,7 @@ def _plugin_class() -> type:
             path, e.g. on a network file system). Default: numba's default location,
             beside stackik's sources, or the workers' own ``NUMBA_CACHE_DIR``.
         kinds : tuple of str
-            Kernel sets (:data:`stackik.solve.kernels.KERNEL_KINDS`).
+            Kernel sets (:data:`stackik.solve.warmup.KERNEL_KINDS`).
         """
 
         name = PLUGIN_NAME

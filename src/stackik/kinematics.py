@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from stackik.platform import _check_phi, _cross, check_pose
+from stackik.platform import _check_phi, _cross, validate_pose_array
 from stackik.rotations import euler_zyx, plane_axis, rodrigues
 
 __all__ = [
@@ -56,7 +56,7 @@ def _pose(q: ArrayLike, ncols: int) -> FloatArray:
     arr = np.asarray(q, dtype=float)
     if arr.ndim < 2:
         raise ValueError(f"q: expected shape (..., n, {ncols}), got {arr.shape}")
-    return check_pose(arr, arr.shape[-2], ncols)
+    return validate_pose_array(arr, arr.shape[-2], ncols)
 
 
 # =========================================================================================

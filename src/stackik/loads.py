@@ -40,7 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 from stackik._arrays import finite_array, readonly
 from stackik.geometry import Stack, finite_number
 from stackik.kinematics import lift_planar
-from stackik.platform import _check_phi, _cross, check_pose
+from stackik.platform import _check_phi, _cross, validate_pose_array
 from stackik.rotations import euler_zyx
 
 __all__ = [
@@ -199,11 +199,11 @@ def _pose_parts(
     if ncols == 3:
         if phi is None:
             raise ValueError("phi: a planar pose (n, 3) needs the plane angle phi [rad]")
-        qa = check_pose(raw, stack.n, 3)
+        qa = validate_pose_array(raw, stack.n, 3)
         P, R = lift_planar(qa, _check_phi(phi))
         return qa, P, R
     if ncols == 6 and phi is None:
-        qa = check_pose(raw, stack.n, 6)
+        qa = validate_pose_array(raw, stack.n, 6)
         return qa, qa[..., :3], euler_zyx(qa[..., 3:])
     if ncols == 6:
         raise ValueError("phi: only a planar pose (n, 3) takes phi; this pose is (n, 6)")

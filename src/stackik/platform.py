@@ -86,7 +86,7 @@ def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
-def check_pose(q: ArrayLike, n: int, ncols: int, name: str = "q") -> FloatArray:
+def validate_pose_array(q: ArrayLike, n: int, ncols: int, name: str = "q") -> FloatArray:
     """Validate a pose array of shape (..., n, ncols): finite floats, right shape."""
     try:
         arr = np.asarray(q, dtype=float)
@@ -267,7 +267,7 @@ def _limits(stack: Stack) -> tuple[FloatArray, FloatArray, FloatArray]:
 
 def planar_constraints(stack: Stack, q: ArrayLike, phi: float) -> FloatArray:
     """Raw constraints of a planar pose; q (..., n, 3) -> (..., n, 24). See :class:`Stack`."""
-    qa = check_pose(q, stack.n, 3)
+    qa = validate_pose_array(q, stack.n, 3)
     phi = _check_phi(phi)
     l, Rn, _, _ = planar_legs(stack, qa, phi)
     return constraints_from_legs(l, Rn, *_limits(stack))[0]
@@ -285,7 +285,7 @@ def planar_constraint_jacobian(
         ``Jc[..., i, r, j] = d c[i, r] / d q[i, j]``; constraints of platform i depend on
         platform i's variables only (the full Jacobian is block diagonal).
     """
-    qa = check_pose(q, stack.n, 3)
+    qa = validate_pose_array(q, stack.n, 3)
     phi = _check_phi(phi)
     l, Rn, dl, dRn = planar_legs(stack, qa, phi, derivatives=True)
     c, Jc = constraints_from_legs(l, Rn, *_limits(stack), dl=dl, dRn=dRn)
@@ -295,14 +295,14 @@ def planar_constraint_jacobian(
 
 def spatial_constraints(stack: Stack, q: ArrayLike) -> FloatArray:
     """Raw constraints of a spatial pose; q (..., n, 6) -> (..., n, 24)."""
-    qa = check_pose(q, stack.n, 6)
+    qa = validate_pose_array(q, stack.n, 6)
     l, Rn, _, _ = spatial_legs(stack, qa)
     return constraints_from_legs(l, Rn, *_limits(stack))[0]
 
 
 def spatial_constraint_jacobian(stack: Stack, q: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """Spatial constraints (..., n, 24) and per-platform Jacobian (..., n, 24, 6)."""
-    qa = check_pose(q, stack.n, 6)
+    qa = validate_pose_array(q, stack.n, 6)
     l, Rn, dl, dRn = spatial_legs(stack, qa, derivatives=True)
     c, Jc = constraints_from_legs(l, Rn, *_limits(stack), dl=dl, dRn=dRn)
     assert Jc is not None

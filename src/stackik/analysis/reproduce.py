@@ -201,7 +201,7 @@ class _PosesOf:
     max_attempts: int
 
     def prepare(self) -> None:
-        from stackik.solve.kernels import warm_up
+        from stackik.solve.warmup import warm_up
 
         warm_up(("planar",), notice=False)
 

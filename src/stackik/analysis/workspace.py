@@ -156,7 +156,7 @@ class NonOptimalSearch:
 
     def prepare(self) -> None:
         """Load the compiled kernels once per process (called by workers before a chunk)."""
-        from stackik.solve.kernels import warm_up
+        from stackik.solve.warmup import warm_up
 
         warm_up(("planar",), notice=False)
 

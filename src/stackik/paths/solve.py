@@ -1172,7 +1172,7 @@ def _load_before_clock(planar: bool) -> bool:
     numba's cache on first use) and the BLAS controller (threadpoolctl scans the loaded
     libraries, ~10 ms). Whether anything was loaded (the clock restarts then)."""
     from stackik.solve.blas import _BLAS, _blas_controller
-    from stackik.solve.kernels import ensure_kernels
+    from stackik.solve.warmup import ensure_kernels
 
     loaded = ensure_kernels("planar") > 0.0
     if not planar:

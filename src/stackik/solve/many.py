@@ -12,8 +12,8 @@ from typing import Any, TypeVar, overload
 from stackik.batch import BatchStats, checkpointed_map, checkpointed_run
 from stackik.geometry import Stack
 from stackik.result import IKResult
-from stackik.solve.kernels import warm_up
 from stackik.solve.pipeline import solve_ik
+from stackik.solve.warmup import warm_up
 from stackik.targets import PlanarTarget, Target, target_to_dict
 
 __all__ = ["solve_many", "solve_to_file"]

@@ -20,11 +20,11 @@ from stackik.geometry import Stack
 from stackik.loads import Load, statics
 from stackik.result import STATUS_MESSAGES, IKResult, IKStatus
 from stackik.solve.blas import BlasLimit
-from stackik.solve.kernels import ensure_kernels
 from stackik.solve.nearest import BEYOND_MESSAGE, stretch_toward
 from stackik.solve.policy import plan_starts
 from stackik.solve.request import Request, build_request
 from stackik.solve.stages import Handover, Verdict, ip_stage, local_stage
+from stackik.solve.warmup import ensure_kernels
 from stackik.targets import PlanarTarget, SpatialTarget, Target
 
 __all__ = ["MethodName", "solve_ik"]

@@ -19,8 +19,8 @@ from stackik.geometry import Stack
 from stackik.loads import Load
 from stackik.methods import AUTO, Method, get_method
 from stackik.solve.blas import BlasLimit
-from stackik.solve.kernels import ensure_kernels
 from stackik.solve.policy import auto_method
+from stackik.solve.warmup import ensure_kernels
 from stackik.starts import StartSampler, paper_initial_guess
 from stackik.targets import Target
 
