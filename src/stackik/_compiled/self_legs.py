@@ -27,12 +27,12 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit
+
+from stackik._compiled.core import _jit
+from stackik._compiled.spatial_kinematics import _euler
 
 FloatArray = Any
 IntArray = Any
-
-_jit = njit(cache=True, error_model="numpy", nogil=True)
 
 #: Relative size of the squared cross term under which two segments count as parallel.
 _PARALLEL = 1e-12
@@ -72,17 +72,12 @@ def closest_params(p0: FloatArray, p1: FloatArray, q0: FloatArray, q1: FloatArra
 
 @_jit
 def _rotation_axes(yaw: float, pitch: float, roll: float) -> Any:
+    """``R = Rz Ry Rx`` and the rows ``W``: the axes of yaw, pitch and roll in the bottom
+    plate's frame (``e_z``, ``Rz e_y``, ``Rz Ry e_x``)."""
+    R, _ = _euler(yaw, pitch, roll)
     cz, sz = math.cos(yaw), math.sin(yaw)
     cy, sy = math.cos(pitch), math.sin(pitch)
-    cx, sx = math.cos(roll), math.sin(roll)
-    Rz = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
-    Ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
-    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
-    R = Rz @ Ry @ Rx
-    W = np.empty((3, 3))
-    W[0] = np.array([0.0, 0.0, 1.0])
-    W[1] = Rz[:, 1]
-    W[2] = (Rz @ Ry)[:, 0]
+    W = np.array([[0.0, 0.0, 1.0], [-sz, cz, 0.0], [cz * cy, sz * cy, -sy]])
     return R, W
 
 

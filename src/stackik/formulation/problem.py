@@ -85,7 +85,6 @@ class Problem:
         self.load = load
         self.target = target
         self.mode = mode_of(target)
-        self.planar = self.mode.planar
         n = stack.n
         self.n = n
         self.k = self.mode.k
@@ -117,8 +116,16 @@ class Problem:
         self.force_residuals = (
             ForceResiduals(stack, load, self.mode.phi(target)) if objective == "force" else None
         )
-        #: number of inequality rows: the 24 n limits, then the force rows
-        self.n_ineq = self.cs.size + (0 if self.forces is None else self.forces.size)
+
+    @property
+    def planar(self) -> bool:
+        """Planar mode (3 variables per platform), else spatial (6)."""
+        return self.mode.planar
+
+    @property
+    def n_ineq(self) -> int:
+        """Number of inequality rows: the 24 n limits, then the force rows."""
+        return int(self.cs.size + (0 if self.forces is None else self.forces.size))
 
     # --- index arrays (built on first use) ------------------------------------------
     @cached_property
