@@ -102,9 +102,9 @@ def test_client_gives_the_serial_results(client, serial):
 
 def test_workers_loaded_the_kernels_when_they_started(client):
     def ready() -> list[str]:
-        from stackik.solve import kernels
+        from stackik.solve import warmup
 
-        return sorted(kernels._READY)
+        return sorted(warmup._READY)
 
     assert all("planar" in v for v in client.run(ready).values())
 

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import stackik as sk
-from stackik.solve import kernels
+from stackik.solve import warmup
 
 
 def _in_fresh_process(fn, *args):
@@ -83,12 +83,12 @@ def _kernels_a_spatial_solve_loads() -> dict[str, object]:
     r = sk.solve_ik(sk.Stack.reference(3), _spatial_target(3))
     # the planar entry points, and every compiled function of the planar interior point's
     # module (wherever the kernels live)
-    planar = kernels._dispatchers("planar")
+    planar = warmup._dispatchers("planar")
     ipm = sys.modules[planar[0].py_func.__module__]
     planar += [d for d in vars(ipm).values() if hasattr(d, "signatures")]
     return {
         "status": r.status.value,
-        "ready": sorted(kernels._READY),
+        "ready": sorted(warmup._READY),
         "planar specialisations": sum(len(d.signatures) for d in planar),
     }
 
@@ -131,15 +131,15 @@ def _fake_family(monkeypatch: pytest.MonkeyPatch, names: list[str]) -> None:
         ns: dict[str, object] = {}
         exec(f"def {name}(x):\n    return x + {k}", ns)  # noqa: S102 - a fresh function
         funcs.append(numba.njit(ns[name]))
-    monkeypatch.setattr(kernels, "_dispatchers", lambda kind: funcs)
-    monkeypatch.setattr(kernels, "kernels_cached", lambda kind: False)
-    monkeypatch.setattr(kernels, "_warm", lambda kind: [f(1.0) for f in funcs])
-    monkeypatch.setattr(kernels, "_READY", set())
+    monkeypatch.setattr(warmup, "_dispatchers", lambda kind: funcs)
+    monkeypatch.setattr(warmup, "kernels_cached", lambda kind: False)
+    monkeypatch.setattr(warmup, "_warm", lambda kind: [f(1.0) for f in funcs])
+    monkeypatch.setattr(warmup, "_READY", set())
 
 
 def test_a_compilation_says_when_it_starts_and_how_long_it_took(monkeypatch, capsys):
     _fake_family(monkeypatch, ["first_kernel", "second_kernel"])
-    kernels.ensure_kernels("planar")
+    warmup.ensure_kernels("planar")
     err = capsys.readouterr().err.splitlines()
     assert err[0] == (
         "stackik: compiling the planar solver kernels (2 entry points; first run on this "
@@ -148,7 +148,7 @@ def test_a_compilation_says_when_it_starts_and_how_long_it_took(monkeypatch, cap
     assert err[1].startswith("stackik: compiled the planar solver kernels in ")
     assert err[1].endswith(" s (2 of 2 entry points, 2 functions in all)")
     assert len(err) == 2
-    kernels.ensure_kernels("planar")  # once per process
+    warmup.ensure_kernels("planar")  # once per process
     assert capsys.readouterr().err == ""
 
 
@@ -160,10 +160,10 @@ def test_a_compilation_on_a_terminal_ticks_a_bar_per_entry_point(monkeypatch):
             return True
 
     term = Terminal()
-    with kernels._progress("planar", term) as progress:
-        for f in kernels._dispatchers("planar"):
+    with warmup._progress("planar", term) as progress:
+        for f in warmup._dispatchers("planar"):
             f(2.0)
-        assert progress.bar.n == 3 and progress.done == {id(f) for f in kernels._dispatchers("")}
+        assert progress.bar.n == 3 and progress.done == {id(f) for f in warmup._dispatchers("")}
     text = term.getvalue()
     assert "stackik: planar kernels 0/3" in text and "stackik: planar kernels 3/3" in text
     assert "gamma_kernel" in text  # the function being compiled, on the bar
