@@ -26,7 +26,6 @@ from stackik.starts import (
 
 __all__ = [
     "FORCE_METHOD",
-    "FORCE_QUEUE_STARTS",
     "FORCE_STARTS",
     "RECENTRE_MU0",
     "SCREEN_FEAS_MM",
@@ -51,11 +50,10 @@ SHARED_OPTIONS = ("tol", "constr_tol", "max_iter", "max_time")
 SPATIAL_GIVE_UP = 3
 SPATIAL_GIVE_UP_MM = 1.0
 #: Leg force limits that bind (:func:`stackik.solve.stages.ip_stage`): the engine that
-#: enforces them, how many of the interior point's lower-objective poses over a force
-#: limit it starts from, and how many of the plan's structured starts follow.
+#: enforces them and how many of the interior point's lower-objective poses over a force
+#: limit it starts from.
 FORCE_METHOD = "slsqp"
 FORCE_STARTS = 2
-FORCE_QUEUE_STARTS = 0
 
 #: Spatial ``starts=1`` from the paper's guess: initial barriers of the interior point's
 #: runs from its own pose after the first (:func:`stackik.solve.stages.ip_stage`).

@@ -26,7 +26,6 @@ from stackik.solve.nearest import (
 )
 from stackik.solve.policy import (
     FORCE_METHOD,
-    FORCE_QUEUE_STARTS,
     FORCE_STARTS,
     RECENTRE_MU0,
     SCREEN_FEAS_MM,
@@ -163,7 +162,7 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     left = req.time_left(time.perf_counter())
     batch = method.run_many(req.problem, starts, req.options, left)
     if batch.bound:
-        return _force_handover(req, plan, batch, len(starts))
+        return _force_handover(req, batch, len(starts))
     if batch.best is not None:
         best, nit, tried = batch.best, batch.nit, len(starts)
         if plan.spatial_default:
@@ -196,16 +195,14 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     return Handover(queue, batch.least, batch.nit, len(starts), stalled, shared)
 
 
-def _force_handover(req: Request, plan: StartPlan, batch: IPBatch, tried: int) -> Handover:
+def _force_handover(req: Request, batch: IPBatch, tried: int) -> Handover:
     """Leg force limits bind: the interior point (which does not see them) found poses of
     lower objective than its best passing one (if any) that fail the check only on their
     leg forces. The engine that enforces them (:data:`FORCE_METHOD`, with the force rows of
     :mod:`stackik.formulation.forces`) starts from the :data:`FORCE_STARTS` best of those
-    (the constrained optimum lies on the force limit next to one of them, as a rule), then
-    from :data:`FORCE_QUEUE_STARTS` of the plan's structured starts; the interior point's
-    passing run competes."""
+    (the constrained optimum lies on the force limit next to one of them, as a rule); the
+    interior point's passing run competes."""
     queue = [run.q for run in batch.bound[:FORCE_STARTS]]
-    queue += plan.queue[: max(0, FORCE_QUEUE_STARTS)]
     shared = {key: v for key, v in req.options.items() if key in SHARED_OPTIONS}
     return Handover(
         queue, batch.least, batch.nit, tried, False, shared,
