@@ -93,6 +93,8 @@ class ForceLimits:
         self.platforms = np.flatnonzero(np.isfinite(fmax))
         self.size = 12 * self.platforms.size
         self._inv = 1.0 / fmax[self.platforms]  # (p,) [1/N]
+        #: the last complex-step batch of forces: (pose bytes, forces or None if singular)
+        self._batch: tuple[bytes, Array | None] = (b"", None)
         if phi is not None:
             s = plane_axis(phi)
             K = np.array([[0.0, -s[2], s[1]], [s[2], 0.0, -s[0]], [-s[1], s[0], 0.0]])
@@ -142,13 +144,19 @@ class ForceLimits:
         n, k = self.stack.n, self.k
         q = np.asarray(q, dtype=float).reshape(n, k)
         N = n * k
-        Q = np.empty((N + 1, n, k), dtype=complex)
-        Q[:] = q
-        Q[1:].reshape(N, N)[np.arange(N), np.arange(N)] += 1j * STEP
-        try:
-            out = of_forces(self.forces(Q)).reshape(N + 1, size)
-        except np.linalg.LinAlgError:
+        key = q.tobytes()
+        if self._batch[0] != key:  # the rows and the force objective share one batch
+            Q = np.empty((N + 1, n, k), dtype=complex)
+            Q[:] = q
+            Q[1:].reshape(N, N)[np.arange(N), np.arange(N)] += 1j * STEP
+            try:
+                self._batch = (key, self.forces(Q))
+            except np.linalg.LinAlgError:
+                self._batch = (key, None)
+        F = self._batch[1]
+        if F is None:  # a singular platform
             return np.full(size, np.nan), np.full((size, N), np.nan)
+        out = of_forces(F).reshape(N + 1, size)
         return out[0].real.copy(), (out[1:].imag / STEP).T
 
 

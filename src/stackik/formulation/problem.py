@@ -108,14 +108,17 @@ class Problem:
         self._fn_cache: tuple[FloatArray, FloatArray] = (np.zeros(0), np.zeros((0, 0)))
         self._cache: tuple[Any, ...] | None = None
         self.nfev = 0
+        # one statics object serves the limit rows and the force objective (one batch)
+        phi = self.mode.phi(target)
+        rows: ForceLimits | None = (
+            ForceResiduals(stack, load, phi) if objective == "force" else None
+        )
+        if rows is None and force_limited(stack):
+            rows = ForceLimits(stack, load, phi)
         #: the leg-force limit rows (appended after the limits), or None: no finite force_max
-        self.forces = (
-            ForceLimits(stack, load, self.mode.phi(target)) if force_limited(stack) else None
-        )
+        self.forces = rows if force_limited(stack) else None
         #: objective="force": the scaled leg forces as residuals (stackik.formulation.forces)
-        self.force_residuals = (
-            ForceResiduals(stack, load, self.mode.phi(target)) if objective == "force" else None
-        )
+        self.force_residuals = rows if isinstance(rows, ForceResiduals) else None
 
     @property
     def planar(self) -> bool:
@@ -171,12 +174,12 @@ class Problem:
     def gauss_newton(self, u: FloatArray) -> tuple[FloatArray, FloatArray]:
         if self.objective == "feasible":
             return np.zeros(1), np.zeros((1, u.size))
-        if self.force_residuals is not None:
-            r, Jr = self.force_residuals.residuals(self.q_of(u))
-            return r, Jr * self.xs
         gc = self._gn_cache
         if gc is not None and np.array_equal(gc[0], u):
             return gc[1], gc[2]
+        if self.force_residuals is not None:
+            r, Jr = self.force_residuals.residuals(self.q_of(u))
+            return r, Jr * self.xs
         r, Jr = self.residuals(self.q_of(u))
         s = 1.0 / math.sqrt(self.fscale)
         return r * s, Jr * self.xs * s
