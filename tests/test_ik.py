@@ -268,12 +268,12 @@ def _check_problem_first_derivatives(p, u):
 
     def part(i):
         def f(v):
-            p._cache_u = None
+            p._cache = None
             return np.atleast_1d(p.evaluate(v)[i])
 
         return f
 
-    p._cache_u = None
+    p._cache = None
     _, g, _, Je, _, Ji = p.evaluate(u)
     F_f, F_E, F_I = _problem_scales(p, u)
     fd.assert_derivative_close(g[None], fd.central(part(0), u), f_scale=F_f, what="gradient")
@@ -292,7 +292,7 @@ def test_problem_derivatives_planar(phi):
     ye, yi = rng.standard_normal(3), rng.standard_normal(96)
 
     def lag_grad(v):
-        p._cache_u = None
+        p._cache = None
         _, gg, _, JJe, _, JJi = p.evaluate(v)
         return gg - JJe.T @ ye - JJi.T @ yi
 

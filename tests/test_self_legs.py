@@ -36,3 +36,78 @@ def test_self_leg_jacobian_fd(seed):
     _, J = _rows(q, base, top)
     num = central(lambda x: _rows(x, base, top)[0], q, typical=[100, 100, 100, 1, 1, 1])
     assert_derivative_close(J, num, f_scale=4.0)
+
+
+def _grad_weighted(q, base, top, y):
+    _, J = _rows(q, base, top)
+    return y @ J
+
+
+@pytest.mark.derivatives
+@pytest.mark.parametrize("seed", range(8))
+def test_self_leg_hessian_fd(seed):
+    """The exact second derivatives (the minimisation over the closest points included)
+    against central differences of the analytic gradient."""
+    from stackik._compiled.self_legs import self_leg_hessian
+
+    rng = np.random.default_rng(100 + seed)
+    base, top = _joints(rng)
+    q = np.r_[rng.normal(0, 30, 2), 120 + rng.normal(0, 20), rng.normal(0, 0.6, 3)]
+    y = rng.uniform(0.5, 2.0, len(PAIRS))
+    H = self_leg_hessian(q, base, top, PAIRS, 1e4, y)
+    assert np.allclose(H, H.T, rtol=1e-12, atol=1e-12 * np.abs(H).max())
+    num = central(lambda x: _grad_weighted(x, base, top, y), q, typical=[100, 100, 100, 1, 1, 1])
+    assert_derivative_close(H, num, f_scale=4.0 * y.sum(), what="self-leg Hessian")
+
+
+def test_self_leg_block_matches_rows():
+    """The batch over platforms is the per-platform rows, platform by platform."""
+    from stackik._compiled.self_legs import self_leg_block
+
+    rng = np.random.default_rng(3)
+    n = 3
+    joints = [_joints(rng) for _ in range(n)]
+    base = np.stack([b for b, _ in joints])
+    top = np.stack([t for _, t in joints])
+    q = np.c_[rng.normal(0, 10, (n, 2)), 150 + rng.normal(0, 10, n), rng.normal(0, 0.2, (n, 3))]
+    rho = np.array([24.0, 10.0, 0.0])
+    scale = np.array([1e4, 2e4, 3e4])
+    c, J = self_leg_block(q, base, top, PAIRS, rho, scale)
+    for i in range(n):
+        ci = np.empty(len(PAIRS))
+        Ji = np.empty((len(PAIRS), 6))
+        self_leg_rows(q[i], base[i], top[i], PAIRS, rho[i], scale[i], ci, Ji)
+        assert np.array_equal(c[i], ci) and np.array_equal(J[i], Ji)
+
+
+def test_problem_carries_self_leg_rows():
+    """Problem appends the rows when a leg radius is positive; their values are the squared
+    axis distances that stackik.clearance measures with its own code."""
+    import stackik as sk
+    from stackik.clearance import clearances
+    from stackik.formulation import Problem
+
+    geom = sk.PlatformGeometry.hexagonal(leg_radius=12.0)
+    stack = sk.Stack.uniform(geom, 3)
+    tgt = sk.SpatialTarget(position=(10.0, -20.0, 420.0), rotation=np.eye(3))
+    plain = Problem(sk.Stack.reference(3), tgt, "frobenius", None)
+    assert plain.self_legs is None and plain.n_ineq == 72
+    p = Problem(stack, tgt, "frobenius", None, clearance=1.5)
+    assert p.self_legs is not None and p.n_ineq == 72 + 3 * 15
+    rng = np.random.default_rng(5)
+    q = np.tile([0.0, 0.0, 140.0, 0.0, 0.0, 0.0], (3, 1)) + rng.normal(
+        0, [5, 5, 5, 0.3, 0.1, 0.1], (3, 6)
+    )
+    u = p.u_of(q)
+    _, _, _, _, cin, Jin = p.evaluate(u)
+    c = cin[72:].reshape(3, 15)
+    d = np.sqrt(c * p.self_legs.scale[:, None] + p.self_legs.rho[:, None] ** 2)
+    by = clearances(stack, q).self_legs_by_platform
+    assert np.allclose(d.min(axis=1) - 2 * 12.0, by, rtol=0, atol=1e-9)
+
+    def rows(v):
+        p._cache = None
+        return p.evaluate(v)[4][72:]
+
+    num = central(rows, u, typical=1.0)
+    assert_derivative_close(Jin[72:], num, f_scale=4.0, what="Problem self-leg rows")

@@ -18,7 +18,17 @@ Derivatives along q follow the solver's variable convention (DESIGN.md): j < 3 m
 along ``e_j``; j = 3, 4, 5 turn it about ``w = (e_z, Rz e_y, Rz Ry e_x)[j - 3]``, so
 ``d t_k / d q_j = w_j x (R u_k)``.
 
-Status: standalone (values + Jacobian); not yet wired into the spatial evaluation.
+Second derivatives (:func:`self_leg_hessian`): ``d^2 = min over (s, t) in [0, 1]^2 of
+phi(s, t, q)`` with ``phi = |g|^2``, ``g = P(s) - Q(t)``, so where the minimiser is unique and
+its active bounds are strict, ``d^2 (d^2) / dq^2 = phi_qq - phi_qF phi_FF^-1 phi_Fq`` over the
+free parameters ``F`` (those strictly inside (0, 1)); ``phi_qq`` at fixed (s, t) has the
+serial-chain second derivatives of the top joints, ``d^2 t_k / dq_a dq_b = w_a x (w_b x R u_k)``
+for angles ``a <= b`` (zero when either translates).
+
+The spatial kernels (:mod:`stackik._compiled.spatial`) append these rows to each platform's 24
+limit rows; :class:`stackik.formulation.Problem` appends them after the limits
+(:func:`self_leg_block`). The check does not use them: it measures capsule distances with
+its own code (:mod:`stackik.clearance`).
 """
 
 from __future__ import annotations
@@ -121,3 +131,128 @@ def self_leg_rows(
             dk = np.cross(w, RU[k])
             dm = np.cross(w, RU[m])
             J[r, 3 + j] = gk @ dk + gm @ dm
+
+
+@_jit
+def _top_derivatives(W: FloatArray, RU: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """``dT / dq`` (3, 6) and ``d^2 T / d angle_a d angle_b`` (3, 3, 3) of a top joint
+    ``T = p + R u`` with ``RU = R u`` (3,)."""
+    dT = np.zeros((3, 6))
+    for j in range(3):
+        dT[j, j] = 1.0
+        w = W[j]
+        dT[0, 3 + j] = w[1] * RU[2] - w[2] * RU[1]
+        dT[1, 3 + j] = w[2] * RU[0] - w[0] * RU[2]
+        dT[2, 3 + j] = w[0] * RU[1] - w[1] * RU[0]
+    d2 = np.zeros((3, 3, 3))
+    for a in range(3):
+        for b in range(a, 3):
+            x = dT[:, 3 + b]
+            w = W[a]
+            v0 = w[1] * x[2] - w[2] * x[1]
+            v1 = w[2] * x[0] - w[0] * x[2]
+            v2 = w[0] * x[1] - w[1] * x[0]
+            d2[0, a, b], d2[1, a, b], d2[2, a, b] = v0, v1, v2
+            d2[0, b, a], d2[1, b, a], d2[2, b, a] = v0, v1, v2
+    return dT, d2
+
+
+@_jit
+def self_leg_hessian(
+    q: FloatArray,
+    base: FloatArray,
+    top: FloatArray,
+    pairs: IntArray,
+    scale: float,
+    y: FloatArray,
+) -> FloatArray:
+    """``sum_r y[r] d^2 c_r / dq^2`` (6, 6) of one platform's rows (:func:`self_leg_rows`)."""
+    R, W = _rotation_axes(q[3], q[4], q[5])
+    H = np.zeros((6, 6))
+    for r in range(pairs.shape[0]):
+        if y[r] == 0.0:
+            continue
+        k, m = pairs[r, 0], pairs[r, 1]
+        RUk = R @ top[k]
+        RUm = R @ top[m]
+        Tk = q[:3] + RUk
+        Tm = q[:3] + RUm
+        s, t = closest_params(base[k], Tk, base[m], Tm)
+        d1 = Tk - base[k]
+        d2 = Tm - base[m]
+        g = base[k] + s * d1 - base[m] - t * d2
+        dTk, d2Tk = _top_derivatives(W, RUk)
+        dTm, d2Tm = _top_derivatives(W, RUm)
+        Jg = s * dTk - t * dTm  # (3, 6)
+        Hp = 2.0 * (Jg.T @ Jg)
+        for a in range(3):
+            for b in range(3):
+                acc = 0.0
+                for c in range(3):
+                    acc += g[c] * (s * d2Tk[c, a, b] - t * d2Tm[c, a, b])
+                Hp[3 + a, 3 + b] += 2.0 * acc
+        # the minimisation over the free parameters (strictly inside (0, 1))
+        fs = 0.0 < s < 1.0
+        ft = 0.0 < t < 1.0
+        if fs or ft:
+            B = np.zeros((2, 6))
+            A = np.zeros((2, 2))
+            B[0] = 2.0 * (d1 @ Jg + g @ dTk)
+            B[1] = 2.0 * (-(d2 @ Jg) - g @ dTm)
+            A[0, 0] = 2.0 * (d1 @ d1)
+            A[1, 1] = 2.0 * (d2 @ d2)
+            A[0, 1] = A[1, 0] = -2.0 * (d1 @ d2)
+            if fs and ft:
+                det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+                if det > _PARALLEL * A[0, 0] * A[1, 1]:
+                    inv00, inv11, inv01 = A[1, 1] / det, A[0, 0] / det, -A[0, 1] / det
+                    for a in range(6):
+                        for b in range(6):
+                            Hp[a, b] -= B[0, a] * (inv00 * B[0, b] + inv01 * B[1, b]) + B[1, a] * (
+                                inv01 * B[0, b] + inv11 * B[1, b]
+                            )
+            else:
+                j = 0 if fs else 1
+                if A[j, j] > 0.0:
+                    for a in range(6):
+                        for b in range(6):
+                            Hp[a, b] -= B[j, a] * B[j, b] / A[j, j]
+        H += (y[r] / scale) * Hp
+    return H
+
+
+@_jit
+def self_leg_block(
+    q: FloatArray,
+    base: FloatArray,
+    top: FloatArray,
+    pairs: IntArray,
+    rho: FloatArray,
+    scale: FloatArray,
+) -> tuple[FloatArray, FloatArray]:
+    """Every platform's rows: ``c`` (n, m) and ``J`` (n, m, 6) against the raw pose
+    ``q`` (n, 6) [mm, rad]; ``base``, ``top`` (n, 6, 3) [mm], ``rho``, ``scale`` (n,)."""
+    n = q.shape[0]
+    m = pairs.shape[0]
+    c = np.empty((n, m))
+    J = np.empty((n, m, 6))
+    for i in range(n):
+        self_leg_rows(q[i], base[i], top[i], pairs, rho[i], scale[i], c[i], J[i])
+    return c, J
+
+
+@_jit
+def self_leg_hessians(
+    q: FloatArray,
+    base: FloatArray,
+    top: FloatArray,
+    pairs: IntArray,
+    scale: FloatArray,
+    y: FloatArray,
+) -> FloatArray:
+    """:func:`self_leg_hessian` of every platform, (n, 6, 6); ``y`` (n, m)."""
+    n = q.shape[0]
+    out = np.zeros((n, 6, 6))
+    for i in range(n):
+        out[i] = self_leg_hessian(q[i], base[i], top[i], pairs, scale[i], y[i])
+    return out

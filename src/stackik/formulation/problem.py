@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from stackik._arrays import readonly
+from stackik.formulation.clearance import SelfLegs, self_legs_of
 from stackik.formulation.forces import ForceLimits, ForceResiduals, force_limited
 from stackik.formulation.modes import mode_of
 from stackik.formulation.planar import PlanarEvaluator
@@ -80,6 +81,7 @@ class Problem:
         weights: tuple[FloatArray, FloatArray] | None,
         x_ref: FloatArray | None = None,
         load: Load | None = None,
+        clearance: float = 0.0,
     ) -> None:
         self.stack = stack
         self.load = load
@@ -103,11 +105,13 @@ class Problem:
         self.fast = PlanarEvaluator(stack, target.phi) if isinstance(target, PlanarTarget) else None
         if self.fast is not None:
             self.fast.set_scaling(self.cs, self.xs)
-        self._cache_u: FloatArray | None = None
         self._gn_cache: tuple[FloatArray, FloatArray, FloatArray] | None = None
         self._fn_cache: tuple[FloatArray, FloatArray] = (np.zeros(0), np.zeros((0, 0)))
-        self._cache: tuple[Any, ...] | None = None
+        self._cache: tuple[FloatArray, tuple[Any, ...]] | None = None  # (u, evaluate(u))
         self.nfev = 0
+        #: the self-leg rows (appended after the limits, before the force rows), or None;
+        #: ``clearance`` [mm] is their margin (stackik.formulation.clearance)
+        self.self_legs: SelfLegs | None = self_legs_of(stack, float(clearance), self.planar)
         # one statics object serves the limit rows and the force objective (one batch)
         phi = self.mode.phi(target)
         rows: ForceLimits | None = (
@@ -127,8 +131,9 @@ class Problem:
 
     @property
     def n_ineq(self) -> int:
-        """Number of inequality rows: the 24 n limits, then the force rows."""
-        return int(self.cs.size + (0 if self.forces is None else self.forces.size))
+        """Number of inequality rows: the 24 n limits, the self-leg rows, the force rows."""
+        sl = 0 if self.self_legs is None else self.n * self.self_legs.m
+        return int(self.cs.size + sl + (0 if self.forces is None else self.forces.size))
 
     # --- index arrays (built on first use) ------------------------------------------
     @cached_property
@@ -186,9 +191,8 @@ class Problem:
 
     # --- all functions at once ------------------------------------------------------
     def evaluate(self, u: FloatArray) -> tuple[Any, ...]:
-        if self._cache_u is not None and np.array_equal(u, self._cache_u):
-            assert self._cache is not None
-            return self._cache
+        if self._cache is not None and np.array_equal(u, self._cache[0]):
+            return self._cache[1]
         self.nfev += 1
         q = self.q_of(u)
         n, k = self.n, self.k
@@ -228,6 +232,8 @@ class Problem:
             Jeq = np.vstack([Jp, Jphi]) * self.es[:, None] * self.xs
             cin = c.ravel() * self.cs
             Jin = block_jacobian(Jc, readonly(self.cs), readonly(self.xs))
+            if self.self_legs is not None:
+                cin, Jin = self._with_self_legs(q, cin, Jin)
         if self.forces is not None:
             c_f, J_f = self.forces(q)
             cin = np.concatenate([cin, c_f])
@@ -253,9 +259,31 @@ class Problem:
             f = float(r @ r) + self.c0 / self.fscale
             g = 2.0 * Jr.T @ r
         out = (f, g, ceq, Jeq, cin, Jin)
-        self._cache_u = u.copy()
-        self._cache = out
+        self._cache = (u.copy(), out)
         return out
+
+    def _with_self_legs(
+        self, q: FloatArray, cin: FloatArray, Jin: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """``cin``, ``Jin`` with the self-leg rows appended (platform-major, scaled)."""
+        from stackik._compiled.self_legs import self_leg_block
+
+        sl = self.self_legs
+        assert sl is not None
+        st = self.stack
+        c, J = self_leg_block(
+            np.ascontiguousarray(q),
+            readonly(st.base_nodes),
+            readonly(st.top_nodes),
+            sl.pairs,
+            sl.rho,
+            sl.scale,
+        )
+        n, m, k = self.n, sl.m, self.k
+        Js = np.zeros((n * m, n * k))
+        for i in range(n):
+            Js[i * m : (i + 1) * m, i * k : (i + 1) * k] = J[i]
+        return np.concatenate([cin, c.ravel()]), np.vstack([Jin, Js * self.xs])
 
     def lagrangian_hessian(self, u: FloatArray, y_eq: FloatArray, y_in: FloatArray) -> FloatArray:
         """Exact Hessian of ``f - y_eq.c_E - y_in.c_I`` in scaled variables (planar only)."""

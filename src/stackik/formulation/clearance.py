@@ -1,0 +1,82 @@
+"""Which clearance rows a spatial problem carries: the one place that decides it.
+
+Self-leg rows (:mod:`stackik._compiled.self_legs`, the family's one definition): for each
+platform i and each of the 15 pairs (k, l) of its legs,
+
+    c = (d_kl^2 - rho_i^2) / scale_i >= 0,   rho_i = 2 leg_radius_i + clearance [mm],
+    scale_i = leg_max_i^2 [mm^2] (as the leg-length rows),
+
+``d_kl`` the distance of the two leg axes. They are present when the target is spatial and a
+leg radius or the clearance margin is positive: with zero radii and margin 0 two axes may
+touch (the check then has nothing to enforce either), so the problem is the paper's,
+unchanged.
+
+Not constrained by the solvers (the check enforces them, so a colliding pose is never a
+success): legs of adjacent platforms (kept >= 26.6 mm apart on the reference geometry by the
+joint-angle limits, ``docs/clearance.md``), bodies of platforms two or more apart, plates,
+obstacles; and planar poses (their legs keep >= 48 mm on the reference geometry).
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from stackik._arrays import readonly
+from stackik.geometry import Stack
+
+__all__ = ["NO_PAIRS", "SELF_LEG_PAIRS", "SelfLegs", "self_legs_of"]
+
+
+def _readonly_int(a: Any) -> Any:
+    v = np.ascontiguousarray(a, dtype=np.int64).reshape(-1, 2)
+    v.setflags(write=False)
+    return v
+
+
+#: The 15 leg pairs (k, l), k < l, of one platform (no two legs of a platform share a joint).
+SELF_LEG_PAIRS = _readonly_int(list(itertools.combinations(range(6), 2)))
+#: No pairs: the kernels' data when a problem has no self-leg rows.
+NO_PAIRS = _readonly_int(np.zeros((0, 2)))
+
+
+@dataclass(frozen=True)
+class SelfLegs:
+    """The self-leg rows of one problem (every array read-only).
+
+    Attributes
+    ----------
+    pairs : ndarray, shape (m, 2), int64
+        Leg pairs of one platform.
+    rho : ndarray, shape (n,)
+        Least axis distance per platform [mm].
+    scale : ndarray, shape (n,)
+        Row scale per platform [mm^2].
+    """
+
+    pairs: Any
+    rho: Any
+    scale: Any
+
+    @property
+    def m(self) -> int:
+        """Rows per platform."""
+        return int(self.pairs.shape[0])
+
+
+def self_legs_of(stack: Stack, clearance: float, planar: bool) -> SelfLegs | None:
+    """The self-leg rows of a problem on ``stack``, or None when it has none (planar, or
+    zero leg radii with ``clearance`` 0 [mm])."""
+    if planar:
+        return None
+    radius = np.array([g.leg_radius for g in stack], dtype=float)
+    if not (radius.max() > 0.0 or clearance > 0.0):
+        return None
+    return SelfLegs(
+        pairs=SELF_LEG_PAIRS,
+        rho=readonly(2.0 * radius + float(clearance)),
+        scale=readonly(np.asarray(stack.leg_max, dtype=float) ** 2),
+    )
