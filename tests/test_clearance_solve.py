@@ -117,3 +117,28 @@ def test_obstacles_are_enforced_by_the_check() -> None:
     assert r.clearances.minimum < 0.0
     with pytest.raises(ValueError):
         sk.solve_ik(REF, t, obstacles=[sk.Sphere(t.position, -1.0)])
+
+
+def test_cli_solve_clearance_and_obstacles(capsys: pytest.CaptureFixture[str], tmp_path) -> None:
+    """stackik solve --geometry (12 mm legs) --obstacles FILE --clearance MM: the table has
+    the clearances, the JSON their values; a bad file is a one-line usage error."""
+    import json
+
+    from stackik.cli import main
+
+    geo = tmp_path / "legs12.toml"
+    FAT.to_toml(geo)
+    obs = tmp_path / "obstacles.toml"
+    obs.write_text('[[obstacles]]\ntype = "sphere"\ncenter = [300, 0, 300]\nradius = 40\n')
+    args = ["solve", "--spatial", "--position", "20", "-30", "1300", "--geometry", str(geo)]
+    assert main([*args, "--obstacles", str(obs), "--clearance", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "Clearances [mm]" in out and "obstacle 0:" in out and "closest:" in out
+    assert main([*args, "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["success"] and data["clearances"]["self_legs"] >= -1e-6
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[[obstacles]]\ntype = "sphere"\ncenter = [0, 0, 0]\nradius = -1\n')
+    assert main([*args, "--obstacles", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "--obstacles" in err and len(err.strip().splitlines()) == 1
