@@ -142,3 +142,55 @@ def test_cli_solve_clearance_and_obstacles(capsys: pytest.CaptureFixture[str], t
     assert main([*args, "--obstacles", str(bad)]) == 2
     err = capsys.readouterr().err
     assert "--obstacles" in err and len(err.strip().splitlines()) == 1
+
+
+OBSTACLES3 = (
+    sk.Sphere((50, 20, 500), 30.0),
+    sk.Capsule((-300, 100, 300), (300, -50, 700), 10.0),
+    sk.HalfSpace((0, 0, -50), (0.1, 0, 1)),
+)
+
+
+@pytest.mark.derivatives
+def test_obstacle_rows_derivatives_and_values() -> None:
+    """The obstacle rows' Jacobian against central differences, and their values against
+    the check's own leg-obstacle distances."""
+    from stackik.formulation.obstacle_rows import ObstacleRows
+
+    stack = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=RADIUS), 3)
+    rows = ObstacleRows(stack, OBSTACLES3, 1.0)
+    rng = np.random.default_rng(1)
+    base = np.tile([0.0, 0.0, 300.0, 0.0, 0.0, 0.0], (3, 1))
+    q = base + rng.normal(0, [20, 20, 20, 0.2, 0.2, 0.2], (3, 6))
+    c, J = rows(q)
+    assert c.shape == (rows.size,) == (18 + 18 + 36,) and J.shape == (rows.size, 18)
+    num = fd.central(lambda x: rows(x.reshape(3, 6))[0], q.ravel())
+    fd.assert_derivative_close(J, num, f_scale=fd.term_scale(c, num), what="obstacle rows")
+    # leg surface distances from the rows, against stackik.clearance's (legs and plates:
+    # where a leg is the closest body they agree)
+    L = rows.L
+    legs_sphere = np.sqrt(c[:18] * L**2 + (30 + RADIUS + 1) ** 2) - RADIUS - 30
+    legs_half = (c[36:] * L + RADIUS + 1).min() - RADIUS
+    cl = sk.clearances(stack, q, OBSTACLES3)
+    assert legs_sphere.min() == pytest.approx(cl.obstacles[0], abs=1e-9)
+    assert legs_half == pytest.approx(cl.obstacles[2], abs=1e-9)
+
+
+def test_auto_goes_around_a_sphere_on_a_leg() -> None:
+    """A sphere on a leg of the least-FN pose: the default hands the interior point's
+    poses to an engine with the obstacle rows and returns a clear pose nearby."""
+    from stackik.kinematics import spatial_chain
+
+    targets = _targets()
+    for k in (0, 1, 3):
+        t = targets[k]
+        plain = sk.solve_ik(REF, t)
+        ch = spatial_chain(plain.q)
+        B = ch.O[1] + ch.A[1] @ REF.base_nodes[1][2]
+        T = ch.O[2] + ch.A[2] @ REF.top_nodes[1][2]
+        sphere = sk.Sphere((B + T) / 2, 15.0)
+        assert sk.clearances(REF, plain.q, [sphere]).obstacles[0] < 0
+        r = sk.solve_ik(REF, t, obstacles=[sphere])
+        assert r.success, (k, r.message)
+        assert sk.clearances(REF, r.q, [sphere]).obstacles[0] >= -1e-6
+        assert r.frobenius_norm <= plain.frobenius_norm * 1.01

@@ -92,15 +92,18 @@ class Clearance:
     margin : float
         Least clearance [mm] every checked pair keeps (``check_pose(..., clearance=)``).
     obstacles : tuple of Obstacle
-        Keep-out bodies in the base frame, enforced by the check (not yet rows of the
-        solvers' problems).
+        Keep-out bodies in the base frame, enforced by the check.
     self_legs : SelfLegs or None
         The self-leg rows, or None.
+    obstacle_rows : ObstacleRows or None
+        The rows that keep the legs clear of the spheres, capsules and half-spaces
+        (:mod:`stackik.formulation.obstacle_rows`; spatial only), or None.
     """
 
     margin: float = 0.0
     obstacles: tuple[Obstacle, ...] = ()
     self_legs: SelfLegs | None = None
+    obstacle_rows: Any = None
 
 
 def clearance_of(stack: Stack, planar: bool, margin: Any = 0.0, obstacles: Any = ()) -> Clearance:
@@ -111,5 +114,10 @@ def clearance_of(stack: Stack, planar: bool, margin: Any = 0.0, obstacles: Any =
     m = finite_number(margin, "clearance")
     if m < 0.0:
         raise ValueError(f"clearance: must be >= 0 mm, got {m}")
+    from stackik.formulation.obstacle_rows import obstacle_rows
+
     obs = tuple(as_obstacles(obstacles))
-    return Clearance(margin=m, obstacles=obs, self_legs=self_legs_of(stack, m, planar))
+    rows = None if planar or not obs else obstacle_rows(stack, obs, m)
+    return Clearance(
+        margin=m, obstacles=obs, self_legs=self_legs_of(stack, m, planar), obstacle_rows=rows
+    )

@@ -145,10 +145,19 @@ class Problem:
         )
 
     @property
+    def dense_rows(self) -> bool:
+        """Whether the problem has rows outside the compiled kernels, dense in the pose and
+        without second derivatives: leg-force limits or obstacle rows."""
+        return self.forces is not None or self.clearance.obstacle_rows is not None
+
+    @property
     def n_ineq(self) -> int:
-        """Number of inequality rows: the 24 n limits, the self-leg rows, the force rows."""
+        """Number of inequality rows: the 24 n limits, the self-leg rows, the obstacle
+        rows, the force rows."""
         sl = 0 if self.self_legs is None else self.n * self.self_legs.m
-        return int(self.cs.size + sl + (0 if self.forces is None else self.forces.size))
+        ob = self.clearance.obstacle_rows
+        extra = (0 if ob is None else ob.size) + (0 if self.forces is None else self.forces.size)
+        return int(self.cs.size + sl + extra)
 
     # --- index arrays (built on first use) ------------------------------------------
     @cached_property
@@ -249,6 +258,10 @@ class Problem:
             Jin = block_jacobian(Jc, readonly(self.cs), readonly(self.xs))
             if self.self_legs is not None:
                 cin, Jin = self._with_self_legs(q, cin, Jin)
+            if self.clearance.obstacle_rows is not None:
+                c_o, J_o = self.clearance.obstacle_rows(q)
+                cin = np.concatenate([cin, c_o])
+                Jin = np.vstack([Jin, J_o * self.xs])
         if self.forces is not None:
             c_f, J_f = self.forces(q)
             cin = np.concatenate([cin, c_f])

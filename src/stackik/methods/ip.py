@@ -246,13 +246,12 @@ def ip_starts(
             run = Run(q, int(nits[j]), statuses[j], chk, obj, None, texts[j])
         if chk.ok:
             return IPBatch(run, least, total, statuses, bound)
-        if prob.forces is not None and pose_ok(
-            chk.position_error,
-            chk.angle_error,
-            max(chk.max_violation_mm, chk.clearance_violation),
-            True,
+        # obstacle rows: a pose through an obstacle is a start for the engine that has them
+        clear = chk.clearance_violation if prob.clearance.obstacle_rows is None else 0.0
+        if prob.dense_rows and pose_ok(
+            chk.position_error, chk.angle_error, max(chk.max_violation_mm, clear), True
         ):
-            bound.append(run)  # at the target within every limit, over a force limit
+            bound.append(run)  # at the target within every limit, failing on dense rows
         if least is None or chk.max_violation_mm < least.check.max_violation_mm:
             least = run
         if viols[j] > RANK_VIOLATION:  # the rest are farther off: stop checking

@@ -105,9 +105,10 @@ class SQPMethod(Method):
         if "max_time" not in opts and math.isfinite(time_left):
             opts["max_time"] = max(time_left, 1e-3)
         name = (default_qp_solver() if qp_solver is None else qp_solver).strip().lower()
-        if prob.forces is not None or prob.force_residuals is not None:
-            # the force rows (stackik.formulation.forces) are dense in the pose and come
-            # without second derivatives: the dense formulation with damped BFGS
+        if prob.dense_rows or prob.force_residuals is not None:
+            # the force rows (stackik.formulation.forces) and the obstacle rows are dense
+            # in the pose and come without second derivatives: the dense formulation with
+            # damped BFGS
             form = "dense"
         if form == "auto":
             if not prob.planar:  # the compiled spatial problem, exact Hessian
@@ -130,7 +131,7 @@ class SQPMethod(Method):
         x0 = u0
         # exact Hessians: planar (one FN weight) in every formulation, spatial in the
         # compiled one ("dense" keeps the NumPy evaluation with damped BFGS)
-        exact = prob.planar and compiled_supported(prob) and prob.forces is None
+        exact = prob.planar and compiled_supported(prob) and not prob.dense_rows
         exact = exact and prob.force_residuals is None
         if form == "sparse" and (prob.fast is not None or not prob.planar):
             # the limit Jacobian as CSC, block diagonal by platform; values and Hessian

@@ -1,0 +1,150 @@
+"""Obstacle rows of a spatial problem: every leg kept clear of every sphere, capsule and
+half-space (docs/clearance.md), the one definition the solvers' problems use.
+
+Leg k of platform i (0-based) is the segment from its base joint ``B = O_i + A_i b_k`` to
+its top joint ``T = O_{i+1} + A_{i+1} t_k`` (base frame [mm], :class:`SpatialChain`'s
+plate frames), a capsule of radius ``r_i = leg_radius_i``. With the clearance margin ``m``:
+
+* sphere (centre ``c``, radius ``R``) and capsule (axis ``[a, b]``, radius ``R``): per leg
+  ``(d^2 - (R + r_i + m)^2) / L^2 >= 0``, ``d`` the distance of the leg's axis from the
+  obstacle's (a sphere's axis is its centre), ``L = max leg_max``; the first derivatives by
+  the envelope rule at the closest points (``closest_params`` of
+  :mod:`stackik._compiled.self_legs`, here in numpy), as the self-leg rows;
+* half-space (point ``p``, unit normal ``u``): per leg, both joints:
+  ``(u . (X - p) - r_i - m) / L >= 0`` (a capsule is on the free side exactly when both
+  its end balls are: the rows are exact, and smooth).
+
+Boxes, and the plates against any obstacle, have no rows: the solvers do not steer
+around them, the check (:mod:`stackik.clearance`) refuses a pose that meets them.
+The rows are dense (a leg moves with every platform below it) and not in the compiled
+kernels; the ``auto`` policy hands a pose that fails only on them to an engine that has
+them (:func:`stackik.solve.stages.ip_stage`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from stackik.geometry import Stack
+from stackik.kinematics import spatial_chain
+from stackik.obstacles import Capsule, HalfSpace, Obstacle, Sphere
+
+__all__ = ["ObstacleRows", "obstacle_rows"]
+
+FloatArray = NDArray[np.float64]
+
+#: Relative size of the squared cross term under which two segments count as parallel
+#: (stackik._compiled.self_legs._PARALLEL).
+_PARALLEL = 1e-12
+
+
+def _closest(d1: FloatArray, d2: FloatArray, r: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Closest-point parameters (s, t) in [0, 1] of segments ``p0 + s d1`` and
+    ``q0 + t d2`` (rows (k, 3), ``r = p0 - q0``): ``closest_params`` vectorised."""
+    a = np.einsum("ij,ij->i", d1, d1)
+    e = np.einsum("ij,ij->i", d2, d2)
+    f = np.einsum("ij,ij->i", d2, r)
+    c = np.einsum("ij,ij->i", d1, r)
+    b = np.einsum("ij,ij->i", d1, d2)
+    den = a * e - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(den > _PARALLEL * a * e, np.clip((b * f - c * e) / den, 0.0, 1.0), 0.0)
+        t = (b * s + f) / e
+        lo, hi = t < 0.0, t > 1.0
+        s = np.where(lo, np.clip(-c / a, 0.0, 1.0), np.where(hi, np.clip((b - c) / a, 0.0, 1.0), s))
+        t = np.clip(t, 0.0, 1.0)
+        # degenerate segments (an obstacle's axis of zero length: a sphere)
+        s = np.where(e <= 0.0, np.clip(-c / a, 0.0, 1.0), s)
+        t = np.where(e <= 0.0, 0.0, t)
+        s = np.where(a <= 0.0, 0.0, s)
+        t = np.where(a <= 0.0, np.where(e > 0.0, np.clip(f / e, 0.0, 1.0), 0.0), t)
+    return s, t
+
+
+class ObstacleRows:
+    """The obstacle rows of one spatial request (module doc).
+
+    Parameters
+    ----------
+    stack : Stack
+    obstacles : sequence of Obstacle
+        Those with rows (spheres, capsules, half-spaces).
+    margin : float
+        Clearance margin [mm].
+
+    Attributes
+    ----------
+    size : int
+        Number of rows: ``6 n`` per sphere or capsule, ``12 n`` per half-space.
+    """
+
+    def __init__(self, stack: Stack, obstacles: tuple[Obstacle, ...], margin: float) -> None:
+        self.n = stack.n
+        self.radius = np.repeat([g.leg_radius for g in stack], 6)  # (6n,) per leg
+        self.margin = float(margin)
+        self.L = float(np.max(stack.leg_max))
+        self.obstacles = obstacles
+        self._nodes = (np.asarray(stack.base_nodes), np.asarray(stack.top_nodes))
+        self.size = sum(12 * self.n if isinstance(o, HalfSpace) else 6 * self.n for o in obstacles)
+
+    def _joints(self, q: FloatArray) -> tuple[FloatArray, ...]:
+        """World joints ``B``, ``T`` (6n, 3) and their Jacobians (6n, 3, 6n)."""
+        ch = spatial_chain(q)
+        n = self.n
+        base, top = self._nodes
+        B = (ch.O[:-1, None, :] + np.einsum("iab,ikb->ika", ch.A[:-1], base)).reshape(-1, 3)
+        T = (ch.O[1:, None, :] + np.einsum("iab,ikb->ika", ch.A[1:], top)).reshape(-1, 3)
+        Jt = ch.J[:3].T  # (6n, 3): translation columns; angle columns recomputed per point
+        plate_of_col = np.repeat(np.arange(n), 6) + 1  # variable a moves plates >= this
+        is_angle = np.tile(np.arange(6) >= 3, n)
+
+        def jac(X: FloatArray, plate: Any) -> FloatArray:
+            J = np.zeros((X.shape[0], 3, 6 * n))
+            for a in range(6 * n):
+                moves = plate >= plate_of_col[a]
+                if not moves.any():
+                    continue
+                if is_angle[a]:
+                    lever = X[moves] - ch.O[plate_of_col[a]]
+                    J[moves, :, a] = np.cross(ch.w[a], lever)
+                else:
+                    J[moves, :, a] = Jt[a]
+            return J
+
+        leg_platform = np.repeat(np.arange(n), 6)
+        return B, T, jac(B, leg_platform), jac(T, leg_platform + 1)
+
+    def __call__(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Rows ``c`` (size,) and Jacobian (size, 6n) against the raw pose ``q`` (n, 6)."""
+        B, T, JB, JT = self._joints(q)
+        cs: list[FloatArray] = []
+        Js: list[FloatArray] = []
+        L = self.L
+        for ob in self.obstacles:
+            if isinstance(ob, HalfSpace):
+                u = ob.normal / np.linalg.norm(ob.normal)
+                for X, JX in ((B, JB), (T, JT)):
+                    cs.append(((X - ob.point) @ u - self.radius - self.margin) / L)
+                    Js.append(np.einsum("k,ikv->iv", u, JX) / L)
+                continue
+            assert isinstance(ob, (Sphere, Capsule))
+            a, b = (ob.center, ob.center) if isinstance(ob, Sphere) else (ob.a, ob.b)
+            rho = ob.radius + self.radius + self.margin
+            d2 = np.broadcast_to(np.asarray(b) - np.asarray(a), B.shape)
+            s, t = _closest(T - B, d2, B - a)
+            g = B + s[:, None] * (T - B) - (a + t[:, None] * d2)
+            cs.append((np.einsum("ij,ij->i", g, g) - rho * rho) / L**2)
+            dP = (1.0 - s)[:, None, None] * JB + s[:, None, None] * JT
+            Js.append(2.0 * np.einsum("ik,ikv->iv", g, dP) / L**2)
+        if not cs:
+            return np.zeros(0), np.zeros((0, 6 * self.n))
+        return np.concatenate(cs), np.vstack(Js)
+
+
+def obstacle_rows(stack: Stack, obstacles: tuple[Obstacle, ...], margin: float) -> Any:
+    """The :class:`ObstacleRows` of the obstacles that have rows, or None when none has."""
+    with_rows = tuple(o for o in obstacles if isinstance(o, (Sphere, Capsule, HalfSpace)))
+    return ObstacleRows(stack, with_rows, margin) if with_rows else None
