@@ -101,18 +101,18 @@ class ObstacleRows:
         plate_of_col = np.repeat(np.arange(n), 6) + 1  # variable a moves plates >= this
         is_angle = np.tile(np.arange(6) >= 3, n)
 
+        O_col = ch.O[plate_of_col]  # (6n, 3): the origin a variable turns about
+
         def jac(X: FloatArray, plate: Any) -> FloatArray:
-            J = np.zeros((X.shape[0], 3, 6 * n))
-            for a in range(6 * n):
-                moves = plate >= plate_of_col[a]
-                if not moves.any():
-                    continue
-                if is_angle[a]:
-                    lever = X[moves] - ch.O[plate_of_col[a]]
-                    J[moves, :, a] = np.cross(ch.w[a], lever)
-                else:
-                    J[moves, :, a] = Jt[a]
-            return J
+            lever = X[:, None, :] - O_col[None, :, :]  # (P, 6n, 3)
+            w = ch.w  # (6n, 3), zero for translations
+            cr = np.empty_like(lever)
+            cr[..., 0] = w[:, 1] * lever[..., 2] - w[:, 2] * lever[..., 1]
+            cr[..., 1] = w[:, 2] * lever[..., 0] - w[:, 0] * lever[..., 2]
+            cr[..., 2] = w[:, 0] * lever[..., 1] - w[:, 1] * lever[..., 0]
+            J = np.where(is_angle[None, :, None], cr, Jt[None, :, :])
+            J = J * (plate[:, None] >= plate_of_col[None, :])[:, :, None]
+            return np.swapaxes(J, 1, 2)  # type: ignore[no-any-return]
 
         leg_platform = np.repeat(np.arange(n), 6)
         return B, T, jac(B, leg_platform), jac(T, leg_platform + 1)
