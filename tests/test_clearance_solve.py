@@ -194,3 +194,14 @@ def test_auto_goes_around_a_sphere_on_a_leg() -> None:
         assert r.success, (k, r.message)
         assert sk.clearances(REF, r.q, [sphere]).obstacles[0] >= -1e-6
         assert r.frobenius_norm <= plain.frobenius_norm * 1.01
+
+
+def test_no_clear_pose_is_infeasible_with_the_least_penetrating_pose() -> None:
+    """A sphere around the end effector that every top joint lies in: no pose is clear;
+    the result is infeasible, not a crash, with the pose and its clearances."""
+    stack = sk.Stack.reference(1)
+    t = random_spatial_targets(stack, 1, rng=3)[0]
+    r = sk.solve_ik(stack, t, obstacles=[sk.Sphere(t.position, 200.0)])
+    assert r.status is sk.IKStatus.INFEASIBLE and not r.success
+    assert r.clearances is not None and r.clearances.obstacles[0] < 0.0
+    assert r.target_error <= 1e-6  # at the target, within its limits: only the clearance fails

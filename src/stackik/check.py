@@ -124,6 +124,12 @@ class PoseCheck:
     clearances: Clearances | None = None
     clearance_violation: float = 0.0
 
+    @property
+    def violation_mm(self) -> float:
+        """The worst shortfall as a length [mm]: limits and clearances (what ranks the
+        least-violating pose of a solve that found no passing one)."""
+        return max(self.max_violation_mm, self.clearance_violation)
+
 
 def so3_log(R: FloatArray) -> FloatArray:
     """Rotation vector of R (angle in [0, pi])."""

@@ -252,7 +252,7 @@ def ip_starts(
             chk.position_error, chk.angle_error, max(chk.max_violation_mm, clear), True
         ):
             bound.append(run)  # at the target within every limit, failing on dense rows
-        if least is None or chk.max_violation_mm < least.check.max_violation_mm:
+        if least is None or chk.violation_mm < least.check.violation_mm:
             least = run
         if viols[j] > RANK_VIOLATION:  # the rest are farther off: stop checking
             break

@@ -113,7 +113,7 @@ class Tally:
             self.offer_least(run)
 
     def offer_least(self, run: Run) -> None:
-        if self.least is None or run.check.max_violation_mm < self.least.check.max_violation_mm:
+        if self.least is None or run.check.violation_mm < self.least.check.violation_mm:
             self.least = run
 
     def failure_status(self) -> IKStatus:
@@ -127,7 +127,7 @@ class Tally:
             return IKStatus.MAX_TIME
         if self.last is RunStatus.SUCCESS:  # the solver claimed success; the check disagreed
             return IKStatus.FAILED
-        if self.least is not None and self.least.check.max_violation_mm > FEAS_TOL:
+        if self.least is not None and self.least.check.violation_mm > FEAS_TOL:
             return IKStatus.INFEASIBLE
         return IKStatus.FAILED
 
