@@ -205,3 +205,18 @@ def test_no_clear_pose_is_infeasible_with_the_least_penetrating_pose() -> None:
     assert r.status is sk.IKStatus.INFEASIBLE and not r.success
     assert r.clearances is not None and r.clearances.obstacles[0] < 0.0
     assert r.target_error <= 1e-6  # at the target, within its limits: only the clearance fails
+
+
+def test_planar_solve_checks_obstacles() -> None:
+    """The planar interior point's compiled re-check knows no obstacle: a planar pose
+    through one is re-checked in full and never a success."""
+    t = sk.PlanarTarget(150.0, 1200.0, 0.3)
+    plain = sk.solve_ik(REF, t)
+    assert plain.success and plain.clearances is None
+    from stackik.clearance import plate_frames
+
+    Pw = plate_frames(REF, plain.q, phi=t.phi)[1]  # plate origins, base frame
+    sphere = sk.Sphere(Pw[2], 40.0)  # on plate 2
+    r = sk.solve_ik(REF, t, obstacles=[sphere])
+    assert r.clearances is not None
+    assert not r.success or r.clearances.obstacles[0] >= -1e-6

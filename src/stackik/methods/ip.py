@@ -233,8 +233,12 @@ def ip_starts(
         if prob.planar:
             # the independent re-check (compiled; same values as check_pose, tested)
             chk, P, R, legs = planar_check(prob.stack, prob.target, q)
-            if chk.ok and (needs_clearances(prob.stack) or prob.forces is not None):
-                # legs with a radius or a force limit: the twin checks neither
+            cl = prob.clearance
+            if chk.ok and (
+                needs_clearances(prob.stack, cl.obstacles, cl.margin) or prob.forces is not None
+            ):
+                # bodies with a size, obstacles, a margin or a force limit: the twin checks
+                # none of them
                 chk = prob.check(q)
             # the objective at the polished point, unscaled (f = objective / fscale)
             obj = objs[j] * prob.fscale
