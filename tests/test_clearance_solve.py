@@ -220,3 +220,23 @@ def test_planar_solve_checks_obstacles() -> None:
     r = sk.solve_ik(REF, t, obstacles=[sphere])
     assert r.clearances is not None
     assert not r.success or r.clearances.obstacles[0] >= -1e-6
+
+
+def test_out_of_reach_obstacles_have_no_rows() -> None:
+    """Obstacles no leg can reach (beyond reach_bound of the base origin) add no rows: the
+    problem is the obstacle-free one, only the check measures them."""
+    from stackik.formulation import reach_bound
+
+    t = _targets()[0]
+    R = reach_bound(REF)
+    far = [sk.Sphere((R + 200.0, 0, 0), 100.0), sk.HalfSpace((0, 0, -R - 50.0), (0, 0, 1))]
+    near = [sk.Sphere((R - 50.0, 0, 0), 100.0)]
+    assert Problem(REF, t, "frobenius", None, obstacles=far).clearance.obstacle_rows is None
+    assert not Problem(REF, t, "frobenius", None, obstacles=far).dense_rows
+    assert Problem(REF, t, "frobenius", None, obstacles=near).clearance.obstacle_rows is not None
+    r = sk.solve_ik(REF, t, obstacles=far)
+    assert r.success and r.clearances is not None and r.clearances.minimum > 0
+    from stackik.clearance import clearances_can_fail
+
+    assert not clearances_can_fail(REF, far) and clearances_can_fail(REF, near)
+    assert clearances_can_fail(FAT, far) and clearances_can_fail(REF, far, 1.0)

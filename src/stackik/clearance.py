@@ -558,5 +558,30 @@ def needs_clearances(
     return bool(stack.derived("clearance_bodies", _has_bodies))
 
 
+def clearances_can_fail(
+    stack: Stack, obstacles: Sequence[Obstacle] = (), clearance: float = 0.0
+) -> bool:
+    """Whether some pose within the leg limits can fail a clearance: :func:`needs_clearances`
+    except that obstacles out of reach of every pose do not count (a solver that checks
+    limits and target apart need not measure them for its verdict).
+
+    Out of reach: the obstacle's signed distance from the base origin exceeds the sum over
+    the platforms of ``leg_max`` and the largest base and top node radii (every joint,
+    hence every leg and plate, of a pose within the leg limits lies in that ball)."""
+    if clearance > 0.0 or bool(stack.derived("clearance_bodies", _has_bodies)):
+        return True
+    if not obstacles:
+        return False
+    reach = float(stack.derived("clearance_reach", _reach))
+    origin = np.zeros(3)
+    return any(bool(ob.point_distance(origin) <= reach) for ob in obstacles)
+
+
+def _reach(stack: Stack) -> float:
+    rb = np.linalg.norm(stack.base_nodes, axis=-1).max(axis=1)
+    rt = np.linalg.norm(stack.top_nodes, axis=-1).max(axis=1)
+    return float(np.sum(stack.leg_max + rb + rt))
+
+
 def _has_bodies(stack: Stack) -> bool:
     return any(g.leg_radius > 0.0 or g.plate_thickness > 0.0 for g in stack)

@@ -144,7 +144,24 @@ class ObstacleRows:
         return np.concatenate(cs), np.vstack(Js)
 
 
+def _out_of_reach(ob: Obstacle, reach: float, gap: float) -> bool:
+    """Whether ``ob`` is farther than ``gap`` [mm] from the ball of radius ``reach`` about
+    the base origin, which holds every leg of every pose within the leg limits."""
+    origin = np.zeros(3)
+    return bool(ob.point_distance(origin) > reach + gap)
+
+
 def obstacle_rows(stack: Stack, obstacles: tuple[Obstacle, ...], margin: float) -> Any:
-    """The :class:`ObstacleRows` of the obstacles that have rows, or None when none has."""
-    with_rows = tuple(o for o in obstacles if isinstance(o, (Sphere, Capsule, HalfSpace)))
+    """The :class:`ObstacleRows` of the obstacles that have rows and that a leg can reach,
+    or None when none has: an obstacle beyond :func:`stackik.formulation.reach_bound`
+    (plus the leg radius and the margin) from the base origin costs nothing."""
+    from stackik.formulation.modes import reach_bound
+
+    gap = max(g.leg_radius for g in stack) + margin
+    reach = reach_bound(stack)
+    with_rows = tuple(
+        o
+        for o in obstacles
+        if isinstance(o, (Sphere, Capsule, HalfSpace)) and not _out_of_reach(o, reach, gap)
+    )
     return ObstacleRows(stack, with_rows, margin) if with_rows else None

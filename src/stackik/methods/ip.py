@@ -213,7 +213,7 @@ def ip_starts(
     :data:`RANK_VIOLATION` of feasibility), or the least-violation run when none passes."""
     from stackik._compiled.check import planar_check
     from stackik.check import pose_ok
-    from stackik.clearance import needs_clearances
+    from stackik.clearance import clearances_can_fail
 
     U0 = np.stack([prob.u_of(q) for q in starts])
     opts = {"max_time": max_time, **options}
@@ -235,7 +235,7 @@ def ip_starts(
             chk, P, R, legs = planar_check(prob.stack, prob.target, q)
             cl = prob.clearance
             if chk.ok and (
-                needs_clearances(prob.stack, cl.obstacles, cl.margin) or prob.forces is not None
+                clearances_can_fail(prob.stack, cl.obstacles, cl.margin) or prob.forces is not None
             ):
                 # bodies with a size, obstacles, a margin or a force limit: the twin checks
                 # none of them
