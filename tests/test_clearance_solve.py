@@ -225,10 +225,10 @@ def test_planar_solve_checks_obstacles() -> None:
 def test_out_of_reach_obstacles_have_no_rows() -> None:
     """Obstacles no leg can reach (beyond reach_bound of the base origin) add no rows: the
     problem is the obstacle-free one, only the check measures them."""
-    from stackik.formulation import reach_bound
+    from stackik.clearance import body_reach
 
     t = _targets()[0]
-    R = reach_bound(REF)
+    R = body_reach(REF)
     far = [sk.Sphere((R + 200.0, 0, 0), 100.0), sk.HalfSpace((0, 0, -R - 50.0), (0, 0, 1))]
     near = [sk.Sphere((R - 50.0, 0, 0), 100.0)]
     assert Problem(REF, t, "frobenius", None, obstacles=far).clearance.obstacle_rows is None
@@ -240,3 +240,21 @@ def test_out_of_reach_obstacles_have_no_rows() -> None:
 
     assert not clearances_can_fail(REF, far) and clearances_can_fail(REF, near)
     assert clearances_can_fail(FAT, far) and clearances_can_fail(REF, far, 1.0)
+
+
+def test_body_reach_bounds_every_joint() -> None:
+    """Every joint of random feasible poses (and of poses at the leg limits: the least-FN
+    ones) lies within body_reach of the base origin."""
+    from stackik.clearance import body_reach, plate_frames
+    from stackik.sampling import random_feasible_poses
+
+    R = body_reach(REF)
+    poses = [(q, 0.7) for q in random_feasible_poses(REF, 200, rng=5, phi=0.7)]
+    poses += [(sk.solve_ik(REF, t).q, None) for t in _targets()[:4]]
+    for q, phi in poses:
+        A, O = plate_frames(REF, q, phi=phi)
+        joints = np.concatenate(
+            [O[:-1, None] + np.einsum("iab,ikb->ika", A[:-1], REF.base_nodes),
+             O[1:, None] + np.einsum("iab,ikb->ika", A[1:], REF.top_nodes)]
+        )  # fmt: skip
+        assert np.linalg.norm(joints, axis=-1).max() <= R

@@ -565,22 +565,35 @@ def clearances_can_fail(
     except that obstacles out of reach of every pose do not count (a solver that checks
     limits and target apart need not measure them for its verdict).
 
-    Out of reach: the obstacle's signed distance from the base origin exceeds the sum over
-    the platforms of ``leg_max`` and the largest base and top node radii (every joint,
-    hence every leg and plate, of a pose within the leg limits lies in that ball)."""
+    Out of reach: the obstacle's signed distance from the base origin exceeds
+    :func:`body_reach`."""
     if clearance > 0.0 or bool(stack.derived("clearance_bodies", _has_bodies)):
         return True
     if not obstacles:
         return False
-    reach = float(stack.derived("clearance_reach", _reach))
+    reach = body_reach(stack)
     origin = np.zeros(3)
     return any(bool(ob.point_distance(origin) <= reach) for ob in obstacles)
 
 
+def body_reach(stack: Stack) -> float:
+    """Radius [mm] of a ball about the base origin holding every body of every pose within
+    the leg limits: ``sum_i (leg_max_i + |mean_k b_ik| + |mean_k t_ik|) + max node radius``.
+
+    Platform i's top origin is ``p = mean_k (l_k + b_k - R t_k)`` (legs ``l_k``), so
+    ``|p| <= leg_max + |mean b| + |mean t|``; every joint is within its plate's node radius
+    of its plate's origin, and legs and plates are convex hulls of joints."""
+    return float(stack.derived("clearance_reach", _reach))
+
+
 def _reach(stack: Stack) -> float:
-    rb = np.linalg.norm(stack.base_nodes, axis=-1).max(axis=1)
-    rt = np.linalg.norm(stack.top_nodes, axis=-1).max(axis=1)
-    return float(np.sum(stack.leg_max + rb + rt))
+    mb = np.linalg.norm(stack.base_nodes.mean(axis=1), axis=-1)
+    mt = np.linalg.norm(stack.top_nodes.mean(axis=1), axis=-1)
+    r = max(
+        np.linalg.norm(stack.base_nodes, axis=-1).max(),
+        np.linalg.norm(stack.top_nodes, axis=-1).max(),
+    )
+    return float(np.sum(stack.leg_max + mb + mt) + r)
 
 
 def _has_bodies(stack: Stack) -> bool:

@@ -153,12 +153,12 @@ def _out_of_reach(ob: Obstacle, reach: float, gap: float) -> bool:
 
 def obstacle_rows(stack: Stack, obstacles: tuple[Obstacle, ...], margin: float) -> Any:
     """The :class:`ObstacleRows` of the obstacles that have rows and that a leg can reach,
-    or None when none has: an obstacle beyond :func:`stackik.formulation.reach_bound`
-    (plus the leg radius and the margin) from the base origin costs nothing."""
-    from stackik.formulation.modes import reach_bound
+    or None when none has: an obstacle beyond :func:`stackik.clearance.body_reach` (plus
+    the leg radius and the margin) from the base origin costs nothing."""
+    from stackik.clearance import body_reach
 
     gap = max(g.leg_radius for g in stack) + margin
-    reach = reach_bound(stack)
+    reach = body_reach(stack)
     with_rows = tuple(
         o
         for o in obstacles
