@@ -347,7 +347,8 @@ def test_reanchoring_screen_is_the_default_solve_with_slow_starts_cut_short(stac
     # three starts take 112 and 89 iterations, the best one 15; the check's screen (the
     # same starts, options and selection with 10 n = 40 iterations a start) returns the
     # default solve's pose; with rng, the seed of the waypoint's default solve
-    from stackik.paths.solve import _request, _screen
+    from stackik.paths.reanchor import _screen
+    from stackik.paths.request import _request
 
     t = PlanarTarget(-577.4463669760025, 746.0050920668673, 1.0064166443992248)
     req = _request(stack4, [t], MAX_JUMP, "fast", 0.0, False, 1, None, None, None, 6, None,
@@ -757,7 +758,7 @@ def test_spatial_fast_mode_reanchors_by_default_and_keeps_fn_within_3_percent(st
 def test_spatial_default_reanchoring_up_to_four_platforms():
     # a spatial check costs ~20 warm steps at n = 4; from n = 5 (18 starts and 12 hops)
     # 40-70, and on the benchmark's n = 8 paths it found no better path: off
-    from stackik.paths.solve import _request
+    from stackik.paths.request import _request
 
     for n, every in ((2, 20), (4, 20), (5, 0), (8, 0), (16, 0)):
         stack = Stack.reference(n)
