@@ -11,6 +11,7 @@ step is within ``max_jump``. Its checkpoint records and replay are in
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -239,11 +240,12 @@ class _Sweep:
         if dist > TRANSIT_STEPS:  # too far to get there
             self.cooldown = k + TRANSIT_COOLDOWN
             return
-        qt = self.tracker.transit(c.q, self.targets[k], dk.q)
-        if qt is None:
+        # the first step: no distance to beat yet (any transit pose is progress)
+        moved = closer(self.tracker, c.q, self.targets[k], dk.q, math.inf)
+        if moved is None:
             self.cooldown = k + TRANSIT_COOLDOWN
         else:
-            g = self.tracker.ratio(qt, dk.q)
+            qt, g = moved
             self.add(k, self.cand(qt, "transit", steps=1, goal_dist=g))
             self.relax(k)
 

@@ -66,7 +66,8 @@ def closer(
 ) -> tuple[FloatArray, float] | None:
     """A transit step from ``q`` to ``target`` towards ``goal`` that ends more than
     :data:`TRANSIT_PROGRESS` jumps closer to ``goal`` than ``dist``: ``(pose, its distance
-    to goal [max_jump])``, or None (no transit pose, or not closer enough: give up)."""
+    to goal [max_jump])``, or None (no transit pose, or not closer enough: give up).
+    ``dist = inf`` for a transit's first step (any transit pose counts)."""
     qt = tracker.transit(q, target, goal)
     if qt is None:
         return None
