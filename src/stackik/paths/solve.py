@@ -67,13 +67,19 @@ from stackik.paths.request import (
     _request,
 )
 from stackik.paths.result import PathResult
-from stackik.paths.transit import FAST_TRANSIT_GAIN, TRANSIT_GAIN, TRANSIT_STEPS
+from stackik.paths.transit import (
+    FAST_TRANSIT_GAIN,
+    GLOBAL_TRANSIT_GAIN,
+    TRANSIT_GAIN,
+    TRANSIT_STEPS,
+)
 from stackik.solve.blas import BlasLimit
 from stackik.targets import Target
 
 __all__ = [
     "DEDUPE",
     "FAST_TRANSIT_GAIN",
+    "GLOBAL_TRANSIT_GAIN",
     "MODES",
     "REANCHOR_EVERY",
     "REANCHOR_ITER_PER_N",
