@@ -363,6 +363,41 @@ def test_reanchoring_screen_is_the_default_solve_with_slow_starts_cut_short(stac
     np.testing.assert_array_equal(_screen(req7, t, 20)[0], req7.default_solve(t, 20).q)
 
 
+def test_transit_step_must_come_a_quarter_jump_closer():
+    # closer(), the transit step both modes share: the transit pose and its distance to
+    # the goal when it ends more than TRANSIT_PROGRESS jumps closer than dist, else None
+    # (also when there is no transit pose); dist = inf (a first step): any transit pose
+    from stackik.paths.transit import (
+        FAST_TRANSIT_GAIN,
+        GLOBAL_TRANSIT_GAIN,
+        TRANSIT_GAIN,
+        TRANSIT_PROGRESS,
+        closer,
+    )
+
+    class Stub:
+        def __init__(self, qt):
+            self.qt = qt
+
+        def transit(self, q, target, goal):
+            return self.qt
+
+        def ratio(self, qa, qb):
+            return float(np.max(np.abs(qb - qa)))
+
+    goal = np.zeros((2, 3))
+    qt = np.full((2, 3), 0.5)
+    tr = Stub(qt)
+    got = closer(tr, goal + 1.0, A, goal, 0.5 + TRANSIT_PROGRESS + 1e-9)
+    assert got is not None and got[0] is qt and got[1] == 0.5
+    assert closer(tr, goal + 1.0, A, goal, 0.5 + TRANSIT_PROGRESS) is None  # not closer
+    first = closer(tr, goal + 1.0, A, goal, math.inf)
+    assert first is not None and first[0] is qt and first[1] == 0.5
+    assert closer(Stub(None), goal + 1.0, A, goal, math.inf) is None
+    # the two gains keep their values (fast 1 %, global 0.5 %; the old name is global's)
+    assert (FAST_TRANSIT_GAIN, GLOBAL_TRANSIT_GAIN, TRANSIT_GAIN) == (0.01, 0.005, 0.005)
+
+
 def test_fast_mode_leaves_a_branch_that_ends_at_a_limit_wall(tmp_path, monkeypatch):
     # n = 8: the branch the fast path follows ends at a joint limit before waypoint 45,
     # where a bounded step that finds no continuation leaves the path there (the compiled
