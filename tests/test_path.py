@@ -347,7 +347,8 @@ def test_reanchoring_screen_is_the_default_solve_with_slow_starts_cut_short(stac
     # three starts take 112 and 89 iterations, the best one 15; the check's screen (the
     # same starts, options and selection with 10 n = 40 iterations a start) returns the
     # default solve's pose; with rng, the seed of the waypoint's default solve
-    from stackik.paths.solve import _request, _screen
+    from stackik.paths.reanchor import _screen
+    from stackik.paths.request import _request
 
     t = PlanarTarget(-577.4463669760025, 746.0050920668673, 1.0064166443992248)
     req = _request(stack4, [t], MAX_JUMP, "fast", 0.0, False, 1, None, None, None, 6, None,
@@ -360,6 +361,41 @@ def test_reanchoring_screen_is_the_default_solve_with_slow_starts_cut_short(stac
     req7 = _request(stack4, [t], MAX_JUMP, "fast", 0.0, False, 1, None, None, None, 6, 7,
                     None)  # fmt: skip
     np.testing.assert_array_equal(_screen(req7, t, 20)[0], req7.default_solve(t, 20).q)
+
+
+def test_transit_step_must_come_a_quarter_jump_closer():
+    # closer(), the transit step both modes share: the transit pose and its distance to
+    # the goal when it ends more than TRANSIT_PROGRESS jumps closer than dist, else None
+    # (also when there is no transit pose); dist = inf (a first step): any transit pose
+    from stackik.paths.transit import (
+        FAST_TRANSIT_GAIN,
+        GLOBAL_TRANSIT_GAIN,
+        TRANSIT_GAIN,
+        TRANSIT_PROGRESS,
+        closer,
+    )
+
+    class Stub:
+        def __init__(self, qt):
+            self.qt = qt
+
+        def transit(self, q, target, goal):
+            return self.qt
+
+        def ratio(self, qa, qb):
+            return float(np.max(np.abs(qb - qa)))
+
+    goal = np.zeros((2, 3))
+    qt = np.full((2, 3), 0.5)
+    tr = Stub(qt)
+    got = closer(tr, goal + 1.0, A, goal, 0.5 + TRANSIT_PROGRESS + 1e-9)
+    assert got is not None and got[0] is qt and got[1] == 0.5
+    assert closer(tr, goal + 1.0, A, goal, 0.5 + TRANSIT_PROGRESS) is None  # not closer
+    first = closer(tr, goal + 1.0, A, goal, math.inf)
+    assert first is not None and first[0] is qt and first[1] == 0.5
+    assert closer(Stub(None), goal + 1.0, A, goal, math.inf) is None
+    # the two gains keep their values (fast 1 %, global 0.5 %; the old name is global's)
+    assert (FAST_TRANSIT_GAIN, GLOBAL_TRANSIT_GAIN, TRANSIT_GAIN) == (0.01, 0.005, 0.005)
 
 
 def test_fast_mode_leaves_a_branch_that_ends_at_a_limit_wall(tmp_path, monkeypatch):
@@ -757,7 +793,7 @@ def test_spatial_fast_mode_reanchors_by_default_and_keeps_fn_within_3_percent(st
 def test_spatial_default_reanchoring_up_to_four_platforms():
     # a spatial check costs ~20 warm steps at n = 4; from n = 5 (18 starts and 12 hops)
     # 40-70, and on the benchmark's n = 8 paths it found no better path: off
-    from stackik.paths.solve import _request
+    from stackik.paths.request import _request
 
     for n, every in ((2, 20), (4, 20), (5, 0), (8, 0), (16, 0)):
         stack = Stack.reference(n)

@@ -1,0 +1,183 @@
+"""The validated request of a path solve (:func:`stackik.paths.solve_path`'s input checks).
+
+:class:`_Request` holds the checked inputs and the defaults filled in (the reanchoring
+schedule's ``reanchor_every``, the seed drawn from ``rng``); its :meth:`_Request.key` is
+the problem's identity for checkpoints and :meth:`_Request.default_solve` the memoised
+default solve of a waypoint that both modes and the break diagnosis share.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from stackik.check import check_pose
+from stackik.geometry import Stack
+from stackik.paths.interpolate import _pair, as_waypoints
+from stackik.solve import solve_ik
+from stackik.targets import PlanarTarget, Target, target_to_dict
+
+__all__ = ["MODES", "REANCHOR_EVERY", "REANCHOR_PER_N", "SPATIAL_REANCHOR_N"]
+
+FloatArray = NDArray[np.float64]
+
+MODES = ("fast", "global")
+#: Default ``reanchor_every``: ``max(REANCHOR_EVERY, REANCHOR_PER_N * n)`` waypoints
+#: (the default solve's starts grow with n: planar 3 at n = 4, 19 at n = 8, 35 at n = 16;
+#: this keeps its share of a fast path's time small); spatial paths up to
+#: ``SPATIAL_REANCHOR_N`` platforms only (8 starts, ~10 ms, about 20 warm steps, at
+#: n = 4; from n = 5 18 starts and 12 hops, ~170 ms at n = 8, where a check at waypoint
+#: 40 of the benchmark's and 4 held-out 60-waypoint paths gave no lower FN (mean ratio
+#: 1.0107 -> 1.0113 and 1.0025 -> 1.0027) at 60-70 % of the speed).
+REANCHOR_EVERY = 20
+REANCHOR_PER_N = 5
+SPATIAL_REANCHOR_N = 4
+
+
+@dataclass(frozen=True)
+class _Request:
+    stack: Stack
+    targets: list[Target]
+    planar: bool
+    k: int
+    max_jump: tuple[float, float]
+    mode: str
+    motion_weight: float
+    refine: bool
+    max_depth: int
+    start: FloatArray | None
+    leg_speed: float | None
+    leg_accel: float | None
+    max_candidates: int
+    seed: int | None
+    reanchor_every: int
+    memo: dict[Any, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    def key(self) -> dict[str, Any]:
+        """JSON-ready identity of the problem (for checkpoints)."""
+        return {
+            "stack": self.stack.to_dict(),
+            "targets": [target_to_dict(t) for t in self.targets],
+            "max_jump": list(self.max_jump),
+            "mode": self.mode,
+            "motion_weight": self.motion_weight,
+            "refine": self.refine,
+            "max_depth": self.max_depth,
+            "start": None if self.start is None else self.start.tolist(),
+            "max_candidates": self.max_candidates,
+            "seed": self.seed,
+            "reanchor_every": self.reanchor_every,
+        }
+
+    def default_solve(self, target: Target, index: int) -> Any:
+        """The default multi-start solve of waypoint ``index`` (memoised: a break's
+        diagnosis reuses the rejoin attempt's solve)."""
+        key = (index, json.dumps(target_to_dict(target)))
+        if key not in self.memo:
+            rng = None if self.seed is None else self.seed + index
+            self.memo[key] = solve_ik(self.stack, target, rng=rng)
+        return self.memo[key]
+
+
+def _request(
+    stack: Any,
+    targets: Any,
+    max_jump: Any,
+    mode: Any,
+    motion_weight: Any,
+    refine: Any,
+    max_depth: Any,
+    start: Any,
+    leg_speed: Any,
+    leg_accel: Any,
+    max_candidates: Any,
+    rng: Any,
+    reanchor_every: Any,
+) -> _Request:
+    if not isinstance(stack, Stack):
+        raise ValueError(f"stack: expected a Stack, got {type(stack).__name__}")
+    if bool(np.isfinite(stack.force_max).any()):
+        # the path kernels do not know leg forces: refuse rather than call a pose over
+        # its force limit valid (solve_ik refuses such a pose by the independent check)
+        raise ValueError(
+            "stack: solve_path does not enforce leg force limits yet (force_max is finite); "
+            "use a stack without force_max, or check waypoints with stackik.statics"
+        )
+    pts = as_waypoints(targets)
+    planar = isinstance(pts[0], PlanarTarget)
+    k = 3 if planar else 6
+    mj = _pair(max_jump, "max_jump")
+    if mode not in MODES:
+        raise ValueError(f"mode: unknown {mode!r}; choose one of {MODES}")
+    try:
+        w = float(motion_weight)
+    except (TypeError, ValueError):
+        raise ValueError(f"motion_weight: expected a number, got {motion_weight!r}") from None
+    if not math.isfinite(w) or w < 0:
+        raise ValueError(f"motion_weight: must be finite and >= 0, got {motion_weight!r}")
+    if not isinstance(refine, bool):
+        raise ValueError(f"refine: expected True or False, got {refine!r}")
+    if isinstance(max_depth, bool) or not isinstance(max_depth, int) or not 0 <= max_depth <= 12:
+        raise ValueError(f"max_depth: expected an integer in 0..12, got {max_depth!r}")
+    if (
+        isinstance(max_candidates, bool)
+        or not isinstance(max_candidates, int)
+        or max_candidates < 1
+    ):
+        raise ValueError(f"max_candidates: expected an integer >= 1, got {max_candidates!r}")
+    if (leg_speed is None) != (leg_accel is None):
+        raise ValueError("leg_speed and leg_accel: give both (mm/s, mm/s^2) or neither")
+    speeds: list[float | None] = [None, None]
+    for j, (name, v) in enumerate((("leg_speed", leg_speed), ("leg_accel", leg_accel))):
+        if v is not None:
+            try:
+                fv = float(v)
+            except (TypeError, ValueError):
+                raise ValueError(f"{name}: expected a number, got {v!r}") from None
+            if not math.isfinite(fv) or fv <= 0:
+                raise ValueError(f"{name}: must be finite and > 0, got {v!r}")
+            speeds[j] = fv
+    q0 = None
+    if start is not None:
+        try:
+            q0 = np.array(start, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError("start: expected an array of numbers") from None
+        if q0.shape != (stack.n, k) or not np.all(np.isfinite(q0)):
+            raise ValueError(
+                f"start: expected finite values of shape ({stack.n}, {k}), got {q0.shape}"
+            )
+        chk = check_pose(stack, pts[0], q0)
+        if not chk.ok:
+            raise ValueError(
+                "start: the pose does not reach targets[0] within every limit "
+                f"(position error {chk.position_error:.3g} mm, angle error "
+                f"{chk.angle_error:.3g} rad, worst violation {chk.max_violation_mm:.3g} mm)"
+            )
+    if reanchor_every is None:
+        reanchor_every = max(REANCHOR_EVERY, REANCHOR_PER_N * stack.n)
+        if not planar and stack.n > SPATIAL_REANCHOR_N:
+            reanchor_every = 0
+    if (
+        isinstance(reanchor_every, bool)
+        or not isinstance(reanchor_every, int)
+        or reanchor_every < 0
+    ):
+        raise ValueError(
+            f"reanchor_every: expected an integer >= 0 or None, got {reanchor_every!r}"
+        )
+    seed = None
+    if rng is not None:
+        try:
+            seed = int(np.random.default_rng(rng).integers(2**31))
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"rng: expected None, an int seed or a Generator ({exc})") from None
+    return _Request(
+        stack, pts, planar, k, mj, mode, w, refine, max_depth, q0, speeds[0], speeds[1],
+        max_candidates, seed, reanchor_every,
+    )  # fmt: skip
