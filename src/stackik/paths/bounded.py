@@ -96,6 +96,8 @@ def bounded_ip(
     max_jump: FloatArray,
     *,
     goal: FloatArray | None = None,
+    obstacles: Any = (),
+    clearance: float = 0.0,
 ) -> FloatArray | None:
     """:func:`bounded_step`'s problem (the same objective, box and transit objective) on
     the compiled interior point (:func:`stackik._compiled.planar.ip_box`,
@@ -106,7 +108,7 @@ def bounded_ip(
     from stackik.formulation import POLISH_MARGIN, POLISH_REACH
     from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
-    prob = Problem(stack, target, "frobenius", None)
+    prob = Problem(stack, target, "frobenius", None, obstacles=obstacles, clearance=clearance)
     P = problem_arrays(prob) if prob.planar else spatial_problem_arrays(prob)
     lo, hi = _box(prob, q_prev, max_jump, IP_BOX_SHRINK)
     ug, wq, f0 = np.zeros(0), 0.0, 1.0
@@ -151,6 +153,8 @@ def bounded_step(
     x0: FloatArray | None = None,
     goal: FloatArray | None = None,
     max_time: float = math.inf,
+    obstacles: Any = (),
+    clearance: float = 0.0,
 ) -> FloatArray | None:
     """Least-FN pose of ``target`` within ``max_jump`` of ``q_prev``, or None.
 
@@ -172,6 +176,10 @@ def bounded_step(
         Pose to approach (see above).
     max_time : float
         Wall-time budget [s].
+    obstacles, clearance
+        As :func:`stackik.solve_ik`'s: the step has the same self-leg and obstacle rows
+        (:mod:`stackik.formulation.clearance`), so it goes around an obstacle within the
+        box (:func:`bounded_ip`'s compiled problem has the self-leg rows only).
 
     Returns
     -------
@@ -179,7 +187,7 @@ def bounded_step(
         The pose the SQP engine ends at (the caller checks it), or None when the engine
         stopped on bad numbers.
     """
-    prob = Problem(stack, target, "frobenius", None)
+    prob = Problem(stack, target, "frobenius", None, obstacles=obstacles, clearance=clearance)
     exact = prob.fast is not None
     evaluate, hessian = prob.evaluate, prob.lagrangian_hessian
     if goal is not None:
@@ -204,7 +212,7 @@ def bounded_step(
         gauss_newton=prob.gauss_newton if goal is None else None,
         gn_scale=2.0,
         eq_scale=np.ones(prob.es.size),
-        ineq_scale=np.ones(prob.cs.size),
+        ineq_scale=np.ones(prob.n_ineq),
         lower=lower,
         upper=upper,
         name="bounded path step",

@@ -109,6 +109,10 @@ class Tracker:
     max_depth: int = 1
     pc: bool = True
     counts: StepCounts = field(default_factory=StepCounts)
+    #: keep-out bodies and the clearance margin [mm] (``solve_path``'s): the steps' problems
+    #: have their rows, and a pose is accepted only when the full check passes too
+    obstacles: tuple[Any, ...] = ()
+    clearance: float = 0.0
 
     def __post_init__(self) -> None:
         self.scale = jump_scale(self.max_jump, 3 if self.planar else 6)
@@ -126,6 +130,27 @@ class Tracker:
         #: the carried state of a second pose followed beside the path (a fast path's
         #: goal basin, :meth:`follow`)
         self._side_carry: tuple[Any, ...] | None = None
+
+    def _problem(self, target: Target) -> Any:
+        from stackik.formulation import Problem
+
+        return Problem(
+            self.stack, target, "frobenius", None, obstacles=self.obstacles,
+            clearance=self.clearance,
+        )  # fmt: skip
+
+    def _clear(self, target: Target, q: FloatArray) -> bool:
+        """The full check's verdict on what the compiled twins do not check (clearances):
+        True at once when no clearance can fail."""
+        from stackik.clearance import clearances_can_fail
+
+        if not clearances_can_fail(self.stack, self.obstacles, self.clearance):
+            return True
+        return bool(
+            check.check_pose(
+                self.stack, target, q, obstacles=self.obstacles, clearance=self.clearance
+            ).ok
+        )
 
     def ratio(self, qa: FloatArray, qb: FloatArray) -> float:
         """Largest per-variable change from ``qa`` to ``qb`` in units of ``max_jump``."""
@@ -194,16 +219,18 @@ class Tracker:
         at n = 4); the same pose and verdict."""
         opts = {} if mu0 is None else {"mu0": mu0}
         if not self.planar:
-            r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options=opts)
+            r = solve_ik(
+                self.stack, target, x0=q, starts=1, method="ip", options=opts,
+                obstacles=self.obstacles, clearance=self.clearance,
+            )  # fmt: skip
             return r.success, r.q
         from stackik._compiled.check import planar_check
-        from stackik.formulation import Problem
         from stackik.methods.ip import ip_multi
 
-        prob = Problem(self.stack, target, "frobenius", None)
+        prob = self._problem(target)
         X, *_ = ip_multi(prob, prob.u_of(q)[None], opts)
         qw = prob.q_of(X[0])
-        return bool(planar_check(self.stack, target, qw)[0].ok), qw
+        return bool(planar_check(self.stack, target, qw)[0].ok) and self._clear(target, qw), qw
 
     def warm_many(
         self, q: FloatArray, targets: list[Target], max_iter: int | None = None
@@ -221,14 +248,14 @@ class Tracker:
         from stackik._compiled import planar_path as _ipm_path
         from stackik._compiled import spatial_path as _spatial_ipm_path
         from stackik._compiled.check import planar_checks, spatial_check_many
-        from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem
+        from stackik.formulation import POLISH_MARGIN, POLISH_REACH
         from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
         # the scaled problem's arrays depend on the target only through its values (which
         # the kernels replace step by step) and, planar, its plane: built once per plane
         key = getattr(targets[0], "phi", None)
         if self._run_problem is None or self._run_problem[0] != key:
-            prob = Problem(self.stack, targets[0], "frobenius", None)
+            prob = self._problem(targets[0])
             arrays = problem_arrays(prob) if self.planar else spatial_problem_arrays(prob)
             jump = readonly(np.tile(self.scale, self.stack.n) / prob.xs)
             self._run_problem = (key, prob, arrays, jump)
@@ -266,6 +293,10 @@ class Tracker:
             else:
                 ok = np.asarray(spatial_check_many(self.stack, targets[:reached], Q))
             good = ok & (jumps <= 1.0)
+            for j in range(reached):  # the clearances, up to the first that fails
+                if not good[j]:
+                    break
+                good[j] = self._clear(targets[j], Q[j])
         bad = np.flatnonzero(~good)
         out: list[FloatArray] = list(Q[: bad[0] if bad.size else reached])
         self.counts.warm += len(out)
@@ -314,11 +345,12 @@ class Tracker:
         the attempt (and a failure) under ``rung``."""
         setattr(self.counts, rung, getattr(self.counts, rung) + 1)
         goal = kw.get("goal")
-        qb = bounded_ip(self.stack, target, q, self.scale, goal=goal)
+        clear: dict[str, Any] = {"obstacles": self.obstacles, "clearance": self.clearance}
+        qb = bounded_ip(self.stack, target, q, self.scale, goal=goal, **clear)
         if self._accepts(q, target, qb):
             return qb
         self.counts.sqp_fallback += 1  # the SQP engine: slower, keeps its iterates in the box
-        qb = bounded_step(self.stack, target, q, self.scale, **kw)
+        qb = bounded_step(self.stack, target, q, self.scale, **kw, **clear)
         if self._accepts(q, target, qb):
             return qb
         failed = f"{rung}_failed"
@@ -332,10 +364,11 @@ class Tracker:
         if self.planar:  # the compiled twin of check_pose (same verdicts, tested), ~30x faster
             from stackik._compiled.check import planar_check
 
-            return bool(planar_check(self.stack, target, qb)[0].ok)
+            return bool(planar_check(self.stack, target, qb)[0].ok) and self._clear(target, qb)
         from stackik._compiled.check import spatial_check_many  # its verdict; 15 instead of 190 us
 
-        return bool(spatial_check_many(self.stack, [target], qb[None])[0])
+        ok = bool(spatial_check_many(self.stack, [target], qb[None])[0])
+        return ok and self._clear(target, qb)
 
     # --- the ladder -------------------------------------------------------------------
     def step(

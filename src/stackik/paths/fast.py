@@ -24,7 +24,7 @@ from stackik.paths.interpolate import lerp_target
 from stackik.paths.reanchor import _reanchor, _towards
 from stackik.paths.records import _Goal, _Outcome, _Pending, _Waypoint
 from stackik.paths.replay import fast_record, put_first, put_rejoin, replay_fast
-from stackik.paths.report import _break
+from stackik.paths.report import _break, unreachable_message
 from stackik.paths.request import _Request
 from stackik.paths.result import PATH_MESSAGES, PathStatus
 from stackik.paths.transit import TRANSIT_PROGRESS, TRANSIT_STEPS
@@ -64,10 +64,7 @@ def _first(req: _Request, ck: PathCheckpoint, info: dict[str, Any]) -> str | Non
         info["default"] += 1
         info["first_solve_s"] = time.perf_counter() - t0  # the rest: the path's steps
         if not r0.success:
-            return (
-                f"the path breaks at index 0 (waypoint 0): no pose reaches it within the "
-                f"limits ({r0.status.value}, target error {r0.target_error:.3g} mm)"
-            )
+            return unreachable_message(req, r0, "the path breaks at index 0 (waypoint 0)")
         q0, how = r0.q, "default"
     put_first(ck, q0, how)
     return None

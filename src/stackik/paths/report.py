@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from stackik.check import FEAS_TOL
 from stackik.geometry import Stack
 from stackik.kinematics import planar_fn2, spatial_chain
 from stackik.paths.continuation import Tracker
@@ -136,6 +137,23 @@ def _source_text(s: float) -> str:
     return f"an inserted waypoint at {s - lo:.4g} of the way from waypoint {lo} to {lo + 1}"
 
 
+def unreachable_message(req: _Request, r: Any, where: str) -> str:
+    """Why a waypoint's default solve ``r`` (no success) found no pose: its clearances when
+    they fail (obstacles, bodies, the margin), else the workspace."""
+    cl = r.clearances
+    if cl is not None and cl.minimum < req.clear.margin - FEAS_TOL:
+        return (
+            f"{where}: no pose found reaches it within the limits and clear of the "
+            f"obstacles and the other bodies ({r.status.value}: the least-violating "
+            f"pose misses the target by {r.target_error:.3g} mm, its closest pair is "
+            f"{cl.closest}, margin {req.clear.margin:g} mm)"
+        )
+    return (
+        f"{where}: no pose reaches it within the limits ({r.status.value}: the target "
+        f"is outside the workspace, target error {r.target_error:.3g} mm)"
+    )
+
+
 def _break(
     req: _Request,
     tracker: Tracker,
@@ -150,10 +168,7 @@ def _break(
     info["default"] = info.get("default", 0) + 1
     where = f"the path breaks at index {index} ({_source_text(source)})"
     if not r.success:
-        return PathStatus.UNREACHABLE, (
-            f"{where}: no pose reaches it within the limits ({r.status.value}: the target "
-            f"is outside the workspace, target error {r.target_error:.3g} mm)"
-        )
+        return PathStatus.UNREACHABLE, unreachable_message(req, r, where)
     assert q_prev is not None
     far = tracker.ratio(q_prev, r.q)
     hint = "" if req.refine else "; finer waypoints or refine=True may get through"

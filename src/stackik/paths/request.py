@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from stackik.check import check_pose
+from stackik.formulation.clearance import Clearance, clearance_of
 from stackik.geometry import Stack
 from stackik.paths.interpolate import _pair, as_waypoints
 from stackik.solve import solve_ik
@@ -56,7 +57,15 @@ class _Request:
     max_candidates: int
     seed: int | None
     reanchor_every: int
+    #: the margin [mm] and obstacles every waypoint keeps clear (solve_ik's)
+    clear: Clearance = field(default_factory=Clearance)
     memo: dict[Any, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def clear_kw(self) -> dict[str, Any]:
+        """``obstacles`` and ``clearance`` keywords for solve_ik, the Tracker and the
+        bounded steps."""
+        return {"obstacles": self.clear.obstacles, "clearance": self.clear.margin}
 
     def key(self) -> dict[str, Any]:
         """JSON-ready identity of the problem (for checkpoints)."""
@@ -72,6 +81,15 @@ class _Request:
             "max_candidates": self.max_candidates,
             "seed": self.seed,
             "reanchor_every": self.reanchor_every,
+            # (only when given: a checkpoint without them keeps its identity)
+            **(
+                {
+                    "obstacles": [o.to_dict() for o in self.clear.obstacles],
+                    "clearance": self.clear.margin,
+                }
+                if self.clear.obstacles or self.clear.margin
+                else {}
+            ),
         }
 
     def default_solve(self, target: Target, index: int) -> Any:
@@ -80,7 +98,7 @@ class _Request:
         key = (index, json.dumps(target_to_dict(target)))
         if key not in self.memo:
             rng = None if self.seed is None else self.seed + index
-            self.memo[key] = solve_ik(self.stack, target, rng=rng)
+            self.memo[key] = solve_ik(self.stack, target, rng=rng, **self.clear_kw)
         return self.memo[key]
 
 
@@ -98,6 +116,8 @@ def _request(
     max_candidates: Any,
     rng: Any,
     reanchor_every: Any,
+    obstacles: Any = (),
+    clearance: Any = 0.0,
 ) -> _Request:
     if not isinstance(stack, Stack):
         raise ValueError(f"stack: expected a Stack, got {type(stack).__name__}")
@@ -111,6 +131,7 @@ def _request(
     pts = as_waypoints(targets)
     planar = isinstance(pts[0], PlanarTarget)
     k = 3 if planar else 6
+    clear = clearance_of(stack, planar, clearance, obstacles)
     mj = _pair(max_jump, "max_jump")
     if mode not in MODES:
         raise ValueError(f"mode: unknown {mode!r}; choose one of {MODES}")
@@ -142,23 +163,7 @@ def _request(
             if not math.isfinite(fv) or fv <= 0:
                 raise ValueError(f"{name}: must be finite and > 0, got {v!r}")
             speeds[j] = fv
-    q0 = None
-    if start is not None:
-        try:
-            q0 = np.array(start, dtype=float)
-        except (TypeError, ValueError):
-            raise ValueError("start: expected an array of numbers") from None
-        if q0.shape != (stack.n, k) or not np.all(np.isfinite(q0)):
-            raise ValueError(
-                f"start: expected finite values of shape ({stack.n}, {k}), got {q0.shape}"
-            )
-        chk = check_pose(stack, pts[0], q0)
-        if not chk.ok:
-            raise ValueError(
-                "start: the pose does not reach targets[0] within every limit "
-                f"(position error {chk.position_error:.3g} mm, angle error "
-                f"{chk.angle_error:.3g} rad, worst violation {chk.max_violation_mm:.3g} mm)"
-            )
+    q0 = None if start is None else _start_pose(stack, pts[0], k, start, clear)
     if reanchor_every is None:
         reanchor_every = max(REANCHOR_EVERY, REANCHOR_PER_N * stack.n)
         if not planar and stack.n > SPATIAL_REANCHOR_N:
@@ -179,5 +184,23 @@ def _request(
             raise ValueError(f"rng: expected None, an int seed or a Generator ({exc})") from None
     return _Request(
         stack, pts, planar, k, mj, mode, w, refine, max_depth, q0, speeds[0], speeds[1],
-        max_candidates, seed, reanchor_every,
+        max_candidates, seed, reanchor_every, clear,
     )  # fmt: skip
+
+
+def _start_pose(stack: Stack, target: Target, k: int, start: Any, clear: Clearance) -> FloatArray:
+    """``start`` as a pose that passes the check for the first waypoint, or a ValueError."""
+    try:
+        q0 = np.array(start, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError("start: expected an array of numbers") from None
+    if q0.shape != (stack.n, k) or not np.all(np.isfinite(q0)):
+        raise ValueError(f"start: expected finite values of shape ({stack.n}, {k}), got {q0.shape}")
+    chk = check_pose(stack, target, q0, obstacles=clear.obstacles, clearance=clear.margin)
+    if not chk.ok:
+        raise ValueError(
+            "start: the pose does not reach targets[0] within every limit and clearance "
+            f"(position error {chk.position_error:.3g} mm, angle error "
+            f"{chk.angle_error:.3g} rad, worst violation {chk.violation_mm:.3g} mm)"
+        )
+    return q0

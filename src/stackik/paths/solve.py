@@ -46,7 +46,7 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -109,6 +109,8 @@ def solve_path(
     checkpoint: str | Path | None = None,
     rng: np.random.Generator | int | None = None,
     reanchor_every: int | None = None,
+    obstacles: Any = (),
+    clearance: float = 0.0,
 ) -> PathResult:
     """Continuous least-FN poses along a sequence of end-effector waypoints.
 
@@ -157,20 +159,16 @@ def solve_path(
         Seeds the random starts of the default solves (waypoint k gets seed ``s + k``);
         None keeps :func:`stackik.solve.solve_ik`'s fixed seed. Deterministic either way.
     reanchor_every : int or None
-        Fast mode: at waypoint ``reanchor_every``, compare the path with the default solve
-        of the waypoint; when that pose's FN is lower by more than ``FAST_TRANSIT_GAIN``
-        (1 %) and it lies more than ``max_jump`` away, the path moves to its basin by
-        transit steps (least FN^2 plus distance to the goal's continuation, within
-        ``max_jump``), at most ``TRANSIT_STEPS`` of them. The next check is
-        ``reanchor_every`` waypoints after one that moved the path, twice the last gap
-        after one that did not (20, 60, 140, ... while the path stays on the best basin
-        the default solve finds, or its transit is abandoned before a step). 0 turns it
-        off. Default (None): ``max(20, 5 n)`` for planar paths (20 at n = 4, 40 at n = 8,
-        80 at n = 16: the default solve's cost grows with n); spatial: 20 up to
-        ``SPATIAL_REANCHOR_N`` = 4 platforms (a check costs about 20 warm steps), 0 beyond
-        (the default solve's starts and hops make a check cost 40-70 warm steps, and on
-        the benchmark's n = 8 paths it found no better path). Spatial paths: a transit
-        abandoned after steps backs off as one abandoned before a step.
+        Fast mode: every so many waypoints, compare the path with the default solve and
+        move to a basin with an FN lower by ``FAST_TRANSIT_GAIN`` (1 %) by transit steps
+        within ``max_jump`` (:mod:`stackik.paths.reanchor`: the schedule backs off while
+        the path stays on the best basin). 0 turns it off. Default (None): ``max(20, 5 n)``
+        planar; spatial 20 up to ``SPATIAL_REANCHOR_N`` = 4 platforms, 0 beyond.
+    obstacles, clearance
+        As :func:`stackik.solve_ik`'s: every waypoint passes the full check with them
+        (clear of every obstacle, every pair ``clearance`` [mm] apart); the steps carry the
+        self-leg and obstacle rows, so a step goes around an obstacle within ``max_jump``
+        where it can, else the path breaks there (docs/clearance.md).
 
     Returns
     -------
@@ -190,7 +188,7 @@ def solve_path(
     t_start = time.perf_counter()
     req = _request(
         stack, targets, max_jump, mode, motion_weight, refine, max_depth, start,
-        leg_speed, leg_accel, max_candidates, rng, reanchor_every,
+        leg_speed, leg_accel, max_candidates, rng, reanchor_every, obstacles, clearance,
     )  # fmt: skip
     return _run(req, checkpoint, t_start)
 
@@ -234,7 +232,10 @@ def _load_before_clock(planar: bool) -> bool:
 def _solve(req: _Request, ck: PathCheckpoint, t_start: float) -> PathResult:
     """Run the mode's driver (global mode with ``refine=True``: over the waypoints of a
     fast refining pass) and assemble the result."""
-    tracker = Tracker(req.stack, req.planar, req.max_jump, req.max_depth)
+    tracker = Tracker(
+        req.stack, req.planar, req.max_jump, req.max_depth,
+        obstacles=req.clear.obstacles, clearance=req.clear.margin,
+    )  # fmt: skip
     if req.mode == "fast" or req.refine:
         out = _fast(req, ck, tracker)
         if req.mode == "fast":

@@ -1,0 +1,82 @@
+"""Paths keep their clearances (issue 29): every waypoint of solve_path(..., obstacles=,
+clearance=) passes the full check; a truss member across the least-FN path's legs is gone
+around within max_jump."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import stackik as sk
+from stackik.kinematics import spatial_chain
+from stackik.paths import interpolate_targets
+from stackik.rotations import euler_zyx
+
+REF = sk.Stack.reference(4)
+FAT = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 4)
+
+
+def _path() -> list[sk.SpatialTarget]:
+    a = sk.SpatialTarget((-150, -100, 1250), euler_zyx([0.2, 0, 0]))
+    b = sk.SpatialTarget((150, 100, 1300), euler_zyx([-0.2, 0.1, 0]))
+    return interpolate_targets([a, b], steps=12)
+
+
+def _jumps_ok(path: sk.paths.PathResult, max_jump=(50.0, 0.25)) -> bool:
+    q = path.q[: path.completed]
+    d = np.abs(np.diff(q, axis=0))
+    return bool(np.all(d[..., :3] <= max_jump[0]) and np.all(d[..., 3:] <= max_jump[1]))
+
+
+def test_path_on_thick_legs_keeps_them_apart() -> None:
+    ts = _path()
+    plain = sk.solve_path(REF, ts)
+    assert plain.success
+    assert min(sk.clearances(FAT, q).self_legs for q in plain.q) < 0  # the legs would collide
+    path = sk.solve_path(FAT, ts)
+    assert path.success and path.completed == len(ts) and _jumps_ok(path)
+    for t, q in zip(ts, path.q):
+        assert sk.check_pose(FAT, t, q).ok
+
+
+def test_path_goes_around_a_truss_member() -> None:
+    ts = _path()
+    plain = sk.solve_path(REF, ts)
+    q = plain.q[len(ts) // 2]
+    ch = spatial_chain(q)
+    i, k = 2, 3
+    B = ch.O[i] + ch.A[i] @ REF.base_nodes[i][k]
+    T = ch.O[i + 1] + ch.A[i + 1] @ REF.top_nodes[i][k]
+    d = np.cross(T - B, [0.0, 0.0, 1.0])
+    d /= np.linalg.norm(d)
+    member = sk.Capsule((B + T) / 2 - 300 * d, (B + T) / 2 + 300 * d, 10.0)
+    assert min(sk.clearances(REF, q, [member]).obstacles[0] for q in plain.q) < 0
+    path = sk.solve_path(REF, ts, obstacles=[member])
+    assert path.completed == len(ts) and path.success and _jumps_ok(path)
+    for t, q in zip(ts, path.q):
+        assert sk.check_pose(REF, t, q, obstacles=[member]).ok
+    assert np.all(path.frobenius_norm <= plain.frobenius_norm * 1.02)
+
+
+def test_path_clearance_bad_input() -> None:
+    ts = _path()
+    with pytest.raises(ValueError, match="clearance"):
+        sk.solve_path(REF, ts, clearance=-1.0)
+    with pytest.raises(ValueError):
+        sk.solve_path(REF, ts, obstacles=[sk.Sphere((0, 0, 0), -5.0)])
+    blocked = sk.Sphere(ts[0].position, 200.0)  # around the first waypoint's plate
+    with pytest.raises(ValueError, match="start"):
+        sk.solve_path(REF, ts, obstacles=[blocked], start=sk.solve_ik(REF, ts[0]).q)
+
+
+def test_path_breaks_where_no_clear_pose_exists() -> None:
+    """A sphere around the waypoints' end-effector plates: the path breaks at once, and
+    says that clearances, not the workspace, stop it."""
+    stack = sk.Stack.reference(1)
+    a = sk.SpatialTarget((0.0, 0.0, 330.0), np.eye(3))
+    b = sk.SpatialTarget((20.0, 0.0, 330.0), np.eye(3))
+    ts = interpolate_targets([a, b], steps=3)
+    path = sk.solve_path(stack, ts, obstacles=[sk.Sphere(ts[0].position, 200.0)])
+    assert not path.success and path.completed == 0
+    assert path.status is sk.paths.PathStatus.UNREACHABLE
+    assert "clear of the obstacles" in path.message and "waypoint 0" in path.message
