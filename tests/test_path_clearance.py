@@ -80,3 +80,26 @@ def test_path_breaks_where_no_clear_pose_exists() -> None:
     assert not path.success and path.completed == 0
     assert path.status is sk.paths.PathStatus.UNREACHABLE
     assert "clear of the obstacles" in path.message and "waypoint 0" in path.message
+
+
+def test_cli_path_with_obstacles(tmp_path, capsys) -> None:
+    """stackik path --geometry (12 mm legs) --obstacles FILE: the JSON summary has the
+    least clearance over the waypoints, >= 0."""
+    import json
+
+    from stackik.cli import main
+
+    geo = tmp_path / "legs12.toml"
+    FAT.to_toml(geo)
+    obs = tmp_path / "member.toml"
+    obs.write_text(
+        '[[obstacles]]\ntype = "capsule"\na = [-400.0, 0.0, 300.0]\n'
+        "b = [-400.0, 0.0, 1200.0]\nradius = 20.0\n"
+    )
+    argv = ["path", "--spatial", "--from", "-150", "-100", "1250", "0.2", "0", "0", "--to",
+            "150", "100", "1300", "-0.2", "0.1", "0", "--steps", "6", "--geometry", str(geo),
+            "--obstacles", str(obs), "--no-animation", "--out", str(tmp_path / "out"),
+            "--json"]  # fmt: skip
+    assert main(argv) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["success"] and summary["least_clearance_mm"] >= -1e-6

@@ -26,8 +26,10 @@ from ._common import (
     EXIT_OK,
     PROG,
     CLIError,
+    add_clearance_arguments,
     add_phi_args,
     add_stack_args,
+    clearance_of,
     dump_json,
     finite_float,
     load_stack,
@@ -126,6 +128,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--html", type=Path, default=None, metavar="FILE",
                    help="also write an interactive 3D view of the path (needs plotly)")  # fmt: skip
+    add_clearance_arguments(p)
     return p
 
 
@@ -218,6 +221,22 @@ def _summary(result: Any, files: list[Path]) -> dict[str, Any]:
     }
 
 
+def _least_clearance(stack: Any, result: Any, clear: dict[str, Any]) -> float | None:
+    """The least signed clearance [mm] over the reached waypoints
+    (:func:`stackik.clearances`), or None when no clearance can fail."""
+    from stackik.clearance import clearances, clearances_can_fail
+
+    if result.completed == 0 or not clearances_can_fail(
+        stack, clear["obstacles"], clear["clearance"]
+    ):
+        return None
+    phi = getattr(result.targets[0], "phi", None)
+    return min(
+        clearances(stack, q, clear["obstacles"], phi=phi).minimum
+        for q in result.q[: result.completed]
+    )
+
+
 def run(args: argparse.Namespace) -> int:
     """Solve the path, write the files, print a summary; exit code."""
     from stackik.paths import solve_path
@@ -233,9 +252,11 @@ def run(args: argparse.Namespace) -> int:
         from stackik.viz import require_plotly
 
         require_plotly()
+    clear = clearance_of(args)
     result = solve_path(
         stack,
         targets,
+        **clear,
         max_jump=tuple(args.max_jump),
         mode=args.mode,
         motion_weight=args.motion_weight,
@@ -254,7 +275,8 @@ def run(args: argparse.Namespace) -> int:
     if args.html is not None and result.completed > 0:
         from stackik import viz
 
-        files.append(viz.write_html(viz.path_figure(stack, result), args.html))
+        fig = viz.path_figure(stack, result, obstacles=clear["obstacles"] or None)
+        files.append(viz.write_html(fig, args.html))
     try:
         from stackik.paths.animate import animate_path, plot_path
 
@@ -271,6 +293,7 @@ def run(args: argparse.Namespace) -> int:
     except ImportError as exc:
         print(f"{PROG}: note: figures skipped ({exc}); install stackik[plot]", file=sys.stderr)
     summary = _summary(result, files)
+    summary["least_clearance_mm"] = _least_clearance(stack, result, clear)
     if args.json:
         dump_json(summary)
     else:
@@ -284,6 +307,8 @@ def run(args: argparse.Namespace) -> int:
         )
         if summary["duration_s"] is not None and math.isfinite(summary["duration_s"]):
             print(f"timed: {summary['duration_s']:.2f} s at {speed:g} mm/s, {accel:g} mm/s^2")
+        if summary["least_clearance_mm"] is not None:
+            print(f"least clearance over the waypoints: {summary['least_clearance_mm']:.3g} mm")
         if not result.success:
             print(result.message)
         for f in files:
