@@ -258,3 +258,38 @@ def test_body_reach_bounds_every_joint() -> None:
              O[1:, None] + np.einsum("iab,ikb->ika", A[1:], REF.top_nodes)]
         )  # fmt: skip
         assert np.linalg.norm(joints, axis=-1).max() <= R
+
+
+@pytest.mark.derivatives
+def test_planar_obstacle_rows_derivatives_and_values() -> None:
+    """Planar poses (rho, z, theta in the plane phi): the rows' Jacobian against central
+    differences and their values against the check's leg distances."""
+    from stackik.formulation.obstacle_rows import ObstacleRows
+    from stackik.sampling import random_feasible_poses
+
+    phi = 0.4
+    rows = ObstacleRows(REF, OBSTACLES3, 0.5, phi)
+    q = random_feasible_poses(REF, 1, rng=8, phi=phi)[0]
+    c, J = rows(q)
+    assert J.shape == (rows.size, 12)
+    num = fd.central(lambda x: rows(x.reshape(4, 3))[0], q.ravel())
+    fd.assert_derivative_close(J, num, f_scale=fd.term_scale(c, num), what="planar rows")
+    L = rows.L
+    legs_half = (c[48:] * L + 0.5).min()
+    assert legs_half == pytest.approx(sk.clearances(REF, q, OBSTACLES3, phi=phi).obstacles[2])
+
+
+def test_planar_default_goes_around_a_sphere_on_a_leg() -> None:
+    from stackik.clearance import plate_frames
+
+    t = sk.PlanarTarget(150.0, 1200.0, 0.3, phi=0.2)
+    plain = sk.solve_ik(REF, t)
+    A, O = plate_frames(REF, plain.q, phi=t.phi)
+    B, T = O[1] + A[1] @ REF.base_nodes[1][2], O[2] + A[2] @ REF.top_nodes[1][2]
+    sphere = sk.Sphere((B + T) / 2, 15.0)
+    assert sk.clearances(REF, plain.q, [sphere], phi=t.phi).obstacles[0] < 0
+    prob = Problem(REF, t, "frobenius", None, obstacles=[sphere])
+    assert prob.dense_rows and prob.n_ineq == 96 + 24
+    r = sk.solve_ik(REF, t, obstacles=[sphere])
+    assert r.success and r.clearances is not None and r.clearances.obstacles[0] >= -1e-6
+    assert r.frobenius_norm <= plain.frobenius_norm * 1.02

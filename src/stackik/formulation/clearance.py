@@ -106,9 +106,11 @@ class Clearance:
     obstacle_rows: Any = None
 
 
-def clearance_of(stack: Stack, planar: bool, margin: Any = 0.0, obstacles: Any = ()) -> Clearance:
+def clearance_of(
+    stack: Stack, planar: bool, margin: Any = 0.0, obstacles: Any = (), phi: float | None = None
+) -> Clearance:
     """Validate ``margin`` [mm] and ``obstacles`` and decide the rows (a ValueError names a
-    bad argument)."""
+    bad argument); ``phi`` [rad]: a planar request's plane (its obstacle rows need it)."""
     from stackik.geometry import finite_number
 
     m = finite_number(margin, "clearance")
@@ -117,7 +119,9 @@ def clearance_of(stack: Stack, planar: bool, margin: Any = 0.0, obstacles: Any =
     from stackik.formulation.obstacle_rows import obstacle_rows
 
     obs = tuple(as_obstacles(obstacles))
-    rows = None if planar or not obs else obstacle_rows(stack, obs, m)
+    rows = None
+    if obs and not (planar and phi is None):
+        rows = obstacle_rows(stack, obs, m, phi if planar else None)
     return Clearance(
         margin=m, obstacles=obs, self_legs=self_legs_of(stack, m, planar), obstacle_rows=rows
     )

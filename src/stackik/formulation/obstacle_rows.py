@@ -29,8 +29,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from stackik.geometry import Stack
-from stackik.kinematics import spatial_chain
+from stackik.kinematics import lift_planar, spatial_chain
 from stackik.obstacles import Capsule, HalfSpace, Obstacle, Sphere
+from stackik.rotations import plane_axis
 
 __all__ = ["ObstacleRows", "obstacle_rows"]
 
@@ -74,6 +75,9 @@ class ObstacleRows:
         Those with rows (spheres, capsules, half-spaces).
     margin : float
         Clearance margin [mm].
+    phi : float or None
+        Plane angle [rad] of a planar request (poses (n, 3): ``rho, z, theta``, every
+        rotation about ``s(phi)``); None for spatial (n, 6).
 
     Attributes
     ----------
@@ -81,8 +85,16 @@ class ObstacleRows:
         Number of rows: ``6 n`` per sphere or capsule, ``12 n`` per half-space.
     """
 
-    def __init__(self, stack: Stack, obstacles: tuple[Obstacle, ...], margin: float) -> None:
+    def __init__(
+        self,
+        stack: Stack,
+        obstacles: tuple[Obstacle, ...],
+        margin: float,
+        phi: float | None = None,
+    ) -> None:
         self.n = stack.n
+        self.phi = phi
+        self.k = 6 if phi is None else 3
         self.radius = np.repeat([g.leg_radius for g in stack], 6)  # (6n,) per leg
         self.margin = float(margin)
         self.L = float(np.max(stack.leg_max))
@@ -90,22 +102,43 @@ class ObstacleRows:
         self._nodes = (np.asarray(stack.base_nodes), np.asarray(stack.top_nodes))
         self.size = sum(12 * self.n if isinstance(o, HalfSpace) else 6 * self.n for o in obstacles)
 
-    def _joints(self, q: FloatArray) -> tuple[FloatArray, ...]:
-        """World joints ``B``, ``T`` (6n, 3) and their Jacobians (6n, 3, 6n)."""
-        ch = spatial_chain(q)
+    def _chain(self, q: FloatArray) -> tuple[FloatArray, ...]:
+        """Plate rotations ``A`` (n+1, 3, 3) and origins ``O`` (n+1, 3) of ``q``, and per
+        variable its world rotation axis ``w`` (zero for translations) and translation
+        direction ``Jt`` (nk, 3)."""
+        if self.phi is None:
+            ch = spatial_chain(q)
+            return ch.A, ch.O, ch.w, ch.J[:3].T
         n = self.n
-        base, top = self._nodes
-        B = (ch.O[:-1, None, :] + np.einsum("iab,ikb->ika", ch.A[:-1], base)).reshape(-1, 3)
-        T = (ch.O[1:, None, :] + np.einsum("iab,ikb->ika", ch.A[1:], top)).reshape(-1, 3)
-        Jt = ch.J[:3].T  # (6n, 3): translation columns; angle columns recomputed per point
-        plate_of_col = np.repeat(np.arange(n), 6) + 1  # variable a moves plates >= this
-        is_angle = np.tile(np.arange(6) >= 3, n)
+        P, R = lift_planar(q, self.phi)
+        A = np.empty((n + 1, 3, 3))
+        O = np.zeros((n + 1, 3))
+        A[0] = np.eye(3)
+        for i in range(n):
+            O[i + 1] = O[i] + A[i] @ P[i]
+            A[i + 1] = A[i] @ R[i]
+        s = plane_axis(self.phi)  # every rotation is about s, which they leave fixed
+        radial = np.array([np.cos(self.phi), np.sin(self.phi), 0.0])
+        Jt = np.zeros((3 * n, 3))
+        Jt[0::3] = A[:-1] @ radial
+        Jt[1::3] = A[:-1, :, 2]
+        w = np.zeros((3 * n, 3))
+        w[2::3] = s
+        return A, O, w, Jt
 
-        O_col = ch.O[plate_of_col]  # (6n, 3): the origin a variable turns about
+    def _joints(self, q: FloatArray) -> tuple[FloatArray, ...]:
+        """World joints ``B``, ``T`` (6n, 3) and their Jacobians (6n, 3, nk)."""
+        A, O, w, Jt = self._chain(q)
+        n, k = self.n, self.k
+        base, top = self._nodes
+        B = (O[:-1, None, :] + np.einsum("iab,ikb->ika", A[:-1], base)).reshape(-1, 3)
+        T = (O[1:, None, :] + np.einsum("iab,ikb->ika", A[1:], top)).reshape(-1, 3)
+        plate_of_col = np.repeat(np.arange(n), k) + 1  # variable a moves plates >= this
+        is_angle = np.tile(np.arange(k) >= 3 if k == 6 else np.arange(k) == 2, n)
+        O_col = O[plate_of_col]  # (nk, 3): the origin a variable turns about
 
         def jac(X: FloatArray, plate: Any) -> FloatArray:
-            lever = X[:, None, :] - O_col[None, :, :]  # (P, 6n, 3)
-            w = ch.w  # (6n, 3), zero for translations
+            lever = X[:, None, :] - O_col[None, :, :]  # (P, nk, 3)
             cr = np.empty_like(lever)
             cr[..., 0] = w[:, 1] * lever[..., 2] - w[:, 2] * lever[..., 1]
             cr[..., 1] = w[:, 2] * lever[..., 0] - w[:, 0] * lever[..., 2]
@@ -118,7 +151,7 @@ class ObstacleRows:
         return B, T, jac(B, leg_platform), jac(T, leg_platform + 1)
 
     def __call__(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Rows ``c`` (size,) and Jacobian (size, 6n) against the raw pose ``q`` (n, 6)."""
+        """Rows ``c`` (size,) and Jacobian (size, nk) against the raw pose ``q`` (n, k)."""
         B, T, JB, JT = self._joints(q)
         cs: list[FloatArray] = []
         Js: list[FloatArray] = []
@@ -140,7 +173,7 @@ class ObstacleRows:
             dP = (1.0 - s)[:, None, None] * JB + s[:, None, None] * JT
             Js.append(2.0 * np.einsum("ik,ikv->iv", g, dP) / L**2)
         if not cs:
-            return np.zeros(0), np.zeros((0, 6 * self.n))
+            return np.zeros(0), np.zeros((0, self.k * self.n))
         return np.concatenate(cs), np.vstack(Js)
 
 
@@ -151,7 +184,9 @@ def _out_of_reach(ob: Obstacle, reach: float, gap: float) -> bool:
     return bool(ob.point_distance(origin) > reach + gap)
 
 
-def obstacle_rows(stack: Stack, obstacles: tuple[Obstacle, ...], margin: float) -> Any:
+def obstacle_rows(
+    stack: Stack, obstacles: tuple[Obstacle, ...], margin: float, phi: float | None = None
+) -> Any:
     """The :class:`ObstacleRows` of the obstacles that have rows and that a leg can reach,
     or None when none has: an obstacle beyond :func:`stackik.clearance.body_reach` (plus
     the leg radius and the margin) from the base origin costs nothing."""
@@ -164,4 +199,4 @@ def obstacle_rows(stack: Stack, obstacles: tuple[Obstacle, ...], margin: float) 
         for o in obstacles
         if isinstance(o, (Sphere, Capsule, HalfSpace)) and not _out_of_reach(o, reach, gap)
     )
-    return ObstacleRows(stack, with_rows, margin) if with_rows else None
+    return ObstacleRows(stack, with_rows, margin, phi) if with_rows else None

@@ -111,7 +111,9 @@ class Problem:
         self._cache: tuple[FloatArray, tuple[Any, ...]] | None = None  # (u, evaluate(u))
         self.nfev = 0
         #: the margin [mm], the obstacles and the self-leg rows (stackik.formulation.clearance)
-        self.clearance: Clearance = clearance_of(stack, self.planar, clearance, obstacles)
+        self.clearance: Clearance = clearance_of(
+            stack, self.planar, clearance, obstacles, self.mode.phi(target)
+        )
         # one statics object serves the limit rows and the force objective (one batch)
         phi = self.mode.phi(target)
         rows: ForceLimits | None = (
@@ -230,6 +232,10 @@ class Problem:
             ceq = (y - tgt.y) * self.es
             Jeq = Jy * self.es[:, None] * self.xs
             cin, Jin = self.fast(q)  # scaled (set_scaling in __init__)
+            if self.clearance.obstacle_rows is not None:
+                c_o, J_o = self.clearance.obstacle_rows(q)
+                cin = np.concatenate([cin, c_o])
+                Jin = np.vstack([Jin, J_o * self.xs])
         else:
             from stackik._compiled.spatial_kinematics import block_jacobian, spatial_parts
 
