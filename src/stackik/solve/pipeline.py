@@ -128,8 +128,10 @@ def solve_ik(
     obstacles : Obstacle or sequence of Obstacle, optional
         Keep-out bodies in the base frame [mm] (:class:`stackik.Sphere`,
         :class:`stackik.Capsule`, :class:`stackik.Box`, :class:`stackik.HalfSpace`): the check
-        enforces them, so a pose through one is never a success; the solvers do not yet
-        steer around them (``docs/clearance.md``).
+        enforces them, so a pose through one is never a success, and the solvers keep every
+        leg clear of the spheres, capsules and half-spaces
+        (:mod:`stackik.formulation.obstacle_rows`; boxes and plates: the check only,
+        ``docs/clearance.md``).
     clearance : float, optional
         Margin [mm] every checked pair of bodies keeps (default 0). In spatial mode the
         solvers keep the legs of each platform ``2 leg_radius + clearance`` apart (axis to
