@@ -27,11 +27,13 @@ from ._common import (
     PROG,
     CLIError,
     add_clearance_arguments,
+    add_load_arguments,
     add_phi_args,
     add_stack_args,
     clearance_of,
     dump_json,
     finite_float,
+    load_of,
     load_stack,
     phi_of,
     positive_int,
@@ -128,6 +130,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--html", type=Path, default=None, metavar="FILE",
                    help="also write an interactive 3D view of the path (needs plotly)")  # fmt: skip
+    add_load_arguments(p)
     add_clearance_arguments(p)
     return p
 
@@ -253,6 +256,7 @@ def run(args: argparse.Namespace) -> int:
 
         require_plotly()
     clear = clearance_of(args)
+    clear["load"] = load_of(args)
     result = solve_path(
         stack,
         targets,
@@ -294,6 +298,12 @@ def run(args: argparse.Namespace) -> int:
         print(f"{PROG}: note: figures skipped ({exc}); install stackik[plot]", file=sys.stderr)
     summary = _summary(result, files)
     summary["least_clearance_mm"] = _least_clearance(stack, result, clear)
+    import numpy as np
+
+    lf = result.leg_forces
+    summary["peak_leg_force_N"] = (
+        None if lf is None or result.completed == 0 else float(np.nanmax(np.abs(lf)))
+    )
     if args.json:
         dump_json(summary)
     else:
@@ -307,6 +317,8 @@ def run(args: argparse.Namespace) -> int:
         )
         if summary["duration_s"] is not None and math.isfinite(summary["duration_s"]):
             print(f"timed: {summary['duration_s']:.2f} s at {speed:g} mm/s, {accel:g} mm/s^2")
+        if summary["peak_leg_force_N"] is not None:
+            print(f"peak leg force over the waypoints: {summary['peak_leg_force_N']:.4g} N")
         if summary["least_clearance_mm"] is not None:
             print(f"least clearance over the waypoints: {summary['least_clearance_mm']:.3g} mm")
         if not result.success:

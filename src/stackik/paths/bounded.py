@@ -98,6 +98,7 @@ def bounded_ip(
     goal: FloatArray | None = None,
     obstacles: Any = (),
     clearance: float = 0.0,
+    load: Any = None,
 ) -> FloatArray | None:
     """:func:`bounded_step`'s problem (the same objective, box and transit objective) on
     the compiled interior point (:func:`stackik._compiled.planar.ip_box`,
@@ -108,7 +109,9 @@ def bounded_ip(
     from stackik.formulation import POLISH_MARGIN, POLISH_REACH
     from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
-    prob = Problem(stack, target, "frobenius", None, obstacles=obstacles, clearance=clearance)
+    prob = Problem(
+        stack, target, "frobenius", None, obstacles=obstacles, clearance=clearance, load=load
+    )
     P = problem_arrays(prob) if prob.planar else spatial_problem_arrays(prob)
     lo, hi = _box(prob, q_prev, max_jump, IP_BOX_SHRINK)
     ug, wq, f0 = np.zeros(0), 0.0, 1.0
@@ -155,6 +158,7 @@ def bounded_step(
     max_time: float = math.inf,
     obstacles: Any = (),
     clearance: float = 0.0,
+    load: Any = None,
 ) -> FloatArray | None:
     """Least-FN pose of ``target`` within ``max_jump`` of ``q_prev``, or None.
 
@@ -176,10 +180,12 @@ def bounded_step(
         Pose to approach (see above).
     max_time : float
         Wall-time budget [s].
-    obstacles, clearance
-        As :func:`stackik.solve_ik`'s: the step has the same self-leg and obstacle rows
-        (:mod:`stackik.formulation.clearance`), so it goes around an obstacle within the
-        box (:func:`bounded_ip`'s compiled problem has the self-leg rows only).
+    obstacles, clearance, load
+        As :func:`stackik.solve_ik`'s: the step has the same self-leg, obstacle and
+        leg-force rows (:mod:`stackik.formulation.clearance`,
+        :mod:`stackik.formulation.forces`), so it goes around an obstacle or off a force
+        limit within the box (:func:`bounded_ip`'s compiled problem has the self-leg rows
+        only).
 
     Returns
     -------
@@ -187,8 +193,10 @@ def bounded_step(
         The pose the SQP engine ends at (the caller checks it), or None when the engine
         stopped on bad numbers.
     """
-    prob = Problem(stack, target, "frobenius", None, obstacles=obstacles, clearance=clearance)
-    exact = prob.fast is not None
+    prob = Problem(
+        stack, target, "frobenius", None, obstacles=obstacles, clearance=clearance, load=load
+    )
+    exact = prob.fast is not None and not prob.dense_rows
     evaluate, hessian = prob.evaluate, prob.lagrangian_hessian
     if goal is not None:
         # FN^2 and the squared distance to the goal, each relative to its value at q_prev

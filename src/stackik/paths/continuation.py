@@ -113,6 +113,8 @@ class Tracker:
     #: have their rows, and a pose is accepted only when the full check passes too
     obstacles: tuple[Any, ...] = ()
     clearance: float = 0.0
+    #: the load the leg forces carry: a pose is accepted only within the force limits
+    load: Any = None
 
     def __post_init__(self) -> None:
         self.scale = jump_scale(self.max_jump, 3 if self.planar else 6)
@@ -136,21 +138,26 @@ class Tracker:
 
         return Problem(
             self.stack, target, "frobenius", None, obstacles=self.obstacles,
-            clearance=self.clearance,
+            clearance=self.clearance, load=self.load,
         )  # fmt: skip
 
     def _clear(self, target: Target, q: FloatArray) -> bool:
-        """The full check's verdict on what the compiled twins do not check (clearances):
-        True at once when no clearance can fail."""
+        """The full check's verdict on what the compiled twins do not check (clearances,
+        leg forces): True at once when none of them can fail."""
         from stackik.clearance import clearances_can_fail
+        from stackik.formulation.forces import force_limited
 
-        if not clearances_can_fail(self.stack, self.obstacles, self.clearance):
+        can_fail = force_limited(self.stack) or clearances_can_fail(
+            self.stack, self.obstacles, self.clearance
+        )
+        if not can_fail:
             return True
         return bool(
             check.check_pose(
-                self.stack, target, q, obstacles=self.obstacles, clearance=self.clearance
+                self.stack, target, q, self.load, obstacles=self.obstacles,
+                clearance=self.clearance,
             ).ok
-        )
+        )  # fmt: skip
 
     def ratio(self, qa: FloatArray, qb: FloatArray) -> float:
         """Largest per-variable change from ``qa`` to ``qb`` in units of ``max_jump``."""
@@ -221,7 +228,7 @@ class Tracker:
         if not self.planar:
             r = solve_ik(
                 self.stack, target, x0=q, starts=1, method="ip", options=opts,
-                obstacles=self.obstacles, clearance=self.clearance,
+                obstacles=self.obstacles, clearance=self.clearance, load=self.load,
             )  # fmt: skip
             return r.success, r.q
         from stackik._compiled.check import planar_check
@@ -345,7 +352,9 @@ class Tracker:
         the attempt (and a failure) under ``rung``."""
         setattr(self.counts, rung, getattr(self.counts, rung) + 1)
         goal = kw.get("goal")
-        clear: dict[str, Any] = {"obstacles": self.obstacles, "clearance": self.clearance}
+        clear: dict[str, Any] = {
+            "obstacles": self.obstacles, "clearance": self.clearance, "load": self.load
+        }  # fmt: skip
         qb = bounded_ip(self.stack, target, q, self.scale, goal=goal, **clear)
         if self._accepts(q, target, qb):
             return qb

@@ -107,7 +107,8 @@ def _assemble(req: _Request, out: _Outcome, t_start: float) -> PathResult:
     if req.leg_speed is not None and req.leg_accel is not None:
         times = np.full(m, np.nan)
         times[:c] = time_parameterize(legs[:c], leg_speed=req.leg_speed, leg_accel=req.leg_accel)
-    for a in (Q, fn, legs, margins) + (() if times is None else (times,)):
+    forces = _leg_forces(req, targets, Q, c)
+    for a in (Q, fn, legs, margins) + tuple(x for x in (times, forces) if x is not None):
         a.setflags(write=False)
     src = np.array(sources, dtype=float)
     src.setflags(write=False)
@@ -127,7 +128,23 @@ def _assemble(req: _Request, out: _Outcome, t_start: float) -> PathResult:
         times=times,
         time=time.perf_counter() - t_start,
         info=out.info,
+        leg_forces=forces,
     )
+
+
+def _leg_forces(req: _Request, targets: Sequence[Target], Q: FloatArray, c: int) -> Any:
+    """Leg forces (m, n, 6) [N] of the ``c`` reached poses under the path's load (NaN
+    after), when a load was given or some ``force_max`` is finite; else None."""
+    from stackik.formulation.forces import force_limited
+    from stackik.loads import leg_forces
+
+    if req.load is None and not force_limited(req.stack):
+        return None
+    out = np.full(Q.shape[:2] + (6,), np.nan)
+    phi = getattr(targets[0], "phi", None) if req.planar else None
+    for j in range(c):
+        out[j] = leg_forces(req.stack, Q[j], req.load, phi=phi)
+    return out
 
 
 def _source_text(s: float) -> str:

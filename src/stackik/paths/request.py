@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from stackik.check import check_pose
 from stackik.formulation.clearance import Clearance, clearance_of
 from stackik.geometry import Stack
+from stackik.loads import Load
 from stackik.paths.interpolate import _pair, as_waypoints
 from stackik.solve import solve_ik
 from stackik.targets import PlanarTarget, Target, target_to_dict
@@ -59,13 +60,19 @@ class _Request:
     reanchor_every: int
     #: the margin [mm] and obstacles every waypoint keeps clear (solve_ik's)
     clear: Clearance = field(default_factory=Clearance)
+    #: the load the leg forces carry (solve_ik's): every waypoint within the force limits
+    load: Load | None = None
     memo: dict[Any, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def clear_kw(self) -> dict[str, Any]:
-        """``obstacles`` and ``clearance`` keywords for solve_ik, the Tracker and the
-        bounded steps."""
-        return {"obstacles": self.clear.obstacles, "clearance": self.clear.margin}
+        """``obstacles``, ``clearance`` and ``load`` keywords for solve_ik, the Tracker and
+        the bounded steps."""
+        return {
+            "obstacles": self.clear.obstacles,
+            "clearance": self.clear.margin,
+            "load": self.load,
+        }
 
     def key(self) -> dict[str, Any]:
         """JSON-ready identity of the problem (for checkpoints)."""
@@ -90,6 +97,7 @@ class _Request:
                 if self.clear.obstacles or self.clear.margin
                 else {}
             ),
+            **({} if self.load is None else {"load": _load_key(self.load)}),
         }
 
     def default_solve(self, target: Target, index: int) -> Any:
@@ -118,16 +126,12 @@ def _request(
     reanchor_every: Any,
     obstacles: Any = (),
     clearance: Any = 0.0,
+    load: Any = None,
 ) -> _Request:
     if not isinstance(stack, Stack):
         raise ValueError(f"stack: expected a Stack, got {type(stack).__name__}")
-    if bool(np.isfinite(stack.force_max).any()):
-        # the path kernels do not know leg forces: refuse rather than call a pose over
-        # its force limit valid (solve_ik refuses such a pose by the independent check)
-        raise ValueError(
-            "stack: solve_path does not enforce leg force limits yet (force_max is finite); "
-            "use a stack without force_max, or check waypoints with stackik.statics"
-        )
+    if load is not None and not isinstance(load, Load):
+        raise ValueError(f"load: expected a stackik.Load or None, got {type(load).__name__}")
     pts = as_waypoints(targets)
     planar = isinstance(pts[0], PlanarTarget)
     k = 3 if planar else 6
@@ -163,7 +167,7 @@ def _request(
             if not math.isfinite(fv) or fv <= 0:
                 raise ValueError(f"{name}: must be finite and > 0, got {v!r}")
             speeds[j] = fv
-    q0 = None if start is None else _start_pose(stack, pts[0], k, start, clear)
+    q0 = None if start is None else _start_pose(stack, pts[0], k, start, clear, load)
     if reanchor_every is None:
         reanchor_every = max(REANCHOR_EVERY, REANCHOR_PER_N * stack.n)
         if not planar and stack.n > SPATIAL_REANCHOR_N:
@@ -184,11 +188,26 @@ def _request(
             raise ValueError(f"rng: expected None, an int seed or a Generator ({exc})") from None
     return _Request(
         stack, pts, planar, k, mj, mode, w, refine, max_depth, q0, speeds[0], speeds[1],
-        max_candidates, seed, reanchor_every, clear,
+        max_candidates, seed, reanchor_every, clear, load,
     )  # fmt: skip
 
 
-def _start_pose(stack: Stack, target: Target, k: int, start: Any, clear: Clearance) -> FloatArray:
+def _load_key(load: Load) -> dict[str, Any]:
+    """A load's identity for checkpoints (plain data)."""
+    g = load.gravity
+    return {
+        "force": np.asarray(load.force, dtype=float).tolist(),
+        "moment": np.asarray(load.moment, dtype=float).tolist(),
+        "frame": load.frame,
+        "mass": float(load.mass),
+        "com": np.asarray(load.com, dtype=float).tolist(),
+        "gravity": g if isinstance(g, str) else np.asarray(g, dtype=float).tolist(),
+    }
+
+
+def _start_pose(
+    stack: Stack, target: Target, k: int, start: Any, clear: Clearance, load: Load | None
+) -> FloatArray:
     """``start`` as a pose that passes the check for the first waypoint, or a ValueError."""
     try:
         q0 = np.array(start, dtype=float)
@@ -196,10 +215,11 @@ def _start_pose(stack: Stack, target: Target, k: int, start: Any, clear: Clearan
         raise ValueError("start: expected an array of numbers") from None
     if q0.shape != (stack.n, k) or not np.all(np.isfinite(q0)):
         raise ValueError(f"start: expected finite values of shape ({stack.n}, {k}), got {q0.shape}")
-    chk = check_pose(stack, target, q0, obstacles=clear.obstacles, clearance=clear.margin)
+    chk = check_pose(stack, target, q0, load, obstacles=clear.obstacles, clearance=clear.margin)
     if not chk.ok:
         raise ValueError(
-            "start: the pose does not reach targets[0] within every limit and clearance "
+            "start: the pose does not reach targets[0] within every limit, force limit and "
+            "clearance "
             f"(position error {chk.position_error:.3g} mm, angle error "
             f"{chk.angle_error:.3g} rad, worst violation {chk.violation_mm:.3g} mm)"
         )

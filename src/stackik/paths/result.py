@@ -110,6 +110,10 @@ class PathResult:
         starts).
     info : dict
         Counters of the solve (``warm``, ``subdivided``, ``bounded``, ``default`` solves...).
+    leg_forces : ndarray, shape (m, n, 6), or None
+        Axial leg forces [N], compression positive (:func:`stackik.leg_forces`), under the
+        path's ``load``, when a load was given or some ``force_max`` is finite (NaN where
+        not reached); else None.
     """
 
     targets: tuple[Target, ...]
@@ -127,6 +131,7 @@ class PathResult:
     times: FloatArray | None = None
     time: float = 0.0
     info: dict[str, Any] = field(default_factory=dict, compare=False)
+    leg_forces: FloatArray | None = None
 
     # --- derived ------------------------------------------------------------------
     @property
@@ -199,6 +204,7 @@ class PathResult:
             "margins": clean(self.margins),
             "margin_names": list(MARGIN_NAMES),
             "times": None if self.times is None else clean(self.times),
+            "leg_forces": None if self.leg_forces is None else clean(self.leg_forces),
             "time_s": self.time,
             "info": self.info,
         }
@@ -213,6 +219,7 @@ class PathResult:
             return _arr(np.array(v, dtype=object).astype(float))
 
         times = d.get("times")
+        forces = d.get("leg_forces")
         return cls(
             targets=tuple(target_from_dict(t) for t in d["targets"]),
             q=arr(d["q"]),
@@ -229,6 +236,7 @@ class PathResult:
             times=None if times is None else arr(times),
             time=float(d.get("time_s", 0.0)),
             info=dict(d.get("info", {})),
+            leg_forces=None if forces is None else arr(forces),
         )
 
     def to_json(self, path: str | Path | None = None) -> str:
@@ -263,6 +271,9 @@ class PathResult:
             cols += [f"p{i}_leg{k}" for k in range(6)]
         for i in range(1, self.n + 1):
             cols += [f"p{i}_margin_{name}" for name in MARGIN_NAMES]
+        if self.leg_forces is not None:
+            for i in range(1, self.n + 1):
+                cols += [f"p{i}_force{k}" for k in range(6)]
         return cols
 
     def to_csv(self, path: str | Path) -> Path:
@@ -285,6 +296,8 @@ class PathResult:
             row += [cell(v) for v in self.q[k].ravel()]
             row += [cell(v) for v in self.leg_lengths[k].ravel()]
             row += [cell(v) for v in self.margins[k].ravel()]
+            if self.leg_forces is not None:
+                row += [cell(v) for v in self.leg_forces[k].ravel()]
             rows.append(row)
         out = Path(path)
         with out.open("w", newline="") as fh:
@@ -302,7 +315,8 @@ def read_path_csv(path: str | Path) -> dict[str, Any]:
     dict
         ``targets`` (list of targets), ``source`` (m,), ``times`` (m,) or None,
         ``frobenius_norm`` (m,), ``q`` (m, n, 3|6), ``leg_lengths`` (m, n, 6) and
-        ``margins`` (m, n, 4); empty cells read as NaN.
+        ``margins`` (m, n, 4), ``leg_forces`` (m, n, 6) [N] or None; empty cells read as
+        NaN.
     """
     with Path(path).open(newline="") as fh:
         rows = list(csv.reader(fh))
@@ -323,6 +337,10 @@ def read_path_csv(path: str | Path) -> dict[str, Any]:
     legs = data[:, j1 : j1 + 6 * n].reshape(m, n, 6)
     j2 = col["p1_margin_" + MARGIN_NAMES[0]]
     margins = data[:, j2 : j2 + 4 * n].reshape(m, n, 4)
+    forces = None
+    if "p1_force0" in col:
+        j3 = col["p1_force0"]
+        forces = data[:, j3 : j3 + 6 * n].reshape(m, n, 6)
     targets: list[Target] = []
     for r in data:
         if planar:
@@ -341,4 +359,5 @@ def read_path_csv(path: str | Path) -> dict[str, Any]:
         "q": q,
         "leg_lengths": legs,
         "margins": margins,
+        "leg_forces": forces,
     }

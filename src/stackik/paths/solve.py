@@ -111,6 +111,7 @@ def solve_path(
     reanchor_every: int | None = None,
     obstacles: Any = (),
     clearance: float = 0.0,
+    load: Any = None,
 ) -> PathResult:
     """Continuous least-FN poses along a sequence of end-effector waypoints.
 
@@ -164,11 +165,13 @@ def solve_path(
         within ``max_jump`` (:mod:`stackik.paths.reanchor`: the schedule backs off while
         the path stays on the best basin). 0 turns it off. Default (None): ``max(20, 5 n)``
         planar; spatial 20 up to ``SPATIAL_REANCHOR_N`` = 4 platforms, 0 beyond.
-    obstacles, clearance
+    obstacles, clearance, load
         As :func:`stackik.solve_ik`'s: every waypoint passes the full check with them
-        (clear of every obstacle, every pair ``clearance`` [mm] apart); the steps carry the
-        self-leg and obstacle rows, so a step goes around an obstacle within ``max_jump``
-        where it can, else the path breaks there (docs/clearance.md).
+        (clear of every obstacle, every pair ``clearance`` [mm] apart, every leg within
+        its ``force_max`` under ``load``); the steps carry the self-leg, obstacle and
+        force rows, so a step goes around an obstacle or off a force limit within
+        ``max_jump`` where it can, else the path breaks there (docs/clearance.md,
+        docs/loads.md). The result's ``leg_forces`` are under ``load``.
 
     Returns
     -------
@@ -182,13 +185,13 @@ def solve_path(
         Bad input: not a Stack, empty or mixed waypoints, planar waypoints in different
         planes, NaN, ``max_jump`` not a pair of positive numbers, unknown mode, a
         ``start`` of the wrong shape or that misses ``targets[0]``, only one of
-        ``leg_speed``/``leg_accel``, non-positive limits, a stack with a finite
-        ``force_max`` (paths do not enforce force limits yet).
+        ``leg_speed``/``leg_accel``, non-positive limits, a malformed ``load``,
+        ``obstacles`` or ``clearance``.
     """
     t_start = time.perf_counter()
     req = _request(
         stack, targets, max_jump, mode, motion_weight, refine, max_depth, start,
-        leg_speed, leg_accel, max_candidates, rng, reanchor_every, obstacles, clearance,
+        leg_speed, leg_accel, max_candidates, rng, reanchor_every, obstacles, clearance, load,
     )  # fmt: skip
     return _run(req, checkpoint, t_start)
 
@@ -234,7 +237,7 @@ def _solve(req: _Request, ck: PathCheckpoint, t_start: float) -> PathResult:
     fast refining pass) and assemble the result."""
     tracker = Tracker(
         req.stack, req.planar, req.max_jump, req.max_depth,
-        obstacles=req.clear.obstacles, clearance=req.clear.margin,
+        obstacles=req.clear.obstacles, clearance=req.clear.margin, load=req.load,
     )  # fmt: skip
     if req.mode == "fast" or req.refine:
         out = _fast(req, ck, tracker)
