@@ -43,6 +43,7 @@ def _what_first_calls_cost() -> dict[str, tuple[list[str], list[str]]]:
     sk.warm_up()
     solve_path, interpolate = sk.solve_path, sk.interpolate_targets  # (lazy attributes)
     stack = sk.Stack.reference(4)
+    fat = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 4)
     keys = [sk.PlanarTarget(0.0, 1000.0, 0.0), sk.PlanarTarget(150.0, 950.0, 0.2)]
     calls = {
         "planar": lambda: sk.solve_ik(stack, sk.PlanarTarget(600.0, 1000.0, -1.57)),
@@ -58,6 +59,13 @@ def _what_first_calls_cost() -> dict[str, tuple[list[str], list[str]]]:
         "planar path": lambda: solve_path(stack, interpolate(keys, steps=3)),
         "spatial path": lambda: solve_path(
             stack, interpolate([t.to_spatial() for t in keys], steps=3)
+        ),
+        "spatial, 12 mm legs": lambda: sk.solve_ik(fat, _spatial_target(4)),
+        "spatial sqp, 12 mm legs": lambda: sk.solve_ik(
+            fat, _spatial_target(4), method="sqp", starts=1
+        ),
+        "spatial, an obstacle": lambda: sk.solve_ik(
+            stack, _spatial_target(4), obstacles=[sk.Sphere((0.0, 0.0, 700.0), 20.0)]
         ),
     }
     out = {}

@@ -166,12 +166,9 @@ def solve_path(
         the path stays on the best basin). 0 turns it off. Default (None): ``max(20, 5 n)``
         planar; spatial 20 up to ``SPATIAL_REANCHOR_N`` = 4 platforms, 0 beyond.
     obstacles, clearance, load
-        As :func:`stackik.solve_ik`'s: every waypoint passes the full check with them
-        (clear of every obstacle, every pair ``clearance`` [mm] apart, every leg within
-        its ``force_max`` under ``load``); the steps carry the self-leg, obstacle and
-        force rows, so a step goes around an obstacle or off a force limit within
-        ``max_jump`` where it can, else the path breaks there (docs/clearance.md,
-        docs/loads.md). The result's ``leg_forces`` are under ``load``.
+        As :func:`stackik.solve_ik`'s: every waypoint passes the full check with them, and
+        the steps carry their rows (a step goes around an obstacle or along a force limit
+        within ``max_jump``, else the path breaks there); ``leg_forces`` under ``load``.
 
     Returns
     -------

@@ -49,6 +49,7 @@ def _dispatchers(kind: str) -> list[Any]:
                 _ipm._lagrangian_hessian, _check._planar_check,
                 _check._planar_check_many, _check._planar_path_arrays]  # fmt: skip
     from stackik._compiled import check as _check
+    from stackik._compiled import self_legs as _self_legs
     from stackik._compiled import spatial as _spatial_ipm
     from stackik._compiled import spatial_kinematics as _spatial
     from stackik._compiled import spatial_path as _spatial_ipm_path
@@ -56,7 +57,7 @@ def _dispatchers(kind: str) -> list[Any]:
     return [_spatial.spatial_parts, _spatial.block_jacobian, _spatial_ipm.ip_multi,
             _spatial_ipm.ip_box, _spatial_ipm_path.ip_path, _spatial_ipm.evaluate,
             _spatial_ipm.polish, _spatial_ipm.lagrangian_hessian, _check._spatial_check,
-            _check._spatial_check_many]  # fmt: skip
+            _check._spatial_check_many, _self_legs.self_leg_block]  # fmt: skip
 
 
 def _small_problem(planar: bool) -> tuple[Any, ...]:
@@ -161,6 +162,12 @@ def _warm(kind: str) -> None:
     ip_starts(prob, [q0, q0], {}, math.inf)
     _warm_path_kernels(planar)
     _warm_sqp_kernels(planar)
+    if not planar:  # the self-leg rows Problem appends for legs with a radius
+        from stackik.formulation import Problem
+        from stackik.geometry import PlatformGeometry, Stack
+
+        fat = Stack.uniform(PlatformGeometry.hexagonal(leg_radius=1.0), prob.n)
+        Problem(fat, prob.target, "frobenius", None).evaluate(prob.u_of(q0))
 
 
 class _Progress:
