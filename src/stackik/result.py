@@ -5,10 +5,13 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from stackik.clearance import Clearances
 
 __all__ = ["STATUS_MESSAGES", "IKResult", "IKStatus", "OptionError"]
 
@@ -95,6 +98,11 @@ class IKResult:
         Per platform, the smallest singular value and the condition number of its leg
         wrench matrix made dimensionless by the characteristic length
         (:func:`stackik.wrench_conditioning`): the distance to a singularity.
+    clearances : Clearances or None
+        Signed least distances [mm] per pair kind, with the closest pairs
+        (:func:`stackik.clearances`), as the check measured them; None when the check had
+        none to enforce (zero leg radii and plate thickness, no obstacle, margin 0). Not
+        kept by :meth:`to_record` / :meth:`from_record` (:meth:`to_dict` has them).
     """
 
     q: FloatArray
@@ -122,6 +130,7 @@ class IKResult:
     force_margin: FloatArray | None = field(default=None, compare=False)
     sigma_min: FloatArray | None = field(default=None, compare=False)
     condition: FloatArray | None = field(default=None, compare=False)
+    clearances: Clearances | None = field(default=None, compare=False)
 
     @property
     def peak_force(self) -> float | None:
@@ -166,7 +175,7 @@ class IKResult:
             phi=None if d.get("phi") is None else float(d["phi"]),
             mode=str(d.get("mode", "planar")),
             info=dict(d.get("info", {})),
-            **{k: _array_or_none(d.get(k)) for k in STATICS_KEYS},
+            **_statics_of(d),
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -190,6 +199,7 @@ class IKResult:
             "qp_solver": self.qp_solver,
             "n_starts": self.n_starts,
             "leg_lengths": self.leg_lengths.tolist(),
+            "clearances": None if self.clearances is None else self.clearances.to_dict(),
             **{
                 k: None if getattr(self, k) is None else getattr(self, k).tolist()
                 for k in STATICS_KEYS
@@ -203,6 +213,11 @@ STATICS_KEYS = ("leg_forces", "force_margin", "sigma_min", "condition")
 
 def _array_or_none(v: Any) -> FloatArray | None:
     return None if v is None else np.array(v, dtype=float)
+
+
+def _statics_of(d: dict[str, Any]) -> dict[str, Any]:
+    """The statics fields of a record (None where absent)."""
+    return {k: _array_or_none(d.get(k)) for k in STATICS_KEYS}
 
 
 def _jsonable(v: Any) -> bool:

@@ -68,15 +68,16 @@ def _now() -> float:
 
 
 @_jit
-def _limit_rows(z: FloatArray, n: int) -> FloatArray:
-    """The multipliers of the 24 n limit rows among the ``z.size / n`` rows per platform
-    of a boxed problem (a box adds two rows a variable; ``z`` itself without a box): the
-    box is linear, so only these enter the Hessian."""
-    if z.size == 24 * n:
+def _limit_rows(z: FloatArray, n: int, keep: int = 24) -> FloatArray:
+    """The multipliers of the first ``keep`` rows a platform (the 24 limits, and any
+    further rows with curvature) among the ``z.size / n`` rows per platform of a boxed
+    problem (a box adds two rows a variable; ``z`` itself without a box): the box is
+    linear, so only these enter the Hessian."""
+    if z.size == keep * n:
         return z
     R = z.size // n
-    out = np.empty(24 * n)
+    out = np.empty(keep * n)
     for i in range(n):
-        for r in range(24):
-            out[24 * i + r] = z[R * i + r]
+        for r in range(keep):
+            out[keep * i + r] = z[R * i + r]
     return out

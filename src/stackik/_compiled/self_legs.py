@@ -49,16 +49,14 @@ _PARALLEL = 1e-12
 
 
 @_jit
-def closest_params(p0: FloatArray, p1: FloatArray, q0: FloatArray, q1: FloatArray) -> Any:
-    """Parameters (s, t) in [0, 1]^2 of closest points of segments p0-p1 and q0-q1 (3,)."""
-    d1 = p1 - p0
-    d2 = q1 - q0
-    r = p0 - q0
-    a = d1 @ d1
-    e = d2 @ d2
-    f = d2 @ r
-    c = d1 @ r
-    b = d1 @ d2
+def _closest(d1: FloatArray, d2: FloatArray, r: FloatArray) -> Any:
+    """Parameters (s, t) in [0, 1]^2 of the closest points ``p0 + s d1`` and ``q0 + t d2``
+    of two segments, from ``d1 = p1 - p0``, ``d2 = q1 - q0``, ``r = p0 - q0`` (3,)."""
+    a = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]
+    e = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2]
+    f = d2[0] * r[0] + d2[1] * r[1] + d2[2] * r[2]
+    c = d1[0] * r[0] + d1[1] * r[1] + d1[2] * r[2]
+    b = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2]
     den = a * e - b * b
     if a <= 0.0 and e <= 0.0:
         return 0.0, 0.0
@@ -81,6 +79,12 @@ def closest_params(p0: FloatArray, p1: FloatArray, q0: FloatArray, q1: FloatArra
 
 
 @_jit
+def closest_params(p0: FloatArray, p1: FloatArray, q0: FloatArray, q1: FloatArray) -> Any:
+    """Parameters (s, t) in [0, 1]^2 of closest points of segments p0-p1 and q0-q1 (3,)."""
+    return _closest(p1 - p0, q1 - q0, p0 - q0)
+
+
+@_jit
 def _rotation_axes(yaw: float, pitch: float, roll: float) -> Any:
     """``R = Rz Ry Rx`` and the rows ``W``: the axes of yaw, pitch and roll in the bottom
     plate's frame (``e_z``, ``Rz e_y``, ``Rz Ry e_x``)."""
@@ -89,6 +93,42 @@ def _rotation_axes(yaw: float, pitch: float, roll: float) -> Any:
     cy, sy = math.cos(pitch), math.sin(pitch)
     W = np.array([[0.0, 0.0, 1.0], [-sz, cz, 0.0], [cz * cy, sz * cy, -sy]])
     return R, W
+
+
+@_jit
+def _legs(q: FloatArray, base: FloatArray, top: FloatArray, second: bool) -> Any:
+    """One platform's legs at ``q`` (6,): axes ``L = T - b`` (6, 3), the top joints'
+    derivatives along the angles ``dT[k, j] = w_j x R u_k`` (6, 3, 3) and, when
+    ``second``, ``d2T[k, a, b] = w_min x (w_max x R u_k)`` (6, 3, 3, 3)."""
+    R, W = _rotation_axes(q[3], q[4], q[5])
+    nl = base.shape[0]
+    L = np.empty((nl, 3))
+    dT = np.empty((nl, 3, 3))
+    d2T = np.zeros((nl, 3, 3, 3)) if second else np.zeros((0, 3, 3, 3))
+    for k in range(nl):
+        u0, u1, u2 = top[k, 0], top[k, 1], top[k, 2]
+        ru0 = R[0, 0] * u0 + R[0, 1] * u1 + R[0, 2] * u2
+        ru1 = R[1, 0] * u0 + R[1, 1] * u1 + R[1, 2] * u2
+        ru2 = R[2, 0] * u0 + R[2, 1] * u1 + R[2, 2] * u2
+        L[k, 0] = q[0] + ru0 - base[k, 0]
+        L[k, 1] = q[1] + ru1 - base[k, 1]
+        L[k, 2] = q[2] + ru2 - base[k, 2]
+        for j in range(3):
+            w0, w1, w2 = W[j, 0], W[j, 1], W[j, 2]
+            dT[k, j, 0] = w1 * ru2 - w2 * ru1
+            dT[k, j, 1] = w2 * ru0 - w0 * ru2
+            dT[k, j, 2] = w0 * ru1 - w1 * ru0
+        if second:
+            for a in range(3):
+                w0, w1, w2 = W[a, 0], W[a, 1], W[a, 2]
+                for b in range(a, 3):
+                    x0, x1, x2 = dT[k, b, 0], dT[k, b, 1], dT[k, b, 2]
+                    v0 = w1 * x2 - w2 * x1
+                    v1 = w2 * x0 - w0 * x2
+                    v2 = w0 * x1 - w1 * x0
+                    d2T[k, a, b, 0], d2T[k, a, b, 1], d2T[k, a, b, 2] = v0, v1, v2
+                    d2T[k, b, a, 0], d2T[k, b, a, 1], d2T[k, b, a, 2] = v0, v1, v2
+    return L, dT, d2T
 
 
 @_jit
@@ -107,54 +147,81 @@ def self_leg_rows(
     q (6,) pose [mm, rad]; base (6, 3), top (6, 3) joints in the platform's and the top
     plate's frames [mm]; pairs (m, 2) leg indices; rho [mm]; scale [mm^2].
     """
-    R, W = _rotation_axes(q[3], q[4], q[5])
-    nl = base.shape[0]
-    T = np.empty((nl, 3))
-    RU = np.empty((nl, 3))
-    for k in range(nl):
-        RU[k] = R @ top[k]
-        T[k] = q[:3] + RU[k]
-    for r in range(pairs.shape[0]):
-        k, m = pairs[r, 0], pairs[r, 1]
-        s, t = closest_params(base[k], T[k], base[m], T[m])
-        P = base[k] + s * (T[k] - base[k])
-        Q = base[m] + t * (T[m] - base[m])
-        g = P - Q
-        c[r] = (g @ g - rho * rho) / scale
+    L, dT, _ = _legs(q, base, top, False)
+    r = np.empty(3)
+    g = np.empty(3)
+    for p in range(pairs.shape[0]):
+        k, m = pairs[p, 0], pairs[p, 1]
+        for x in range(3):
+            r[x] = base[k, x] - base[m, x]
+        s, t = _closest(L[k], L[m], r)
+        gg = 0.0
+        for x in range(3):
+            g[x] = r[x] + s * L[k, x] - t * L[m, x]
+            gg += g[x] * g[x]
+        c[p] = (gg - rho * rho) / scale
         # d(d^2)/dT_k = 2 s g, d(d^2)/dT_m = -2 t g (envelope: s, t fixed)
-        gk = 2.0 * s * g / scale
-        gm = -2.0 * t * g / scale
+        sk = 2.0 * s / scale
+        sm = -2.0 * t / scale
         for j in range(3):
-            J[r, j] = gk[j] + gm[j]
-        for j in range(3):
-            w = W[j]
-            dk = np.cross(w, RU[k])
-            dm = np.cross(w, RU[m])
-            J[r, 3 + j] = gk @ dk + gm @ dm
+            J[p, j] = (sk + sm) * g[j]
+            ak = g[0] * dT[k, j, 0] + g[1] * dT[k, j, 1] + g[2] * dT[k, j, 2]
+            am = g[0] * dT[m, j, 0] + g[1] * dT[m, j, 1] + g[2] * dT[m, j, 2]
+            J[p, 3 + j] = sk * ak + sm * am
 
 
 @_jit
-def _top_derivatives(W: FloatArray, RU: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """``dT / dq`` (3, 6) and ``d^2 T / d angle_a d angle_b`` (3, 3, 3) of a top joint
-    ``T = p + R u`` with ``RU = R u`` (3,)."""
-    dT = np.zeros((3, 6))
-    for j in range(3):
-        dT[j, j] = 1.0
-        w = W[j]
-        dT[0, 3 + j] = w[1] * RU[2] - w[2] * RU[1]
-        dT[1, 3 + j] = w[2] * RU[0] - w[0] * RU[2]
-        dT[2, 3 + j] = w[0] * RU[1] - w[1] * RU[0]
-    d2 = np.zeros((3, 3, 3))
-    for a in range(3):
-        for b in range(a, 3):
-            x = dT[:, 3 + b]
-            w = W[a]
-            v0 = w[1] * x[2] - w[2] * x[1]
-            v1 = w[2] * x[0] - w[0] * x[2]
-            v2 = w[0] * x[1] - w[1] * x[0]
-            d2[0, a, b], d2[1, a, b], d2[2, a, b] = v0, v1, v2
-            d2[0, b, a], d2[1, b, a], d2[2, b, a] = v0, v1, v2
-    return dT, d2
+def _pair_hessian(
+    s: float, t: float, Lk: FloatArray, Lm: FloatArray, g: FloatArray,
+    dTk: FloatArray, dTm: FloatArray, d2Tk: FloatArray, d2Tm: FloatArray,
+    Jg: FloatArray, B: FloatArray, Hp: FloatArray,
+) -> None:  # fmt: skip
+    """``d^2 |g|^2 / dq^2`` (6, 6) of one pair into ``Hp`` (``Jg`` (3, 6), ``B`` (2, 6):
+    work arrays), the minimisation over the free closest-point parameters included."""
+    for x in range(3):
+        for j in range(3):
+            Jg[x, j] = (s - t) if x == j else 0.0
+            Jg[x, 3 + j] = s * dTk[j, x] - t * dTm[j, x]
+    for a in range(6):
+        for b in range(a, 6):
+            v = 2.0 * (Jg[0, a] * Jg[0, b] + Jg[1, a] * Jg[1, b] + Jg[2, a] * Jg[2, b])
+            if a >= 3:
+                for x in range(3):
+                    v += 2.0 * g[x] * (s * d2Tk[a - 3, b - 3, x] - t * d2Tm[a - 3, b - 3, x])
+            Hp[a, b] = v
+            Hp[b, a] = v
+    fs = 0.0 < s < 1.0
+    ft = 0.0 < t < 1.0
+    if not (fs or ft):
+        return
+    for a in range(6):
+        gk = g[0] * (1.0 if a == 0 else 0.0) + g[1] * (1.0 if a == 1 else 0.0)
+        gk += g[2] * (1.0 if a == 2 else 0.0)
+        gm = gk
+        if a >= 3:
+            gk = g[0] * dTk[a - 3, 0] + g[1] * dTk[a - 3, 1] + g[2] * dTk[a - 3, 2]
+            gm = g[0] * dTm[a - 3, 0] + g[1] * dTm[a - 3, 1] + g[2] * dTm[a - 3, 2]
+        B[0, a] = 2.0 * (Lk[0] * Jg[0, a] + Lk[1] * Jg[1, a] + Lk[2] * Jg[2, a] + gk)
+        B[1, a] = -2.0 * (Lm[0] * Jg[0, a] + Lm[1] * Jg[1, a] + Lm[2] * Jg[2, a] + gm)
+    A00 = 2.0 * (Lk[0] * Lk[0] + Lk[1] * Lk[1] + Lk[2] * Lk[2])
+    A11 = 2.0 * (Lm[0] * Lm[0] + Lm[1] * Lm[1] + Lm[2] * Lm[2])
+    A01 = -2.0 * (Lk[0] * Lm[0] + Lk[1] * Lm[1] + Lk[2] * Lm[2])
+    if fs and ft:
+        det = A00 * A11 - A01 * A01
+        if det > _PARALLEL * A00 * A11:
+            i00, i11, i01 = A11 / det, A00 / det, -A01 / det
+            for a in range(6):
+                for b in range(6):
+                    Hp[a, b] -= B[0, a] * (i00 * B[0, b] + i01 * B[1, b]) + B[1, a] * (
+                        i01 * B[0, b] + i11 * B[1, b]
+                    )
+        return
+    j = 0 if fs else 1
+    Ajj = A00 if fs else A11
+    if Ajj > 0.0:
+        for a in range(6):
+            for b in range(6):
+                Hp[a, b] -= B[j, a] * B[j, b] / Ajj
 
 
 @_jit
@@ -167,57 +234,27 @@ def self_leg_hessian(
     y: FloatArray,
 ) -> FloatArray:
     """``sum_r y[r] d^2 c_r / dq^2`` (6, 6) of one platform's rows (:func:`self_leg_rows`)."""
-    R, W = _rotation_axes(q[3], q[4], q[5])
+    L, dT, d2T = _legs(q, base, top, True)
     H = np.zeros((6, 6))
-    for r in range(pairs.shape[0]):
-        if y[r] == 0.0:
+    Hp = np.empty((6, 6))
+    Jg = np.empty((3, 6))
+    B = np.empty((2, 6))
+    r = np.empty(3)
+    g = np.empty(3)
+    for p in range(pairs.shape[0]):
+        if y[p] == 0.0:
             continue
-        k, m = pairs[r, 0], pairs[r, 1]
-        RUk = R @ top[k]
-        RUm = R @ top[m]
-        Tk = q[:3] + RUk
-        Tm = q[:3] + RUm
-        s, t = closest_params(base[k], Tk, base[m], Tm)
-        d1 = Tk - base[k]
-        d2 = Tm - base[m]
-        g = base[k] + s * d1 - base[m] - t * d2
-        dTk, d2Tk = _top_derivatives(W, RUk)
-        dTm, d2Tm = _top_derivatives(W, RUm)
-        Jg = s * dTk - t * dTm  # (3, 6)
-        Hp = 2.0 * (Jg.T @ Jg)
-        for a in range(3):
-            for b in range(3):
-                acc = 0.0
-                for c in range(3):
-                    acc += g[c] * (s * d2Tk[c, a, b] - t * d2Tm[c, a, b])
-                Hp[3 + a, 3 + b] += 2.0 * acc
-        # the minimisation over the free parameters (strictly inside (0, 1))
-        fs = 0.0 < s < 1.0
-        ft = 0.0 < t < 1.0
-        if fs or ft:
-            B = np.zeros((2, 6))
-            A = np.zeros((2, 2))
-            B[0] = 2.0 * (d1 @ Jg + g @ dTk)
-            B[1] = 2.0 * (-(d2 @ Jg) - g @ dTm)
-            A[0, 0] = 2.0 * (d1 @ d1)
-            A[1, 1] = 2.0 * (d2 @ d2)
-            A[0, 1] = A[1, 0] = -2.0 * (d1 @ d2)
-            if fs and ft:
-                det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
-                if det > _PARALLEL * A[0, 0] * A[1, 1]:
-                    inv00, inv11, inv01 = A[1, 1] / det, A[0, 0] / det, -A[0, 1] / det
-                    for a in range(6):
-                        for b in range(6):
-                            Hp[a, b] -= B[0, a] * (inv00 * B[0, b] + inv01 * B[1, b]) + B[1, a] * (
-                                inv01 * B[0, b] + inv11 * B[1, b]
-                            )
-            else:
-                j = 0 if fs else 1
-                if A[j, j] > 0.0:
-                    for a in range(6):
-                        for b in range(6):
-                            Hp[a, b] -= B[j, a] * B[j, b] / A[j, j]
-        H += (y[r] / scale) * Hp
+        k, m = pairs[p, 0], pairs[p, 1]
+        for x in range(3):
+            r[x] = base[k, x] - base[m, x]
+        s, t = _closest(L[k], L[m], r)
+        for x in range(3):
+            g[x] = r[x] + s * L[k, x] - t * L[m, x]
+        _pair_hessian(s, t, L[k], L[m], g, dT[k], dT[m], d2T[k], d2T[m], Jg, B, Hp)
+        w = y[p] / scale
+        for a in range(6):
+            for b in range(6):
+                H[a, b] += w * Hp[a, b]
     return H
 
 

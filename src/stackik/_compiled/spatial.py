@@ -61,6 +61,7 @@ from stackik._compiled.linalg import (
     _mm3,
     _solve6,
 )
+from stackik._compiled.self_legs import self_leg_hessians, self_leg_rows
 from stackik._compiled.spatial_kinematics import spatial_parts
 
 FloatArray = Any
@@ -85,6 +86,9 @@ class SpatialData(NamedTuple):
     leg_max: Any  #: maximum leg lengths [mm]
     sin_joint: Any  #: sine of the minimum joint angles
     feasible: bool  #: the feasibility objective (f = 0) instead of FN^2
+    pairs: Any  #: self-leg pairs (m, 2) int64 (m = 0: no self-leg rows)
+    rho: Any  #: least leg-axis distance per platform (n,) [mm]
+    pair_scale: Any  #: self-leg row scale per platform (n,) [mm^2]
 
 
 # =========================================================================================
@@ -274,7 +278,9 @@ def fn2_hessian(Jp: FloatArray, w: FloatArray, r: FloatArray, Jr: FloatArray,
 def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
     """Scaled ``f, grad f, c_E (6,), A_E (6, N), c_I (24n,), A_I blocks (n, 24, 6)`` and
     the kinematic parts the Hessian reuses."""
-    (xs, cs, es, p_t, R_t, fscale, c0, wa, top, base, lmin, lmax, sj, feasible) = P
+    xs, cs, es, p_t, R_t = P.xs, P.cs, P.es, P.position, P.rotation
+    fscale, c0, wa, feasible = P.fscale, P.c0, P.w, P.feasible
+    top, base, lmin, lmax, sj = P.top, P.base, P.leg_min, P.leg_max, P.sin_joint
     n = top.shape[0]
     N = 6 * n
     q = (u * xs).reshape(n, 6)
@@ -300,12 +306,30 @@ def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
             for k in range(3):
                 d = M[k, 0] * v0 + M[k, 1] * v1 + M[k, 2] * v2
                 AE[3 + k, b] = d * es[3 + k] * xs[b]
-    cI = c.ravel() * cs
-    D = np.empty((n, 24, 6))
-    for i in range(n):
-        for rr in range(24):
-            for k in range(6):
-                D[i, rr, k] = Jc[i, rr, k] * cs[24 * i + rr] * xs[6 * i + k]
+    mp = P.pairs.shape[0]
+    if mp == 0:
+        cI = c.ravel() * cs
+        D = np.empty((n, 24, 6))
+        for i in range(n):
+            for rr in range(24):
+                for k in range(6):
+                    D[i, rr, k] = Jc[i, rr, k] * cs[24 * i + rr] * xs[6 * i + k]
+    else:  # each platform's 24 limits, then its self-leg rows
+        R = 24 + mp
+        cI = np.empty(R * n)
+        D = np.empty((n, R, 6))
+        cs_ = np.empty(mp)
+        Js = np.empty((mp, 6))
+        for i in range(n):
+            for rr in range(24):
+                cI[R * i + rr] = c[i, rr] * cs[24 * i + rr]
+                for k in range(6):
+                    D[i, rr, k] = Jc[i, rr, k] * cs[24 * i + rr] * xs[6 * i + k]
+            self_leg_rows(q[i], base[i], top[i], P.pairs, P.rho[i], P.pair_scale[i], cs_, Js)
+            for rr in range(mp):
+                cI[R * i + 24 + rr] = cs_[rr]
+                for k in range(6):
+                    D[i, 24 + rr, k] = Js[rr, k] * xs[6 * i + k]
     g = np.zeros(N)
     parts = (q, Ree, Jp, w, r, Jr)
     if feasible:
@@ -346,27 +370,30 @@ def _evaluate_ext(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Flo
     if lo.size == 0:
         return f, g, cE, AE, cI, D, parts
     n = D.shape[0]
-    cB = np.empty(36 * n)
-    DB = np.zeros((n, 36, 6))
+    R0 = D.shape[1]  # 24 limits (and the self-leg rows)
+    R = R0 + 12
+    cB = np.empty(R * n)
+    DB = np.zeros((n, R, 6))
     for i in range(n):
-        for r in range(24):
-            cB[36 * i + r] = cI[24 * i + r]
+        for r in range(R0):
+            cB[R * i + r] = cI[R0 * i + r]
             for k in range(6):
                 DB[i, r, k] = D[i, r, k]
         for k in range(6):
-            cB[36 * i + 24 + k] = u[6 * i + k] - lo[6 * i + k]
-            cB[36 * i + 30 + k] = hi[6 * i + k] - u[6 * i + k]
-            DB[i, 24 + k, k] = 1.0
-            DB[i, 30 + k, k] = -1.0
+            cB[R * i + R0 + k] = u[6 * i + k] - lo[6 * i + k]
+            cB[R * i + R0 + 6 + k] = hi[6 * i + k] - u[6 * i + k]
+            DB[i, R0 + k, k] = 1.0
+            DB[i, R0 + 6 + k, k] = -1.0
     return f, g, cE, AE, cB, DB, parts
 
 
 @_jit
 def _hessian_ext(parts: Any, yE: FloatArray, z: FloatArray, P: Any, wq: float) -> FloatArray:
     """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem from its kinematic
-    parts (``z``: 24 n or, with a box, 36 n multipliers): the box rows are linear, the
-    distance term adds ``2 wq I``."""
-    H = _hessian(parts, yE, _limit_rows(z, P.top.shape[0]), P)
+    parts (``z``: ``R n`` multipliers, the box's 12 rows a platform last): the box rows are
+    linear, the distance term adds ``2 wq I``."""
+    n = P.top.shape[0]
+    H = _hessian(parts, yE, _limit_rows(z, n, 24 + P.pairs.shape[0]), P)
     if wq > 0.0:
         for a in range(H.shape[0]):
             H[a, a] += 2.0 * wq
@@ -383,14 +410,17 @@ def lagrangian_hessian_ext(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
 
 @_jit
 def lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
-    """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (6n, 6n)."""
+    """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (6n, 6n); ``z`` has
+    :func:`evaluate`'s rows (24 limits, then the self-leg rows, per platform)."""
     return _hessian(_evaluate(u, P)[6], yE, z, P)
 
 
 @_jit
 def _hessian(parts: Any, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
     """:func:`lagrangian_hessian` from the kinematic parts of :func:`_evaluate`."""
-    (xs, cs, es, p_t, R_t, fscale, c0, wa, top, base, lmin, lmax, sj, feasible) = P
+    xs, cs, es, R_t = P.xs, P.cs, P.es, P.rotation
+    fscale, wa, feasible = P.fscale, P.w, P.feasible
+    top, base, sj = P.top, P.base, P.sin_joint
     q, Ree, Jp, w, r, Jr = parts
     n = top.shape[0]
     N = 6 * n
@@ -434,7 +464,13 @@ def _hessian(parts: Any, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
             H[a, b] -= val
             if b != a:
                 H[b, a] -= val
-    Hb = limit_hessians(q, (z * cs).reshape(n, 24), top, base, sj)
+    mp = P.pairs.shape[0]
+    if mp == 0:
+        Hb = limit_hessians(q, (z * cs).reshape(n, 24), top, base, sj)
+    else:
+        zz = z.reshape(n, 24 + mp)
+        Hb = limit_hessians(q, zz[:, :24] * cs.reshape(n, 24), top, base, sj)
+        Hb += self_leg_hessians(q, base, top, P.pairs, P.pair_scale, zz[:, 24:].copy())
     for i in range(n):
         for a in range(6):
             for b in range(6):
@@ -559,7 +595,7 @@ def _with_fscale(P0: Any, fscale: float) -> Any:
     """``P0`` with the objective scale ``fscale``."""
     return SpatialData(P0.xs, P0.cs, P0.es, P0.position, P0.rotation, fscale, P0.c0, P0.w,
                        P0.top, P0.base, P0.leg_min, P0.leg_max, P0.sin_joint,
-                       P0.feasible)  # fmt: skip
+                       P0.feasible, P0.pairs, P0.rho, P0.pair_scale)  # fmt: skip
 
 
 @_jit
@@ -567,7 +603,7 @@ def _with_target(P0: Any, position: Any, rotation: Any) -> Any:
     """``P0`` with the target ``position`` (3,) [mm] and ``rotation`` (3, 3)."""
     return SpatialData(P0.xs, P0.cs, P0.es, position, rotation, P0.fscale, P0.c0, P0.w,
                        P0.top, P0.base, P0.leg_min, P0.leg_max, P0.sin_joint,
-                       P0.feasible)  # fmt: skip
+                       P0.feasible, P0.pairs, P0.rho, P0.pair_scale)  # fmt: skip
 
 
 @_jit
@@ -580,10 +616,10 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     problem as ``P0`` states it, without the loop's objective scaling; a continuation
     step starts from them, :func:`stackik._compiled.spatial_path._pc_step`)."""
     n = P0.top.shape[0]
-    R = 24 if lo.size == 0 else 36
-    m = R * n
     x = u0.copy()
     f, g, cE, AE, cI, D, parts = _evaluate_ext(x, P0, lo, hi, ug, wq)
+    R = D.shape[1]  # rows a platform: 24 limits, the self-leg rows, a box's 12
+    m = R * n
     if not (np.all(np.isfinite(cI)) and np.all(np.isfinite(cE)) and math.isfinite(f)):
         return x, IP_NONFINITE, 0, cI, np.ones(m), np.zeros(6)
     gmax = np.abs(g).max()
@@ -817,10 +853,11 @@ def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> Fl
         A[:6] = AE
         rr[:6] = cE
         k = 6
+        R = D.shape[1]
         for r in range(cI.size):
             if -reach < cI[r] < 0.0:
-                i = r // 24
-                A[k, 6 * i : 6 * i + 6] = D[i, r % 24]
+                i = r // R
+                A[k, 6 * i : 6 * i + 6] = D[i, r % R]
                 rr[k] = cI[r] - margin
                 k += 1
         if not (np.all(np.isfinite(A)) and np.all(np.isfinite(rr))):

@@ -38,18 +38,19 @@ FloatArray = Any
 @_jit
 def _dependent(D: FloatArray, idx: FloatArray) -> FloatArray:
     """Mask of the rows ``idx`` (sorted active limit rows) that depend on the others of
-    their platform: per platform, Gram-Schmidt on its rows ``D[i, r % 24]`` taking the row
+    their platform: per platform, Gram-Schmidt on its rows ``D[i, r % R]`` taking the row
     with the largest remaining part first; rows left with less than PC_DEPENDENT of their
     length are dependent (at most 6 rows a platform are independent)."""
     k = idx.size
+    R = D.shape[1]  # rows a platform
     dep = np.ones(k, dtype=np.bool_)
     Q = np.zeros((6, 6))
     v = np.empty(6)
     j0 = 0
     while j0 < k:
-        i = idx[j0] // 24
+        i = idx[j0] // R
         j1 = j0
-        while j1 < k and idx[j1] // 24 == i:
+        while j1 < k and idx[j1] // R == i:
             j1 += 1
         rank = 0
         while rank < 6:
@@ -58,7 +59,7 @@ def _dependent(D: FloatArray, idx: FloatArray) -> FloatArray:
             for j in range(j0, j1):
                 if not dep[j]:
                     continue
-                a = D[i, idx[j] % 24]
+                a = D[i, idx[j] % R]
                 v[:] = a
                 for s in range(rank):
                     v -= (a @ Q[s]) * Q[s]
@@ -68,7 +69,7 @@ def _dependent(D: FloatArray, idx: FloatArray) -> FloatArray:
                     bn = nv
             if best < 0:
                 break
-            v[:] = D[i, idx[best] % 24]
+            v[:] = D[i, idx[best] % R]
             for _ in range(2):  # Gram-Schmidt twice: orthogonal to rounding
                 for s in range(rank):
                     v -= (v @ Q[s]) * Q[s]
@@ -114,8 +115,9 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     (:func:`_weakest`). Returns ``(x, ok, yE, z, active, iterations)``."""
     n = P0.top.shape[0]
     N = 6 * n
-    m = 24 * n
     f, g, cE, AE, cI, D = evaluate(x0, P0)
+    R = D.shape[1]  # rows a platform: the 24 limits and the self-leg rows
+    m = R * n
     gmax = np.abs(g).max()
     fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
     P = _with_fscale(P0, P0.fscale / fs)
@@ -201,10 +203,10 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             for r in range(6):
                 rhs[N + r] = -cE[r]
             for j in range(na):
-                i = idx[j] // 24
+                i = idx[j] // R
                 for k in range(6):
-                    K[6 * i + k, N + 6 + j] = -D[i, idx[j] % 24, k]
-                    K[N + 6 + j, 6 * i + k] = D[i, idx[j] % 24, k]
+                    K[6 * i + k, N + 6 + j] = -D[i, idx[j] % R, k]
+                    K[N + 6 + j, 6 * i + k] = D[i, idx[j] % R, k]
                 rhs[N + 6 + j] = PC_OFFSET - cI[idx[j]]
             if not np.all(np.isfinite(K)):
                 break

@@ -28,6 +28,7 @@ __all__ = [
     "CLIError",
     "NotAvailableError",
     "Parser",
+    "add_clearance_arguments",
     "add_method_args",
     "add_phi_args",
     "add_planar_target_args",
@@ -35,6 +36,7 @@ __all__ = [
     "add_stack_args",
     "add_starts_arg",
     "call_entry",
+    "clearance_of",
     "check_scale_args",
     "draw_figures",
     "dump_json",
@@ -408,3 +410,27 @@ def load_of(args: argparse.Namespace) -> Any:
         )
     except ValueError as exc:
         raise CLIError(f"load: {exc}") from None
+
+
+def add_clearance_arguments(p: argparse.ArgumentParser) -> None:
+    """The clearance options: obstacles and the margin every pair of bodies keeps."""
+    g = p.add_argument_group("clearance (legs, plates, obstacles)")
+    g.add_argument("--obstacles", type=Path, default=None, metavar="FILE",
+                   help="keep-out bodies: a TOML/JSON list (stackik.load_obstacles)")  # fmt: skip
+    g.add_argument("--clearance", type=finite_float, default=0.0, metavar="MM",
+                   help="margin [mm] every checked pair of bodies keeps (0)")  # fmt: skip
+
+
+def clearance_of(args: argparse.Namespace) -> dict[str, Any]:
+    """``obstacles`` and ``clearance`` keywords of the clearance options."""
+    obstacles: Any = ()
+    if args.obstacles is not None:
+        from stackik.obstacles import load_obstacles
+
+        try:
+            obstacles = load_obstacles(args.obstacles)
+        except (OSError, ValueError) as exc:
+            raise CLIError(f"--obstacles: {exc}") from None
+    if args.clearance < 0:
+        raise CLIError(f"--clearance: must be >= 0 mm, got {args.clearance}")
+    return {"obstacles": obstacles, "clearance": args.clearance}

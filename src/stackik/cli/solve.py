@@ -13,11 +13,13 @@ from ._common import (
     EXIT_INFEASIBLE,
     EXIT_OK,
     CLIError,
+    add_clearance_arguments,
     add_load_arguments,
     add_method_args,
     add_planar_target_args,
     add_stack_args,
     add_starts_arg,
+    clearance_of,
     dump_json,
     finite_float,
     load_of,
@@ -94,6 +96,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--html", type=Path, default=None, metavar="FILE",
                    help="also write an interactive 3D view of the pose (needs plotly)")  # fmt: skip
     add_load_arguments(p)
+    add_clearance_arguments(p)
     return p
 
 
@@ -151,6 +154,23 @@ def _force_lines(result: IKResult) -> list[str]:
     return lines
 
 
+def _clearance_lines(result: IKResult) -> list[str]:
+    """The clearances block of the table (none when the check measured none)."""
+    c = result.clearances
+    if c is None:
+        return []
+    obstacles = "".join(f", obstacle {k}: {d:.2f}" for k, d in enumerate(c.obstacles))
+    lines = [
+        "Clearances [mm] (signed surface distances, negative = penetration): "
+        f"self legs {c.self_legs:.2f}, adjacent legs {c.adjacent_legs:.2f}, "
+        f"non-adjacent {c.non_adjacent:.2f}{obstacles}"
+    ]
+    closest = c.closest
+    if closest is not None:
+        lines.append(f"  closest: {closest}")
+    return ["\n".join(textwrap.wrap(lines[0], 88, subsequent_indent="  ")), *lines[1:]]
+
+
 def format_result(stack: Stack, result: IKResult) -> str:
     """Human-readable table of an :class:`~stackik.result.IKResult` (pose, legs, margins,
     summary)."""
@@ -188,6 +208,7 @@ def format_result(stack: Stack, result: IKResult) -> str:
         f"angle - joint_min at base/top (worst {worst:.3g}; negative = violated)"
     )
     lines += _force_lines(result)
+    lines += _clearance_lines(result)
     lines.append("")
     width = 16
     headline, details = split_message(result.message)
@@ -268,6 +289,7 @@ def run(args: argparse.Namespace) -> int:
         require_plotly()
     from stackik.solve import solve_ik
 
+    clear = clearance_of(args)
     kwargs: dict[str, Any] = {}
     if args.objective == "weighted":
         kwargs["sigma_t"] = 1.0 if args.sigma_t is None else args.sigma_t
@@ -284,6 +306,7 @@ def run(args: argparse.Namespace) -> int:
         rng=args.seed,
         start=args.start,
         load=load_of(args),
+        **clear,
         **kwargs,
     )
     if args.json:
@@ -310,7 +333,9 @@ def run(args: argparse.Namespace) -> int:
     if args.html is not None:
         from stackik import viz
 
-        fig = viz.pose_figure(stack, result.q, phi=result.phi, target=target)
+        fig = viz.pose_figure(
+            stack, result.q, phi=result.phi, target=target, obstacles=clear["obstacles"] or None
+        )
         path = viz.write_html(fig, args.html)
         if not args.json:
             print(f"wrote {path}")

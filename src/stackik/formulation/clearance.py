@@ -27,8 +27,9 @@ import numpy as np
 
 from stackik._arrays import readonly
 from stackik.geometry import Stack
+from stackik.obstacles import Obstacle, as_obstacles
 
-__all__ = ["NO_PAIRS", "SELF_LEG_PAIRS", "SelfLegs", "self_legs_of"]
+__all__ = ["NO_PAIRS", "SELF_LEG_PAIRS", "Clearance", "SelfLegs", "clearance_of", "self_legs_of"]
 
 
 def _readonly_int(a: Any) -> Any:
@@ -80,3 +81,35 @@ def self_legs_of(stack: Stack, clearance: float, planar: bool) -> SelfLegs | Non
         rho=readonly(2.0 * radius + float(clearance)),
         scale=readonly(np.asarray(stack.leg_max, dtype=float) ** 2),
     )
+
+
+@dataclass(frozen=True)
+class Clearance:
+    """What a problem keeps clear: the margin, the obstacles and its self-leg rows.
+
+    Attributes
+    ----------
+    margin : float
+        Least clearance [mm] every checked pair keeps (``check_pose(..., clearance=)``).
+    obstacles : tuple of Obstacle
+        Keep-out bodies in the base frame, enforced by the check (not yet rows of the
+        solvers' problems).
+    self_legs : SelfLegs or None
+        The self-leg rows, or None.
+    """
+
+    margin: float = 0.0
+    obstacles: tuple[Obstacle, ...] = ()
+    self_legs: SelfLegs | None = None
+
+
+def clearance_of(stack: Stack, planar: bool, margin: Any = 0.0, obstacles: Any = ()) -> Clearance:
+    """Validate ``margin`` [mm] and ``obstacles`` and decide the rows (a ValueError names a
+    bad argument)."""
+    from stackik.geometry import finite_number
+
+    m = finite_number(margin, "clearance")
+    if m < 0.0:
+        raise ValueError(f"clearance: must be >= 0 mm, got {m}")
+    obs = tuple(as_obstacles(obstacles))
+    return Clearance(margin=m, obstacles=obs, self_legs=self_legs_of(stack, m, planar))

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from stackik._arrays import readonly
-from stackik.formulation.clearance import SelfLegs, self_legs_of
+from stackik.formulation.clearance import Clearance, SelfLegs, clearance_of
 from stackik.formulation.forces import ForceLimits, ForceResiduals, force_limited
 from stackik.formulation.modes import mode_of
 from stackik.formulation.planar import PlanarEvaluator
@@ -82,6 +82,7 @@ class Problem:
         x_ref: FloatArray | None = None,
         load: Load | None = None,
         clearance: float = 0.0,
+        obstacles: Any = (),
     ) -> None:
         self.stack = stack
         self.load = load
@@ -109,9 +110,8 @@ class Problem:
         self._fn_cache: tuple[FloatArray, FloatArray] = (np.zeros(0), np.zeros((0, 0)))
         self._cache: tuple[FloatArray, tuple[Any, ...]] | None = None  # (u, evaluate(u))
         self.nfev = 0
-        #: the self-leg rows (appended after the limits, before the force rows), or None;
-        #: ``clearance`` [mm] is their margin (stackik.formulation.clearance)
-        self.self_legs: SelfLegs | None = self_legs_of(stack, float(clearance), self.planar)
+        #: the margin [mm], the obstacles and the self-leg rows (stackik.formulation.clearance)
+        self.clearance: Clearance = clearance_of(stack, self.planar, clearance, obstacles)
         # one statics object serves the limit rows and the force objective (one batch)
         phi = self.mode.phi(target)
         rows: ForceLimits | None = (
@@ -128,6 +128,21 @@ class Problem:
     def planar(self) -> bool:
         """Planar mode (3 variables per platform), else spatial (6)."""
         return self.mode.planar
+
+    @property
+    def self_legs(self) -> SelfLegs | None:
+        """The self-leg rows (appended after the limits, before the force rows), or None."""
+        return self.clearance.self_legs
+
+    def check(self, q: FloatArray) -> Any:
+        """:func:`stackik.check.check_pose` of ``q`` (raw) with this problem's load, obstacles
+        and clearance margin: the acceptance rule every method applies."""
+        from stackik.check import check_pose
+
+        cl = self.clearance
+        return check_pose(
+            self.stack, self.target, q, self.load, obstacles=cl.obstacles, clearance=cl.margin
+        )
 
     @property
     def n_ineq(self) -> int:

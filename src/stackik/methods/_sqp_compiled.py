@@ -64,10 +64,13 @@ class CompiledNLP:
             self.P = spatial_problem_arrays(prob)
         n, k = prob.n, prob.k
         self.n, self.k = n, k
+        # rows a platform: the 24 limits, then (spatial) its self-leg rows
+        R = 24 if prob.self_legs is None else 24 + prob.self_legs.m
+        self.R = R
         cols = np.arange(k * n)
         # int32 like ReducedPlanarNLP's pattern (what scipy picks for this size)
-        self.indptr: Any = (24 * np.arange(k * n + 1)).astype(np.int32)
-        self.indices: Any = (24 * (cols // k)[:, None] + np.arange(24)[None, :]).ravel()
+        self.indptr: Any = (R * np.arange(k * n + 1)).astype(np.int32)
+        self.indices: Any = (R * (cols // k)[:, None] + np.arange(R)[None, :]).ravel()
         self.indices = self.indices.astype(np.int32)
         self._u: FloatArray | None = None
         self._out: tuple[Any, ...] = ()
@@ -77,7 +80,7 @@ class CompiledNLP:
             return self._out
         f, g, cE, AE, cI, D = self._evaluate(np.ascontiguousarray(u, dtype=float), self.P)
         n, k = self.n, self.k
-        J = csc(D.transpose(0, 2, 1).ravel(), self.indices, self.indptr, (24 * n, k * n))
+        J = csc(D.transpose(0, 2, 1).ravel(), self.indices, self.indptr, (self.R * n, k * n))
         self._u = np.array(u, dtype=float)
         self._out = (float(f), g, cE, AE, cI, J)
         return self._out

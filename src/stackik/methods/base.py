@@ -16,7 +16,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from stackik.check import PoseCheck, check_pose
+from stackik.check import PoseCheck
 from stackik.formulation import Problem, polish
 from stackik.result import OptionError
 
@@ -132,7 +132,7 @@ class Method:
             u = u0
         u = polish(prob, u)
         q = prob.q_of(u)
-        chk = check_pose(prob.stack, prob.target, q, prob.load)
+        chk = prob.check(q)
         status = RunStatus.ERROR if text.startswith("error:") else run_status(text)
         return Run(q, nit, status, chk, prob.objective_value(q), detail=text)
 

@@ -33,9 +33,11 @@ def spatial_problem_arrays(prob: Any) -> SpatialData:
     """The arrays :func:`stackik._compiled.spatial.ip_loop` needs, named, from a spatial
     :class:`~stackik.formulation.Problem` (every array read-only)."""
     from stackik._compiled.spatial import SpatialData
+    from stackik.formulation.clearance import NO_PAIRS
 
     st = prob.stack
     tgt = prob.target
+    sl = prob.self_legs
     return SpatialData(
         readonly(prob.xs),
         readonly(prob.cs),
@@ -51,6 +53,9 @@ def spatial_problem_arrays(prob: Any) -> SpatialData:
         readonly(st.leg_max),
         readonly(st.sin_joint_min),
         prob.objective == "feasible",
+        NO_PAIRS if sl is None else sl.pairs,
+        readonly(np.zeros(prob.n)) if sl is None else sl.rho,
+        readonly(st.leg_max) if sl is None else sl.scale,
     )
 
 
@@ -207,7 +212,7 @@ def ip_starts(
     the independent check (tried in order of objective among the runs within
     :data:`RANK_VIOLATION` of feasibility), or the least-violation run when none passes."""
     from stackik._compiled.check import planar_check
-    from stackik.check import check_pose, pose_ok
+    from stackik.check import pose_ok
     from stackik.clearance import needs_clearances
 
     U0 = np.stack([prob.u_of(q) for q in starts])
@@ -230,13 +235,13 @@ def ip_starts(
             chk, P, R, legs = planar_check(prob.stack, prob.target, q)
             if chk.ok and (needs_clearances(prob.stack) or prob.forces is not None):
                 # legs with a radius or a force limit: the twin checks neither
-                chk = check_pose(prob.stack, prob.target, q, prob.load)
+                chk = prob.check(q)
             # the objective at the polished point, unscaled (f = objective / fscale)
             obj = objs[j] * prob.fscale
             run = Run(q, int(nits[j]), statuses[j], chk, obj, (P, R, legs), texts[j])
         else:  # polished here, only the runs checked (Problem's rotation-vector form)
             q = prob.q_of(polish(prob, X[j]))
-            chk = check_pose(prob.stack, prob.target, q, prob.load)
+            chk = prob.check(q)
             obj = prob.objective_value(q)
             run = Run(q, int(nits[j]), statuses[j], chk, obj, None, texts[j])
         if chk.ok:

@@ -14,7 +14,6 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from stackik.check import check_pose
 from stackik.formulation import mode_of, reach_bound
 from stackik.geometry import Stack
 from stackik.loads import Load, statics
@@ -50,6 +49,8 @@ def solve_ik(
     max_time: float | None = None,
     blas_threads: int | None = 1,
     load: Load | None = None,
+    obstacles: Any = (),
+    clearance: float = 0.0,
 ) -> IKResult:
     """Solve the inverse kinematics of a stack for one target.
 
@@ -124,6 +125,16 @@ def solve_ik(
         ``|f| <= force_max`` under it (None: the stack's own weight, earth gravity) and the
         check enforces it (:mod:`stackik.formulation.forces`); without a finite
         ``force_max`` the load changes nothing but the check's reported forces.
+    obstacles : Obstacle or sequence of Obstacle, optional
+        Keep-out bodies in the base frame [mm] (:class:`stackik.Sphere`,
+        :class:`stackik.Capsule`, :class:`stackik.Box`, :class:`stackik.HalfSpace`): the check
+        enforces them, so a pose through one is never a success; the solvers do not yet
+        steer around them (``docs/clearance.md``).
+    clearance : float, optional
+        Margin [mm] every checked pair of bodies keeps (default 0). In spatial mode the
+        solvers keep the legs of each platform ``2 leg_radius + clearance`` apart (axis to
+        axis, :mod:`stackik.formulation.clearance`) whenever a leg radius or this margin is
+        positive; the check enforces every pair kind of :func:`stackik.clearances`.
     blas_threads : int or None
         BLAS threads during the solve (default 1: the matrices are small and threads only
         contend, 5x slower at n = 32 on a loaded 2-core machine); None leaves the process
@@ -145,7 +156,7 @@ def solve_ik(
             stack, target, objective=objective, method=method, qp_solver=qp_solver, x0=x0,
             starts=starts, rng=rng, options=options, sigma_t=sigma_t,
             sigma_theta=sigma_theta, start=start, max_time=max_time, t_start=t_start,
-            blas=blas, load=load,
+            blas=blas, load=load, obstacles=obstacles, clearance=clearance,
         )  # fmt: skip
         return _result(req, _run(req))
     finally:
@@ -200,7 +211,7 @@ def _result(req: Request, verdict: Verdict) -> IKResult:
     """The :class:`IKResult` of a verdict (the first start when it has no run)."""
     run = verdict.run
     q = req.q0 if run is None else run.q
-    chk = check_pose(req.stack, req.target, q, req.problem.load) if run is None else run.check
+    chk = req.problem.check(q) if run is None else run.check
     lifted = None if run is None else run.lifted
     P, R, legs = lifted if lifted is not None else req.mode.lift(req.stack, req.target, q)
     frobenius = (
@@ -231,6 +242,7 @@ def _result(req: Request, verdict: Verdict) -> IKResult:
         leg_lengths=legs,
         phi=req.mode.phi(req.target),
         mode=req.mode.name,
+        clearances=chk.clearances,
         **_statics_fields(req, chk, q),
     )
 

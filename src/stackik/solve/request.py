@@ -141,6 +141,8 @@ def build_request(
     t_start: float,
     blas: BlasLimit,
     load: Load | None = None,
+    obstacles: Any = (),
+    clearance: float = 0.0,
 ) -> Request:
     """Validate the arguments of :func:`stackik.solve_ik` and formulate the problem."""
     budget = _check_scalars(stack, max_time, objective, starts, start)
@@ -163,7 +165,9 @@ def build_request(
     sampler.q0 = q0
     if load is not None and not isinstance(load, Load):
         raise ValueError(f"load: expected a stackik.Load or None, got {type(load).__name__}")
-    prob = Problem(stack, target, objective, weights, load=load)
+    prob = Problem(
+        stack, target, objective, weights, load=load, obstacles=obstacles, clearance=clearance
+    )
     reason = chosen.supports(prob)
     if reason is not None:
         raise ValueError(reason)
