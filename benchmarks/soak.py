@@ -49,6 +49,7 @@ import fuzz_cases  # noqa: E402
 
 OUTCOME_ORDER = (*fuzz_cases.OUTCOMES, "hang", "harness_error")
 BAD_OUTCOMES = ("unexpected_exception", "accepted_malformed", "hang")
+ACTIVE_MM = 1e-3  # a clearance slack below this [mm] counts as an active self-leg row
 
 
 def _setup_path() -> None:
@@ -217,7 +218,7 @@ def _machine() -> dict[str, Any]:
 def _row(recs: list[dict[str, Any]]) -> dict[str, Any]:
     c = Counter(r["outcome"] for r in recs)
     times = [r["time"] for r in recs if "time" in r]
-    return {
+    row: dict[str, Any] = {
         "cases": len(recs),
         **{k: c.get(k, 0) for k in OUTCOME_ORDER if c.get(k, 0) or k in OUTCOME_ORDER[:7]},
         "false_success": sum(bool(r.get("false_success")) for r in recs),
@@ -226,6 +227,12 @@ def _row(recs: list[dict[str, Any]]) -> dict[str, Any]:
         "median_time_s": statistics.median(times) if times else 0.0,
         "max_time_s": max(times) if times else 0.0,
     }
+    slack = [r["clearance_slack"] for r in recs if "clearance_slack" in r]
+    if slack:  # successes on legs of a size: how many hold two legs at the least distance
+        row["clearance_rechecked"] = len(slack)
+        row["clearance_active"] = sum(s <= ACTIVE_MM for s in slack)
+        row["clearance_least_slack_mm"] = min(slack)
+    return row
 
 
 def summarize(records: list[dict[str, Any]], meta: dict[str, Any]) -> dict[str, Any]:
@@ -312,7 +319,7 @@ def _md_table(rows: dict[str, dict[str, Any]], first: str) -> list[str]:
     for name, r in rows.items():
         cells = []
         for c in cols:
-            v = r.get(c, 0)
+            v = r.get(c, "-" if c.startswith("clearance") else 0)
             cells.append(f"{v:.3f}" if isinstance(v, float) else str(v))
         out.append(f"| {name} | " + " | ".join(cells) + " |")
     return out
@@ -415,6 +422,12 @@ def print_summary(summary: dict[str, Any]) -> None:
             f"false {r['false_success']}  med {r['median_time_s']:.3f}s  "
             f"max {r['max_time_s']:.2f}s"
         )
+        if "clearance_rechecked" in r:
+            print(
+                f"  {'':20s} legs of a size: {r['clearance_rechecked']} successes re-measured, "
+                f"{r['clearance_active']} with two legs at the least distance "
+                f"(slack <= {ACTIVE_MM} mm), least slack {r['clearance_least_slack_mm']:.2e} mm"
+            )
     for u in summary["unexpected"]:
         print(f"  UNEXPECTED x{u['count']} [{u['category']}] {u['error']}  e.g. {u['indices'][:5]}")
     for r in summary["false_successes"]:

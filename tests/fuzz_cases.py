@@ -203,6 +203,7 @@ class Recheck:
     angle_error: float = math.nan
     leg_violation: float = math.nan  # [mm] worst |l| outside [leg_min, leg_max]
     joint_violation: float = math.nan  # [mm] worst negative joint term
+    clearance_slack: float = math.nan  # [mm] least (leg gap - required gap), legs of a size
 
 
 def recheck(
@@ -282,22 +283,28 @@ def recheck(
         got = np.asarray(got, dtype=float)
         if got.shape != want.shape or not np.all(np.abs(got - want) <= tol):
             reasons.append(f"result.{name} disagrees with q")
+    slack = math.nan
     if not planar:
-        reasons += clearance_problems(stack, q, clearance)
-    return Recheck(not reasons, reasons, pos, ang, leg_v, joint_v)
+        problems, slack = clearance_problems(stack, q, clearance)
+        reasons += problems
+    return Recheck(not reasons, reasons, pos, ang, leg_v, joint_v, slack)
 
 
-def clearance_problems(stack: sk.Stack, q: np.ndarray, clearance: float = 0.0) -> list[str]:
+def clearance_problems(
+    stack: sk.Stack, q: np.ndarray, clearance: float = 0.0
+) -> tuple[list[str], float]:
     """Legs of one platform closer than ``2 leg_radius - CLEARANCE_TOL`` (capsules that
     overlap) or, with a margin, than ``2 leg_radius + clearance - CLEARANCE_TOL`` axis to
-    axis, by the oracle's exact segment distance (``reference_impl``)."""
+    axis, by the oracle's exact segment distance (``reference_impl``); and the least slack
+    ``gap - (2 leg_radius + clearance)`` [mm] (nan without radii and margin)."""
     radius = np.array([g.leg_radius for g in stack], dtype=float)
     if not (radius.max() > 0.0 or clearance > 0.0):
-        return []
+        return [], math.nan
     gaps = ref.spatial_self_leg_gaps(geometry_dicts(stack), q)
-    need = 2.0 * radius + float(clearance) - CLEARANCE_TOL
-    bad = np.flatnonzero(~(gaps >= need))
-    return [f"legs of platform {i} {gaps[i]:.6g} mm apart < {need[i]:.6g} mm" for i in bad]
+    need = 2.0 * radius + float(clearance)
+    bad = np.flatnonzero(~(gaps >= need - CLEARANCE_TOL))
+    problems = [f"legs of platform {i} {gaps[i]:.6g} mm apart < {need[i]:.6g} mm" for i in bad]
+    return problems, float(np.min(gaps - need))
 
 
 # =========================================================================================
@@ -436,6 +443,8 @@ def run_case(case: Case) -> dict[str, Any]:
         if not chk.ok:
             problems.append("check_pose fails")
         problems += rc.reasons
+        if math.isfinite(rc.clearance_slack):
+            rec["clearance_slack"] = rc.clearance_slack
         if case.unreachable:
             problems.append("success on a provably unreachable target")
     elif not np.all(np.isfinite(res.q)):
