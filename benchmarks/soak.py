@@ -1,13 +1,14 @@
 """Soak run of stackik (issue 7): thousands of fuzzed solves, unattended.
 
 Every case comes from ``tests/fuzz_cases.py`` (``make_case(seed, index)``): reachable planar
-and spatial targets from random feasible poses, random and extreme-scale geometries, large
-stacks, unreachable targets, impossible geometries, wild warm starts, iteration and time
-limits, ``start="convex"``, and malformed input (NaN/inf, wrong shapes, bad geometries,
-bad arguments) across every method, QP backend and objective. Each case is solved in a
-worker process with a watchdog (a case that outlives ``--timeout`` is recorded as a
-``hang`` and its worker replaced), its outcome classified and every success re-checked
-independently (``fuzz_cases.recheck``).
+and spatial targets from random feasible poses, spatial targets on legs of a size (leg
+radii 0-15 mm, clearance margins; every success's legs re-measured with an exact segment
+distance), random and extreme-scale geometries, large stacks, unreachable targets,
+impossible geometries, wild warm starts, iteration and time limits, ``start="convex"``,
+and malformed input (NaN/inf, wrong shapes, bad geometries, bad arguments) across every
+method, QP backend and objective. Each case is solved in a worker process with a watchdog
+(a case that outlives ``--timeout`` is recorded as a ``hang`` and its worker replaced),
+its outcome classified and every success re-checked independently (``fuzz_cases.recheck``).
 
 Writes ``benchmarks/results/soak.json`` (counts, per-category and per-method tables,
 every problem case, compact per-case records, machine and date; rewritten every 100 cases
@@ -21,6 +22,7 @@ Usage::
     python benchmarks/soak.py --quick         # 200 cases
     python benchmarks/soak.py --cases 5000 --seed 11 --jobs 1
     python benchmarks/soak.py --replay 123 456   # rerun cases in-process, print records
+    python benchmarks/soak.py --only clearance_spatial --cases 300   # one category
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ import fuzz_cases  # noqa: E402
 
 OUTCOME_ORDER = (*fuzz_cases.OUTCOMES, "hang", "harness_error")
 BAD_OUTCOMES = ("unexpected_exception", "accepted_malformed", "hang")
+ACTIVE_MM = 1e-3  # a clearance slack below this [mm] counts as an active self-leg row
 
 
 def _setup_path() -> None:
@@ -57,12 +60,12 @@ def _setup_path() -> None:
 # =========================================================================================
 # Worker
 # =========================================================================================
-def _one(seed: int, index: int) -> dict[str, Any]:
+def _one(seed: int, index: int, only: str | None = None) -> dict[str, Any]:
     _setup_path()
     import fuzz_cases as fc
 
     try:
-        case = fc.make_case(seed, index)
+        case = fc.make_case(seed, index, only)
     except Exception:  # noqa: BLE001 - a bug of the generator, not of stackik
         return {
             "index": index,
@@ -78,7 +81,7 @@ def _one(seed: int, index: int) -> dict[str, Any]:
     return rec
 
 
-def _worker(seed: int, conn: Any) -> None:
+def _worker(seed: int, only: str | None, conn: Any) -> None:
     import warnings
 
     warnings.simplefilter("ignore")
@@ -87,18 +90,20 @@ def _worker(seed: int, conn: Any) -> None:
         index = conn.recv()
         if index is None:
             return
-        conn.send(_one(seed, index))
+        conn.send(_one(seed, index, only))
 
 
 class _Slot:
-    def __init__(self, ctx: Any, seed: int) -> None:
-        self.ctx, self.seed = ctx, seed
+    def __init__(self, ctx: Any, seed: int, only: str | None = None) -> None:
+        self.ctx, self.seed, self.only = ctx, seed, only
         self.start()
 
     def start(self) -> None:
         parent, child = self.ctx.Pipe()
         self.conn = parent
-        self.proc = self.ctx.Process(target=_worker, args=(self.seed, child), daemon=True)
+        self.proc = self.ctx.Process(
+            target=_worker, args=(self.seed, self.only, child), daemon=True
+        )
         self.proc.start()
         child.close()
         self.index: int | None = None
@@ -115,11 +120,17 @@ class _Slot:
 
 
 def run_cases(
-    seed: int, indices: list[int], jobs: int, timeout: float, progress: Any
+    seed: int,
+    indices: list[int],
+    jobs: int,
+    timeout: float,
+    progress: Any,
+    only: str | None = None,
 ) -> list[dict[str, Any]]:
-    """Solve the cases in ``jobs`` worker processes with a per-case watchdog."""
+    """Solve the cases in ``jobs`` worker processes with a per-case watchdog (``only``: of
+    that category only)."""
     ctx = mp.get_context("spawn")
-    slots = [_Slot(ctx, seed) for _ in range(max(1, jobs))]
+    slots = [_Slot(ctx, seed, only) for _ in range(max(1, jobs))]
     todo = list(reversed(indices))
     records: list[dict[str, Any]] = []
     try:
@@ -168,7 +179,7 @@ def _dead(slot: _Slot, why: str, now: float) -> dict[str, Any]:
 
     assert slot.index is not None
     try:
-        case = fc.make_case(slot.seed, slot.index)
+        case = fc.make_case(slot.seed, slot.index, slot.only)
         category, label = case.category, case.label
     except Exception:  # noqa: BLE001
         category, label = "?", ""
@@ -207,7 +218,7 @@ def _machine() -> dict[str, Any]:
 def _row(recs: list[dict[str, Any]]) -> dict[str, Any]:
     c = Counter(r["outcome"] for r in recs)
     times = [r["time"] for r in recs if "time" in r]
-    return {
+    row: dict[str, Any] = {
         "cases": len(recs),
         **{k: c.get(k, 0) for k in OUTCOME_ORDER if c.get(k, 0) or k in OUTCOME_ORDER[:7]},
         "false_success": sum(bool(r.get("false_success")) for r in recs),
@@ -216,6 +227,12 @@ def _row(recs: list[dict[str, Any]]) -> dict[str, Any]:
         "median_time_s": statistics.median(times) if times else 0.0,
         "max_time_s": max(times) if times else 0.0,
     }
+    slack = [r["clearance_slack"] for r in recs if "clearance_slack" in r]
+    if slack:  # successes on legs of a size: how many hold two legs at the least distance
+        row["clearance_rechecked"] = len(slack)
+        row["clearance_active"] = sum(s <= ACTIVE_MM for s in slack)
+        row["clearance_least_slack_mm"] = min(slack)
+    return row
 
 
 def summarize(records: list[dict[str, Any]], meta: dict[str, Any]) -> dict[str, Any]:
@@ -302,7 +319,7 @@ def _md_table(rows: dict[str, dict[str, Any]], first: str) -> list[str]:
     for name, r in rows.items():
         cells = []
         for c in cols:
-            v = r.get(c, 0)
+            v = r.get(c, "-" if c.startswith("clearance") else 0)
             cells.append(f"{v:.3f}" if isinstance(v, float) else str(v))
         out.append(f"| {name} | " + " | ".join(cells) + " |")
     return out
@@ -405,6 +422,12 @@ def print_summary(summary: dict[str, Any]) -> None:
             f"false {r['false_success']}  med {r['median_time_s']:.3f}s  "
             f"max {r['max_time_s']:.2f}s"
         )
+        if "clearance_rechecked" in r:
+            print(
+                f"  {'':20s} legs of a size: {r['clearance_rechecked']} successes re-measured, "
+                f"{r['clearance_active']} with two legs at the least distance "
+                f"(slack <= {ACTIVE_MM} mm), least slack {r['clearance_least_slack_mm']:.2e} mm"
+            )
     for u in summary["unexpected"]:
         print(f"  UNEXPECTED x{u['count']} [{u['category']}] {u['error']}  e.g. {u['indices'][:5]}")
     for r in summary["false_successes"]:
@@ -441,7 +464,12 @@ def main(argv: list[str] | None = None) -> int:
         "--strict-limits", action="store_true", help="also fail on time/iteration overruns"
     )
     ap.add_argument("--replay", type=int, nargs="+", metavar="INDEX", help="rerun cases")
+    ap.add_argument(
+        "--only", metavar="CATEGORY", help="cases of one category (e.g. clearance_spatial)"
+    )
     args = ap.parse_args(argv)
+    if args.only is not None and args.only not in fuzz_cases.CATEGORIES:
+        ap.error(f"--only: one of {', '.join(fuzz_cases.CATEGORIES)}")
 
     if args.replay:
         import warnings
@@ -449,7 +477,7 @@ def main(argv: list[str] | None = None) -> int:
         warnings.simplefilter("ignore")
         bad = False
         for i in args.replay:
-            rec = _one(args.seed, i)
+            rec = _one(args.seed, i, args.only)
             print(json.dumps(rec, indent=1, default=str))
             bad |= rec["outcome"] in BAD_OUTCOMES or bool(rec.get("false_success"))
         return 1 if bad else 0
@@ -462,6 +490,7 @@ def main(argv: list[str] | None = None) -> int:
         "seed": args.seed,
         "jobs": args.jobs,
         "timeout_s": args.timeout,
+        "only": args.only,
         "command": "python benchmarks/soak.py "
         + " ".join(a for a in (argv if argv is not None else sys.argv[1:])),
         "machine": _machine(),
@@ -487,7 +516,7 @@ def main(argv: list[str] | None = None) -> int:
                 meta["wall_time_s"] = time.perf_counter() - t0
                 write(summarize(sorted(done, key=lambda r: r["index"]), meta), args.out, False)
 
-    records = run_cases(args.seed, indices, args.jobs, args.timeout, progress)
+    records = run_cases(args.seed, indices, args.jobs, args.timeout, progress, args.only)
     meta["wall_time_s"] = time.perf_counter() - t0
     summary = summarize(records, meta)
     if not args.no_write:

@@ -56,6 +56,7 @@ import reference_impl as ref  # noqa: E402
 POS_TOL = 1e-6  # [mm]
 ANG_TOL = 1e-8  # [rad]
 LIMIT_TOL = 1e-6  # [mm]
+CLEARANCE_TOL = 1e-6  # [mm] two legs of a platform may be this much closer than required
 TIME_SLACK = 2.0  # [s] allowed lateness of a solve with max_time (sanity bound, not speed)
 FALLBACK_STARTS = 3  # extra starts solve_ik adds when no start passes the check
 SCREENED_STARTS = 3  # structured starts by default (n >= 2, no x0): 3 planar, 5 spatial
@@ -202,10 +203,18 @@ class Recheck:
     angle_error: float = math.nan
     leg_violation: float = math.nan  # [mm] worst |l| outside [leg_min, leg_max]
     joint_violation: float = math.nan  # [mm] worst negative joint term
+    clearance_slack: float = math.nan  # [mm] least (leg gap - required gap), legs of a size
 
 
-def recheck(stack: sk.Stack, target: PlanarTarget | SpatialTarget, result: sk.IKResult) -> Recheck:
-    """Check ``result`` against ``target`` and every limit without trusting the solver."""
+def recheck(
+    stack: sk.Stack,
+    target: PlanarTarget | SpatialTarget,
+    result: sk.IKResult,
+    clearance: float = 0.0,
+) -> Recheck:
+    """Check ``result`` against ``target`` and every limit without trusting the solver; on a
+    spatial target with legs of a size (or a ``clearance`` margin [mm]), also the distance
+    of every two legs of a platform (:func:`clearance_problems`)."""
     reasons: list[str] = []
     planar = isinstance(target, PlanarTarget)
     n, k = stack.n, (3 if planar else 6)
@@ -274,7 +283,28 @@ def recheck(stack: sk.Stack, target: PlanarTarget | SpatialTarget, result: sk.IK
         got = np.asarray(got, dtype=float)
         if got.shape != want.shape or not np.all(np.abs(got - want) <= tol):
             reasons.append(f"result.{name} disagrees with q")
-    return Recheck(not reasons, reasons, pos, ang, leg_v, joint_v)
+    slack = math.nan
+    if not planar:
+        problems, slack = clearance_problems(stack, q, clearance)
+        reasons += problems
+    return Recheck(not reasons, reasons, pos, ang, leg_v, joint_v, slack)
+
+
+def clearance_problems(
+    stack: sk.Stack, q: np.ndarray, clearance: float = 0.0
+) -> tuple[list[str], float]:
+    """Legs of one platform closer than ``2 leg_radius - CLEARANCE_TOL`` (capsules that
+    overlap) or, with a margin, than ``2 leg_radius + clearance - CLEARANCE_TOL`` axis to
+    axis, by the oracle's exact segment distance (``reference_impl``); and the least slack
+    ``gap - (2 leg_radius + clearance)`` [mm] (nan without radii and margin)."""
+    radius = np.array([g.leg_radius for g in stack], dtype=float)
+    if not (radius.max() > 0.0 or clearance > 0.0):
+        return [], math.nan
+    gaps = ref.spatial_self_leg_gaps(geometry_dicts(stack), q)
+    need = 2.0 * radius + float(clearance)
+    bad = np.flatnonzero(~(gaps >= need - CLEARANCE_TOL))
+    problems = [f"legs of platform {i} {gaps[i]:.6g} mm apart < {need[i]:.6g} mm" for i in bad]
+    return problems, float(np.min(gaps - need))
 
 
 # =========================================================================================
@@ -409,10 +439,12 @@ def run_case(case: Case) -> dict[str, Any]:
         problems.append("success flag disagrees with status")
     if res.success:
         chk = sk.check_pose(stack, target, res.q)
-        rc = recheck(stack, target, res)
+        rc = recheck(stack, target, res, float(kwargs.get("clearance", 0.0)))
         if not chk.ok:
             problems.append("check_pose fails")
         problems += rc.reasons
+        if math.isfinite(rc.clearance_slack):
+            rec["clearance_slack"] = rc.clearance_slack
         if case.unreachable:
             problems.append("success on a provably unreachable target")
     elif not np.all(np.isfinite(res.q)):
@@ -552,6 +584,57 @@ def gen_random_geometry(rng: np.random.Generator) -> Case:
         f"random n={n} scale={scale:.3g} {'planar' if planar else 'spatial'} {_kw_label(kw)}",
         lambda: (st_, target, kw),
         info={"n": n, "method": kw.get("method", "sqp"), "mode": "planar" if planar else "spatial"},
+    )
+
+
+def gen_clearance_spatial(rng: np.random.Generator, n: int | None = None) -> Case:
+    """Spatial targets on legs of a size: leg radii 0-15 mm (one for the stack, one per
+    platform, or some zero) and a clearance margin half the time (0-10 mm), reference or
+    random platforms; targets from random feasible poses of the zero-radius stack (so some
+    are reachable only with other poses, some not at all once the legs have a size)."""
+    n = int(rng.choice([1, 2, 3, 4])) if n is None else n
+    u = rng.random()
+    if u < 0.35:
+        radii = np.full(n, rng.uniform(0.0, 15.0))
+    elif u < 0.75:
+        radii = rng.uniform(0.0, 15.0, n)
+    else:
+        radii = rng.uniform(0.0, 15.0, n) * (rng.random(n) < 0.5)
+    margin = 0.0 if rng.random() < 0.5 else float(rng.uniform(0.0, 10.0))
+    thin = sk.Stack.reference(n) if rng.random() < 0.75 else random_stack(rng, n)
+    q = feasible_spatial_pose(thin, rng)
+    if q is None:  # pragma: no cover - never seen on these geometries
+        thin = sk.Stack.reference(n)
+        q = feasible_spatial_pose(thin, rng)
+    assert q is not None
+    stack = sk.Stack(
+        tuple(
+            sk.PlatformGeometry(**{**g.to_dict(), "leg_radius": float(r)})
+            for g, r in zip(thin, radii, strict=True)
+        )
+    )
+    target = SpatialTarget(*sk.spatial_forward(q))
+    kw = random_solver(rng, False, n)
+    if kw.get("method") == "trust-constr":
+        kw["options"] = {"maxiter": 150}
+    if HAVE_IPOPT and rng.random() < 0.15:
+        kw["method"] = "ipopt"
+        kw.pop("qp_solver", None)
+        kw.pop("options", None)
+    if margin > 0.0:
+        kw["clearance"] = margin
+    return Case(
+        "clearance_spatial",
+        f"n={n} radii={np.round(radii, 2).tolist()} P={np.round(target.position, 3).tolist()} "
+        f"{_kw_label(kw)}",
+        lambda: (stack, target, kw),
+        info={
+            "n": n,
+            "method": kw.get("method", "sqp"),
+            "mode": "spatial",
+            "leg_radius_max": float(radii.max()),
+            "margin": margin,
+        },
     )
 
 
@@ -1021,6 +1104,7 @@ def _kw_label(kw: dict[str, Any], skip: tuple[str, ...] = ()) -> str:
 CATEGORIES: dict[str, tuple[float, Callable[[np.random.Generator], Case]]] = {
     "reachable_planar": (0.27, gen_reachable_planar),
     "reachable_spatial": (0.09, gen_reachable_spatial),
+    "clearance_spatial": (0.05, gen_clearance_spatial),
     "random_geometry": (0.10, gen_random_geometry),
     "large_n": (0.035, gen_large_n),
     "unreachable": (0.12, gen_unreachable),
@@ -1035,9 +1119,12 @@ CATEGORIES: dict[str, tuple[float, Callable[[np.random.Generator], Case]]] = {
 }
 
 
-def make_case(seed: int, index: int) -> Case:
-    """Case ``index`` of the campaign ``seed`` (deterministic, independent of other cases)."""
+def make_case(seed: int, index: int, only: str | None = None) -> Case:
+    """Case ``index`` of the campaign ``seed`` (deterministic, independent of other cases);
+    ``only``: a case of that category (a campaign of one category)."""
     rng = np.random.default_rng([seed, index])
+    if only is not None:
+        return CATEGORIES[only][1](rng)
     names = list(CATEGORIES)
     w = np.array([CATEGORIES[k][0] for k in names])
     name = names[int(rng.choice(len(names), p=w / w.sum()))]

@@ -208,6 +208,54 @@ def spatial_constraints(stack, q):
     return np.array(out)
 
 
+# --------------------------------------------------------------------------- clearance
+def _point_segment_distance(p, a, b):
+    d = b - a
+    dd = float(d @ d)
+    t = 0.0 if dd == 0.0 else min(1.0, max(0.0, float((p - a) @ d) / dd))
+    e = p - (a + t * d)
+    return math.sqrt(float(e @ e))
+
+
+def segment_distance(p0, p1, q0, q1):
+    """Exact distance of segments p0-p1 and q0-q1 (real): |P(s) - Q(t)|^2 is convex on the
+    unit square, so the minimum is the interior stationary point (non-parallel segments,
+    when it lies inside) or on an edge, i.e. an endpoint-to-segment distance."""
+    u, v, w = p1 - p0, q1 - q0, p0 - q0
+    a, b, c = float(u @ u), float(u @ v), float(v @ v)
+    d, e = float(u @ w), float(v @ w)
+    best = min(
+        _point_segment_distance(p0, q0, q1),
+        _point_segment_distance(p1, q0, q1),
+        _point_segment_distance(q0, p0, p1),
+        _point_segment_distance(q1, p0, p1),
+    )
+    den = a * c - b * b
+    if den > 1e-14 * a * c:
+        s = (b * e - c * d) / den
+        t = (a * e - b * d) / den
+        if 0.0 <= s <= 1.0 and 0.0 <= t <= 1.0:
+            g = w + s * u - t * v
+            best = min(best, math.sqrt(float(g @ g)))
+    return best
+
+
+def spatial_self_leg_gaps(stack, q):
+    """Per platform, the least distance between the axes (bottom joint to top joint) of
+    two of its legs, for a spatial pose q (n, 6); in the platform's own frame."""
+    out = []
+    for geom, row in zip(stack, q):
+        P, R = spatial_platform_pose(row)
+        tops = [R @ geom["top"][k] + P for k in range(6)]
+        best = math.inf
+        for k in range(6):
+            for m in range(k + 1, 6):
+                d = segment_distance(geom["base"][k], tops[k], geom["base"][m], tops[m])
+                best = min(best, d)
+        out.append(best)
+    return np.array(out)
+
+
 # --------------------------------------------------------------------------- derivatives
 def complex_step(f, x):
     """Jacobian of f at the real array x (any shape) by the complex step; f(x) any shape.

@@ -90,6 +90,14 @@ def test_reachable_spatial(seed, n):
     run(fc.gen_reachable_spatial(np.random.default_rng(seed), n=n))
 
 
+@fuzz(8)
+@given(seed=SEEDS, n=st.integers(1, 4))
+def test_clearance_spatial(seed, n):
+    """Legs of a size (0-15 mm) and clearance margins: a success keeps every two legs of a
+    platform apart (the oracle's exact segment distance in ``fuzz_cases.recheck``)."""
+    run(fc.gen_clearance_spatial(np.random.default_rng(seed), n=n))
+
+
 @fuzz(10)
 @given(seed=SEEDS)
 def test_random_geometry(seed):

@@ -9,7 +9,9 @@ and cached; the target is a parameter, so timing a solve excludes the symbolic s
 Spatial mode: ``R_i = Rz(yaw) Ry(pitch) Rx(roll)``, the chain ``O_{i+1} = O_i + A_i p_i``,
 ``A_{i+1} = A_i R_i``; FN^2 exactly as :meth:`Problem.objective_value` (``c0`` plus the
 weighted squared position derivatives ``w_a x (P_ee - O_{i+1})`` of every angle column);
-the 24 limits per platform with :class:`Problem`'s scaling. The orientation equality is
+the 24 limits per platform with :class:`Problem`'s scaling, then (when the problem carries
+them, ``prob.self_legs``) the self-leg rows of :mod:`stackik._compiled.self_legs` written
+symbolically (:func:`_self_leg_rows`). The orientation equality is
 the skew part ``vee(E - E^T) / 2 = sin(angle) axis`` of ``E = R_target^T R_ee``: smooth
 everywhere (the rotation vector's ``acos`` is not differentiable at the solution), equal to
 the rotation vector to third order at ``E = I``, so first and second derivatives agree
@@ -128,6 +130,85 @@ def _lift_forces(ca: Any, stack: Stack, load: Any) -> tuple[Any, int]:
     return (ca.SX.sym("sf", m) if m else None), m
 
 
+def _clamp01(ca: Any, v: Any) -> Any:
+    return ca.fmin(ca.fmax(v, 0.0), 1.0)
+
+
+def _closest_params(ca: Any, p0: Any, p1: Any, q0: Any, q1: Any) -> tuple[Any, Any]:
+    """Symbolic :func:`stackik._compiled.self_legs.closest_params`: the same branches
+    (degenerate segments, the parallel case, ``t`` clamped with ``s`` recomputed), as
+    ``if_else`` so that CasADi differentiates through the active branch. Every division
+    has a guarded denominator, so no branch makes a NaN in value or derivative."""
+    from stackik._compiled.self_legs import _PARALLEL
+
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a, e = ca.dot(d1, d1), ca.dot(d2, d2)
+    f, c, b = ca.dot(d2, r), ca.dot(d1, r), ca.dot(d1, d2)
+    den = a * e - b * b
+    a_ = ca.if_else(a > 0.0, a, 1.0)
+    e_ = ca.if_else(e > 0.0, e, 1.0)
+    skew = den > _PARALLEL * a * e
+    den_ = ca.if_else(skew, den, 1.0)
+    s = ca.if_else(skew, _clamp01(ca, (b * f - c * e) / den_), 0.0)
+    t = (b * s + f) / e_
+    s = ca.if_else(
+        t < 0.0, _clamp01(ca, -c / a_), ca.if_else(t > 1.0, _clamp01(ca, (b - c) / a_), s)
+    )
+    t = _clamp01(ca, t)
+    # degenerate segments (a point): the kernel's first three branches
+    s_pt_q = _clamp01(ca, -c / a_)  # q is a point
+    t_pt_p = _clamp01(ca, f / e_)  # p is a point
+    s = ca.if_else(a <= 0.0, 0.0, ca.if_else(e <= 0.0, s_pt_q, s))
+    t = ca.if_else(a <= 0.0, ca.if_else(e <= 0.0, 0.0, t_pt_p), ca.if_else(e <= 0.0, 0.0, t))
+    return s, t
+
+
+def _self_leg_rows(
+    ca: Any, base: Any, T: list[Any], pairs: Any, rho: float, scale: float
+) -> list[Any]:
+    """One platform's self-leg rows ``(|P - Q|^2 - rho^2) / scale`` (lower bound 0), ``P``,
+    ``Q`` the closest points of the leg axes ``base[k] -> T[k]`` and ``base[l] -> T[l]``
+    (platform frame) for each pair (k, l) of ``pairs``."""
+    rows = []
+    for k, m in np.asarray(pairs):
+        s, t = _closest_params(ca, base[k], T[k], base[m], T[m])
+        g = base[k] + s * (T[k] - base[k]) - base[m] - t * (T[m] - base[m])
+        rows.append((ca.dot(g, g) - rho * rho) / scale)
+    return rows
+
+
+def _euler_sx(ca: Any, ang: Any) -> tuple[Any, Any]:
+    """``Rz`` and ``R = Rz Ry Rx`` (symbolic) of the angles ``ang`` (yaw, pitch, roll)."""
+
+    def mat(rows: list[list[Any]]) -> Any:
+        return ca.vertcat(*[ca.horzcat(*r) for r in rows])
+
+    ca_, sa = ca.cos(ang[0]), ca.sin(ang[0])
+    cb, sb = ca.cos(ang[1]), ca.sin(ang[1])
+    cc, sc = ca.cos(ang[2]), ca.sin(ang[2])
+    Rz = mat([[ca_, -sa, 0], [sa, ca_, 0], [0, 0, 1]])
+    Ry = mat([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
+    Rx = mat([[1, 0, 0], [0, cc, -sc], [0, sc, cc]])
+    return Rz, Rz @ Ry @ Rx
+
+
+def self_leg_function(base: Any, top: Any, rho: Any, scale: Any, pairs: Any) -> Any:
+    """A CasADi function of the raw spatial pose ``q`` (6 n,) [mm, rad] to every platform's
+    self-leg rows (n m,), platform-major: the rows the IPOPT solver carries. ``base``,
+    ``top`` (n, 6, 3) joints [mm] (``Stack.base_nodes``, ``Stack.top_nodes``), ``rho``,
+    ``scale`` (n,) as :class:`stackik.formulation.clearance.SelfLegs`."""
+    ca = _casadi()
+    n = len(base)
+    q = ca.SX.sym("q", 6 * n)
+    out: list[Any] = []
+    for i in range(n):
+        _, R = _euler_sx(ca, q[6 * i + 3 : 6 * i + 6])
+        T = [q[6 * i : 6 * i + 3] + R @ np.asarray(top[i][k], float) for k in range(6)]
+        b = np.asarray(base[i], float)
+        out += _self_leg_rows(ca, b, T, pairs, float(rho[i]), float(scale[i]))
+    return ca.Function("self_legs", [q], [ca.vertcat(*out)])
+
+
 @lru_cache(maxsize=32)
 def _solver(
     stack: Stack,
@@ -224,9 +305,12 @@ def _spatial_solver(
     xs: tuple[float, ...],
     user: tuple[tuple[str, Any], ...] = (),
     load: Any = None,
+    self_legs: tuple[tuple[tuple[int, int], ...], tuple[float, ...], tuple[float, ...]]
+    | None = None,
 ) -> Any:
     """IPOPT for the scaled spatial problem (with ``load``: the lifted leg forces of
-    :func:`_force_equilibrium`, appended to the variables); parameters ``p = (P_target (3),
+    :func:`_force_equilibrium`, appended to the variables; with ``self_legs = (pairs, rho,
+    scale)``: the self-leg rows after the limits); parameters ``p = (P_target (3),
     R_target.ravel() (9), per-platform angle weights w_th (n), c0, fscale)``."""
     ca = _casadi()
     n = stack.n
@@ -239,29 +323,20 @@ def _spatial_solver(
     w_th = p[12 : 12 + n]
     c0, fscale = p[12 + n], p[13 + n]
 
-    def mat(rows: list[list[Any]]) -> Any:
-        return ca.vertcat(*[ca.horzcat(*r) for r in rows])
-
     A: Any = ca.SX.eye(3)
     O: Any = ca.SX.zeros(3, 1)
     axes: list[tuple[Any, int]] = []  # (world axis, platform) of every angle variable
     origins = []
     g_in = []
+    g_sl: list[Any] = []
     Os: list[Any] = [O]
     As: list[Any] = [A]
     ez = np.array([0.0, 0.0, 1.0])
     for i in range(n):
         px, ang = x[6 * i : 6 * i + 3], x[6 * i + 3 : 6 * i + 6]
-        ca_, sa = ca.cos(ang[0]), ca.sin(ang[0])
-        cb, sb = ca.cos(ang[1]), ca.sin(ang[1])
-        cc, sc = ca.cos(ang[2]), ca.sin(ang[2])
-        Rz = mat([[ca_, -sa, 0], [sa, ca_, 0], [0, 0, 1]])
-        Ry = mat([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
-        Rx = mat([[1, 0, 0], [0, cc, -sc], [0, sc, cc]])
-        RzRy = Rz @ Ry
-        R = RzRy @ Rx
-        # world axes of yaw, pitch, roll: A_i (e_z, Rz e_y, Rz Ry e_x)
-        for loc in (ez, Rz[:, 1], RzRy[:, 0]):
+        Rz, R = _euler_sx(ca, ang)
+        # world axes of yaw, pitch, roll: A_i (e_z, Rz e_y, Rz Ry e_x = R e_x)
+        for loc in (ez, Rz[:, 1], R[:, 0]):
             axes.append((A @ loc, i))
         O = O + A @ px
         origins.append(O)
@@ -281,6 +356,10 @@ def _spatial_solver(
             rows[2].append((lk[2] - nrm * sj) / lm)
             rows[3].append((ca.dot(lk, R[:, 2]) - nrm * sj) / lm)
         g_in += rows[0] + rows[1] + rows[2] + rows[3]
+        if self_legs is not None:
+            T = [px + R @ stack.top_nodes[i, k] for k in range(6)]
+            pairs, rho, scale = self_legs
+            g_sl += _self_leg_rows(ca, stack.base_nodes[i], T, pairs, rho[i], scale[i])
     P_ee, R_ee = O, A
     E = R_t.T @ R_ee
     skew = 0.5 * ca.vertcat(E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1])
@@ -296,10 +375,10 @@ def _spatial_solver(
     sf, m = _lift_forces(ca, stack, load)
     g_f = [] if sf is None else _force_equilibrium(ca, stack, load, Os, As, sf)
     x_all = u if sf is None else ca.vertcat(u, sf)
-    nlp = {"x": x_all, "p": p, "f": f, "g": ca.vertcat(g_eq, *g_f, *g_in)}
+    nlp = {"x": x_all, "p": p, "f": f, "g": ca.vertcat(g_eq, *g_f, *g_in, *g_sl)}
     solver = _nlpsol(ca, "stackik_ipopt_spatial", nlp, user)
-    lbg = np.zeros(6 + m + 24 * n)
-    ubg = np.concatenate([np.zeros(6 + m), np.full(24 * n, np.inf)])
+    lbg = np.zeros(6 + m + 24 * n + len(g_sl))
+    ubg = np.concatenate([np.zeros(6 + m), np.full(24 * n + len(g_sl), np.inf)])
     return solver, lbg, ubg
 
 
@@ -333,7 +412,14 @@ def run_ipopt(
         par = target.y
     else:
         assert isinstance(target, SpatialTarget)
-        solver, lbg, ubg = _spatial_solver(prob.stack, prob.objective, tuple(prob.xs), key, load)
+        sl = prob.self_legs
+        legs = None
+        if sl is not None:  # the cache key: whatever changes the rows
+            pairs = tuple((int(a), int(b)) for a, b in sl.pairs)
+            legs = (pairs, tuple(map(float, sl.rho)), tuple(map(float, sl.scale)))
+        solver, lbg, ubg = _spatial_solver(
+            prob.stack, prob.objective, tuple(prob.xs), key, load, legs
+        )
         par = np.concatenate(
             [
                 target.position,
