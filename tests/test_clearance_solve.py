@@ -293,3 +293,29 @@ def test_planar_default_goes_around_a_sphere_on_a_leg() -> None:
     r = sk.solve_ik(REF, t, obstacles=[sphere])
     assert r.success and r.clearances is not None and r.clearances.obstacles[0] >= -1e-6
     assert r.frobenius_norm <= plain.frobenius_norm * 1.02
+
+
+def test_ipopt_keeps_legs_clear_of_a_sphere() -> None:
+    """method="ipopt" carries the obstacle rows (CasADi, the same definition): a sphere on
+    a leg of the least-FN pose is gone around, spatial and planar."""
+    from stackik.clearance import plate_frames
+    from stackik.methods.ipopt import obstacle_key
+
+    t = _targets()[1]
+    plain = sk.solve_ik(REF, t)
+    A, O = plate_frames(REF, plain.q)
+    sphere = sk.Sphere(
+        (O[1] + A[1] @ REF.base_nodes[1][2] + O[2] + A[2] @ REF.top_nodes[1][2]) / 2, 15.0
+    )
+    assert obstacle_key(Problem(REF, t, "frobenius", None, obstacles=[sphere]))[1][0][0] == "seg"
+    r = sk.solve_ik(REF, t, obstacles=[sphere], method="ipopt", starts=1)
+    assert r.success and r.clearances is not None and r.clearances.obstacles[0] >= -1e-6
+    tp = sk.PlanarTarget(150.0, 1200.0, 0.3, phi=0.2)
+    plain = sk.solve_ik(REF, tp)
+    A, O = plate_frames(REF, plain.q, phi=tp.phi)
+    sphere = sk.Sphere(
+        (O[1] + A[1] @ REF.base_nodes[1][2] + O[2] + A[2] @ REF.top_nodes[1][2]) / 2, 15.0
+    )
+    half = sk.HalfSpace((0.0, 0.0, -30.0), (0.0, 0.0, 1.0))
+    r = sk.solve_ik(REF, tp, obstacles=[sphere, half], method="ipopt", starts=1)
+    assert r.success and r.clearances is not None and min(r.clearances.obstacles) >= -1e-6

@@ -11,7 +11,9 @@ Spatial mode: ``R_i = Rz(yaw) Ry(pitch) Rx(roll)``, the chain ``O_{i+1} = O_i + 
 weighted squared position derivatives ``w_a x (P_ee - O_{i+1})`` of every angle column);
 the 24 limits per platform with :class:`Problem`'s scaling, then (when the problem carries
 them, ``prob.self_legs``) the self-leg rows of :mod:`stackik._compiled.self_legs` written
-symbolically (:func:`_self_leg_rows`). The orientation equality is
+symbolically (:func:`_self_leg_rows`), then (with obstacles, planar and spatial) the obstacle
+rows of :mod:`stackik.formulation.obstacle_rows` (:func:`_obstacle_rows`). The orientation
+equality is
 the skew part ``vee(E - E^T) / 2 = sin(angle) axis`` of ``E = R_target^T R_ee``: smooth
 everywhere (the rotation vector's ``acos`` is not differentiable at the solution), equal to
 the rotation vector to third order at ``E = I``, so first and second derivatives agree
@@ -177,6 +179,52 @@ def _self_leg_rows(
     return rows
 
 
+def obstacle_key(prob: Problem) -> Any:
+    """The obstacle rows of ``prob`` as plain data (a solver cache key): ``(margin,
+    (("seg", a, b, R) | ("half", point, unit normal), ...))``, or None without rows."""
+    from stackik.obstacles import HalfSpace, Sphere
+
+    rows = prob.clearance.obstacle_rows
+    if rows is None:
+        return None
+    out: list[Any] = []
+    for ob in rows.obstacles:
+        if isinstance(ob, HalfSpace):
+            u = np.asarray(ob.normal, float) / np.linalg.norm(ob.normal)
+            out.append(("half", tuple(map(float, ob.point)), tuple(map(float, u))))
+        else:
+            a, b = (ob.center, ob.center) if isinstance(ob, Sphere) else (ob.a, ob.b)
+            out.append(("seg", tuple(map(float, a)), tuple(map(float, b)), float(ob.radius)))
+    return (float(rows.margin), tuple(out))
+
+
+def _obstacle_rows(ca: Any, stack: Stack, Os: list[Any], As: list[Any], key: Any) -> list[Any]:
+    """:class:`stackik.formulation.obstacle_rows.ObstacleRows` written symbolically: every
+    leg (base joint ``O_i + A_i b_k`` to top joint ``O_{i+1} + A_{i+1} t_k``, radius
+    ``leg_radius``) against each obstacle of ``key`` (:func:`obstacle_key`), in its order:
+    the legs' rows per sphere or capsule, then per half-space the base joints' and the top
+    joints' rows."""
+    margin, obstacles = key
+    n = stack.n
+    L = float(stack.leg_max.max())
+    B = [Os[i] + As[i] @ stack.base_nodes[i, k] for i in range(n) for k in range(6)]
+    T = [Os[i + 1] + As[i + 1] @ stack.top_nodes[i, k] for i in range(n) for k in range(6)]
+    r = [float(stack[i].leg_radius) for i in range(n) for _ in range(6)]
+    rows: list[Any] = []
+    for ob in obstacles:
+        if ob[0] == "half":
+            p, u = np.asarray(ob[1]), np.asarray(ob[2])
+            for X in (B, T):
+                rows += [(ca.dot(u, X[j] - p) - r[j] - margin) / L for j in range(6 * n)]
+            continue
+        a, b, R = np.asarray(ob[1]), np.asarray(ob[2]), ob[3]
+        for j in range(6 * n):
+            s, t = _closest_params(ca, B[j], T[j], a, b)
+            g = B[j] + s * (T[j] - B[j]) - (a + t * (b - a))
+            rows.append((ca.dot(g, g) - (R + r[j] + margin) ** 2) / L**2)
+    return rows
+
+
 def _euler_sx(ca: Any, ang: Any) -> tuple[Any, Any]:
     """``Rz`` and ``R = Rz Ry Rx`` (symbolic) of the angles ``ang`` (yaw, pitch, roll)."""
 
@@ -217,6 +265,7 @@ def _solver(
     xs: tuple[float, ...],
     user: tuple[tuple[str, Any], ...] = (),
     load: Any = None,
+    obstacles: Any = None,
 ) -> Any:
     ca = _casadi()
     n = stack.n
@@ -263,7 +312,10 @@ def _solver(
         g_in += rows[0] + rows[1] + rows[2] + rows[3]
     sf, m = _lift_forces(ca, stack, load)
     g_f: list[Any] = []
-    if sf is not None:  # the plates' frames in 3D: O_j = O_{j-1} + A_{j-1} P_j
+    g_ob: list[Any] = []
+    if (
+        sf is not None or obstacles is not None
+    ):  # the plates' frames in 3D: O_j = O_{j-1} + A_{j-1} P_j
         axis = plane_axis(phi)
         K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
         Os: list[Any] = [ca.SX.zeros(3, 1)]
@@ -274,12 +326,15 @@ def _solver(
             Ri = Ri + (1 - ca.cos(th[i])) * np.outer(axis, axis)
             Os.append(Os[-1] + As[-1] @ Pi)
             As.append(As[-1] @ Ri)
-        g_f = _force_equilibrium(ca, stack, load, Os, As, sf)
-    g = ca.vertcat(g_eq, *g_f, *g_in)
+        if sf is not None:
+            g_f = _force_equilibrium(ca, stack, load, Os, As, sf)
+        if obstacles is not None:
+            g_ob = _obstacle_rows(ca, stack, Os, As, obstacles)
+    g = ca.vertcat(g_eq, *g_f, *g_in, *g_ob)
     nlp = {"x": u if sf is None else ca.vertcat(u, sf), "p": p, "f": f, "g": g}
     solver = _nlpsol(ca, "stackik_ipopt", nlp, user)
-    lbg = np.concatenate([np.zeros(3 + m), np.zeros(24 * n)])
-    ubg = np.concatenate([np.zeros(3 + m), np.full(24 * n, np.inf)])
+    lbg = np.concatenate([np.zeros(3 + m), np.zeros(24 * n + len(g_ob))])
+    ubg = np.concatenate([np.zeros(3 + m), np.full(24 * n + len(g_ob), np.inf)])
     return solver, lbg, ubg
 
 
@@ -307,10 +362,12 @@ def _spatial_solver(
     load: Any = None,
     self_legs: tuple[tuple[tuple[int, int], ...], tuple[float, ...], tuple[float, ...]]
     | None = None,
+    obstacles: Any = None,
 ) -> Any:
     """IPOPT for the scaled spatial problem (with ``load``: the lifted leg forces of
     :func:`_force_equilibrium`, appended to the variables; with ``self_legs = (pairs, rho,
-    scale)``: the self-leg rows after the limits); parameters ``p = (P_target (3),
+    scale)``: the self-leg rows after the limits; with ``obstacles`` (:func:`obstacle_key`)
+    the obstacle rows last); parameters ``p = (P_target (3),
     R_target.ravel() (9), per-platform angle weights w_th (n), c0, fscale)``."""
     ca = _casadi()
     n = stack.n
@@ -375,10 +432,13 @@ def _spatial_solver(
     sf, m = _lift_forces(ca, stack, load)
     g_f = [] if sf is None else _force_equilibrium(ca, stack, load, Os, As, sf)
     x_all = u if sf is None else ca.vertcat(u, sf)
-    nlp = {"x": x_all, "p": p, "f": f, "g": ca.vertcat(g_eq, *g_f, *g_in, *g_sl)}
+    g_ob = [] if obstacles is None else _obstacle_rows(ca, stack, Os, As, obstacles)
+    g_all = ca.vertcat(g_eq, *g_f, *g_in, *g_sl, *g_ob)
+    nlp = {"x": x_all, "p": p, "f": f, "g": g_all}
     solver = _nlpsol(ca, "stackik_ipopt_spatial", nlp, user)
-    lbg = np.zeros(6 + m + 24 * n + len(g_sl))
-    ubg = np.concatenate([np.zeros(6 + m), np.full(24 * n + len(g_sl), np.inf)])
+    k = 24 * n + len(g_sl) + len(g_ob)
+    lbg = np.zeros(6 + m + k)
+    ubg = np.concatenate([np.zeros(6 + m), np.full(k, np.inf)])
     return solver, lbg, ubg
 
 
@@ -407,8 +467,9 @@ def run_ipopt(
     load = None if prob.forces is None else prob.forces.load
     if isinstance(target, PlanarTarget):
         solver, lbg, ubg = _solver(
-            prob.stack, target.phi, prob.objective, tuple(prob.xs), key, load
-        )
+            prob.stack, target.phi, prob.objective, tuple(prob.xs), key, load,
+            obstacle_key(prob),
+        )  # fmt: skip
         par = target.y
     else:
         assert isinstance(target, SpatialTarget)
@@ -418,7 +479,7 @@ def run_ipopt(
             pairs = tuple((int(a), int(b)) for a, b in sl.pairs)
             legs = (pairs, tuple(map(float, sl.rho)), tuple(map(float, sl.scale)))
         solver, lbg, ubg = _spatial_solver(
-            prob.stack, prob.objective, tuple(prob.xs), key, load, legs
+            prob.stack, prob.objective, tuple(prob.xs), key, load, legs, obstacle_key(prob)
         )
         par = np.concatenate(
             [
