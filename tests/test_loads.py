@@ -596,9 +596,17 @@ def test_solve_ik_never_calls_a_pose_over_its_force_limit_a_success() -> None:
     assert solve_ik(Stack((loose,) * 4), target).success
 
 
-def test_solve_path_refuses_a_finite_force_limit() -> None:
-    from stackik import PlanarTarget, solve_path
+def test_solve_path_keeps_a_finite_force_limit() -> None:
+    """Paths used to refuse a finite force_max (they could not enforce it); now every
+    waypoint they return passes the check with the force limits (tests/test_path_loads.py
+    has the case where the limit binds)."""
+    from stackik import PlanarTarget, check_pose, solve_path
 
     g = PlatformGeometry.hexagonal(force_max=500.0)
-    with pytest.raises(ValueError, match="force limits"):
-        solve_path(Stack((g,) * 4), [PlanarTarget(600.0, 1000.0, -1.57)] * 2)
+    stack = Stack((g,) * 4)
+    targets = [PlanarTarget(600.0, 1000.0, -1.57)] * 2
+    path = solve_path(stack, targets)
+    assert path.leg_forces is not None
+    for t, q in zip(targets[: path.completed], path.q):
+        assert check_pose(stack, t, q).ok
+    assert np.abs(path.leg_forces[: path.completed]).max() <= 500.0 * (1 + 1e-6)

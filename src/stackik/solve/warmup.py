@@ -42,13 +42,16 @@ _LOCK = threading.Lock()
 def _dispatchers(kind: str) -> list[Any]:
     if kind == "planar":
         from stackik._compiled import check as _check
+        from stackik._compiled import obstacle_rows as _obstacle_rows
         from stackik._compiled import planar as _ipm
         from stackik._compiled import planar_path as _ipm_path
 
         return [_ipm._ip_multi, _ipm.ip_box, _ipm_path.ip_path, _ipm._evaluate,
                 _ipm._lagrangian_hessian, _check._planar_check,
-                _check._planar_check_many, _check._planar_path_arrays]  # fmt: skip
+                _check._planar_check_many, _check._planar_path_arrays,
+                _obstacle_rows.obstacle_rows]  # fmt: skip
     from stackik._compiled import check as _check
+    from stackik._compiled import obstacle_rows as _obstacle_rows
     from stackik._compiled import self_legs as _self_legs
     from stackik._compiled import spatial as _spatial_ipm
     from stackik._compiled import spatial_kinematics as _spatial
@@ -57,7 +60,8 @@ def _dispatchers(kind: str) -> list[Any]:
     return [_spatial.spatial_parts, _spatial.block_jacobian, _spatial_ipm.ip_multi,
             _spatial_ipm.ip_box, _spatial_ipm_path.ip_path, _spatial_ipm.evaluate,
             _spatial_ipm.polish, _spatial_ipm.lagrangian_hessian, _check._spatial_check,
-            _check._spatial_check_many, _self_legs.self_leg_block]  # fmt: skip
+            _check._spatial_check_many, _self_legs.self_leg_block,
+            _obstacle_rows.obstacle_rows]  # fmt: skip
 
 
 def _small_problem(planar: bool) -> tuple[Any, ...]:
@@ -162,8 +166,17 @@ def _warm(kind: str) -> None:
     ip_starts(prob, [q0, q0], {}, math.inf)
     _warm_path_kernels(planar)
     _warm_sqp_kernels(planar)
+    import numpy as np
+
+    from stackik.formulation import Problem
+    from stackik.obstacles import Sphere
+
+    # the obstacle rows Problem appends (a sphere within reach)
+    near = Sphere(np.array([0.0, 0.0, 300.0]), 10.0)
+    Problem(prob.stack, prob.target, "frobenius", None, obstacles=[near]).evaluate(
+        prob.u_of(q0)
+    )
     if not planar:  # the self-leg rows Problem appends for legs with a radius
-        from stackik.formulation import Problem
         from stackik.geometry import PlatformGeometry, Stack
 
         fat = Stack.uniform(PlatformGeometry.hexagonal(leg_radius=1.0), prob.n)
