@@ -173,9 +173,7 @@ def _warm(kind: str) -> None:
 
     # the obstacle rows Problem appends (a sphere within reach)
     near = Sphere(np.array([0.0, 0.0, 300.0]), 10.0)
-    Problem(prob.stack, prob.target, "frobenius", None, obstacles=[near]).evaluate(
-        prob.u_of(q0)
-    )
+    Problem(prob.stack, prob.target, "frobenius", None, obstacles=[near]).evaluate(prob.u_of(q0))
     if not planar:  # the self-leg rows Problem appends for legs with a radius
         from stackik.geometry import PlatformGeometry, Stack
 
