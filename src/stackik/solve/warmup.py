@@ -42,14 +42,14 @@ _LOCK = threading.Lock()
 def _dispatchers(kind: str) -> list[Any]:
     if kind == "planar":
         from stackik._compiled import check as _check
-        from stackik._compiled import obstacle_rows as _obstacle_rows
         from stackik._compiled import planar as _ipm
         from stackik._compiled import planar_path as _ipm_path
 
         return [_ipm._ip_multi, _ipm.ip_box, _ipm_path.ip_path, _ipm._evaluate,
                 _ipm._lagrangian_hessian, _check._planar_check,
-                _check._planar_check_many, _check._planar_path_arrays,
-                _obstacle_rows.obstacle_rows]  # fmt: skip
+                _check._planar_check_many, _check._planar_path_arrays]  # fmt: skip
+    # (the obstacle rows, shared by both modes, are a spatial entry point; the planar
+    # warm-up runs them too)
     from stackik._compiled import check as _check
     from stackik._compiled import obstacle_rows as _obstacle_rows
     from stackik._compiled import self_legs as _self_legs

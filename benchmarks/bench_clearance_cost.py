@@ -1,0 +1,127 @@
+"""What clearance costs when it does not bind (issue 29's cost bounds, docs/clearance.md).
+
+Run: ``python benchmarks/bench_clearance_cost.py [--count 10] [--repeats 3] [--seed 11]
+[--out benchmarks/results]``; writes ``clearance_cost.{json,md}``.
+
+Per mode (spatial n = 4, planar n = 4 on the reference stack), ``--count`` targets drawn
+with ``rng = seed`` (:func:`stackik.sampling.random_spatial_targets`,
+:func:`stackik.sampling.random_planar_targets`), each solved with the default
+``solve_ik`` in three variants, interleaved target by target and ``--repeats`` times:
+
+* ``plain``: no obstacle;
+* ``far``: a sphere (radius 100 mm) and a truss member (capsule, radius 20 mm, 2 m long)
+  3 m from the base axis, beyond every pose's reach (``stackik.clearance.body_reach`` is
+  1950 mm here): the problem has no obstacle rows, the check still measures them;
+* ``near_clear``: the same two bodies 700 mm from the base axis, within reach but clear of
+  the poses the solves reach (the problem carries their rows; the interior point's poses
+  pass the check, so no hand-over).
+
+The poses must be the same in all three (asserted: the obstacles do not bind). Columns:
+median time per variant and the median of per-target time ratios against ``plain``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from stackik import Capsule, Sphere, Stack, solve_ik
+from stackik.bench import machine_info
+from stackik.sampling import random_planar_targets, random_spatial_targets
+
+
+def _bodies(r: float) -> list[Any]:
+    return [
+        Sphere(np.array([r, 0.0, 500.0]), 100.0),
+        Capsule(np.array([-r, -500.0, 0.0]), np.array([-r, 500.0, 2000.0]), 20.0),
+    ]
+
+
+VARIANTS = {"plain": [], "far": _bodies(3000.0), "near_clear": _bodies(700.0)}
+
+
+def run_mode(mode: str, count: int, repeats: int, seed: int) -> dict[str, Any]:
+    stack = Stack.reference(4)
+    rng = np.random.default_rng(seed)
+    targets = (
+        random_spatial_targets(stack, count, rng=rng)
+        if mode == "spatial"
+        else random_planar_targets(stack, count, rng=rng)
+    )
+    for obs in VARIANTS.values():  # untimed: every code path loaded
+        solve_ik(stack, targets[0], obstacles=obs)
+    times: dict[str, list[list[float]]] = {v: [[] for _ in targets] for v in VARIANTS}
+    for _ in range(repeats):
+        for k, t in enumerate(targets):
+            poses = []
+            for name, obs in VARIANTS.items():
+                t0 = time.perf_counter()
+                r = solve_ik(stack, t, obstacles=obs)
+                times[name][k].append(time.perf_counter() - t0)
+                poses.append(r.q)
+            assert all(np.array_equal(poses[0], p) for p in poses[1:]), (mode, k)
+    med = {v: [float(np.median(ts)) for ts in times[v]] for v in VARIANTS}
+    return {
+        "mode": mode,
+        "targets": count,
+        "repeats": repeats,
+        "median_ms": {v: 1e3 * float(np.median(med[v])) for v in VARIANTS},
+        "ratio_vs_plain": {
+            v: float(np.median(np.array(med[v]) / np.array(med["plain"]))) for v in VARIANTS
+        },
+    }
+
+
+def markdown(rows: list[dict[str, Any]], meta: dict[str, Any]) -> str:
+    lines = [
+        "# What clearance costs when it does not bind (benchmarks/bench_clearance_cost.py)",
+        "",
+        f"`{meta['command']}` on {meta['machine']}, {meta['date']}. Same poses in every "
+        "variant (asserted). Ratio: median over the targets of the per-target median-time "
+        "ratio against the solve without obstacles; the issue's bound for far obstacles is "
+        "1.2x.",
+        "",
+        "| mode | targets x repeats | plain ms | far ms (ratio) | within reach, clear ms (ratio) |",
+        "|---|---|---|---|---|",
+    ]
+    for r in rows:
+        m, q = r["median_ms"], r["ratio_vs_plain"]
+        lines.append(
+            f"| {r['mode']} 4 | {r['targets']} x {r['repeats']} | {m['plain']:.2f} | "
+            f"{m['far']:.2f} ({q['far']:.2f}x) | {m['near_clear']:.2f} ({q['near_clear']:.2f}x) |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--count", type=int, default=10)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--seed", type=int, default=11)
+    ap.add_argument("--out", type=Path, default=Path(__file__).parent / "results")
+    args = ap.parse_args(argv)
+    rows = [run_mode(m, args.count, args.repeats, args.seed) for m in ("spatial", "planar")]
+    info = machine_info()
+    meta = {
+        "command": "python benchmarks/bench_clearance_cost.py "
+        f"--count {args.count} --repeats {args.repeats} --seed {args.seed}",
+        "machine": f"{info.get('cpus', '?')} CPUs ({info.get('cpu', '?')})",
+        "date": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime()),
+    }
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "clearance_cost.json").write_text(
+        json.dumps({"meta": meta, "rows": rows}, indent=1)
+    )
+    text = markdown(rows, meta)
+    (args.out / "clearance_cost.md").write_text(text)
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
