@@ -211,6 +211,7 @@ def recheck(
     target: PlanarTarget | SpatialTarget,
     result: sk.IKResult,
     clearance: float = 0.0,
+    load: Any = None,
 ) -> Recheck:
     """Check ``result`` against ``target`` and every limit without trusting the solver; on a
     spatial target with legs of a size (or a ``clearance`` margin [mm]), also the distance
@@ -287,7 +288,29 @@ def recheck(
     if not planar:
         problems, slack = clearance_problems(stack, q, clearance)
         reasons += problems
+    reasons += force_problems(stack, poses, load)
     return Recheck(not reasons, reasons, pos, ang, leg_v, joint_v, slack)
+
+
+def force_problems(stack: sk.Stack, poses: list[Any], load: Any) -> list[str]:
+    """A leg over its ``force_max`` (1 + 1e-6) or a non-finite force under ``load`` (None:
+    the stack's own weight, earth gravity), by the oracle's statics
+    (``reference_impl.world_leg_forces``); nothing to check without a finite force_max."""
+    fmax = np.asarray(stack.force_max, dtype=float)
+    if not np.isfinite(fmax).any():
+        return []
+    if load is None:
+        load = sk.Load()
+    f = ref.world_leg_forces(
+        stack.base_nodes, stack.top_nodes, stack.plate_mass, stack.leg_mass, poses,
+        load.mass, load.com, load.g, load.force, load.moment, load.frame,
+    )  # fmt: skip
+    if not np.all(np.isfinite(f)):
+        return ["non-finite leg forces"]
+    over = np.abs(f) - fmax[:, None] * (1.0 + 1e-6)
+    if np.any(over > 0):
+        return [f"a leg over its force limit by {float(over.max()):.3e} N"]
+    return []
 
 
 def clearance_problems(
@@ -438,8 +461,9 @@ def run_case(case: Case) -> dict[str, Any]:
     if res.success != (res.status is IKStatus.SUCCESS):
         problems.append("success flag disagrees with status")
     if res.success:
-        chk = sk.check_pose(stack, target, res.q)
-        rc = recheck(stack, target, res, float(kwargs.get("clearance", 0.0)))
+        load = kwargs.get("load")
+        chk = sk.check_pose(stack, target, res.q, load)
+        rc = recheck(stack, target, res, float(kwargs.get("clearance", 0.0)), load)
         if not chk.ok:
             problems.append("check_pose fails")
         problems += rc.reasons
@@ -635,6 +659,55 @@ def gen_clearance_spatial(rng: np.random.Generator, n: int | None = None) -> Cas
             "leg_radius_max": float(radii.max()),
             "margin": margin,
         },
+    )
+
+
+def gen_loads(rng: np.random.Generator, n: int | None = None) -> Case:
+    """Loaded targets: plate and leg masses, a payload (mass, centre-of-mass offset, an
+    external force and moment in the base or end-effector frame), every gravity preset or
+    a random vector, and leg force limits (none, loose or binding: 40-600 N), planar or
+    spatial, every method; targets from random feasible poses."""
+    n = int(rng.choice([1, 2, 3, 4])) if n is None else n
+    planar = bool(rng.random() < 0.5)
+    u = rng.random()
+    fmax = math.inf if u < 0.2 else float(rng.uniform(40.0, 600.0))
+    geom = sk.PlatformGeometry.hexagonal(
+        plate_mass=float(rng.uniform(0.0, 8.0)),
+        leg_mass=float(rng.uniform(0.0, 2.0)),
+        force_max=fmax,
+    )
+    stack = sk.Stack.uniform(geom, n)
+    grav: Any = str(rng.choice(["earth", "moon", "mars", "none"]))
+    if rng.random() < 0.25:
+        grav = rng.normal(0.0, 6.0, 3).tolist()
+    load = sk.Load(
+        force=rng.normal(0.0, 20.0, 3).tolist() if rng.random() < 0.4 else (0.0, 0.0, 0.0),
+        moment=rng.normal(0.0, 2.0, 3).tolist() if rng.random() < 0.3 else (0.0, 0.0, 0.0),
+        frame=str(rng.choice(["base", "end_effector"])),
+        mass=float(rng.uniform(0.0, 10.0)),
+        com=rng.normal(0.0, 30.0, 3).tolist() if rng.random() < 0.3 else (0.0, 0.0, 0.0),
+        gravity=grav,
+    )
+    if planar:
+        phi = float(rng.choice(PHIS))
+        q = feasible_planar_pose(stack, rng, phi)
+        assert q is not None
+        y = sk.planar_forward(q)
+        target: Any = PlanarTarget(float(y[0]), float(y[1]), float(y[2]), phi=phi)
+    else:
+        qs = feasible_spatial_pose(stack, rng)
+        assert qs is not None
+        target = SpatialTarget(*sk.spatial_forward(qs))
+    kw = random_solver(rng, planar, n)
+    if HAVE_IPOPT and rng.random() < 0.1:
+        kw = {"method": "ipopt", "max_time": kw["max_time"]}
+    kw["load"] = load
+    return Case(
+        "loads",
+        f"n={n} {'planar' if planar else 'spatial'} force_max={fmax:.4g} mass={load.mass:.3g} "
+        f"gravity={grav if isinstance(grav, str) else 'vector'} {_kw_label(kw, ('load',))}",
+        lambda: (stack, target, kw),
+        info={"n": n, "method": kw.get("method", "sqp"), "mode": "planar" if planar else "spatial"},
     )
 
 
@@ -1105,6 +1178,7 @@ CATEGORIES: dict[str, tuple[float, Callable[[np.random.Generator], Case]]] = {
     "reachable_planar": (0.27, gen_reachable_planar),
     "reachable_spatial": (0.09, gen_reachable_spatial),
     "clearance_spatial": (0.05, gen_clearance_spatial),
+    "loads": (0.05, gen_loads),
     "random_geometry": (0.10, gen_random_geometry),
     "large_n": (0.035, gen_large_n),
     "unreachable": (0.12, gen_unreachable),

@@ -364,3 +364,37 @@ def random_spatial_pose(rng, n):
     return np.column_stack(
         [rng.uniform(-120, 120, (n, 2)), rng.uniform(200, 450, n), rng.uniform(-0.7, 0.7, (n, 3))]
     )
+
+
+# --------------------------------------------------------------------------- statics
+def world_leg_forces(base_nodes, top_nodes, plate_mass, leg_mass, poses, mass, com, g, F, M, frame):
+    """Leg forces (n, 6) [N], compression positive, of a pose given as per-platform
+    ``(P_i, R_i)``: each cut body's equilibrium in the base frame, moments about the base
+    origin. The body above platform i's legs carries the payload ``mass`` [kg] at ``com``
+    (end-effector frame, mm), the plates i..n, the legs above (half at each joint) and the
+    top halves of its own legs; ``g`` [m/s^2] base frame; ``F`` [N] and ``M`` [N m] the
+    external wrench on the end effector in ``frame`` ("base" or "end_effector")."""
+    O, A = chain(poses)
+    n = len(poses)
+    T = [[O[i + 1] + A[i + 1] @ top_nodes[i][k] for k in range(6)] for i in range(n)]
+    B = [[O[i] + A[i] @ base_nodes[i][k] for k in range(6)] for i in range(n)]
+    F_ext, M_ext = np.asarray(F, float), 1000.0 * np.asarray(M, float)  # N mm
+    if frame == "end_effector":
+        F_ext, M_ext = A[n] @ F_ext, A[n] @ M_ext
+    g = np.asarray(g, float)
+    out = np.empty((n, 6))
+    for i in range(n):
+        masses = [(0.5 * leg_mass[i], T[i][k]) for k in range(6)]
+        masses += [(plate_mass[j], O[j + 1]) for j in range(i, n)]
+        for j in range(i + 1, n):
+            masses += [(0.5 * leg_mass[j], p) for p in T[j] + B[j]]
+        masses.append((mass, O[n] + A[n] @ np.asarray(com, float)))
+        Ftot = F_ext + sum(m for m, _ in masses) * g
+        Mtot = M_ext + np.cross(O[n], F_ext) + sum(np.cross(r, m * g) for m, r in masses)
+        G = np.empty((6, 6))
+        for k in range(6):
+            d = T[i][k] - B[i][k]
+            u = d / np.linalg.norm(d)
+            G[:3, k], G[3:, k] = u, np.cross(T[i][k], u)
+        out[i] = -np.linalg.solve(G, np.concatenate([Ftot, Mtot]))
+    return out

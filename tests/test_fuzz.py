@@ -98,6 +98,14 @@ def test_clearance_spatial(seed, n):
     run(fc.gen_clearance_spatial(np.random.default_rng(seed), n=n))
 
 
+@fuzz(8)
+@given(seed=SEEDS, n=st.integers(1, 3))
+def test_loads(seed, n):
+    """Masses, payloads, gravity and leg force limits: a success keeps every leg within its
+    force_max by the oracle's statics (``reference_impl.world_leg_forces``)."""
+    run(fc.gen_loads(np.random.default_rng(seed), n=n))
+
+
 @fuzz(10)
 @given(seed=SEEDS)
 def test_random_geometry(seed):

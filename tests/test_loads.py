@@ -610,3 +610,29 @@ def test_solve_path_keeps_a_finite_force_limit() -> None:
     for t, q in zip(targets[: path.completed], path.q):
         assert check_pose(stack, t, q).ok
     assert np.abs(path.leg_forces[: path.completed]).max() <= 500.0 * (1 + 1e-6)
+
+
+def test_oracle_statics_agree_with_leg_forces() -> None:
+    """The fuzz oracle's statics (tests/reference_impl.world_leg_forces, base-frame
+    equilibrium of each cut body) and stackik.leg_forces agree, planar and spatial."""
+    from stackik import Load, leg_forces
+
+    rng = np.random.default_rng(4)
+    g = PlatformGeometry.hexagonal(plate_mass=3.0, leg_mass=1.2)
+    stack = Stack((g,) * 3)
+    load = Load(force=(3.0, -2.0, 5.0), moment=(0.4, 0.1, -0.2), frame="end_effector",
+                mass=2.5, com=(10.0, -5.0, 20.0), gravity="mars")  # fmt: skip
+    q = np.tile([0.0, 0.0, 330.0, 0.0, 0.0, 0.0], (3, 1)) + rng.normal(
+        0, [8, 8, 8, 0.1, 0.1, 0.1], (3, 6)
+    )
+    poses = [ref.spatial_platform_pose(row) for row in q]
+    want = ref.world_leg_forces(stack.base_nodes, stack.top_nodes, stack.plate_mass,
+                                stack.leg_mass, poses, load.mass, load.com, load.g,
+                                load.force, load.moment, load.frame)  # fmt: skip
+    np.testing.assert_allclose(leg_forces(stack, q, load), want, rtol=1e-9, atol=1e-9)
+    qp = np.tile([0.0, 330.0, 0.0], (3, 1)) + rng.normal(0, [8, 8, 0.1], (3, 3))
+    poses = [ref.planar_platform_pose(row, 0.7) for row in qp]
+    want = ref.world_leg_forces(stack.base_nodes, stack.top_nodes, stack.plate_mass,
+                                stack.leg_mass, poses, load.mass, load.com, load.g,
+                                load.force, load.moment, load.frame)  # fmt: skip
+    np.testing.assert_allclose(leg_forces(stack, qp, load, phi=0.7), want, rtol=1e-9, atol=1e-9)
