@@ -66,6 +66,7 @@ def auto_method(
     sigma_theta: ArrayLike | None,
     qp_solver: str | None,
     options: dict[str, Any] | None = None,
+    force_weight: float = 0.0,
 ) -> str:
     """``method="auto"``: the compiled interior-point path where it applies, else SQP.
 
@@ -79,7 +80,9 @@ def auto_method(
     """
     from stackik.methods.ip import IP_DEFAULTS
 
-    if objective == "force":  # the leg forces' residuals: no compiled kernel has them
+    if objective == "force" or force_weight > 0.0:
+        # the leg forces' residuals (the force objective, or a force weight added to
+        # another): no compiled kernel has them
         return "sqp" if qp_solver is not None else FORCE_METHOD
     if objective == "feasible" or qp_solver is not None:
         return "sqp"
