@@ -196,3 +196,30 @@ def test_force_objective_takes_no_weight() -> None:
     stack = Stack.uniform(GEOMETRY, 2)
     with pytest.raises(ValueError, match="force_weight"):
         solve_ik(stack, PlanarTarget(0.0, 700.0, 0.0), objective="force", force_weight=1.0)
+
+
+def test_cli_force_weight(capsys: pytest.CaptureFixture[str], tmp_path) -> None:
+    """``stackik solve --force-weight W``: the weight reaches the solve (the JSON objective
+    value is FN^2 + W sum f^2 at the pose, below the weightless pose's force term), the
+    table names it, a negative weight is a CLI error naming it."""
+    import json
+
+    from stackik.cli import main
+
+    geo = tmp_path / "g.toml"
+    geo.write_text("n = 4\n[platform.hexagonal]\nplate_mass = 5.0\nleg_mass = 1.5\n")
+    args = ["solve", "--geometry", str(geo), "--target", "600", "1000", "-1.57"]
+    args += ["--payload-mass", "4"]
+    assert main([*args, "--force-weight", "1", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    stack = Stack.uniform(GEOMETRY, 4)
+    q = np.array(data["q"])
+    force = _force_term(stack, q, LOAD, PLANAR.phi)
+    assert data["force_weight"] == 1.0 and data["method"] == "slsqp"
+    assert data["objective_value"] == pytest.approx(data["frobenius_norm"] ** 2 + force, rel=1e-9)
+    base = solve_ik(stack, PLANAR, load=LOAD)
+    assert force < 0.5 * _force_term(stack, base.q, LOAD, PLANAR.phi)
+    assert main([*args, "--force-weight", "0.5"]) == 0
+    assert "force weight" in capsys.readouterr().out
+    assert main([*args, "--force-weight", "-1"]) != 0
+    assert "force_weight" in capsys.readouterr().err
