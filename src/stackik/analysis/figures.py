@@ -292,10 +292,16 @@ def plot_fn_ratio_map(
 
 
 def _workspace_scatter(
-    xy: FloatArray, values: FloatArray, ok: Any, label: str, title: str, path: Any
+    xy: FloatArray,
+    values: FloatArray,
+    ok: Any,
+    label: str,
+    title: str,
+    path: Any,
+    failed: str = "solve failed",
 ) -> Figure:
-    """Targets in the ``(rho, z)`` plane coloured by ``values`` (grey crosses where not
-    ``ok``)."""
+    """Targets in the ``(rho, z)`` plane coloured by ``values`` (grey crosses, labelled
+    ``failed``, where not ``ok``)."""
     fig = _figure(6.4, 5.2)
     ax = fig.subplots()
     ok = np.asarray(ok, dtype=bool)
@@ -305,7 +311,7 @@ def _workspace_scatter(
         )
         fig.colorbar(sc, ax=ax, label=label)
     if np.any(~ok):
-        ax.scatter(xy[~ok, 0], xy[~ok, 1], marker="x", color="0.6", s=18, label="failed")
+        ax.scatter(xy[~ok, 0], xy[~ok, 1], marker="x", color="0.6", s=18, label=failed)
         ax.legend(loc="lower left", fontsize=8)
     ax.set_xlabel(r"$\rho$ [mm]")
     ax.set_ylabel("z [mm]")
@@ -323,8 +329,9 @@ def plot_capacity_map(cmap: CapacityMap, path: str | Path | None = None) -> Figu
     xy = np.array([[r["rho"], r["z"]] for r in rows], dtype=float).reshape(-1, 2)
     mass = np.array([r["capacity_kg"] for r in rows], dtype=float)
     ok = np.array([r["carried"] for r in rows], dtype=bool)
+    title = f"{len(rows)} targets, payload capacity"
     return _workspace_scatter(
-        xy, mass, ok, "payload capacity [kg]", f"{len(rows)} targets, payload capacity", path
+        xy, mass, ok, "payload capacity [kg]", title, path, "not even without payload"
     )
 
 
