@@ -223,3 +223,22 @@ def test_cli_force_weight(capsys: pytest.CaptureFixture[str], tmp_path) -> None:
     assert "force weight" in capsys.readouterr().out
     assert main([*args, "--force-weight", "-1"]) != 0
     assert "force_weight" in capsys.readouterr().err
+
+
+def test_weight_with_a_force_limit() -> None:
+    """With a finite force_max the force term is in force ratios (s = force_max): the
+    weighted solve keeps the limit (the check passes with the load), reports
+    ``FN^2 + w sum (f / force_max)^2`` and loads the legs less than the weightless one."""
+    g = PlatformGeometry.hexagonal(plate_mass=5.0, leg_mass=1.5, force_max=450.0)
+    stack = Stack.uniform(g, 3)
+    load = Load(mass=2.0)
+    w = 1e4
+    base = solve_ik(stack, SPATIAL, load=load)
+    r = solve_ik(stack, SPATIAL, load=load, force_weight=w)
+    assert r.success and base.success and check_pose(stack, SPATIAL, r.q, load).ok
+    ratios = leg_forces(stack, r.q, load) / 450.0
+    assert r.objective_value == pytest.approx(
+        _fn(r.q, False) ** 2 + w * float(np.sum(ratios**2)), rel=1e-9
+    )
+    peak = statics(stack, r.q, load).peak_force_ratio
+    assert peak < 0.9 * statics(stack, base.q, load).peak_force_ratio
