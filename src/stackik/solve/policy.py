@@ -76,7 +76,10 @@ def auto_method(
     ``"feasible"`` stays with the SQP engine: its poses are the paper's "first feasible
     pose from the start", which a barrier method (drawn to the centre of the feasible
     set) does not reproduce. A given ``qp_solver``, or ``options`` that are not all
-    interior-point options, select the SQP engine.
+    interior-point options, select the SQP engine. ``objective="force"`` and a positive
+    ``force_weight`` take :data:`FORCE_METHOD` (the SQP engine with a ``qp_solver``): no
+    compiled kernel has the leg forces' residuals (with a weight, the pipeline first
+    solves the request without it, :func:`stackik.solve.pipeline._weighted_run`).
     """
     from stackik.methods.ip import IP_DEFAULTS
 
