@@ -11,9 +11,9 @@ from typing import Any
 from stackik.geometry import Stack
 from stackik.loads import Load
 from stackik.result import IKResult
-from stackik.targets import Target
+from stackik.targets import PlanarTarget, Target
 
-__all__ = ["Capacity", "payload_capacity"]
+__all__ = ["Capacity", "CapacityMap", "capacity_map", "payload_capacity"]
 
 
 @dataclass(frozen=True)
@@ -33,12 +33,16 @@ class Capacity:
         (``result.success``), with its leg forces (``result.leg_forces``).
     solves : int
         How many force-limited solves the search took.
+    unloaded : IKResult or None
+        The search's first solve, with no payload (the load's other parts only): its
+        ``peak_force`` is the least-FN pose's peak leg force before any payload.
     """
 
     mass: float
     upper: float
     result: IKResult
     solves: int
+    unloaded: IKResult | None = None
 
 
 def payload_capacity(
@@ -97,9 +101,9 @@ def payload_capacity(
         solves += 1
         return solve_ik(stack, target, load=dataclasses.replace(base, mass=mass), **solve_kw)
 
-    best = carried(0.0)
+    best = first = carried(0.0)
     if not best.success:
-        return Capacity(0.0, 0.0, best, solves)
+        return Capacity(0.0, 0.0, best, solves, first)
     lo, hi = 0.0, math.inf
     m = min(1.0, mass_max)
     while math.isinf(hi):
@@ -107,7 +111,7 @@ def payload_capacity(
         if r.success:
             lo, best = m, r
             if m >= mass_max:
-                return Capacity(lo, math.inf, best, solves)
+                return Capacity(lo, math.inf, best, solves, first)
             m = min(2.0 * m, mass_max)
         else:
             hi = m
@@ -118,4 +122,114 @@ def payload_capacity(
             lo, best = mid, r
         else:
             hi = mid
-    return Capacity(lo, hi, best, solves)
+    return Capacity(lo, hi, best, solves, first)
+
+
+@dataclass(frozen=True)
+class CapacityMap:
+    """:func:`payload_capacity` at every target of a planar workspace map.
+
+    Attributes
+    ----------
+    targets : tuple of PlanarTarget
+    capacities : tuple of Capacity
+        One per target, in order.
+    seconds : tuple of float
+        Wall time of each target's search [s].
+    free_peaks : tuple of float
+        Per target, the peak leg force [N] of the least-FN pose of the stack **without**
+        its force limits, with no payload (the load's other parts only; NaN if that solve
+        failed): what the unconstrained optimum asks of the legs, against ``force_max``.
+    """
+
+    targets: tuple[PlanarTarget, ...]
+    capacities: tuple[Capacity, ...]
+    seconds: tuple[float, ...]
+    free_peaks: tuple[float, ...]
+
+    def rows(self) -> list[dict[str, Any]]:
+        """One row per target: ``rho, z, theta`` [mm, mm, rad], ``capacity_kg`` (the
+        carried mass), ``upper_kg`` (the least mass not carried; inf: ``mass_max`` was
+        carried), ``carried`` (the pose at ``capacity_kg`` passes the check),
+        ``peak_force_N`` (its peak leg force, at that payload), ``unloaded_peak_force_N``
+        (the force-limited least-FN pose's with no payload), ``free_peak_force_N``
+        (:attr:`free_peaks`), ``solves``, ``seconds``."""
+        out = []
+        parts = zip(self.targets, self.capacities, self.seconds, self.free_peaks, strict=True)
+        for t, c, sec, free in parts:
+            u = c.unloaded
+            peak = c.result.peak_force
+            peak0 = None if u is None else u.peak_force
+            out.append(
+                {
+                    "rho": t.rho,
+                    "z": t.z,
+                    "theta": t.theta,
+                    "capacity_kg": c.mass,
+                    "upper_kg": c.upper,
+                    "carried": bool(c.result.success),
+                    "peak_force_N": math.nan if peak is None else peak,
+                    "unloaded_peak_force_N": math.nan if peak0 is None else peak0,
+                    "free_peak_force_N": free,
+                    "solves": c.solves,
+                    "seconds": sec,
+                }
+            )
+        return out
+
+
+def _map_point(target: PlanarTarget, options: dict[str, Any]) -> tuple[Capacity, float, float]:
+    """One target of :func:`capacity_map`: its capacity, the search's seconds and the
+    free peak force (:attr:`CapacityMap.free_peaks`)."""
+    import time
+
+    from stackik.solve import solve_ik
+
+    kw = dict(options)
+    t = time.perf_counter()
+    cap = payload_capacity(target=target, **kw)
+    sec = time.perf_counter() - t
+    stack: Stack = kw.pop("stack")
+    free_stack = Stack(tuple(dataclasses.replace(g, force_max=math.inf) for g in stack))
+    load = kw.pop("load")
+    base = Load() if load is None else dataclasses.replace(load, mass=0.0)
+    for key in ("mass_max", "tol"):
+        kw.pop(key)
+    free = solve_ik(free_stack, target, load=base, **kw)
+    peak = free.peak_force if free.success else None
+    return cap, sec, math.nan if peak is None else peak
+
+
+def capacity_map(
+    stack: Stack,
+    targets: Any,
+    load: Load | None = None,
+    *,
+    mass_max: float = 1000.0,
+    tol: float = 0.1,
+    executor: Any = None,
+    **solve_kw: Any,
+) -> CapacityMap:
+    """:func:`payload_capacity` (``mass_max``, ``tol`` [kg], ``solve_kw``) at each planar
+    target, the payload's weight along ``load``'s gravity (the load direction) with its
+    external wrench; ``executor`` (a :class:`concurrent.futures.Executor`) spreads the
+    targets. Each point costs one bisection, about ``log2(capacity / tol) + 2``
+    force-limited solves, and one solve without the force limits
+    (:attr:`CapacityMap.free_peaks`)."""
+    targets = tuple(targets)
+    if not all(isinstance(t, PlanarTarget) for t in targets):
+        raise ValueError("targets: expected PlanarTarget objects (a planar workspace map)")
+    import functools
+
+    options = {"stack": stack, "load": load, "mass_max": mass_max, "tol": tol, **solve_kw}
+    fn = functools.partial(_map_point, options=options)
+    if executor is None:
+        done = [fn(t) for t in targets]
+    else:  # a concurrent.futures Executor or a Dask Client: both submit and result()
+        done = [f.result() for f in [executor.submit(fn, t) for t in targets]]
+    return CapacityMap(
+        targets,
+        tuple(d[0] for d in done),
+        tuple(d[1] for d in done),
+        tuple(d[2] for d in done),
+    )

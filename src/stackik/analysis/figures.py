@@ -26,12 +26,15 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
+    from stackik.analysis.capacity import CapacityMap
     from stackik.analysis.montecarlo import MonteCarloResult
     from stackik.analysis.workspace import WorkspaceStudy
 
 __all__ = [
     "planar_to_spatial",
+    "plot_capacity_map",
     "plot_fn_ratio_map",
+    "plot_peak_force_map",
     "plot_perturbation_clouds",
     "plot_pose_diagram",
     "plot_regression",
@@ -286,6 +289,62 @@ def plot_fn_ratio_map(
         ax.legend(loc="lower left", fontsize=8)
     ax.set_title(title or f"{int(v.sum())} targets, FN ratio optimal / non-optimal")
     return _save(fig, path)
+
+
+def _workspace_scatter(
+    xy: FloatArray,
+    values: FloatArray,
+    ok: Any,
+    label: str,
+    title: str,
+    path: Any,
+    failed: str = "solve failed",
+) -> Figure:
+    """Targets in the ``(rho, z)`` plane coloured by ``values`` (grey crosses, labelled
+    ``failed``, where not ``ok``)."""
+    fig = _figure(6.4, 5.2)
+    ax = fig.subplots()
+    ok = np.asarray(ok, dtype=bool)
+    if ok.any():
+        sc = ax.scatter(
+            xy[ok, 0], xy[ok, 1], c=values[ok], cmap="viridis", s=28, edgecolors="k", lw=0.3
+        )
+        fig.colorbar(sc, ax=ax, label=label)
+    if np.any(~ok):
+        ax.scatter(xy[~ok, 0], xy[~ok, 1], marker="x", color="0.6", s=18, label=failed)
+        ax.legend(loc="lower left", fontsize=8)
+    ax.set_xlabel(r"$\rho$ [mm]")
+    ax.set_ylabel("z [mm]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(alpha=0.3)
+    ax.set_title(title)
+    return _save(fig, path)
+
+
+def plot_capacity_map(cmap: CapacityMap, path: str | Path | None = None) -> Figure:
+    """Targets in the ``(rho, z)`` plane coloured by their payload capacity [kg]
+    (:func:`stackik.analysis.capacity.capacity_map`); crosses: not even the rest of the
+    load is carried."""
+    rows = cmap.rows()
+    xy = np.array([[r["rho"], r["z"]] for r in rows], dtype=float).reshape(-1, 2)
+    mass = np.array([r["capacity_kg"] for r in rows], dtype=float)
+    ok = np.array([r["carried"] for r in rows], dtype=bool)
+    title = f"{len(rows)} targets, payload capacity"
+    return _workspace_scatter(
+        xy, mass, ok, "payload capacity [kg]", title, path, "not even without payload"
+    )
+
+
+def plot_peak_force_map(cmap: CapacityMap, path: str | Path | None = None) -> Figure:
+    """Targets in the ``(rho, z)`` plane coloured by the peak leg force [N] of their
+    least-FN pose without force limits and without payload
+    (:attr:`~stackik.analysis.capacity.CapacityMap.free_peaks`): where it exceeds
+    ``force_max`` the limit shapes the pose before any payload."""
+    rows = cmap.rows()
+    xy = np.array([[r["rho"], r["z"]] for r in rows], dtype=float).reshape(-1, 2)
+    peak = np.array([r["free_peak_force_N"] for r in rows], dtype=float)
+    title = f"{len(rows)} targets, least-FN peak leg force (no payload, no force limit)"
+    return _workspace_scatter(xy, peak, np.isfinite(peak), "peak leg force [N]", title, path)
 
 
 def plot_regression(

@@ -379,6 +379,9 @@ def add_load_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--gravity", nargs="+", default=None, metavar="G",
                    help="earth, moon, mars, none, or GX GY GZ [m/s^2] in the base frame "
                    "(earth)")  # fmt: skip
+    g.add_argument("--force-weight", type=finite_float, default=0.0, metavar="W",
+                   help="add W * sum (f / s)^2 to the objective: leg forces f [N] scaled by "
+                   "force_max where finite, else 1 N; W >= 0 [mm^2] (0)")  # fmt: skip
 
 
 def load_of(args: argparse.Namespace) -> Any:

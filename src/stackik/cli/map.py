@@ -15,6 +15,7 @@ from ._common import (
     EXIT_OK,
     CLIError,
     NotAvailableError,
+    add_load_arguments,
     add_method_args,
     add_phi_args,
     add_scale_args,
@@ -22,6 +23,8 @@ from ._common import (
     draw_figures,
     dump_json,
     executor_from_args,
+    finite_float,
+    load_of,
     load_stack,
     lookup,
     not_available,
@@ -65,13 +68,81 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     add_scale_args(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of a summary")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    c = p.add_argument_group("payload capacity map (--capacity)")
+    c.add_argument("--capacity", action="store_true",
+                   help="map stackik.payload_capacity over the targets instead (needs a "
+                   "finite force_max in the geometry; the payload's weight along --gravity): "
+                   "capacity.csv, capacity_map.png, peak_force_map.png")  # fmt: skip
+    c.add_argument("--capacity-tol", type=finite_float, default=0.1, metavar="KG",
+                   help="bisection tolerance of each capacity [kg] (0.1)")  # fmt: skip
+    c.add_argument("--mass-max", type=finite_float, default=1000.0, metavar="KG",
+                   help="largest payload tried [kg] (1000)")  # fmt: skip
+    add_load_arguments(p)
     return p
+
+
+def run_capacity(args: argparse.Namespace, stack: Any, phi: float) -> int:
+    """``stackik map --capacity``: :func:`stackik.analysis.capacity.capacity_map` on the
+    map's targets; exit code 1 if no target carries anything."""
+    if args.payload_mass is not None:
+        raise CLIError("--payload-mass: --capacity varies the payload mass itself")
+    from stackik.analysis.capacity import capacity_map
+    from stackik.analysis.workspace import study_targets
+
+    seed = DEFAULT_SEED if args.seed is None else args.seed
+    targets = study_targets(stack, args.targets, seed=seed, phi=phi)
+    kw: dict[str, Any] = {"method": args.method, "qp_solver": resolve_qp(args.method, None)}
+    if args.force_weight:
+        kw["force_weight"] = args.force_weight
+    with executor_from_args(args) as executor:
+        say_where(executor, args.quiet)
+        cmap = capacity_map(
+            stack, targets, load_of(args), mass_max=args.mass_max, tol=args.capacity_tol,
+            executor=executor, **kw,
+        )  # fmt: skip
+    rows = cmap.rows()
+    written: list[Path] = []
+    if args.out is not None:
+        from stackik._io import write_csv
+
+        out: Path = args.out
+        out.mkdir(parents=True, exist_ok=True)
+        write_csv(out / "capacity.csv", rows)
+        written.append(out / "capacity.csv")
+
+        def draw(figures: Any) -> None:
+            figures.plot_capacity_map(cmap, path=out / "capacity_map.png")
+            figures.plot_peak_force_map(cmap, path=out / "peak_force_map.png")
+
+        if draw_figures(draw):
+            written += [out / "capacity_map.png", out / "peak_force_map.png"]
+    carried = [r for r in rows if r["carried"]]
+    if args.json:
+        dump_json({"targets": len(rows), "carried": len(carried), "seed": seed, "phi": phi,
+                   "rows": rows, "geometry": stack.to_dict()})  # fmt: skip
+    else:
+        print(f"payload capacity: {len(carried)} of {len(rows)} targets carry their load")
+        if carried:
+            masses = sorted(r["capacity_kg"] for r in carried)
+            print(f"capacity [kg]: min {masses[0]:.3g}, median {masses[len(masses) // 2]:.3g}, "
+                  f"max {masses[-1]:.3g}")  # fmt: skip
+        sec = sum(cmap.seconds) / max(len(rows), 1)
+        print(f"{sec:.2f} s per target ({sum(c.solves for c in cmap.capacities)} solves)")
+        for path in written:
+            print(f"wrote {path}")
+    return EXIT_OK if carried else EXIT_INFEASIBLE
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``stackik map``; exit code 1 if no target was solved."""
     stack = load_stack(args.n, args.geometry)
     phi = phi_of(args)
+    if args.capacity:
+        if args.targets < 1:
+            raise CLIError(f"--targets: expected at least 1, got {args.targets}")
+        return run_capacity(args, stack, phi)
+    if load_of(args) is not None or args.force_weight:
+        raise CLIError("the load options apply to --capacity only")
     if args.targets < 3:
         raise CLIError(f"--targets: expected at least 3, got {args.targets}")
     try:

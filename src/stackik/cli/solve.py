@@ -306,6 +306,7 @@ def run(args: argparse.Namespace) -> int:
         rng=args.seed,
         start=args.start,
         load=load_of(args),
+        force_weight=args.force_weight,
         **clear,
         **kwargs,
     )
@@ -313,6 +314,7 @@ def run(args: argparse.Namespace) -> int:
         data = result.to_dict()
         data["qp_solver"] = qp_backend(result) or "-"
         data["n"] = stack.n
+        data["force_weight"] = args.force_weight
         if result.mode == "planar":
             data["target"] = {"rho": args.target[0], "z": args.target[1], "theta": args.target[2]}
         else:
@@ -330,6 +332,9 @@ def run(args: argparse.Namespace) -> int:
         src = str(args.geometry) if args.geometry else "reference geometry"
         print(f"stack: {stack.n} platforms ({src})")
         print(format_result(stack, result))
+        if args.force_weight > 0:
+            print(f"{'force weight':<16}{args.force_weight:.6g} mm^2: objective = FN^2 + w "
+                  "sum (f/s)^2")  # fmt: skip
     if args.html is not None:
         from stackik import viz
 

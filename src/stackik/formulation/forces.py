@@ -172,11 +172,20 @@ class ForceResiduals(ForceLimits):
     platform (``s = force_scales(stack)``), so that the objective ``|r|^2`` is the sum of
     squared leg forces scaled by the force limits where they are finite (the load-balancing
     pose); :meth:`residuals` gives ``r`` (6 n,) and its Jacobian (6 n, k n) by the complex
-    step, as the rows of :class:`ForceLimits`."""
+    step, as the rows of :class:`ForceLimits`.
 
-    def __init__(self, stack: Stack, load: Load | None, phi: float | None) -> None:
+    ``weight`` is ``solve_ik``'s ``force_weight`` ``w`` [mm^2] when these residuals are
+    added to another objective (``FN^2 + w |r|^2``, :class:`~stackik.formulation.Problem`);
+    it does not change ``r``. ``objective="force"`` keeps the default 1.
+    """
+
+    def __init__(
+        self, stack: Stack, load: Load | None, phi: float | None, weight: float = 1.0
+    ) -> None:
         super().__init__(stack, load, phi)
         self._scale = 1.0 / force_scales(stack)
+        #: the weight of ``|r|^2`` in the objective it is added to [mm^2]
+        self.weight = float(weight)
 
     def residuals(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """``r`` (6 n,) and ``dr/dq`` (6 n, k n) [unscaled q: mm, rad]; NaN if singular."""

@@ -83,6 +83,7 @@ class Problem:
         load: Load | None = None,
         clearance: float = 0.0,
         obstacles: Any = (),
+        force_weight: float = 0.0,
     ) -> None:
         self.stack = stack
         self.load = load
@@ -116,15 +117,43 @@ class Problem:
         )
         # one statics object serves the limit rows and the force objective (one batch)
         phi = self.mode.phi(target)
-        rows: ForceLimits | None = (
-            ForceResiduals(stack, load, phi) if objective == "force" else None
-        )
+        rows: ForceLimits | None = None
+        if objective == "force":
+            rows = ForceResiduals(stack, load, phi)
+        elif force_weight > 0.0:  # the weighted leg forces added to the objective
+            rows = ForceResiduals(stack, load, phi, weight=force_weight)
         if rows is None and force_limited(stack):
             rows = ForceLimits(stack, load, phi)
         #: the leg-force limit rows (appended after the limits), or None: no finite force_max
         self.forces = rows if force_limited(stack) else None
-        #: objective="force": the scaled leg forces as residuals (stackik.formulation.forces)
+        #: objective="force" or a force_weight: the scaled leg forces as residuals
+        #: (stackik.formulation.forces)
         self.force_residuals = rows if isinstance(rows, ForceResiduals) else None
+
+    @property
+    def force_weight(self) -> float:
+        """``solve_ik``'s ``force_weight`` ``w`` [mm^2]: the objective is ``FN^2 + w sum_ik
+        (f_ik / s_i)^2`` (``s`` = :func:`~stackik.formulation.forces.force_scales`; FN^2 the
+        ``"weighted"`` trace, or 0 for ``"feasible"``); 0 = no force term (and 0 for
+        ``objective="force"``, whose objective is the force term alone)."""
+        fr = self.force_residuals
+        return 0.0 if fr is None or self.objective == "force" else fr.weight
+
+    @property
+    def has_objective(self) -> bool:
+        """Whether the objective is not identically zero (``"feasible"`` without a force
+        weight is)."""
+        return self.objective != "feasible" or self.force_weight > 0.0
+
+    def _weighted_forces(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The force weight's residuals in the scaled objective, ``sqrt(w / fscale) f / s``,
+        and their Jacobian in scaled variables ``u``: stacked under the objective's own
+        residuals (Gauss-Newton form), so that ``f(u) = (FN^2 + w |f / s|^2) / fscale``."""
+        fr = self.force_residuals
+        assert fr is not None
+        r, Jr = fr.residuals(q)
+        c = math.sqrt(fr.weight / self.fscale)
+        return r * c, Jr * self.xs * c
 
     @property
     def planar(self) -> bool:
@@ -203,17 +232,33 @@ class Problem:
         return r * self.rw, Jr * self.rw[:, None]
 
     def gauss_newton(self, u: FloatArray) -> tuple[FloatArray, FloatArray]:
-        if self.objective == "feasible":
+        if not self.has_objective:
             return np.zeros(1), np.zeros((1, u.size))
         gc = self._gn_cache
         if gc is not None and np.array_equal(gc[0], u):
             return gc[1], gc[2]
-        if self.force_residuals is not None:
+        if self.objective == "force":
+            assert self.force_residuals is not None
             r, Jr = self.force_residuals.residuals(self.q_of(u))
             return r, Jr * self.xs
+        if self.force_weight > 0.0:
+            return self._with_force_term(u)[:2]
         r, Jr = self.residuals(self.q_of(u))
         s = 1.0 / math.sqrt(self.fscale)
         return r * s, Jr * self.xs * s
+
+    def _with_force_term(self, u: FloatArray) -> tuple[FloatArray, FloatArray, float]:
+        """A force weight's scaled residuals ``[r_obj; r_force]``, their Jacobian (scaled
+        ``u``) and the constant of the scaled objective, ``f = c + |r|^2``."""
+        q = self.q_of(u)
+        rf, Jf = self._weighted_forces(q)
+        if self.objective == "feasible":
+            return rf, Jf, 0.0
+        r, Jr = self.residuals(q)
+        s = 1.0 / math.sqrt(self.fscale)
+        r = np.concatenate([r * s, rf])
+        Jr = np.vstack([Jr * self.xs * s, Jf])
+        return r, Jr, self.c0 / self.fscale
 
     # --- all functions at once ------------------------------------------------------
     def evaluate(self, u: FloatArray) -> tuple[Any, ...]:
@@ -221,7 +266,6 @@ class Problem:
             return self._cache[1]
         self.nfev += 1
         q = self.q_of(u)
-        n, k = self.n, self.k
         st = self.stack
         spatial_ch: Any = None
         if self.fast is not None:
@@ -272,29 +316,40 @@ class Problem:
             c_f, J_f = self.forces(q)
             cin = np.concatenate([cin, c_f])
             Jin = np.vstack([Jin, J_f * self.xs])
-        if self.objective == "feasible":
-            f, g = 0.0, np.zeros(n * k)
-        elif self.force_residuals is not None:  # |r|^2 of the scaled leg forces
-            r, Jr = self.force_residuals.residuals(q)
-            Jr = Jr * self.xs
-            self._gn_cache = (u.copy(), r, Jr)
-            f, g = float(r @ r), 2.0 * Jr.T @ r
-        else:
-            if self.fast is not None:
-                sc = 1.0 / math.sqrt(self.fscale)
-                r = self._fn_cache[0] * self.rw * sc
-                Jr = self._fn_cache[1] * (self.rw * sc)[:, None] * self.xs
-                self._gn_cache = (u.copy(), r, Jr)
-            else:
-                sc = 1.0 / math.sqrt(self.fscale)
-                r, Jr = spatial_ch
-                r, Jr = r * sc, Jr * self.xs * sc
-                self._gn_cache = (u.copy(), r, Jr)
-            f = float(r @ r) + self.c0 / self.fscale
-            g = 2.0 * Jr.T @ r
+        f, g = self._objective(u, q, spatial_ch)
         out = (f, g, ceq, Jeq, cin, Jin)
         self._cache = (u.copy(), out)
         return out
+
+    def _objective(self, u: FloatArray, q: FloatArray, spatial_ch: Any) -> tuple[float, Any]:
+        """The scaled objective and its gradient at ``u`` (pose ``q``), from the residuals
+        :meth:`evaluate` computed (planar: ``_fn_cache``; spatial: ``spatial_ch``), with a
+        force weight's scaled leg forces stacked under them (:meth:`_weighted_forces`)."""
+        w = self.force_weight
+        if self.objective == "feasible" and w == 0.0:
+            return 0.0, np.zeros(self.n * self.k)
+        if self.objective == "force":  # |r|^2 of the scaled leg forces
+            assert self.force_residuals is not None
+            r, Jr = self.force_residuals.residuals(q)
+            Jr = Jr * self.xs
+            self._gn_cache = (u.copy(), r, Jr)
+            return float(r @ r), 2.0 * Jr.T @ r
+        if self.objective == "feasible":
+            r, Jr, c = np.zeros(0), np.zeros((0, self.n * self.k)), 0.0
+        else:
+            sc = 1.0 / math.sqrt(self.fscale)
+            if self.fast is not None:
+                r = self._fn_cache[0] * self.rw * sc
+                Jr = self._fn_cache[1] * (self.rw * sc)[:, None] * self.xs
+            else:
+                r, Jr = spatial_ch
+                r, Jr = r * sc, Jr * self.xs * sc
+            c = self.c0 / self.fscale
+        if w > 0.0:  # [objective residuals; weighted scaled leg forces]
+            rf, Jf = self._weighted_forces(q)
+            r, Jr = np.concatenate([r, rf]), np.vstack([Jr, Jf])
+        self._gn_cache = (u.copy(), r, Jr)
+        return float(r @ r) + c, 2.0 * Jr.T @ r
 
     def _with_self_legs(
         self, q: FloatArray, cin: FloatArray, Jin: FloatArray
@@ -337,13 +392,20 @@ class Problem:
         return H * np.outer(self.xs, self.xs)  # type: ignore[no-any-return]
 
     def objective_value(self, q: FloatArray) -> float:
-        """Unscaled objective value at q."""
+        """Unscaled objective value at q (with a force weight ``w``: ``FN^2 + w sum_ik
+        (f_ik / s_i)^2``, mm^2)."""
+        w = self.force_weight
+        force = 0.0
+        if w > 0.0:
+            assert self.force_residuals is not None
+            force = w * float(np.sum(self.force_residuals.residuals(q)[0] ** 2))
         if self.objective == "feasible":
-            return 0.0
-        if self.force_residuals is not None:
+            return force
+        if self.objective == "force":
+            assert self.force_residuals is not None
             return float(np.sum(self.force_residuals.residuals(q)[0] ** 2))
         r, _ = self.residuals(q)
-        return float(self.c0 + r @ r)
+        return float(self.c0 + r @ r) + force
 
 
 POLISH_MARGIN = 1e-12  # scaled margin the polish puts violated limits at (>= 0 raw)

@@ -275,6 +275,8 @@ class IPMethod(Method):
     def supports(self, prob: Problem) -> str | None:
         if prob.objective == "force":
             return 'method "ip" does not take objective="force"; use "auto", "slsqp" or "sqp"'
+        if prob.force_weight > 0.0:
+            return 'method "ip" does not take force_weight; use "auto", "slsqp" or "sqp"'
         if prob.planar and prob.objective == "weighted" and np.ptp(prob.w_th) != 0:
             return 'method "ip" needs one sigma_theta for all platforms; use "sqp"'
         return None

@@ -516,6 +516,8 @@ class IpoptMethod(Method):
     def supports(self, prob: Problem) -> str | None:
         if prob.objective == "force":
             return 'method "ipopt" does not take objective="force"; use "auto", "slsqp" or "sqp"'
+        if prob.force_weight > 0.0:
+            return 'method "ipopt" does not take force_weight; use "auto", "slsqp" or "sqp"'
         return None  # run_ipopt reports what it cannot do as an OptionError
 
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:

@@ -101,7 +101,7 @@ def _run_scipy(
         return r.x, int(r.nit), "success" if r.success else str(r.message)
 
     def hess(u: FloatArray) -> FloatArray:
-        if prob.objective == "feasible":
+        if not prob.has_objective:
             return np.zeros((u.size, u.size))
         _, Jr = prob.gauss_newton(u)
         return 2.0 * Jr.T @ Jr  # type: ignore[no-any-return]

@@ -126,7 +126,7 @@ class SQPMethod(Method):
             opts.setdefault("qp_screening", False)
         evaluate: Any = prob.evaluate
         hessian: Any = prob.lagrangian_hessian
-        gauss_newton: Any = None if prob.objective == "feasible" else prob.gauss_newton
+        gauss_newton: Any = prob.gauss_newton if prob.has_objective else None
         lifted: LiftedPlanarNLP | None = None
         x0 = u0
         # exact Hessians: planar (one FN weight) in every formulation, spatial in the

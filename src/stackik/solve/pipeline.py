@@ -7,6 +7,7 @@ independently -> select -> :class:`~stackik.result.IKResult`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from typing import Any, Literal
@@ -20,7 +21,7 @@ from stackik.loads import Load, statics
 from stackik.result import STATUS_MESSAGES, IKResult, IKStatus
 from stackik.solve.blas import BlasLimit
 from stackik.solve.nearest import BEYOND_MESSAGE, stretch_toward
-from stackik.solve.policy import plan_starts
+from stackik.solve.policy import StartPlan, plan_starts
 from stackik.solve.request import Request, build_request
 from stackik.solve.stages import Handover, Verdict, ip_stage, local_stage
 from stackik.solve.warmup import ensure_kernels
@@ -51,6 +52,7 @@ def solve_ik(
     load: Load | None = None,
     obstacles: Any = (),
     clearance: float = 0.0,
+    force_weight: float = 0.0,
 ) -> IKResult:
     """Solve the inverse kinematics of a stack for one target.
 
@@ -59,7 +61,7 @@ def solve_ik(
     stack : Stack
     target : PlanarTarget or SpatialTarget
         Planar mode (3 variables per platform) or spatial mode (6).
-    objective : {"frobenius", "feasible", "weighted"}
+    objective : {"frobenius", "feasible", "weighted", "force"}
         ``"frobenius"`` minimises ``FN^2`` (the paper); ``"feasible"`` only reaches the
         target within the limits (the paper's non-optimised pose: the first feasible pose
         the solver reaches from its start); ``"weighted"`` minimises ``trace(J C_x J^T)``
@@ -137,6 +139,18 @@ def solve_ik(
         solvers keep the legs of each platform ``2 leg_radius + clearance`` apart (axis to
         axis, :mod:`stackik.formulation.clearance`) whenever a leg radius or this margin is
         positive; the check enforces every pair kind of :func:`stackik.clearances`.
+    force_weight : float, optional
+        ``w >= 0`` [mm^2] (default 0: no force term): adds ``w sum_ik (f_ik / s_i)^2`` to
+        the ``"frobenius"``, ``"weighted"`` or ``"feasible"`` objective, with ``f`` the leg
+        forces [N] under ``load`` and ``s_i`` platform i's ``force_max`` where finite, else
+        1 N (the residuals of ``objective="force"``, stacked under the objective's own:
+        :class:`stackik.formulation.forces.ForceResiduals`). FN^2 is in mm^2 (its
+        translation columns are dimensionless, its rotation columns mm per rad), the force
+        ratios are dimensionless, so ``w`` is in mm^2 per unit squared force ratio: the FN^2
+        one would give up to lower the sum of squared force ratios by 1. Methods:
+        ``"slsqp"`` (the ``"auto"`` choice), ``"sqp"``, ``"trust-constr"``; ``"ip"`` and
+        ``"ipopt"`` refuse it. ``objective_value`` is the total; ``frobenius_norm`` stays
+        the pose's FN.
     blas_threads : int or None
         BLAS threads during the solve (default 1: the matrices are small and threads only
         contend, 5x slower at n = 32 on a loaded 2-core machine); None leaves the process
@@ -159,6 +173,7 @@ def solve_ik(
             starts=starts, rng=rng, options=options, sigma_t=sigma_t,
             sigma_theta=sigma_theta, start=start, max_time=max_time, t_start=t_start,
             blas=blas, load=load, obstacles=obstacles, clearance=clearance,
+            force_weight=force_weight,
         )  # fmt: skip
         return _result(req, _run(req))
     finally:
@@ -200,6 +215,8 @@ def _run(req: Request) -> Verdict:
             return Verdict(None, IKStatus.INFEASIBLE, 0, 0, req.method.name)
         return Verdict(run, IKStatus.INFEASIBLE, nit, solves, "ip", BEYOND_MESSAGE)
     plan = plan_starts(req)
+    if req.auto and req.problem.force_weight > 0.0:
+        return _weighted_run(req, plan)
     handover: Handover | None = None
     if req.method.name == "ip":
         out = ip_stage(req, plan)
@@ -209,6 +226,23 @@ def _run(req: Request) -> Verdict:
     return local_stage(req, plan, handover)
 
 
+def _weighted_run(req: Request, plan: StartPlan) -> Verdict:
+    """``"auto"`` with a force weight: the request's default solve without the weight
+    first (the interior point, for "frobenius" and "weighted"), then the force method
+    (:data:`~stackik.solve.policy.FORCE_METHOD`, as for ``objective="force"``) from that
+    pose and from the plan's starts. A small weight then moves the pose a little from the
+    weightless optimum: from the plan's starts alone SLSQP missed its basin (spatial
+    n = 3, ``w = 0.001`` mm^2/N^2: FN 724 against 680 at ``w = 0``)."""
+    first = _run(req.without_force_weight())
+    if first.run is not None and first.status is IKStatus.SUCCESS:
+        plan = dataclasses.replace(
+            plan, queue=[first.run.q, *plan.queue], n_planned=plan.n_planned + 1
+        )
+    out = local_stage(req, plan, None)
+    n_starts = out.n_starts + first.n_starts
+    return dataclasses.replace(out, nit=out.nit + first.nit, n_starts=n_starts)
+
+
 def _result(req: Request, verdict: Verdict) -> IKResult:
     """The :class:`IKResult` of a verdict (the first start when it has no run)."""
     run = verdict.run
@@ -216,9 +250,10 @@ def _result(req: Request, verdict: Verdict) -> IKResult:
     chk = req.problem.check(q) if run is None else run.check
     lifted = None if run is None else run.lifted
     P, R, legs = lifted if lifted is not None else req.mode.lift(req.stack, req.target, q)
+    weighted = req.problem.force_weight > 0.0  # the objective is not FN^2 alone
     frobenius = (
         math.sqrt(run.obj)
-        if run is not None and req.objective == "frobenius"
+        if run is not None and req.objective == "frobenius" and not weighted
         else req.mode.frobenius(q)
     )
     start_method = req.method.name
@@ -230,7 +265,7 @@ def _result(req: Request, verdict: Verdict) -> IKResult:
         message=message,
         frobenius_norm=frobenius,
         objective=req.objective,
-        objective_value=req.problem.objective_value(q) if run is None else run.obj,
+        objective_value=req.problem.objective_value(q) if run is None or weighted else run.obj,
         max_violation=chk.max_violation,
         target_error=chk.position_error,
         angle_error=chk.angle_error,

@@ -66,6 +66,7 @@ def auto_method(
     sigma_theta: ArrayLike | None,
     qp_solver: str | None,
     options: dict[str, Any] | None = None,
+    force_weight: float = 0.0,
 ) -> str:
     """``method="auto"``: the compiled interior-point path where it applies, else SQP.
 
@@ -75,11 +76,16 @@ def auto_method(
     ``"feasible"`` stays with the SQP engine: its poses are the paper's "first feasible
     pose from the start", which a barrier method (drawn to the centre of the feasible
     set) does not reproduce. A given ``qp_solver``, or ``options`` that are not all
-    interior-point options, select the SQP engine.
+    interior-point options, select the SQP engine. ``objective="force"`` and a positive
+    ``force_weight`` take :data:`FORCE_METHOD` (the SQP engine with a ``qp_solver``): no
+    compiled kernel has the leg forces' residuals (with a weight, the pipeline first
+    solves the request without it, :func:`stackik.solve.pipeline._weighted_run`).
     """
     from stackik.methods.ip import IP_DEFAULTS
 
-    if objective == "force":  # the leg forces' residuals: no compiled kernel has them
+    if objective == "force" or force_weight > 0.0:
+        # the leg forces' residuals (the force objective, or a force weight added to
+        # another): no compiled kernel has them
         return "sqp" if qp_solver is not None else FORCE_METHOD
     if objective == "feasible" or qp_solver is not None:
         return "sqp"

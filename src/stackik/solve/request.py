@@ -6,6 +6,8 @@ Bad input gets a ``ValueError`` that names the argument (or an
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -71,6 +73,21 @@ class Request:
         before its clock starts): ``t_start`` moves on by them."""
         self.t_start += ensure_kernels(kind)
 
+    def without_force_weight(self) -> Request:
+        """The same request without its force weight (its objective alone, the method
+        ``"auto"`` picks for it, the same clock, starts and randomness): the pose
+        :func:`stackik.solve_ik` with ``force_weight`` starts from first."""
+        p = self.problem
+        cl = p.clearance
+        prob = Problem(
+            self.stack, self.target, self.objective, self.weights, load=p.load,
+            obstacles=cl.obstacles, clearance=cl.margin,
+        )  # fmt: skip
+        sigma_theta = None if self.weights is None else self.weights[1]  # (its spread only)
+        planar = self.mode.planar
+        name = auto_method(planar, self.objective, sigma_theta, self.qp_solver, self.options)
+        return dataclasses.replace(self, problem=prob, method=get_method(name))
+
     def out_of_time(self) -> bool:
         """Whether the budget is spent (:meth:`time_left` never says so: it keeps 1 ms)."""
         return time.perf_counter() - self.t_start > self.max_time
@@ -123,6 +140,24 @@ def _check_scalars(stack: Any, max_time: Any, objective: Any, starts: Any, start
     return float(max_time)
 
 
+def check_force_weight(force_weight: Any, objective: str) -> float:
+    """``solve_ik``'s ``force_weight`` [mm^2] as a float ``>= 0``; ValueError naming it for
+    a negative, non-finite or non-number value, or a positive one with
+    ``objective="force"`` (whose objective is the force term alone)."""
+    ok = isinstance(force_weight, int | float | np.integer | np.floating)
+    if not ok or isinstance(force_weight, bool):
+        raise ValueError(f"force_weight: expected a number >= 0, got {force_weight!r}")
+    w = float(force_weight)
+    if not (math.isfinite(w) and w >= 0.0):
+        raise ValueError(f"force_weight: expected a finite number >= 0, got {force_weight!r}")
+    if w > 0.0 and objective == "force":
+        raise ValueError(
+            'force_weight: objective="force" already minimises the leg forces; '
+            'add force_weight to "frobenius", "weighted" or "feasible"'
+        )
+    return w
+
+
 def build_request(
     stack: Stack,
     target: Target,
@@ -143,15 +178,19 @@ def build_request(
     load: Load | None = None,
     obstacles: Any = (),
     clearance: float = 0.0,
+    force_weight: float = 0.0,
 ) -> Request:
     """Validate the arguments of :func:`stackik.solve_ik` and formulate the problem."""
     budget = _check_scalars(stack, max_time, objective, starts, start)
+    weight = check_force_weight(force_weight, objective)
     mode = mode_of(target)
     if method != AUTO:
         get_method(method)  # unknown names: ValueError listing the choices
     auto = method == AUTO
     chosen = get_method(
-        auto_method(mode.planar, objective, sigma_theta, qp_solver, options) if auto else method
+        auto_method(mode.planar, objective, sigma_theta, qp_solver, options, weight)
+        if auto
+        else method
     )
     if chosen.uses_blas:
         blas.apply()
@@ -166,8 +205,9 @@ def build_request(
     if load is not None and not isinstance(load, Load):
         raise ValueError(f"load: expected a stackik.Load or None, got {type(load).__name__}")
     prob = Problem(
-        stack, target, objective, weights, load=load, obstacles=obstacles, clearance=clearance
-    )
+        stack, target, objective, weights, load=load, obstacles=obstacles,
+        clearance=clearance, force_weight=weight,
+    )  # fmt: skip
     reason = chosen.supports(prob)
     if reason is not None:
         raise ValueError(reason)
