@@ -319,3 +319,24 @@ def test_ipopt_keeps_legs_clear_of_a_sphere() -> None:
     half = sk.HalfSpace((0.0, 0.0, -30.0), (0.0, 0.0, 1.0))
     r = sk.solve_ik(REF, tp, obstacles=[sphere, half], method="ipopt", starts=1)
     assert r.success and r.clearances is not None and min(r.clearances.obstacles) >= -1e-6
+
+
+def test_pose_screen_is_sound() -> None:
+    """clearances_can_fail with a pose says False only when no obstacle touches it (the
+    exact distances agree), and it does say False for obstacles in reach but away."""
+    from stackik.clearance import clearances_can_fail
+    from stackik.sampling import random_feasible_poses
+
+    rng = np.random.default_rng(12)
+    phi = 0.3
+    said_clear = 0
+    for q in random_feasible_poses(REF, 150, rng=12, phi=phi):
+        ob = sk.Sphere(rng.uniform(-1200, 1200, 3) + [0, 0, 600], float(rng.uniform(5, 200)))
+        if not clearances_can_fail(REF, [ob], 0.0, q, phi):
+            said_clear += 1
+            assert sk.clearances(REF, q, [ob], phi=phi).obstacles[0] > 0
+    assert said_clear > 30
+    t = _targets()[0]
+    q = sk.solve_ik(REF, t).q
+    assert clearances_can_fail(REF, [sk.Sphere((0, 0, 0.0), 10.0)], 0.0)  # in reach
+    assert not clearances_can_fail(REF, [sk.Sphere((1500.0, 0, -300.0), 10.0)], 0.0, q)

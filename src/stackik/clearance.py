@@ -559,21 +559,38 @@ def needs_clearances(
 
 
 def clearances_can_fail(
-    stack: Stack, obstacles: Sequence[Obstacle] = (), clearance: float = 0.0
+    stack: Stack,
+    obstacles: Sequence[Obstacle] = (),
+    clearance: float = 0.0,
+    q: ArrayLike | None = None,
+    phi: float | None = None,
 ) -> bool:
     """Whether some pose within the leg limits can fail a clearance: :func:`needs_clearances`
     except that obstacles out of reach of every pose do not count (a solver that checks
     limits and target apart need not measure them for its verdict).
 
     Out of reach: the obstacle's signed distance from the base origin exceeds
-    :func:`body_reach`."""
+    :func:`body_reach`. With a pose ``q`` (``phi`` for a planar one), only the obstacles
+    that can touch that pose count: those within the radius, about the centroid of its
+    joints, of the ball that holds every joint (hence every leg and plate: convex hulls of
+    joints)."""
     if clearance > 0.0 or bool(stack.derived("clearance_bodies", _has_bodies)):
         return True
     if not obstacles:
         return False
     reach = body_reach(stack)
     origin = np.zeros(3)
-    return any(bool(ob.point_distance(origin) <= reach) for ob in obstacles)
+    near = [ob for ob in obstacles if bool(ob.point_distance(origin) <= reach)]
+    if not near or q is None:
+        return bool(near)
+    A, O = plate_frames(stack, q, phi)
+    joints = np.concatenate(
+        [(O[:-1, None] + np.einsum("iab,ikb->ika", A[:-1], stack.base_nodes)).reshape(-1, 3),
+         (O[1:, None] + np.einsum("iab,ikb->ika", A[1:], stack.top_nodes)).reshape(-1, 3)]
+    )  # fmt: skip
+    c = joints.mean(axis=0)
+    r = float(np.linalg.norm(joints - c, axis=1).max())
+    return any(bool(ob.point_distance(c) <= r) for ob in near)
 
 
 def body_reach(stack: Stack) -> float:

@@ -235,7 +235,10 @@ def ip_starts(
             chk, P, R, legs = planar_check(prob.stack, prob.target, q)
             cl = prob.clearance
             if chk.ok and (
-                clearances_can_fail(prob.stack, cl.obstacles, cl.margin) or prob.forces is not None
+                prob.forces is not None
+                or clearances_can_fail(
+                    prob.stack, cl.obstacles, cl.margin, q, prob.mode.phi(prob.target)
+                )
             ):
                 # bodies with a size, obstacles, a margin or a force limit: the twin checks
                 # none of them

@@ -147,8 +147,9 @@ class Tracker:
         from stackik.clearance import clearances_can_fail
         from stackik.formulation.forces import force_limited
 
+        phi = getattr(target, "phi", None) if self.planar else None
         can_fail = force_limited(self.stack) or clearances_can_fail(
-            self.stack, self.obstacles, self.clearance
+            self.stack, self.obstacles, self.clearance, q, phi
         )
         if not can_fail:
             return True
