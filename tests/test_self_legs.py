@@ -111,3 +111,53 @@ def test_problem_carries_self_leg_rows():
 
     num = central(rows, u, typical=1.0)
     assert_derivative_close(Jin[72:], num, f_scale=4.0, what="Problem self-leg rows")
+
+
+@pytest.mark.derivatives
+@pytest.mark.parametrize("seed", range(4))
+def test_planar_self_leg_rows_fd_and_values(seed):
+    """Planar poses: the rows' Jacobian against central differences, and their values
+    against stackik.clearance's own axis distances."""
+    import stackik as sk
+    from stackik._compiled.self_legs import planar_self_leg_block
+    from stackik.clearance import clearances
+    from stackik.sampling import random_feasible_poses
+
+    stack = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 3)
+    phi = 0.3 + seed
+    q = random_feasible_poses(stack, 1, rng=seed, phi=phi)[0]
+    base, top = np.asarray(stack.base_nodes), np.asarray(stack.top_nodes)
+    rho, scale = np.full(3, 24.0), np.asarray(stack.leg_max) ** 2
+
+    def rows(x):
+        return planar_self_leg_block(x.reshape(3, 3), phi, base, top, PAIRS, rho, scale)[0].ravel()
+
+    c, J = planar_self_leg_block(q, phi, base, top, PAIRS, rho, scale)
+    num = central(rows, q.ravel(), typical=[100, 100, 1] * 3)
+    ana = np.zeros((3, 15, 3, 3))
+    for i in range(3):
+        ana[i, :, i, :] = J[i]
+    assert_derivative_close(ana.reshape(45, 9), num, f_scale=4.0, what="planar self-leg rows")
+    d = np.sqrt(c * scale[:, None] + 24.0**2).min(axis=1) - 24.0
+    assert np.allclose(d, clearances(stack, q, phi=phi).self_legs_by_platform, atol=1e-9)
+
+
+def test_planar_problem_carries_self_leg_rows():
+    """Thick legs on planar targets: the planar problem carries the self-leg rows (outside
+    the planar kernels: dense rows, so SLSQP and the SQP engine see them), in Problem's
+    order (limits, then self legs), and a solve never calls a colliding pose a success
+    (30 mm legs: adjacent platforms' legs, which no solver constrains, collide here)."""
+    import stackik as sk
+    from stackik.formulation import Problem
+
+    stack = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=30.0), 4)
+    t = sk.PlanarTarget(600.0, 1000.0, -1.57)
+    prob = Problem(stack, t, "frobenius", None)
+    assert prob.self_legs is not None and prob.dense_rows and prob.n_ineq == 96 + 60
+    q = sk.solve_ik(sk.Stack.reference(4), t).q
+    cin = prob.evaluate(prob.u_of(q))[4]
+    d = np.sqrt(cin[96:].reshape(4, 15) * prob.self_legs.scale[:, None] + 60.0**2)
+    by = sk.clearances(stack, q, phi=t.phi).self_legs_by_platform
+    assert np.allclose(d.min(axis=1) - 60.0, by, atol=1e-9)
+    r = sk.solve_ik(stack, t, method="slsqp", starts=3)
+    assert not r.success or (r.clearances is not None and r.clearances.minimum >= -1e-6)

@@ -293,3 +293,59 @@ def self_leg_hessians(
     for i in range(n):
         out[i] = self_leg_hessian(q[i], base[i], top[i], pairs, scale[i], y[i])
     return out
+
+
+@_jit
+def planar_self_leg_block(
+    q: FloatArray,
+    phi: float,
+    base: FloatArray,
+    top: FloatArray,
+    pairs: IntArray,
+    rho: FloatArray,
+    scale: FloatArray,
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`self_leg_block` for planar poses ``q`` (n, 3) = ``[rho, z, theta]`` in the
+    plane ``phi``: platform i's top is ``p = (rho cos phi, rho sin phi, z)`` rotated by
+    ``theta`` about ``s = (sin phi, -cos phi, 0)``, so ``dT / d rho = (cos phi, sin phi,
+    0)``, ``dT / dz = e_z`` and ``dT / d theta = s x (R u)``; ``J`` is (n, m, 3)."""
+    n = q.shape[0]
+    m = pairs.shape[0]
+    c = np.empty((n, m))
+    J = np.empty((n, m, 3))
+    cf, sf = math.cos(phi), math.sin(phi)
+    s = np.array([sf, -cf, 0.0])
+    K = np.array([[0.0, 0.0, -cf], [0.0, 0.0, -sf], [cf, sf, 0.0]])  # [s]x
+    L = np.empty((6, 3))
+    dth = np.empty((6, 3))
+    r = np.empty(3)
+    g = np.empty(3)
+    for i in range(n):
+        ct, st = math.cos(q[i, 2]), math.sin(q[i, 2])
+        R = ct * np.eye(3) + st * K + (1.0 - ct) * np.outer(s, s)
+        p = np.array([q[i, 0] * cf, q[i, 0] * sf, q[i, 1]])
+        for k in range(6):
+            ru = R @ top[i, k]
+            for x in range(3):
+                L[k, x] = p[x] + ru[x] - base[i, k, x]
+            dth[k, 0] = s[1] * ru[2] - s[2] * ru[1]
+            dth[k, 1] = s[2] * ru[0] - s[0] * ru[2]
+            dth[k, 2] = s[0] * ru[1] - s[1] * ru[0]
+        for pr in range(m):
+            k, l = pairs[pr, 0], pairs[pr, 1]
+            for x in range(3):
+                r[x] = base[i, k, x] - base[i, l, x]
+            sk, tl = _closest(L[k], L[l], r)
+            gg = 0.0
+            for x in range(3):
+                g[x] = r[x] + sk * L[k, x] - tl * L[l, x]
+                gg += g[x] * g[x]
+            c[i, pr] = (gg - rho[i] * rho[i]) / scale[i]
+            a = 2.0 * (sk - tl) / scale[i]  # d(d^2)/dp: 2 (s - t) g
+            J[i, pr, 0] = a * (g[0] * cf + g[1] * sf)
+            J[i, pr, 1] = a * g[2]
+            J[i, pr, 2] = (
+                2.0 * sk * (g[0] * dth[k, 0] + g[1] * dth[k, 1] + g[2] * dth[k, 2])
+                - 2.0 * tl * (g[0] * dth[l, 0] + g[1] * dth[l, 1] + g[2] * dth[l, 2])
+            ) / scale[i]
+    return c, J

@@ -68,11 +68,11 @@ class SelfLegs:
         return int(self.pairs.shape[0])
 
 
-def self_legs_of(stack: Stack, clearance: float, planar: bool) -> SelfLegs | None:
-    """The self-leg rows of a problem on ``stack``, or None when it has none (planar, or
-    zero leg radii with ``clearance`` 0 [mm])."""
-    if planar:
-        return None
+def self_legs_of(stack: Stack, clearance: float) -> SelfLegs | None:
+    """The self-leg rows of a problem on ``stack``, or None when it has none (zero leg radii
+    with ``clearance`` 0 [mm]). Planar problems have them too (as rows outside the planar
+    kernels: :class:`stackik.formulation.Problem` appends them, the interior point hands a
+    pose that fails only on them over, as for the obstacle rows)."""
     radius = np.array([g.leg_radius for g in stack], dtype=float)
     if not (radius.max() > 0.0 or clearance > 0.0):
         return None
@@ -122,6 +122,4 @@ def clearance_of(
     rows = None
     if obs and not (planar and phi is None):
         rows = obstacle_rows(stack, obs, m, phi if planar else None)
-    return Clearance(
-        margin=m, obstacles=obs, self_legs=self_legs_of(stack, m, planar), obstacle_rows=rows
-    )
+    return Clearance(margin=m, obstacles=obs, self_legs=self_legs_of(stack, m), obstacle_rows=rows)

@@ -177,9 +177,13 @@ class Problem:
 
     @property
     def dense_rows(self) -> bool:
-        """Whether the problem has rows outside the compiled kernels, dense in the pose and
-        without second derivatives: leg-force limits or obstacle rows."""
-        return self.forces is not None or self.clearance.obstacle_rows is not None
+        """Whether the problem has rows outside the compiled kernels, without second
+        derivatives: leg-force limits, obstacle rows, planar self-leg rows."""
+        return (
+            self.forces is not None
+            or self.clearance.obstacle_rows is not None
+            or (self.planar and self.self_legs is not None)
+        )
 
     @property
     def n_ineq(self) -> int:
@@ -276,6 +280,8 @@ class Problem:
             ceq = (y - tgt.y) * self.es
             Jeq = Jy * self.es[:, None] * self.xs
             cin, Jin = self.fast(q)  # scaled (set_scaling in __init__)
+            if self.self_legs is not None:
+                cin, Jin = self._with_self_legs(q, cin, Jin)
             if self.clearance.obstacle_rows is not None:
                 c_o, J_o = self.clearance.obstacle_rows(q)
                 cin = np.concatenate([cin, c_o])
@@ -355,19 +361,18 @@ class Problem:
         self, q: FloatArray, cin: FloatArray, Jin: FloatArray
     ) -> tuple[FloatArray, FloatArray]:
         """``cin``, ``Jin`` with the self-leg rows appended (platform-major, scaled)."""
-        from stackik._compiled.self_legs import self_leg_block
+        from stackik._compiled.self_legs import planar_self_leg_block, self_leg_block
 
         sl = self.self_legs
         assert sl is not None
         st = self.stack
-        c, J = self_leg_block(
-            np.ascontiguousarray(q),
-            readonly(st.base_nodes),
-            readonly(st.top_nodes),
-            sl.pairs,
-            sl.rho,
-            sl.scale,
-        )
+        geo = (readonly(st.base_nodes), readonly(st.top_nodes), sl.pairs, sl.rho, sl.scale)
+        qc = np.ascontiguousarray(q, dtype=float)
+        phi = self.mode.phi(self.target)
+        if phi is not None:  # planar
+            c, J = planar_self_leg_block(qc, float(phi), *geo)
+        else:
+            c, J = self_leg_block(qc, *geo)
         n, m, k = self.n, sl.m, self.k
         Js = np.zeros((n * m, n * k))
         for i in range(n):

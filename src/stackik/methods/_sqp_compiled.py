@@ -65,7 +65,7 @@ class CompiledNLP:
         n, k = prob.n, prob.k
         self.n, self.k = n, k
         # rows a platform: the 24 limits, then (spatial) its self-leg rows
-        R = 24 if prob.self_legs is None else 24 + prob.self_legs.m
+        R = 24 if prob.self_legs is None or prob.planar else 24 + prob.self_legs.m
         self.R = R
         cols = np.arange(k * n)
         # int32 like ReducedPlanarNLP's pattern (what scipy picks for this size)

@@ -254,7 +254,10 @@ def ip_starts(
         if chk.ok:
             return IPBatch(run, least, total, statuses, bound)
         # obstacle rows: a pose through an obstacle is a start for the engine that has them
-        clear = chk.clearance_violation if prob.clearance.obstacle_rows is None else 0.0
+        outside = prob.clearance.obstacle_rows is not None or (
+            prob.planar and prob.self_legs is not None
+        )
+        clear = 0.0 if outside else chk.clearance_violation
         if prob.dense_rows and pose_ok(
             chk.position_error, chk.angle_error, max(chk.max_violation_mm, clear), True
         ):

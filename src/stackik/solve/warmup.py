@@ -174,11 +174,11 @@ def _warm(kind: str) -> None:
     # the obstacle rows Problem appends (a sphere within reach)
     near = Sphere(np.array([0.0, 0.0, 300.0]), 10.0)
     Problem(prob.stack, prob.target, "frobenius", None, obstacles=[near]).evaluate(prob.u_of(q0))
-    if not planar:  # the self-leg rows Problem appends for legs with a radius
-        from stackik.geometry import PlatformGeometry, Stack
+    # the self-leg rows Problem appends for legs with a radius
+    from stackik.geometry import PlatformGeometry, Stack
 
-        fat = Stack.uniform(PlatformGeometry.hexagonal(leg_radius=1.0), prob.n)
-        Problem(fat, prob.target, "frobenius", None).evaluate(prob.u_of(q0))
+    fat = Stack.uniform(PlatformGeometry.hexagonal(leg_radius=1.0), prob.n)
+    Problem(fat, prob.target, "frobenius", None).evaluate(prob.u_of(q0))
 
 
 class _Progress:
