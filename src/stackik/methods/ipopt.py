@@ -11,12 +11,14 @@ Spatial mode: ``R_i = Rz(yaw) Ry(pitch) Rx(roll)``, the chain ``O_{i+1} = O_i + 
 weighted squared position derivatives ``w_a x (P_ee - O_{i+1})`` of every angle column);
 the 24 limits per platform with :class:`Problem`'s scaling, then (when the problem carries
 them, ``prob.self_legs``) the self-leg rows of :mod:`stackik._compiled.self_legs` written
-symbolically (:func:`_self_leg_rows`). The orientation equality is
-the skew part ``vee(E - E^T) / 2 = sin(angle) axis`` of ``E = R_target^T R_ee``: smooth
-everywhere (the rotation vector's ``acos`` is not differentiable at the solution), equal to
-the rotation vector to third order at ``E = I``, so first and second derivatives agree
-there and the KKT points with ``E = I`` are the same. Its spurious zeros (half turns,
-``trace E = -1``) fail the independent check like any other bad pose.
+symbolically (:func:`_self_leg_rows`), and (``prob.clearance.obstacle_rows``, planar too) the
+obstacle rows of :mod:`stackik.formulation.obstacle_rows` (:func:`_obstacle_rows`). The
+orientation equality is the skew part ``vee(E - E^T) / 2 = sin(angle) axis`` of
+``E = R_target^T R_ee``: smooth everywhere (the rotation vector's ``acos`` is not
+differentiable at the solution), equal to the rotation vector to third order at
+``E = I``, so first and second derivatives agree there and the KKT points with ``E = I``
+are the same. Its spurious zeros (half turns, ``trace E = -1``) fail the independent check
+like any other bad pose.
 """
 
 from __future__ import annotations
@@ -177,6 +179,42 @@ def _self_leg_rows(
     return rows
 
 
+def _obstacle_rows(
+    ca: Any, stack: Stack, Os: list[Any], As: list[Any], obstacles: Any
+) -> list[Any]:
+    """The obstacle rows of :mod:`stackik.formulation.obstacle_rows` written symbolically
+    (lower bound 0), ``Os``, ``As`` the plate frames j = 0..n (world, symbolic) and
+    ``obstacles = (obstacles with rows, margin)``: per sphere or capsule and leg
+    ``(|P - Q|^2 - (R + r + m)^2) / L^2`` at the closest points of the leg's axis and the
+    obstacle's (:func:`_closest_params`), per half-space and leg both joints
+    ``(u . (X - p) - r - m) / L``."""
+    from stackik.obstacles import Capsule, HalfSpace, Sphere
+
+    obs, margin = obstacles
+    n = stack.n
+    L = float(stack.leg_max.max())
+    B = [Os[i] + As[i] @ stack.base_nodes[i, k] for i in range(n) for k in range(6)]
+    T = [Os[i + 1] + As[i + 1] @ stack.top_nodes[i, k] for i in range(n) for k in range(6)]
+    r = [float(g.leg_radius) for g in stack for _ in range(6)]
+    rows: list[Any] = []
+    for ob in obs:
+        if isinstance(ob, HalfSpace):
+            u = np.asarray(ob.normal, float) / np.linalg.norm(ob.normal)
+            pt = np.asarray(ob.point, float)
+            for X in (B, T):
+                rows += [(ca.dot(u, X[j] - pt) - r[j] - margin) / L for j in range(6 * n)]
+            continue
+        assert isinstance(ob, (Sphere, Capsule))
+        a, b = (ob.center, ob.center) if isinstance(ob, Sphere) else (ob.a, ob.b)
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        for j in range(6 * n):
+            s, t = _closest_params(ca, B[j], T[j], a, b)
+            g = B[j] + s * (T[j] - B[j]) - a - t * (b - a)
+            rho = ob.radius + r[j] + margin
+            rows.append((ca.dot(g, g) - rho * rho) / L**2)
+    return rows
+
+
 def _euler_sx(ca: Any, ang: Any) -> tuple[Any, Any]:
     """``Rz`` and ``R = Rz Ry Rx`` (symbolic) of the angles ``ang`` (yaw, pitch, roll)."""
 
@@ -209,6 +247,23 @@ def self_leg_function(base: Any, top: Any, rho: Any, scale: Any, pairs: Any) -> 
     return ca.Function("self_legs", [q], [ca.vertcat(*out)])
 
 
+def obstacle_function(stack: Stack, obstacles: Any, margin: float) -> Any:
+    """A CasADi function of the raw spatial pose ``q`` (6 n,) [mm, rad] to the obstacle
+    rows the IPOPT solver carries (:func:`_obstacle_rows`; ``obstacles`` those with rows),
+    in the order of :class:`stackik.formulation.obstacle_rows.ObstacleRows`."""
+    ca = _casadi()
+    n = stack.n
+    q = ca.SX.sym("q", 6 * n)
+    Os: list[Any] = [ca.SX.zeros(3, 1)]
+    As: list[Any] = [ca.SX.eye(3)]
+    for i in range(n):
+        _, R = _euler_sx(ca, q[6 * i + 3 : 6 * i + 6])
+        Os.append(Os[-1] + As[-1] @ q[6 * i : 6 * i + 3])
+        As.append(As[-1] @ R)
+    rows = _obstacle_rows(ca, stack, Os, As, (tuple(obstacles), float(margin)))
+    return ca.Function("obstacle_rows", [q], [ca.vertcat(*rows)])
+
+
 @lru_cache(maxsize=32)
 def _solver(
     stack: Stack,
@@ -217,7 +272,11 @@ def _solver(
     xs: tuple[float, ...],
     user: tuple[tuple[str, Any], ...] = (),
     load: Any = None,
+    obstacles: Any = None,
 ) -> Any:
+    """IPOPT for the scaled planar problem in the plane ``phi`` (with ``load``: the lifted
+    leg forces; with ``obstacles = (obstacles with rows, margin)``: the obstacle rows after
+    the limits); parameter ``p``: the target ``(rho, z, theta)``."""
     ca = _casadi()
     n = stack.n
     L = float(stack.leg_max.max())
@@ -263,7 +322,8 @@ def _solver(
         g_in += rows[0] + rows[1] + rows[2] + rows[3]
     sf, m = _lift_forces(ca, stack, load)
     g_f: list[Any] = []
-    if sf is not None:  # the plates' frames in 3D: O_j = O_{j-1} + A_{j-1} P_j
+    g_ob: list[Any] = []
+    if sf is not None or obstacles is not None:  # the plates' frames in 3D
         axis = plane_axis(phi)
         K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
         Os: list[Any] = [ca.SX.zeros(3, 1)]
@@ -274,12 +334,15 @@ def _solver(
             Ri = Ri + (1 - ca.cos(th[i])) * np.outer(axis, axis)
             Os.append(Os[-1] + As[-1] @ Pi)
             As.append(As[-1] @ Ri)
-        g_f = _force_equilibrium(ca, stack, load, Os, As, sf)
-    g = ca.vertcat(g_eq, *g_f, *g_in)
+        if sf is not None:
+            g_f = _force_equilibrium(ca, stack, load, Os, As, sf)
+        if obstacles is not None:
+            g_ob = _obstacle_rows(ca, stack, Os, As, obstacles)
+    g = ca.vertcat(g_eq, *g_f, *g_in, *g_ob)
     nlp = {"x": u if sf is None else ca.vertcat(u, sf), "p": p, "f": f, "g": g}
     solver = _nlpsol(ca, "stackik_ipopt", nlp, user)
-    lbg = np.concatenate([np.zeros(3 + m), np.zeros(24 * n)])
-    ubg = np.concatenate([np.zeros(3 + m), np.full(24 * n, np.inf)])
+    lbg = np.concatenate([np.zeros(3 + m), np.zeros(24 * n + len(g_ob))])
+    ubg = np.concatenate([np.zeros(3 + m), np.full(24 * n + len(g_ob), np.inf)])
     return solver, lbg, ubg
 
 
@@ -307,10 +370,12 @@ def _spatial_solver(
     load: Any = None,
     self_legs: tuple[tuple[tuple[int, int], ...], tuple[float, ...], tuple[float, ...]]
     | None = None,
+    obstacles: Any = None,
 ) -> Any:
     """IPOPT for the scaled spatial problem (with ``load``: the lifted leg forces of
     :func:`_force_equilibrium`, appended to the variables; with ``self_legs = (pairs, rho,
-    scale)``: the self-leg rows after the limits); parameters ``p = (P_target (3),
+    scale)``: the self-leg rows after the limits; with ``obstacles = (obstacles with rows,
+    margin)``: the obstacle rows of :func:`_obstacle_rows` last); parameters ``p = (P_target (3),
     R_target.ravel() (9), per-platform angle weights w_th (n), c0, fscale)``."""
     ca = _casadi()
     n = stack.n
@@ -375,6 +440,8 @@ def _spatial_solver(
     sf, m = _lift_forces(ca, stack, load)
     g_f = [] if sf is None else _force_equilibrium(ca, stack, load, Os, As, sf)
     x_all = u if sf is None else ca.vertcat(u, sf)
+    g_ob = [] if obstacles is None else _obstacle_rows(ca, stack, Os, As, obstacles)
+    g_sl = g_sl + g_ob
     nlp = {"x": x_all, "p": p, "f": f, "g": ca.vertcat(g_eq, *g_f, *g_in, *g_sl)}
     solver = _nlpsol(ca, "stackik_ipopt_spatial", nlp, user)
     lbg = np.zeros(6 + m + 24 * n + len(g_sl))
@@ -405,9 +472,11 @@ def run_ipopt(
     except TypeError:
         raise OptionError("options: IPOPT option values must be numbers or strings") from None
     load = None if prob.forces is None else prob.forces.load
+    rows = prob.clearance.obstacle_rows
+    obstacles = None if rows is None else (tuple(rows.obstacles), float(rows.margin))
     if isinstance(target, PlanarTarget):
         solver, lbg, ubg = _solver(
-            prob.stack, target.phi, prob.objective, tuple(prob.xs), key, load
+            prob.stack, target.phi, prob.objective, tuple(prob.xs), key, load, obstacles
         )
         par = target.y
     else:
@@ -418,7 +487,7 @@ def run_ipopt(
             pairs = tuple((int(a), int(b)) for a, b in sl.pairs)
             legs = (pairs, tuple(map(float, sl.rho)), tuple(map(float, sl.scale)))
         solver, lbg, ubg = _spatial_solver(
-            prob.stack, prob.objective, tuple(prob.xs), key, load, legs
+            prob.stack, prob.objective, tuple(prob.xs), key, load, legs, obstacles
         )
         par = np.concatenate(
             [
