@@ -15,8 +15,6 @@ from stackik.formulation.obstacle_rows import ObstacleRows
 from stackik.methods.ipopt import obstacle_function
 from stackik.sampling import random_planar_targets, random_spatial_targets
 
-pytest.importorskip("casadi")
-
 
 def _leg_midpoint(stack, q, phi, k):
     from stackik.clearance import plate_frames
