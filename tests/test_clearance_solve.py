@@ -77,7 +77,9 @@ def test_zero_radius_problem_has_no_rows() -> None:
     assert spatial_problem_arrays(prob).pairs.shape == (0, 2)
     assert Problem(REF, t, "frobenius", None, clearance=1.0).self_legs is not None
     planar = Problem(FAT, sk.PlanarTarget(100.0, 500.0, 0.0), "frobenius", None)
-    assert planar.self_legs is None  # planar legs: checked, not constrained
+    assert planar.self_legs is not None and planar.dense_rows  # outside the planar kernels
+    thin = Problem(REF, sk.PlanarTarget(100.0, 500.0, 0.0), "frobenius", None)
+    assert thin.self_legs is None and not thin.dense_rows
 
 
 @pytest.mark.parametrize("method", ["auto", "sqp", "slsqp"])

@@ -182,20 +182,44 @@ def _self_leg_rows(
 def obstacle_key(prob: Problem) -> Any:
     """The obstacle rows of ``prob`` as plain data (a solver cache key): ``(margin,
     (("seg", a, b, R) | ("half", point, unit normal), ...))``, or None without rows."""
-    from stackik.obstacles import HalfSpace, Sphere
 
     rows = prob.clearance.obstacle_rows
     if rows is None:
         return None
+    return _obstacle_specs(rows.obstacles, rows.margin)
+
+
+def _obstacle_specs(obstacles: Any, margin: float) -> Any:
+    """:func:`obstacle_key` of ``obstacles`` (spheres, capsules, half-spaces) and ``margin``."""
+    from stackik.obstacles import HalfSpace, Sphere
+
     out: list[Any] = []
-    for ob in rows.obstacles:
+    for ob in obstacles:
         if isinstance(ob, HalfSpace):
             u = np.asarray(ob.normal, float) / np.linalg.norm(ob.normal)
             out.append(("half", tuple(map(float, ob.point)), tuple(map(float, u))))
         else:
             a, b = (ob.center, ob.center) if isinstance(ob, Sphere) else (ob.a, ob.b)
             out.append(("seg", tuple(map(float, a)), tuple(map(float, b)), float(ob.radius)))
-    return (float(rows.margin), tuple(out))
+    return (float(margin), tuple(out))
+
+
+def obstacle_function(stack: Stack, obstacles: Any, margin: float) -> Any:
+    """A CasADi function of the raw spatial pose ``q`` (6 n,) [mm, rad] to the obstacle
+    rows the IPOPT solver carries (:func:`_obstacle_rows`; ``obstacles`` those with rows),
+    in the order of :class:`stackik.formulation.obstacle_rows.ObstacleRows` (for the
+    tests)."""
+    ca = _casadi()
+    n = stack.n
+    q = ca.SX.sym("q", 6 * n)
+    Os: list[Any] = [ca.SX.zeros(3, 1)]
+    As: list[Any] = [ca.SX.eye(3)]
+    for i in range(n):
+        _, R = _euler_sx(ca, q[6 * i + 3 : 6 * i + 6])
+        Os.append(Os[-1] + As[-1] @ q[6 * i : 6 * i + 3])
+        As.append(As[-1] @ R)
+    rows = _obstacle_rows(ca, stack, Os, As, _obstacle_specs(obstacles, margin))
+    return ca.Function("obstacle_rows", [q], [ca.vertcat(*rows)])
 
 
 def _obstacle_rows(ca: Any, stack: Stack, Os: list[Any], As: list[Any], key: Any) -> list[Any]:

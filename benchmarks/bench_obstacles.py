@@ -1,0 +1,408 @@
+"""Obstacles: least-FN IK with a sphere or a truss member across a leg of the
+obstacle-free optimum, against IPOPT with the same obstacle rows (docs/clearance.md,
+issue 29).
+
+Run: ``python benchmarks/bench_obstacles.py [--count 12] [--seed 2950] [--ref-starts 32]
+[--cases spatial4_sphere,spatial4_truss,planar4_sphere] [--out benchmarks/results]``;
+writes ``obstacle_bench.{csv,json,md}``.
+
+Targets. On ``Stack.reference(4)`` (legs of zero radius, plates of zero thickness), target
+k (k = 0 .. count - 1) is drawn with ``rng = seed + k`` (spatial:
+:func:`stackik.sampling.random_spatial_targets`; planar:
+:func:`stackik.sampling.random_planar_targets` in the plane ``phi = 2 pi k / count``) and
+solved without obstacles by the default ``solve_ik`` (timed: the obstacle-free reference;
+a target whose obstacle-free solve fails is skipped, and counted). The obstacle is placed
+on leg ``k mod 6`` of platform 2 (0-based 1) of that optimum, at the midpoint ``m`` of its
+axis:
+
+* ``*_sphere``: ``Sphere(m, 15)``;
+* ``spatial4_truss``: ``Capsule(m - 300 d, m + 300 d, 10)``, ``d`` the unit vector
+  ``u x e_z`` (``u`` the leg's direction: perpendicular to the leg and horizontal), or
+  ``u x e_x`` if the leg is within 1e-6 of vertical.
+
+So the obstacle-free optimum collides by construction (the table counts how often, by this
+file's re-check). Plates are not in the solvers' rows (the check refuses a pose whose plate
+meets the obstacle): with the obstacle on a leg's midpoint the plates stay clear of it.
+
+Per target, with the obstacle: the default ``solve_ik`` (timed), ``method="slsqp"``,
+IPOPT from 1 and from 8 starts (``method="ipopt", starts=1/8``; the obstacle rows written
+in CasADi) and IPOPT from ``--ref-starts`` starts (rng ``1000 + k``). Warm-up: per case,
+every method solves once, untimed, a target of another seed with its own obstacle (kernels
+loaded); and IPOPT builds a CasADi solver per stack and obstacle set (and plane, planar):
+before the timed IPOPT runs of a target, one untimed IPOPT solve of that target with the
+same obstacle builds it, so the IPOPT times exclude the symbolic set-up (none subtracted).
+The best known FN is the least over every success of the row that passes the re-check.
+
+Re-check. Every pose called a success is re-checked in this file, not by stackik's
+clearance code: target and limits by ``check_pose`` on the stack without obstacles, and the
+obstacle by exact distances written here: each leg axis segment against the sphere's
+centre (point-segment) or the capsule's axis (segment-segment,
+:func:`bench_clearance.segment_distance`), and each plate except the base (the convex
+polygon of its nodes in its plane: the top nodes of platform j and the base nodes of
+platform j + 1) against the centre (exact point-polygon: the height when the centre
+projects inside, else the distance to the nearest edge) or the axis (exact
+segment-polygon: 0 when the segment crosses the polygon, else the least of the endpoints'
+heights where they project inside and the distances to the edges). A success closer than
+``radius - 1e-6`` mm or with a failed check is a **false success**.
+
+Columns: success rate, false successes, share within 0.5 % of the best known FN, median
+time, speed-up against IPOPT-8 (median of per-target ratios ``t_ipopt8 / t``, same run)
+and time against the obstacle-free default solve (median of per-target ratios ``t / t0``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from stackik import Capsule, Sphere, Stack, check_pose, solve_ik
+from stackik.bench import machine_info
+from stackik.kinematics import lift_planar
+from stackik.obstacles import Obstacle
+from stackik.rotations import euler_zyx
+from stackik.sampling import random_planar_targets, random_spatial_targets
+from stackik.targets import PlanarTarget
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_clearance import segment_distance  # noqa: E402
+
+CASES = {
+    "spatial4_sphere": (False, "sphere"),
+    "spatial4_truss": (False, "truss"),
+    "planar4_sphere": (True, "sphere"),
+}
+N = 4
+PLATFORM = 1  # 0-based: the obstacle sits on a leg of platform 2
+SPHERE_R, TRUSS_R, TRUSS_LEN = 15.0, 10.0, 600.0  # [mm]
+WITHIN = 5e-3  # "best known" within 0.5 %
+TOL = 1e-6  # [mm] a success closer than radius - TOL is false
+LABELS = ("default", "slsqp", "ipopt1", "ipopt8", "ipopt_ref")
+
+
+# ---------------------------------------------------------------------------------------
+# exact distances, written apart from stackik.distance / stackik.clearance
+# ---------------------------------------------------------------------------------------
+def frames(stack: Stack, q: np.ndarray, phi: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """Plate rotations A (n + 1, 3, 3) and origins O (n + 1, 3) [mm] in the base frame."""
+    q = np.asarray(q, float)
+    P, R = (q[:, :3], euler_zyx(q[:, 3:])) if phi is None else lift_planar(q, phi)
+    A = np.empty((stack.n + 1, 3, 3))
+    O = np.zeros((stack.n + 1, 3))
+    A[0] = np.eye(3)
+    for i in range(stack.n):
+        O[i + 1] = O[i] + A[i] @ P[i]
+        A[i + 1] = A[i] @ R[i]
+    return A, O
+
+
+def legs(stack: Stack, A: np.ndarray, O: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Base and top joints (n, 6, 3) [mm] of every leg."""
+    B = O[:-1, None, :] + np.einsum("iab,ikb->ika", A[:-1], stack.base_nodes)
+    T = O[1:, None, :] + np.einsum("iab,ikb->ika", A[1:], stack.top_nodes)
+    return B, T
+
+
+def _point_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    d = b - a
+    dd = float(d @ d)
+    t = 0.0 if dd == 0.0 else min(1.0, max(0.0, float((p - a) @ d) / dd))
+    return float(np.linalg.norm(p - (a + t * d)))
+
+
+def _hull(pts: np.ndarray) -> np.ndarray:
+    """Convex hull (counter-clockwise, monotone chain) of 2D points (m, 2)."""
+    P = sorted(map(tuple, pts))
+
+    def half(seq: list[tuple[float, ...]]) -> list[tuple[float, ...]]:
+        h: list[tuple[float, ...]] = []
+        for p in seq:
+            while (
+                len(h) >= 2
+                and (
+                    (h[-1][0] - h[-2][0]) * (p[1] - h[-2][1])
+                    - (h[-1][1] - h[-2][1]) * (p[0] - h[-2][0])
+                )
+                <= 0
+            ):
+                h.pop()
+            h.append(p)
+        return h
+
+    lo, hi = half(P), half(P[::-1])
+    return np.array(lo[:-1] + hi[:-1])
+
+
+def _inside(h: np.ndarray, p: np.ndarray) -> bool:
+    """Whether 2D point p lies in the counter-clockwise convex polygon h."""
+    e = np.roll(h, -1, axis=0) - h
+    w = p - h
+    return bool(np.all(e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0] >= 0))
+
+
+def plate_distance(nodes: np.ndarray, A: np.ndarray, O: np.ndarray, a: np.ndarray,
+                   b: np.ndarray) -> float:  # fmt: skip
+    """Exact distance [mm] of the segment a-b (a point if a = b) from the convex polygon of
+    ``nodes`` (plate frame, z = 0) placed at (A, O): 0 if it crosses the polygon, else the
+    least of the endpoints' heights where they project inside and the edge distances."""
+    assert np.allclose(nodes[:, 2], 0.0)
+    h = _hull(nodes[:, :2])
+    la, lb = A.T @ (a - O), A.T @ (b - O)
+    best = math.inf
+    for p in (la, lb):
+        if _inside(h, p[:2]):
+            best = min(best, abs(float(p[2])))
+    if la[2] * lb[2] < 0:  # the segment crosses the plane: where?
+        x = la + (lb - la) * (la[2] / (la[2] - lb[2]))
+        if _inside(h, x[:2]):
+            return 0.0
+    H = np.column_stack([h, np.zeros(len(h))])
+    for v, w in zip(H, np.roll(H, -1, axis=0), strict=True):
+        best = min(best, segment_distance(v, w, la, lb))
+    return best
+
+
+def obstacle_gap(stack: Stack, q: np.ndarray, phi: float | None, ob: Obstacle) -> dict[str, float]:
+    """Least distance [mm] of the leg axes and of the plates (base excluded) from the
+    obstacle's core (a sphere's centre, a capsule's axis)."""
+    A, O = frames(stack, q, phi)
+    B, T = legs(stack, A, O)
+    a, b = (ob.center, ob.center) if isinstance(ob, Sphere) else (ob.a, ob.b)  # type: ignore[attr-defined]
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    leg = min(
+        _point_segment(a, B[i, k], T[i, k]) if isinstance(ob, Sphere)
+        else segment_distance(B[i, k], T[i, k], a, b)
+        for i in range(stack.n) for k in range(6)
+    )  # fmt: skip
+    plate = math.inf
+    for j in range(1, stack.n + 1):
+        nodes = stack.top_nodes[j - 1]
+        if j < stack.n:
+            nodes = np.vstack([nodes, stack.base_nodes[j]])
+        plate = min(plate, plate_distance(nodes, A[j], O[j], a, b))
+    return {"leg": leg, "plate": plate}
+
+
+# ---------------------------------------------------------------------------------------
+def _target(planar: bool, stack: Stack, k: int, count: int, seed: int) -> Any:
+    if planar:
+        phi = 2 * math.pi * (k % count) / count
+        return random_planar_targets(stack, 1, rng=seed + k, phis=(phi,))[0]
+    return random_spatial_targets(stack, 1, rng=seed + k)[0]
+
+
+def place(kind: str, stack: Stack, q: np.ndarray, phi: float | None, k: int) -> Obstacle:
+    """The case's obstacle on leg ``k mod 6`` of platform ``PLATFORM`` of pose q."""
+    A, O = frames(stack, q, phi)
+    B, T = legs(stack, A, O)
+    b, t = B[PLATFORM, k % 6], T[PLATFORM, k % 6]
+    m = 0.5 * (b + t)
+    if kind == "sphere":
+        return Sphere(m, SPHERE_R)
+    u = (t - b) / np.linalg.norm(t - b)
+    d = np.cross(u, [0.0, 0.0, 1.0])
+    if np.linalg.norm(d) < 1e-6:
+        d = np.cross(u, [1.0, 0.0, 0.0])
+    d /= np.linalg.norm(d)
+    return Capsule(m - 0.5 * TRUSS_LEN * d, m + 0.5 * TRUSS_LEN * d, TRUSS_R)
+
+
+def _timed(stack: Stack, target: Any, **kw: Any) -> tuple[Any, float]:
+    t0 = time.perf_counter()
+    r = solve_ik(stack, target, **kw)
+    return r, time.perf_counter() - t0
+
+
+RUNS = {
+    "default": {},
+    "slsqp": {"method": "slsqp"},
+    "ipopt1": {"method": "ipopt", "starts": 1},
+    "ipopt8": {"method": "ipopt", "starts": 8},
+}
+
+
+def _row(name: str, k: int, target: Any, stack: Stack, ob: Obstacle, r0: Any, t0: float,
+         args: Any) -> dict[str, Any]:  # fmt: skip
+    phi = target.phi if isinstance(target, PlanarTarget) else None
+    g0 = obstacle_gap(stack, r0.q, phi, ob)
+    radius = float(ob.radius)  # type: ignore[attr-defined]
+    row: dict[str, Any] = {"case": name, "k": k, "leg": k % 6, "fn_free": r0.frobenius_norm}
+    row["time_free"] = t0
+    row["free_leg_gap"], row["free_plate_gap"] = g0["leg"], g0["plate"]
+    row["free_collides"] = bool(min(g0.values()) < radius - TOL)
+    solve_ik(stack, target, method="ipopt", starts=1, obstacles=[ob])  # builds the solver
+    runs = {**RUNS, "ipopt_ref": {"method": "ipopt", "starts": args.ref_starts, "rng": 1000 + k}}
+    fns = []
+    for label, kw in runs.items():
+        r, dt = _timed(stack, target, obstacles=[ob], **kw)
+        ok = bool(r.success)
+        indep = False
+        row[f"{label}_gap"] = math.nan
+        if ok:
+            g = obstacle_gap(stack, r.q, phi, ob)
+            row[f"{label}_gap"] = min(g.values())
+            indep = bool(check_pose(stack, target, r.q).ok and min(g.values()) >= radius - TOL)
+        row[f"{label}_success"] = ok
+        row[f"{label}_false"] = ok and not indep
+        row[f"{label}_fn"] = r.frobenius_norm if ok else math.nan
+        row[f"{label}_time"] = dt
+        if ok and indep:
+            fns.append(r.frobenius_norm)
+    row["best"] = min(fns) if fns else math.nan
+    for label in runs:
+        ok = row[f"{label}_success"] and not row[f"{label}_false"]
+        row[f"{label}_within"] = bool(ok and row[f"{label}_fn"] <= row["best"] * (1 + WITHIN))
+    row["fn_cost"] = row["best"] / r0.frobenius_norm - 1 if fns else math.nan
+    return row
+
+
+def _warm_up(planar: bool, kind: str, stack: Stack, args: Any) -> None:
+    """One untimed solve per method on a target of another seed, with its own obstacle."""
+    target = _target(planar, stack, 0, args.count, args.seed - 1)
+    r0 = solve_ik(stack, target)
+    phi = target.phi if planar else None
+    ob = place(kind, stack, r0.q, phi, 0)
+    for kw in RUNS.values():
+        solve_ik(stack, target, obstacles=[ob], **kw)
+
+
+def run_case(name: str, args: Any) -> tuple[list[dict[str, Any]], int]:
+    planar, kind = CASES[name]
+    stack = Stack.reference(N)
+    assert all(g.leg_radius == 0 and g.plate_thickness == 0 for g in stack)
+    _warm_up(planar, kind, stack, args)
+    rows: list[dict[str, Any]] = []
+    skipped = 0
+    for k in range(args.count):
+        target = _target(planar, stack, k, args.count, args.seed)
+        r0, t0 = _timed(stack, target)
+        if not r0.success:
+            skipped += 1
+            continue
+        phi = target.phi if planar else None
+        ob = place(kind, stack, r0.q, phi, k)
+        row = _row(name, k, target, stack, ob, r0, t0, args)
+        rows.append(row)
+        print(
+            f"{name} {k}: free {row['fn_free']:.6g} collides {row['free_collides']}; "
+            f"default {row['default_fn']:.6g} ({row['default_time'] * 1e3:.0f} ms) "
+            f"slsqp {row['slsqp_fn']:.6g} ipopt8 {row['ipopt8_fn']:.6g} "
+            f"({row['ipopt8_time'] * 1e3:.0f} ms) best {row['best']:.6g}",
+            flush=True,
+        )
+    return rows, skipped
+
+
+def summary(rows: list[dict[str, Any]], skipped: dict[str, int]) -> list[dict[str, Any]]:
+    out = []
+    for name in dict.fromkeys(r["case"] for r in rows):
+        rs = [r for r in rows if r["case"] == name]
+        feasible = [r for r in rs if np.isfinite(r["best"])]
+        line: dict[str, Any] = {"case": name, "targets": len(rs), "feasible": len(feasible)}
+        line["skipped"] = skipped.get(name, 0)
+        line["free_collides"] = sum(r["free_collides"] for r in rs)
+        for label in LABELS:
+            line[f"{label}_success"] = sum(r[f"{label}_success"] for r in rs)
+            line[f"{label}_false"] = sum(r[f"{label}_false"] for r in rs)
+            line[f"{label}_within"] = sum(r[f"{label}_within"] for r in feasible)
+            line[f"{label}_median_ms"] = 1e3 * float(np.median([r[f"{label}_time"] for r in rs]))
+            line[f"{label}_speedup_vs_ipopt8"] = float(
+                np.median([r["ipopt8_time"] / r[f"{label}_time"] for r in rs])
+            )
+            line[f"{label}_vs_free"] = float(
+                np.median([r[f"{label}_time"] / r["time_free"] for r in rs])
+            )
+        line["free_median_ms"] = 1e3 * float(np.median([r["time_free"] for r in rs]))
+        line["median_fn_cost"] = float(np.nanmedian([r["fn_cost"] for r in rs]))
+        out.append(line)
+    return out
+
+
+def markdown(lines: list[dict[str, Any]], meta: dict[str, Any]) -> str:
+    head = (
+        "| case | targets (feasible) | obstacle-free optima colliding | obstacle-free "
+        "median ms | method | success | false successes | within 0.5 % | median ms | "
+        "speed-up vs IPOPT-8 | time / obstacle-free solve |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|\n"
+    )
+    body = ""
+    for s in lines:
+        t, f = s["targets"], s["feasible"]
+        for j, label in enumerate(LABELS):
+            lead = (
+                f"| {s['case']} | {t} ({f}) | {s['free_collides']}/{t} | {s['free_median_ms']:.0f} "
+                if j == 0
+                else "| | | | "
+            )
+            body += (
+                f"{lead}| {label} | {s[f'{label}_success']}/{t} | {s[f'{label}_false']} | "
+                f"{s[f'{label}_within']}/{f} | {s[f'{label}_median_ms']:.0f} | "
+                f"{s[f'{label}_speedup_vs_ipopt8']:.1f}x | {s[f'{label}_vs_free']:.1f}x |\n"
+            )
+    cost = ", ".join(f"{s['case']} {100 * s['median_fn_cost']:.2f} %" for s in lines)
+    skip = ", ".join(f"{s['case']} {s['skipped']}" for s in lines)
+    return (
+        "# Obstacles (benchmarks/bench_obstacles.py)\n\n"
+        f"`{meta['command']}` on {meta['machine']}. `Stack.reference(4)` (zero leg radius); "
+        f"per target a sphere of radius {SPHERE_R:g} mm (`*_sphere`) or a capsule of radius "
+        f"{TRUSS_R:g} mm and length {TRUSS_LEN:g} mm, horizontal and perpendicular to the leg "
+        "(`spatial4_truss`), on the midpoint of leg k mod 6 of platform 2 of the obstacle-free "
+        "least-FN pose. Best known = least FN over IPOPT from "
+        f"{meta['ref_starts']} starts and every other success of the row; a success is "
+        "re-checked with this file's exact distances (legs and plates against the "
+        "obstacle; false: closer than its radius - 1e-6 mm or a failed target/limit "
+        "check). Times are wall times on a shared machine (IPOPT's CasADi build excluded: "
+        "an untimed IPOPT solve with the same obstacle first); ratios are medians of "
+        "per-target ratios. `ipopt_ref` is the reference run (its time is that of "
+        "--ref-starts starts).\n\n"
+        + head
+        + body
+        + f"\nMedian FN cost of the obstacle (best known / obstacle-free optimum - 1): {cost}."
+        f" Targets skipped (obstacle-free solve failed): {skip}.\n"
+    )
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--count", type=int, default=12)
+    ap.add_argument("--seed", type=int, default=2950)
+    ap.add_argument("--ref-starts", type=int, default=32)
+    ap.add_argument("--cases", default=",".join(CASES))
+    ap.add_argument("--out", type=Path, default=Path("benchmarks/results"))
+    args = ap.parse_args()
+    if args.ref_starts < 32:
+        ap.error("--ref-starts must be >= 32 (the best known needs many starts)")
+    rows: list[dict[str, Any]] = []
+    skipped: dict[str, int] = {}
+    for name in args.cases.split(","):
+        rs, skipped[name] = run_case(name, args)
+        rows += rs
+    lines = summary(rows, skipped)
+    meta = {
+        "command": "python benchmarks/bench_obstacles.py "
+        f"--count {args.count} --seed {args.seed} --ref-starts {args.ref_starts} "
+        f"--cases {args.cases}",
+        "machine": "{cpus} CPUs ({cpu}), {date}".format(**machine_info()),
+        "ref_starts": args.ref_starts,
+    }
+    args.out.mkdir(parents=True, exist_ok=True)
+    with open(args.out / "obstacle_bench.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    (args.out / "obstacle_bench.json").write_text(
+        json.dumps({"meta": meta, "summary": lines, "rows": rows}, indent=1, default=float)
+    )
+    (args.out / "obstacle_bench.md").write_text(markdown(lines, meta))
+    print(markdown(lines, meta))
+
+
+if __name__ == "__main__":
+    main()
