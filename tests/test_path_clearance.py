@@ -103,3 +103,12 @@ def test_cli_path_with_obstacles(tmp_path, capsys) -> None:
     assert main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["success"] and summary["least_clearance_mm"] >= -1e-6
+
+
+def test_cli_path_refuses_force_weight(capsys) -> None:
+    from stackik.cli import main
+
+    argv = ["path", "--from", "0", "1000", "0", "--to", "100", "1000", "0", "--steps", "2",
+            "--force-weight", "1", "--no-animation"]  # fmt: skip
+    assert main(argv) == 2
+    assert "--force-weight" in capsys.readouterr().err

@@ -161,3 +161,33 @@ def test_planar_problem_carries_self_leg_rows():
     assert np.allclose(d.min(axis=1) - 60.0, by, atol=1e-9)
     r = sk.solve_ik(stack, t, method="slsqp", starts=3)
     assert not r.success or (r.clearances is not None and r.clearances.minimum >= -1e-6)
+    # IPOPT has the planar rows too: its pose keeps each platform's legs apart, where
+    # the same start on zero-radius legs does not (adjacent legs still collide: no success)
+    r0 = sk.solve_ik(sk.Stack.reference(4), t, method="ipopt", starts=1)
+    assert sk.clearances(stack, r0.q, phi=t.phi).self_legs < 0
+    r1 = sk.solve_ik(stack, t, method="ipopt", starts=1)
+    assert r1.target_error < 1e-6 and r1.max_violation <= 1e-6
+    assert sk.clearances(stack, r1.q, phi=t.phi).self_legs >= -1e-6
+
+
+def test_handover_only_for_what_the_rows_cover():
+    """A pose whose only shortfall is one the rows cover (a platform's own legs) is a
+    hand-over start; one whose adjacent-platform legs collide (no rows) is not."""
+    import stackik as sk
+    from stackik.formulation import Problem
+    from stackik.methods.ip import _unconstrained_shortfall
+
+    stack = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=30.0), 4)
+    t = sk.PlanarTarget(600.0, 1000.0, -1.57)
+    prob = Problem(stack, t, "frobenius", None)
+    q = sk.solve_ik(sk.Stack.reference(4), t).q
+    chk = prob.check(q)
+    cl = chk.clearances
+    assert cl is not None and cl.self_legs < 0 and cl.adjacent_legs < 0
+    assert _unconstrained_shortfall(prob, chk) == pytest.approx(-cl.adjacent_legs)
+    thin = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 4)
+    p12 = Problem(thin, t, "frobenius", None, clearance=1.0)
+    c12 = p12.check(q)
+    assert c12.clearances is not None
+    expect = max(0.0, 1.0 - min(c12.clearances.adjacent_legs, c12.clearances.non_adjacent))
+    assert _unconstrained_shortfall(p12, c12) == pytest.approx(expect)

@@ -255,6 +255,8 @@ def run(args: argparse.Namespace) -> int:
         from stackik.viz import require_plotly
 
         require_plotly()
+    if args.force_weight:
+        raise CLIError("--force-weight: paths minimise FN; it applies to stackik solve")
     clear = clearance_of(args)
     clear["load"] = load_of(args)
     result = solve_path(

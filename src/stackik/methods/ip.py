@@ -253,11 +253,9 @@ def ip_starts(
             run = Run(q, int(nits[j]), statuses[j], chk, obj, None, texts[j])
         if chk.ok:
             return IPBatch(run, least, total, statuses, bound)
-        # obstacle rows: a pose through an obstacle is a start for the engine that has them
-        outside = prob.clearance.obstacle_rows is not None or (
-            prob.planar and prob.self_legs is not None
-        )
-        clear = 0.0 if outside else chk.clearance_violation
+        # a pose that fails only on rows outside the kernels is a start for the engine
+        # that has them; a shortfall no engine constrains is not
+        clear = _unconstrained_shortfall(prob, chk)
         if prob.dense_rows and pose_ok(
             chk.position_error, chk.angle_error, max(chk.max_violation_mm, clear), True
         ):
@@ -267,6 +265,26 @@ def ip_starts(
         if viols[j] > RANK_VIOLATION:  # the rest are farther off: stop checking
             break
     return IPBatch(None, least, total, statuses, bound)
+
+
+def _unconstrained_shortfall(prob: Problem, chk: Any) -> float:
+    """The clearance shortfall [mm] of ``chk`` that no solver's rows of ``prob`` can
+    remove: all of it without obstacle or planar self-leg rows; with them, the kinds
+    without rows (adjacent and non-adjacent bodies, self legs when absent, obstacles
+    without rows such as boxes) but not those the rows cover (a platform's own legs; the
+    legs against spheres, capsules and half-spaces: their distances include the plates,
+    which have no rows, so a plate's shortfall counts as covered there)."""
+    cl = prob.clearance
+    outside = cl.obstacle_rows is not None or (prob.planar and prob.self_legs is not None)
+    if not outside or chk.clearances is None:
+        return float(chk.clearance_violation)
+    c, m = chk.clearances, cl.margin
+    kinds = [c.adjacent_legs, c.non_adjacent]
+    if prob.self_legs is None:
+        kinds.append(c.self_legs)
+    with_rows = set() if cl.obstacle_rows is None else {id(o) for o in cl.obstacle_rows.obstacles}
+    kinds += [d for o, d in zip(cl.obstacles, c.obstacles) if id(o) not in with_rows]
+    return max([0.0] + [m - d for d in kinds])
 
 
 class IPMethod(Method):

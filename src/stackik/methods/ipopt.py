@@ -179,6 +179,15 @@ def _self_leg_rows(
     return rows
 
 
+def _self_leg_key(prob: Problem) -> Any:
+    """The self-leg rows of ``prob`` as a solver cache key ``(pairs, rho, scale)``, or None."""
+    sl = prob.self_legs
+    if sl is None:
+        return None
+    pairs = tuple((int(a), int(b)) for a, b in sl.pairs)
+    return (pairs, tuple(map(float, sl.rho)), tuple(map(float, sl.scale)))
+
+
 def obstacle_key(prob: Problem) -> Any:
     """The obstacle rows of ``prob`` as plain data (a solver cache key): ``(margin,
     (("seg", a, b, R) | ("half", point, unit normal), ...))``, or None without rows."""
@@ -290,6 +299,7 @@ def _solver(
     user: tuple[tuple[str, Any], ...] = (),
     load: Any = None,
     obstacles: Any = None,
+    self_legs: Any = None,
 ) -> Any:
     ca = _casadi()
     n = stack.n
@@ -337,9 +347,8 @@ def _solver(
     sf, m = _lift_forces(ca, stack, load)
     g_f: list[Any] = []
     g_ob: list[Any] = []
-    if (
-        sf is not None or obstacles is not None
-    ):  # the plates' frames in 3D: O_j = O_{j-1} + A_{j-1} P_j
+    if sf is not None or obstacles is not None or self_legs is not None:
+        # the plates' frames in 3D: O_j = O_{j-1} + A_{j-1} P_j
         axis = plane_axis(phi)
         K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
         Os: list[Any] = [ca.SX.zeros(3, 1)]
@@ -352,8 +361,14 @@ def _solver(
             As.append(As[-1] @ Ri)
         if sf is not None:
             g_f = _force_equilibrium(ca, stack, load, Os, As, sf)
+        if self_legs is not None:  # in the base frame (the distances are the same)
+            pairs, rho_sl, scale_sl = self_legs
+            for i in range(n):
+                Bw = [Os[i] + As[i] @ stack.base_nodes[i, k] for k in range(6)]
+                Tw = [Os[i + 1] + As[i + 1] @ stack.top_nodes[i, k] for k in range(6)]
+                g_ob += _self_leg_rows(ca, Bw, Tw, pairs, rho_sl[i], scale_sl[i])
         if obstacles is not None:
-            g_ob = _obstacle_rows(ca, stack, Os, As, obstacles)
+            g_ob += _obstacle_rows(ca, stack, Os, As, obstacles)
     g = ca.vertcat(g_eq, *g_f, *g_in, *g_ob)
     nlp = {"x": u if sf is None else ca.vertcat(u, sf), "p": p, "f": f, "g": g}
     solver = _nlpsol(ca, "stackik_ipopt", nlp, user)
@@ -492,16 +507,12 @@ def run_ipopt(
     if isinstance(target, PlanarTarget):
         solver, lbg, ubg = _solver(
             prob.stack, target.phi, prob.objective, tuple(prob.xs), key, load,
-            obstacle_key(prob),
+            obstacle_key(prob), _self_leg_key(prob),
         )  # fmt: skip
         par = target.y
     else:
         assert isinstance(target, SpatialTarget)
-        sl = prob.self_legs
-        legs = None
-        if sl is not None:  # the cache key: whatever changes the rows
-            pairs = tuple((int(a), int(b)) for a, b in sl.pairs)
-            legs = (pairs, tuple(map(float, sl.rho)), tuple(map(float, sl.scale)))
+        legs = _self_leg_key(prob)
         solver, lbg, ubg = _spatial_solver(
             prob.stack, prob.objective, tuple(prob.xs), key, load, legs, obstacle_key(prob)
         )

@@ -262,7 +262,7 @@ def _screen(req: Request, method: Method, queue: list[FloatArray], tally: Tally)
         tally.screened.append(run)
         if not run.check.ok:
             tally.offer_least(run)
-    tally.screened.sort(key=lambda r: (r.check.max_violation_mm > SCREEN_FEAS_MM, r.obj))
+    tally.screened.sort(key=lambda r: (r.check.violation_mm > SCREEN_FEAS_MM, r.obj))
 
 
 def _next_start(
