@@ -40,15 +40,14 @@ and time against the zero-radius default solve (median of per-target ratios ``t 
 from __future__ import annotations
 
 import argparse
-import csv
 import itertools
-import json
 import math
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _results import write_results
 
 from stackik import PlatformGeometry, Stack, check_pose, clearances, solve_ik
 from stackik.bench import machine_info
@@ -316,16 +315,7 @@ def main() -> None:
         "ref_starts": args.ref_starts,
         "radius": args.radius,
     }
-    args.out.mkdir(parents=True, exist_ok=True)
-    with open(args.out / "clearance_bench.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    (args.out / "clearance_bench.json").write_text(
-        json.dumps({"meta": meta, "summary": lines, "rows": rows}, indent=1, default=float)
-    )
-    (args.out / "clearance_bench.md").write_text(markdown(lines, meta))
-    print(markdown(lines, meta))
+    write_results(args.out, "clearance_bench", meta, lines, rows, markdown(lines, meta))
 
 
 if __name__ == "__main__":

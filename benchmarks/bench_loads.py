@@ -29,14 +29,13 @@ speed-up against IPOPT-8 (median of per-target time ratios, same run).
 from __future__ import annotations
 
 import argparse
-import csv
-import json
 import math
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _results import write_results
 
 from stackik import Load, PlatformGeometry, Stack, check_pose, leg_forces, solve_ik
 from stackik.bench import machine_info
@@ -228,16 +227,7 @@ def main() -> None:
         "machine": "{cpus} CPUs ({cpu}), {date}".format(**machine_info()),
         "ref_starts": args.ref_starts,
     }
-    args.out.mkdir(parents=True, exist_ok=True)
-    with open(args.out / "loads_bench.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    (args.out / "loads_bench.json").write_text(
-        json.dumps({"meta": meta, "summary": lines, "rows": rows}, indent=1, default=float)
-    )
-    (args.out / "loads_bench.md").write_text(markdown(lines, meta))
-    print(markdown(lines, meta))
+    write_results(args.out, "loads_bench", meta, lines, rows, markdown(lines, meta))
 
 
 if __name__ == "__main__":

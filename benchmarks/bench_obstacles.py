@@ -53,8 +53,6 @@ and time against the obstacle-free default solve (median of per-target ratios ``
 from __future__ import annotations
 
 import argparse
-import csv
-import json
 import math
 import sys
 import time
@@ -62,6 +60,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _results import write_results
 
 from stackik import Capsule, Sphere, Stack, check_pose, solve_ik
 from stackik.bench import machine_info
@@ -392,16 +391,7 @@ def main() -> None:
         "machine": "{cpus} CPUs ({cpu}), {date}".format(**machine_info()),
         "ref_starts": args.ref_starts,
     }
-    args.out.mkdir(parents=True, exist_ok=True)
-    with open(args.out / "obstacle_bench.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    (args.out / "obstacle_bench.json").write_text(
-        json.dumps({"meta": meta, "summary": lines, "rows": rows}, indent=1, default=float)
-    )
-    (args.out / "obstacle_bench.md").write_text(markdown(lines, meta))
-    print(markdown(lines, meta))
+    write_results(args.out, "obstacle_bench", meta, lines, rows, markdown(lines, meta))
 
 
 if __name__ == "__main__":
