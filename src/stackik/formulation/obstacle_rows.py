@@ -70,17 +70,25 @@ class ObstacleRows:
         self.margin = float(margin)
         self.L = float(np.max(stack.leg_max))
         self.obstacles = obstacles
-        segs, halfs, kinds = [], [], []
+        segs: list[Any] = []
+        halfs: list[Any] = []
+        kinds: list[int] = []
+        specs: list[Any] = []
         for ob in obstacles:
             if isinstance(ob, HalfSpace):
                 u = np.asarray(ob.normal, float) / np.linalg.norm(ob.normal)
                 halfs.append([*ob.point, *u])
                 kinds.append(1)
+                specs.append(("half", tuple(map(float, ob.point)), tuple(map(float, u))))
             else:
                 assert isinstance(ob, (Sphere, Capsule))
                 a, b = (ob.center, ob.center) if isinstance(ob, Sphere) else (ob.a, ob.b)
                 segs.append([*a, *b, ob.radius])
                 kinds.append(0)
+                specs.append(("seg", tuple(map(float, a)), tuple(map(float, b)), float(ob.radius)))
+        #: the rows as plain data, in their order: ``(margin, (("seg", a, b, R) | ("half",
+        #: point, unit normal), ...))`` (IPOPT's symbolic rows and solver cache key)
+        self.specs = (self.margin, tuple(specs))
         self._args = (
             readonly(stack.base_nodes),
             readonly(stack.top_nodes),

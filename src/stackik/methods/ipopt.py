@@ -189,28 +189,11 @@ def _self_leg_key(prob: Problem) -> Any:
 
 
 def obstacle_key(prob: Problem) -> Any:
-    """The obstacle rows of ``prob`` as plain data (a solver cache key): ``(margin,
-    (("seg", a, b, R) | ("half", point, unit normal), ...))``, or None without rows."""
+    """The obstacle rows of ``prob`` as plain data (a solver cache key,
+    :attr:`stackik.formulation.obstacle_rows.ObstacleRows.specs`), or None without rows."""
 
     rows = prob.clearance.obstacle_rows
-    if rows is None:
-        return None
-    return _obstacle_specs(rows.obstacles, rows.margin)
-
-
-def _obstacle_specs(obstacles: Any, margin: float) -> Any:
-    """:func:`obstacle_key` of ``obstacles`` (spheres, capsules, half-spaces) and ``margin``."""
-    from stackik.obstacles import HalfSpace, Sphere
-
-    out: list[Any] = []
-    for ob in obstacles:
-        if isinstance(ob, HalfSpace):
-            u = np.asarray(ob.normal, float) / np.linalg.norm(ob.normal)
-            out.append(("half", tuple(map(float, ob.point)), tuple(map(float, u))))
-        else:
-            a, b = (ob.center, ob.center) if isinstance(ob, Sphere) else (ob.a, ob.b)
-            out.append(("seg", tuple(map(float, a)), tuple(map(float, b)), float(ob.radius)))
-    return (float(margin), tuple(out))
+    return None if rows is None else rows.specs
 
 
 def obstacle_function(stack: Stack, obstacles: Any, margin: float) -> Any:
@@ -227,7 +210,10 @@ def obstacle_function(stack: Stack, obstacles: Any, margin: float) -> Any:
         _, R = _euler_sx(ca, q[6 * i + 3 : 6 * i + 6])
         Os.append(Os[-1] + As[-1] @ q[6 * i : 6 * i + 3])
         As.append(As[-1] @ R)
-    rows = _obstacle_rows(ca, stack, Os, As, _obstacle_specs(obstacles, margin))
+    from stackik.formulation.obstacle_rows import ObstacleRows
+
+    specs = ObstacleRows(stack, tuple(obstacles), margin).specs
+    rows = _obstacle_rows(ca, stack, Os, As, specs)
     return ca.Function("obstacle_rows", [q], [ca.vertcat(*rows)])
 
 
