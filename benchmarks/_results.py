@@ -1,4 +1,4 @@
-"""Writing a benchmark's results: ``<stem>.csv`` (every row), ``<stem>.json`` (meta,
+"""A benchmark's summary columns and its results: ``<stem>.csv`` (every row), ``<stem>.json`` (meta,
 summary lines, rows) and ``<stem>.md`` (the report), shared by the benchmarks that
 compare stackik with IPOPT (bench_loads, bench_clearance, bench_obstacles)."""
 
@@ -8,6 +8,33 @@ import csv
 import json
 from pathlib import Path
 from typing import Any
+
+import numpy as np
+
+
+def method_columns(
+    rs: list[dict[str, Any]], feasible: list[dict[str, Any]], labels: tuple[str, ...]
+) -> dict[str, Any]:
+    """Per method of ``labels``, over one case's rows ``rs`` (``feasible``: those with a
+    best known): successes, false successes, within the best known, median time [ms],
+    speed-up against IPOPT-8 and time against the reference solve (``time_free``), both
+    medians of per-target ratios; then the reference's median time and the median FN
+    cost."""
+    line: dict[str, Any] = {}
+    for label in labels:
+        line[f"{label}_success"] = sum(r[f"{label}_success"] for r in rs)
+        line[f"{label}_false"] = sum(r[f"{label}_false"] for r in rs)
+        line[f"{label}_within"] = sum(r[f"{label}_within"] for r in feasible)
+        line[f"{label}_median_ms"] = 1e3 * float(np.median([r[f"{label}_time"] for r in rs]))
+        line[f"{label}_speedup_vs_ipopt8"] = float(
+            np.median([r["ipopt8_time"] / r[f"{label}_time"] for r in rs])
+        )
+        line[f"{label}_vs_free"] = float(
+            np.median([r[f"{label}_time"] / r["time_free"] for r in rs])
+        )
+    line["free_median_ms"] = 1e3 * float(np.median([r["time_free"] for r in rs]))
+    line["median_fn_cost"] = float(np.nanmedian([r["fn_cost"] for r in rs]))
+    return line
 
 
 def write_results(

@@ -60,7 +60,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _results import write_results
+from _results import method_columns, write_results
 
 from stackik import Capsule, Sphere, Stack, check_pose, solve_ik
 from stackik.bench import machine_info
@@ -307,19 +307,7 @@ def summary(rows: list[dict[str, Any]], skipped: dict[str, int]) -> list[dict[st
         line: dict[str, Any] = {"case": name, "targets": len(rs), "feasible": len(feasible)}
         line["skipped"] = skipped.get(name, 0)
         line["free_collides"] = sum(r["free_collides"] for r in rs)
-        for label in LABELS:
-            line[f"{label}_success"] = sum(r[f"{label}_success"] for r in rs)
-            line[f"{label}_false"] = sum(r[f"{label}_false"] for r in rs)
-            line[f"{label}_within"] = sum(r[f"{label}_within"] for r in feasible)
-            line[f"{label}_median_ms"] = 1e3 * float(np.median([r[f"{label}_time"] for r in rs]))
-            line[f"{label}_speedup_vs_ipopt8"] = float(
-                np.median([r["ipopt8_time"] / r[f"{label}_time"] for r in rs])
-            )
-            line[f"{label}_vs_free"] = float(
-                np.median([r[f"{label}_time"] / r["time_free"] for r in rs])
-            )
-        line["free_median_ms"] = 1e3 * float(np.median([r["time_free"] for r in rs]))
-        line["median_fn_cost"] = float(np.nanmedian([r["fn_cost"] for r in rs]))
+        line.update(method_columns(rs, feasible, LABELS))
         out.append(line)
     return out
 
