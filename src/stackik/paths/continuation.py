@@ -133,13 +133,16 @@ class Tracker:
         #: goal basin, :meth:`follow`)
         self._side_carry: tuple[Any, ...] | None = None
 
+    @property
+    def _kw(self) -> dict[str, Any]:
+        """``obstacles``, ``clearance`` and ``load`` as keywords (of ``Problem``,
+        ``solve_ik``, ``check_pose`` and the bounded steps)."""
+        return {"obstacles": self.obstacles, "clearance": self.clearance, "load": self.load}
+
     def _problem(self, target: Target) -> Any:
         from stackik.formulation import Problem
 
-        return Problem(
-            self.stack, target, "frobenius", None, obstacles=self.obstacles,
-            clearance=self.clearance, load=self.load,
-        )  # fmt: skip
+        return Problem(self.stack, target, "frobenius", None, **self._kw)
 
     def _clear(self, target: Target, q: FloatArray) -> bool:
         """The full check's verdict on what the compiled twins do not check (clearances,
@@ -153,12 +156,7 @@ class Tracker:
         )
         if not can_fail:
             return True
-        return bool(
-            check.check_pose(
-                self.stack, target, q, self.load, obstacles=self.obstacles,
-                clearance=self.clearance,
-            ).ok
-        )  # fmt: skip
+        return bool(check.check_pose(self.stack, target, q, **self._kw).ok)
 
     def ratio(self, qa: FloatArray, qb: FloatArray) -> float:
         """Largest per-variable change from ``qa`` to ``qb`` in units of ``max_jump``."""
@@ -227,10 +225,7 @@ class Tracker:
         at n = 4); the same pose and verdict."""
         opts = {} if mu0 is None else {"mu0": mu0}
         if not self.planar:
-            r = solve_ik(
-                self.stack, target, x0=q, starts=1, method="ip", options=opts,
-                obstacles=self.obstacles, clearance=self.clearance, load=self.load,
-            )  # fmt: skip
+            r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options=opts, **self._kw)
             return r.success, r.q
         from stackik._compiled.check import planar_check
         from stackik.methods.ip import ip_multi
@@ -353,14 +348,11 @@ class Tracker:
         the attempt (and a failure) under ``rung``."""
         setattr(self.counts, rung, getattr(self.counts, rung) + 1)
         goal = kw.get("goal")
-        clear: dict[str, Any] = {
-            "obstacles": self.obstacles, "clearance": self.clearance, "load": self.load
-        }  # fmt: skip
-        qb = bounded_ip(self.stack, target, q, self.scale, goal=goal, **clear)
+        qb = bounded_ip(self.stack, target, q, self.scale, goal=goal, **self._kw)
         if self._accepts(q, target, qb):
             return qb
         self.counts.sqp_fallback += 1  # the SQP engine: slower, keeps its iterates in the box
-        qb = bounded_step(self.stack, target, q, self.scale, **kw, **clear)
+        qb = bounded_step(self.stack, target, q, self.scale, **kw, **self._kw)
         if self._accepts(q, target, qb):
             return qb
         failed = f"{rung}_failed"
