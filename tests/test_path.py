@@ -853,3 +853,31 @@ def test_spatial_tracker_follow_drops_a_goal_whose_barrier_solve_does_not_conver
     tr = cont.Tracker(stack4, False, MAX_JUMP)
     assert tr.follow(q0, pts[1]) is None
     assert tr._side_carry is None and tr.counts.warm_retry == 0
+
+
+@pytest.mark.parametrize(("mode", "refine"), [("fast", False), ("fast", True), ("global", True)])
+def test_unreachable_first_waypoint_keeps_every_waypoint(mode, refine):
+    """Waypoint 0 outside the workspace: every mode reports all the input waypoints, none
+    reached, and says where it breaks (global mode with refine=True once raised on the
+    refining pass's empty waypoint list; fast mode reported no waypoints)."""
+    stack = Stack.reference(2)
+    pts = interpolate_targets(
+        [PlanarTarget(5000.0, 600.0, 0.0), PlanarTarget(300.0, 600.0, 0.0)], steps=4
+    )
+    r = solve_path(stack, pts, max_jump=MAX_JUMP, mode=mode, refine=refine)
+    assert r.status is PathStatus.UNREACHABLE and r.completed == 0
+    assert r.m == len(pts) and r.break_index == 0
+    np.testing.assert_array_equal(r.source, np.arange(len(pts), dtype=float))
+    assert "index 0 (waypoint 0)" in r.message
+
+
+def test_global_refine_break_names_its_source(stack4):
+    """With refine=True, global mode runs over the refining pass's waypoints; its break
+    message names the waypoint as the input counts it, as the result's ``source`` does."""
+    from stackik.paths.report import _source_text
+
+    pts = interpolate_targets([A, OUT], steps=6)
+    g = solve_path(stack4, pts, max_jump=MAX_JUMP, mode="global", refine=True)
+    assert g.status is PathStatus.UNREACHABLE
+    k = g.break_index
+    assert k is not None and f"index {k} ({_source_text(g.source[k])})" in g.message

@@ -48,8 +48,10 @@ def _fast(req: _Request, ck: PathCheckpoint, tracker: Tracker) -> _Outcome:
     info: dict[str, Any] = {"default": 0, "reanchored": 0}
     if ck.get("fast", 0) is None:
         msg = _first(req, ck, info)
-        if msg is not None:
-            return _Outcome([], [], [], PathStatus.UNREACHABLE, msg, info)
+        if msg is not None:  # no waypoint reached: every input one is left
+            targets = list(req.targets)
+            sources = [float(i) for i in range(len(targets))]
+            return _Outcome(targets, sources, [], PathStatus.UNREACHABLE, msg, info)
     return _FastRun(req, ck, tracker, info).run()
 
 

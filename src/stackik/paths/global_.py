@@ -318,6 +318,6 @@ def _global(
         status, message = PathStatus.SUCCESS, PATH_MESSAGES[PathStatus.SUCCESS]
         return _Outcome(targets, sources, poses, status, message, info)
     k = len(poses)
-    status, message = _break(req, tracker, k, targets[k], float(k), poses[-1] if poses else None,
+    status, message = _break(req, tracker, k, targets[k], sources[k], poses[-1] if poses else None,
                              info)  # fmt: skip
     return _Outcome(targets, sources, poses, status, message, info)

@@ -238,7 +238,7 @@ def _solve(req: _Request, ck: PathCheckpoint, t_start: float) -> PathResult:
     )  # fmt: skip
     if req.mode == "fast" or req.refine:
         out = _fast(req, ck, tracker)
-        if req.mode == "fast":
+        if req.mode == "fast" or not out.poses:  # (global: nothing to refine over)
             out.info.update(tracker.info())
             return _assemble(req, out, t_start)
         targets_g, sources_g = out.targets, out.sources
