@@ -6,7 +6,9 @@ piece of work (``{"stage": ..., "index": ..., "value": ...}``, or several at onc
 line, ``{"stage": ..., "many": [[index, value], ...]}``; later lines replace earlier
 records), appended and flushed as it finishes. A path is sequential, so a resumed solve
 reads the records in order and continues after the last one; floats round-trip exactly
-through JSON, so the resumed result equals an uninterrupted one. A torn last line (the
+through JSON, so the resumed result equals an uninterrupted one, but for what the
+records do not hold (:mod:`stackik.paths.replay`: spatial fast mode's carried
+multipliers). A torn last line (the
 process died while writing) is dropped; a file written for another problem is refused.
 """
 

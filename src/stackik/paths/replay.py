@@ -7,7 +7,10 @@ rewrites the records it replaces), and in global mode one ``"default"`` record p
 waypoint (the default solve's pose and FN^2) and one ``"sweep"`` record per waypoint (the
 candidate lists that step changed, and the transit cooldown). Replaying them rebuilds the
 state the uninterrupted run had at that point: floats round-trip exactly through JSON,
-so a resumed path equals an uninterrupted one.
+so a resumed path equals an uninterrupted one, with one exception: the continuation
+step's multipliers, which a run of warm steps carries inside its compiled call, are not
+recorded, so a spatial fast path resumed inside such a run starts that step from fresh
+ones (differences of about 1e-7 [mm, rad]; planar and global mode: none measured).
 """
 
 from __future__ import annotations
