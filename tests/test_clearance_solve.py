@@ -179,8 +179,8 @@ def test_obstacle_rows_derivatives_and_values() -> None:
 
 
 def test_auto_goes_around_a_sphere_on_a_leg() -> None:
-    """A sphere on a leg of the least-FN pose: the default hands the interior point's
-    poses to an engine with the obstacle rows and returns a clear pose nearby."""
+    """A sphere on a leg of the least-FN pose: the default (whose interior point carries
+    the obstacle rows) returns a clear pose nearby."""
     from stackik.kinematics import spatial_chain
 
     targets = _targets()

@@ -53,9 +53,15 @@ from stackik._compiled.core import (
     _limit_rows,
     _now,
 )
+from stackik._compiled.dense_rows import (
+    AI_dot,
+    AIT_dot,
+    add_normal,
+    block_part,
+    ineq_row,
+    with_dense_rows,
+)
 from stackik._compiled.linalg import (
-    _AI_dot,
-    _AIT_dot,
     _cho_solve,
     _cholesky,
     _mm3,
@@ -89,6 +95,10 @@ class SpatialData(NamedTuple):
     pairs: Any  #: self-leg pairs (m, 2) int64 (m = 0: no self-leg rows)
     rho: Any  #: least leg-axis distance per platform (n,) [mm]
     pair_scale: Any  #: self-leg row scale per platform (n,) [mm^2]
+    obstacles: Any  #: the obstacle rows' kernel arrays (ObstacleRows.kernel_args)
+    ob_margin: float  #: the obstacle rows' clearance margin [mm]
+    ob_L: float  #: the obstacle rows' length scale [mm]
+    n_dense: int  #: number of dense rows (0: none; :mod:`stackik._compiled.dense_rows`)
 
 
 # =========================================================================================
@@ -388,6 +398,17 @@ def _evaluate_ext(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Flo
 
 
 @_jit
+def _evaluate_ip(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+                 wq: float) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`_evaluate_ext` with the dense rows (:mod:`stackik._compiled.dense_rows`):
+    ``c_I`` the block rows then the dense rows, and the pair ``AI = (D, JD)`` in place of
+    ``D``."""
+    f, g, cE, AE, cI, D, parts = _evaluate_ext(u, P, lo, hi, ug, wq)
+    cA, AI = with_dense_rows(u, P, cI, D)
+    return f, g, cE, AE, cA, AI, parts
+
+
+@_jit
 def _hessian_ext(parts: Any, yE: FloatArray, z: FloatArray, P: Any, wq: float) -> FloatArray:
     """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem from its kinematic
     parts (``z``: ``R n`` multipliers, the box's 12 rows a platform last): the box rows are
@@ -595,7 +616,8 @@ def _with_fscale(P0: Any, fscale: float) -> Any:
     """``P0`` with the objective scale ``fscale``."""
     return SpatialData(P0.xs, P0.cs, P0.es, P0.position, P0.rotation, fscale, P0.c0, P0.w,
                        P0.top, P0.base, P0.leg_min, P0.leg_max, P0.sin_joint,
-                       P0.feasible, P0.pairs, P0.rho, P0.pair_scale)  # fmt: skip
+                       P0.feasible, P0.pairs, P0.rho, P0.pair_scale, P0.obstacles,
+                       P0.ob_margin, P0.ob_L, P0.n_dense)  # fmt: skip
 
 
 @_jit
@@ -603,7 +625,8 @@ def _with_target(P0: Any, position: Any, rotation: Any) -> Any:
     """``P0`` with the target ``position`` (3,) [mm] and ``rotation`` (3, 3)."""
     return SpatialData(P0.xs, P0.cs, P0.es, position, rotation, P0.fscale, P0.c0, P0.w,
                        P0.top, P0.base, P0.leg_min, P0.leg_max, P0.sin_joint,
-                       P0.feasible, P0.pairs, P0.rho, P0.pair_scale)  # fmt: skip
+                       P0.feasible, P0.pairs, P0.rho, P0.pair_scale, P0.obstacles,
+                       P0.ob_margin, P0.ob_L, P0.n_dense)  # fmt: skip
 
 
 @_jit
@@ -615,11 +638,9 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     iteration count and the final slacks ``s`` and multipliers ``z``, ``yE`` (of the
     problem as ``P0`` states it, without the loop's objective scaling; a continuation
     step starts from them, :func:`stackik._compiled.spatial_path._pc_step`)."""
-    n = P0.top.shape[0]
     x = u0.copy()
-    f, g, cE, AE, cI, D, parts = _evaluate_ext(x, P0, lo, hi, ug, wq)
-    R = D.shape[1]  # rows a platform: 24 limits, the self-leg rows, a box's 12
-    m = R * n
+    f, g, cE, AE, cI, AI, parts = _evaluate_ip(x, P0, lo, hi, ug, wq)
+    m = cI.size  # rows a platform (24 limits, the self-leg rows, a box's 12), dense rows
     if not (np.all(np.isfinite(cI)) and np.all(np.isfinite(cE)) and math.isfinite(f)):
         return x, IP_NONFINITE, 0, cI, np.ones(m), np.zeros(6)
     gmax = np.abs(g).max()
@@ -631,7 +652,7 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     mu_min = min(tol, constr_tol) / 10.0
     s = np.maximum(cI, 1e-2)
     z = np.ones(m)
-    yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
+    yE = _ls_multipliers(AE, g, AIT_dot(AI, z))
     last_shift = 0.0
     logsum = np.log(s).sum()
     logsum_t = logsum
@@ -648,7 +669,7 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             status = IP_MAX_TIME
             break
         AEty = AE.T @ yE
-        AItz = _AIT_dot(D, z)
+        AItz = AIT_dot(AI, z)
         sd_acc = np.abs(yE).sum() + np.abs(z).sum()
         sd = max(100.0, sd_acc / (m + 6)) / 100.0
         e_du = np.abs(g - AEty - AItz).max() / sd
@@ -669,29 +690,23 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
                 break
             mu = max(mu_min, min(0.2 * mu, mu**1.5))
             nfilt = 0
-        W = _hessian_ext(parts, yE, z, P, wq)
+        W = _hessian_ext(parts, yE, block_part(z, AI), P, wq)
         if not (np.all(np.isfinite(W)) and np.all(np.isfinite(g)) and np.all(np.isfinite(AE))):
             status = IP_NONFINITE
             break
         Sig = z / s
-        for i in range(n):
-            for a in range(6):
-                for b in range(6):
-                    acc = 0.0
-                    for r in range(R):
-                        acc += D[i, r, a] * Sig[R * i + r] * D[i, r, b]
-                    W[6 * i + a, 6 * i + b] += acc
+        add_normal(W, AI, Sig)
         v = np.empty(m)
         for r in range(m):
             v[r] = mu / s[r] - Sig[r] * (cI[r] - s[r])
-        rhs = -g + AEty + _AIT_dot(D, v)
+        rhs = -g + AEty + AIT_dot(AI, v)
         dx, shift = _kkt_step(W, AE, cE, rhs, last_shift)
         if not np.all(np.isfinite(dx)):
             status = IP_NONFINITE
             break
         if shift > 0.0:
             last_shift = shift
-        AIdx = _AI_dot(D, dx)
+        AIdx = AI_dot(AI, dx)
         ds = np.empty(m)
         dz = np.empty(m)
         for r in range(m):
@@ -717,12 +732,12 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         accepted = False
         ftype = False
         st = s.copy()
-        ft, gt, cEt, AEt, cIt, Dt, parts_t = f, g, cE, AE, cI, D, parts
+        ft, gt, cEt, AEt, cIt, AI_t, parts_t = f, g, cE, AE, cI, AI, parts
         xt = x
         for _ in range(40):
             xt = x + alpha * dx
             st = s + alpha * ds
-            ft, gt, cEt, AEt, cIt, Dt, parts_t = _evaluate_ext(xt, P, lo, hi, ug, wq)
+            ft, gt, cEt, AEt, cIt, AI_t, parts_t = _evaluate_ip(xt, P, lo, hi, ug, wq)
             theta_t = np.abs(cEt).sum()
             logsum_t = 0.0
             for r in range(m):
@@ -764,7 +779,7 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             alpha = min(alpha, 1e-8)
             xt = x + alpha * dx
             st = s + alpha * ds
-            ft, gt, cEt, AEt, cIt, Dt, parts_t = _evaluate_ext(xt, P, lo, hi, ug, wq)
+            ft, gt, cEt, AEt, cIt, AI_t, parts_t = _evaluate_ip(xt, P, lo, hi, ug, wq)
             if not (math.isfinite(ft) and np.all(np.isfinite(cIt))):
                 status = IP_NONFINITE
                 break
@@ -779,8 +794,8 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
                 s[r] = cIt[r]
             zr = z[r] + a_z * dz[r]
             z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
-        f, g, cE, AE, cI, D, parts = ft, gt, cEt, AEt, cIt, Dt, parts_t
-        yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
+        f, g, cE, AE, cI, AI, parts = ft, gt, cEt, AEt, cIt, AI_t, parts_t
+        yE = _ls_multipliers(AE, g, AIT_dot(AI, z))
     return x, status, it + 1 if status != IP_SUCCESS else it, s, z / fs, yE / fs
 
 
@@ -809,7 +824,7 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
         X[j] = x
         status[j] = st
         nit[j] = it
-        f, g, cE, AE, cI, D = evaluate(x, P)
+        f, g, cE, AE, cI, _, _ = _evaluate_ip(x, P, none, none, none, 0.0)
         obj[j] = f
         viol[j] = max(np.abs(cE).max(), max(0.0, -cI.min()))
         if j + 1 == GIVE_UP_AFTER and viol[: j + 1].min() > GIVE_UP_VIOLATION:
@@ -837,11 +852,12 @@ def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArra
 def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> FloatArray:
     """:func:`stackik.formulation.polish` compiled: min-norm Newton corrections of the
     end-effector equalities and of the limits violated by less than ``reach`` (scaled),
-    put at ``margin``."""
+    put at ``margin``; the dense rows too (:mod:`stackik._compiled.dense_rows`)."""
     n = P.top.shape[0]
     N = 6 * n
+    none = np.empty(0)
     for _ in range(iters):
-        f, g, cE, AE, cI, D = evaluate(u, P)
+        f, g, cE, AE, cI, AI, _ = _evaluate_ip(u, P, none, none, none, 0.0)
         nv = 0
         for r in range(cI.size):
             if -reach < cI[r] < 0.0:
@@ -853,11 +869,9 @@ def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> Fl
         A[:6] = AE
         rr[:6] = cE
         k = 6
-        R = D.shape[1]
         for r in range(cI.size):
             if -reach < cI[r] < 0.0:
-                i = r // R
-                A[k, 6 * i : 6 * i + 6] = D[i, r % R]
+                ineq_row(AI, r, A[k])
                 rr[k] = cI[r] - margin
                 k += 1
         if not (np.all(np.isfinite(A)) and np.all(np.isfinite(rr))):

@@ -24,6 +24,7 @@ from stackik._compiled.path import (
     _twins,
 )
 from stackik._compiled.spatial import (
+    _evaluate_ip,
     _with_fscale,
     _with_target,
     evaluate,
@@ -254,9 +255,11 @@ def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: f
              ang_tol: float) -> bool:  # fmt: skip
     """Whether the polished point ``xn`` reaches ``P``'s target (``pos_tol`` [mm]; the
     orientation error's sine from the scaled equalities within ``ang_tol``), violates no
-    limit (scaled) and moves no variable from ``x`` by more than ``jump`` (scaled)."""
+    limit nor dense row (scaled) and moves no variable from ``x`` by more than ``jump``
+    (scaled)."""
     es = P.es
-    f, g, cE, AE, cI, D = evaluate(xn, P)
+    none = np.empty(0)
+    f, g, cE, AE, cI, _, _ = _evaluate_ip(xn, P, none, none, none, 0.0)
     pe = math.sqrt((cE[0] / es[0]) ** 2 + (cE[1] / es[1]) ** 2 + (cE[2] / es[2]) ** 2)
     ae = math.sqrt((cE[3] / es[3]) ** 2 + (cE[4] / es[4]) ** 2 + (cE[5] / es[5]) ** 2)
     if not (pe <= pos_tol and ae <= ang_tol and cI.min() >= -1e-12):
@@ -312,7 +315,9 @@ def ip_path(u0: FloatArray, pos: FloatArray, rot: FloatArray, P0: Any, jump: Flo
         if not _reaches(xn, x, P, jump, pos_tol, ang_tol):
             return X, k, how, yE, z, active, have
         X[k] = xn
-        x, yE, z = xn, yE1, z1
-        active = z1 > s1
+        # the continuation step has the block rows only (the dense rows are last)
+        mb = (24 + P.pairs.shape[0]) * P.top.shape[0]
+        x, yE, z = xn, yE1, z1[:mb].copy()
+        active = z > s1[:mb]
         have = st == IP_SUCCESS
     return X, m, how, yE, z, active, have

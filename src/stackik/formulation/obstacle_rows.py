@@ -16,9 +16,11 @@ plate frames), a capsule of radius ``r_i = leg_radius_i``. With the clearance ma
 
 Boxes, and the plates against any obstacle, have no rows: the solvers do not steer
 around them, the check (:mod:`stackik.clearance`) refuses a pose that meets them.
-The rows are dense (a leg moves with every platform below it) and not in the compiled
-kernels; the ``auto`` policy hands a pose that fails only on them to an engine that has
-them (:func:`stackik.solve.stages.ip_stage`).
+The rows are dense (a leg moves with every platform below it): the compiled spatial
+interior point carries them after its per-platform blocks
+(:mod:`stackik._compiled.dense_rows`); the planar one does not, and the ``auto`` policy
+hands a planar pose that fails only on them to an engine that has them
+(:func:`stackik.solve.stages.ip_stage`).
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ from stackik._arrays import readonly
 from stackik.geometry import Stack
 from stackik.obstacles import Capsule, HalfSpace, Obstacle, Sphere
 
-__all__ = ["ObstacleRows", "obstacle_rows"]
+__all__ = ["ObstacleRows", "no_obstacle_rows", "obstacle_rows"]
 
 FloatArray = NDArray[np.float64]
 
@@ -99,6 +101,13 @@ class ObstacleRows:
         )
         self.size = sum(12 * self.n if isinstance(o, HalfSpace) else 6 * self.n for o in obstacles)
 
+    @property
+    def kernel_args(self) -> tuple[Any, ...]:
+        """The kernel's array arguments after the pose (``base, top, radius, segs, halfs,
+        kinds``, read-only), as the compiled interior point carries them
+        (:attr:`stackik._compiled.spatial.SpatialData.obstacles`)."""
+        return self._args
+
     def __call__(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Rows ``c`` (size,) and Jacobian (size, nk) against the raw pose ``q`` (n, k)."""
         from stackik._compiled.obstacle_rows import obstacle_rows as rows
@@ -122,6 +131,13 @@ def _out_of_reach(ob: Obstacle, reach: float, gap: float) -> bool:
     the base origin, which holds every leg of every pose within the leg limits."""
     origin = np.zeros(3)
     return bool(ob.point_distance(origin) > reach + gap)
+
+
+def no_obstacle_rows(stack: Stack) -> tuple[Any, ...]:
+    """:attr:`ObstacleRows.kernel_args` of no obstacle on ``stack`` (cached per stack): the
+    compiled interior point's arrays when a problem has no obstacle rows, of the same
+    types as with them (one compiled specialisation)."""
+    return stack.derived(("no_obstacle_rows",), lambda st: ObstacleRows(st, (), 0.0).kernel_args)  # type: ignore[no-any-return]
 
 
 def obstacle_rows(

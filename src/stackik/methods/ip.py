@@ -34,10 +34,12 @@ def spatial_problem_arrays(prob: Any) -> SpatialData:
     :class:`~stackik.formulation.Problem` (every array read-only)."""
     from stackik._compiled.spatial import SpatialData
     from stackik.formulation.clearance import NO_PAIRS
+    from stackik.formulation.obstacle_rows import no_obstacle_rows
 
     st = prob.stack
     tgt = prob.target
     sl = prob.self_legs
+    ob = prob.clearance.obstacle_rows
     return SpatialData(
         readonly(prob.xs),
         readonly(prob.cs),
@@ -56,6 +58,10 @@ def spatial_problem_arrays(prob: Any) -> SpatialData:
         NO_PAIRS if sl is None else sl.pairs,
         readonly(np.zeros(prob.n)) if sl is None else sl.rho,
         readonly(st.leg_max) if sl is None else sl.scale,
+        no_obstacle_rows(st) if ob is None else ob.kernel_args,
+        0.0 if ob is None else ob.margin,
+        float(np.max(st.leg_max)) if ob is None else ob.L,
+        0 if ob is None else int(ob.size),
     )
 
 
@@ -192,10 +198,13 @@ class IPBatch:
 
     ``best``: the best run that passes the check (None when none does); ``least``: the
     least-violation run among those checked otherwise; ``nit``: iterations over all
-    starts; ``statuses``: the solver's status per start; ``bound``: with leg force limits
-    (which the compiled kernels do not see), the poses of the runs that ranked before
-    ``best`` (lower objective, near feasible) and failed the check only on their forces:
-    starts for an engine that enforces them (:func:`stackik.solve.stages.ip_stage`).
+    starts; ``statuses``: the solver's status per start; ``bound``: with rows the compiled
+    interior point does not carry (:attr:`Problem.rows_outside_ip`: leg force limits,
+    planar obstacle and self-leg rows), the poses of the runs that ranked before ``best``
+    (lower objective, near feasible) and failed the check only on rows some solver has:
+    starts for an engine that enforces them (:func:`stackik.solve.stages.ip_stage`). The
+    spatial obstacle rows are in the kernel (dense rows): a run failing on them is no
+    start.
     """
 
     best: Run | None
@@ -253,10 +262,10 @@ def ip_starts(
             run = Run(q, int(nits[j]), statuses[j], chk, obj, None, texts[j])
         if chk.ok:
             return IPBatch(run, least, total, statuses, bound)
-        # a pose that fails only on rows outside the kernels is a start for the engine
-        # that has them; a shortfall no engine constrains is not
+        # a pose that fails only on rows outside the interior point is a start for the
+        # engine that has them; a shortfall no engine constrains is not
         clear = _unconstrained_shortfall(prob, chk)
-        if prob.dense_rows and pose_ok(
+        if prob.rows_outside_ip and pose_ok(
             chk.position_error, chk.angle_error, max(chk.max_violation_mm, clear), True
         ):
             bound.append(run)  # at the target within every limit, failing on dense rows

@@ -185,7 +185,7 @@ def bounded_step(
         leg-force rows (:mod:`stackik.formulation.clearance`,
         :mod:`stackik.formulation.forces`), so it goes around an obstacle or off a force
         limit within the box (:func:`bounded_ip`'s compiled problem has the self-leg rows
-        only).
+        and, spatial, the obstacle rows, not the force rows).
 
     Returns
     -------
