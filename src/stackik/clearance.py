@@ -42,7 +42,16 @@ from stackik.obstacles import Obstacle, as_obstacles
 from stackik.platform import validate_pose_array as _check_q
 from stackik.rotations import euler_zyx, plane_axis, rodrigues
 
-__all__ = ["Body", "Clearances", "Contact", "clearances", "needs_clearances", "plate_frames"]
+__all__ = [
+    "Body",
+    "Clearances",
+    "Contact",
+    "ContactPoints",
+    "clearances",
+    "contact_points",
+    "needs_clearances",
+    "plate_frames",
+]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -615,3 +624,214 @@ def _reach(stack: Stack) -> float:
 
 def _has_bodies(stack: Stack) -> bool:
     return any(g.leg_radius > 0.0 or g.plate_thickness > 0.0 for g in stack)
+
+
+# -----------------------------------------------------------------------------------------
+# the closest points of a contact (for drawing it)
+# -----------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ContactPoints:
+    """The two closest points of a :class:`Contact` (:func:`contact_points`).
+
+    Attributes
+    ----------
+    contact : Contact
+    a : ndarray, shape (3,)
+        Point of body ``contact.a``'s surface [mm], base frame.
+    b : ndarray, shape (3,)
+        Point of body ``contact.b``'s surface, or of the obstacle's [mm]. ``|b - a|`` is
+        ``|contact.distance|`` (up to rounding); when the bodies overlap ``a`` is inside the
+        other body, ``b`` inside (or on) body ``a``: the segment spans the overlap.
+    """
+
+    contact: Contact
+    a: FloatArray
+    b: FloatArray
+
+    @property
+    def distance(self) -> float:
+        """``contact.distance`` [mm] (signed)."""
+        return self.contact.distance
+
+    def label(self) -> str:
+        """``"12.3 mm"``: the distance with its unit, for a figure."""
+        return f"{self.contact.distance:.1f} mm"
+
+
+#: Points per bracket of the convex line searches of :func:`contact_points`, and rounds:
+#: each round shrinks a bracket by (K - 1) / 2 = 8, so 20 rounds reach 8^-20 ~ 1e-18 of
+#: the start (below rounding of any stack's coordinates).
+_K, _ROUNDS = 17, 20
+
+
+def _bracket_min(f: Any, lo: FloatArray, hi: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Minimise convex functions of one parameter on ``[lo, hi]`` (arrays (P,)): ``f`` maps
+    parameters (P, K) to values (P, K). Returns the minimisers and values, each (P,).
+
+    A convex function's grid minimum at node k brackets a minimiser in ``[k - 1, k + 1]``,
+    so each round keeps a minimiser: no tolerance but the rounds."""
+    s = np.linspace(0.0, 1.0, _K)
+    lo, hi = lo.astype(float).copy(), hi.astype(float).copy()
+    rows = np.arange(len(lo))
+    for _ in range(_ROUNDS):
+        t = lo[:, None] + s * (hi - lo)[:, None]
+        k = np.argmin(f(t), axis=1)
+        lo, hi = t[rows, np.maximum(k - 1, 0)], t[rows, np.minimum(k + 1, _K - 1)]
+    t = np.stack([lo, 0.5 * (lo + hi), hi], axis=1)
+    v = f(t)
+    k = np.argmin(v, axis=1)
+    return t[rows, k], v[rows, k]
+
+
+def _span(uv: FloatArray, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Least and largest y of the convex polygon ``uv`` (M, 2) on the lines x = ``x`` (P,)."""
+    e0, e1 = uv, uv[_next_vertex(len(uv))]
+    x0, x1 = e0[:, 0], e1[:, 0]
+    lo_x, hi_x = np.minimum(x0, x1), np.maximum(x0, x1)
+    dx = x1 - x0
+    w = np.where(dx != 0.0, (x[:, None] - x0) / np.where(dx != 0.0, dx, 1.0), 0.0)
+    y = e0[:, 1] + np.clip(w, 0.0, 1.0) * (e1[:, 1] - e0[:, 1])  # (P, M)
+    # a vertical edge at x spans both its end points' y
+    on = (x[:, None] >= lo_x) & (x[:, None] <= hi_x)
+    vert = on & (dx == 0.0)
+    ylo = np.where(on, np.where(vert, np.minimum(e0[:, 1], e1[:, 1]), y), np.inf).min(axis=1)
+    yhi = np.where(on, np.where(vert, np.maximum(e0[:, 1], e1[:, 1]), y), -np.inf).max(axis=1)
+    return ylo, yhi
+
+
+def _next_vertex(m: int) -> IntArray:
+    return (np.arange(m) + 1) % m
+
+
+def _core_min(core: Any, f: Any) -> FloatArray:
+    """The point of a core (a segment ``(a, b)`` or a :class:`~stackik.distance.Polygon`)
+    where the convex function ``f`` of points (..., 3) is least (P = 1 line search along a
+    segment; over a polygon, nested searches in its frame: the least over y is convex in
+    x)."""
+    if not isinstance(core, dist.Polygon):
+        a, b = core
+        t, _ = _bracket_min(lambda t: f(a + t[..., None] * (b - a)), np.zeros(1), np.ones(1))
+        return a + t[0] * (b - a)  # type: ignore[no-any-return]
+    uv = core.uv
+
+    def world(x: FloatArray, y: FloatArray) -> FloatArray:
+        return core.origin + x[..., None] * core.axes[:, 0] + y[..., None] * core.axes[:, 1]  # type: ignore[no-any-return]
+
+    def inner(x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        ylo, yhi = _span(uv, x.ravel())
+        y, v = _bracket_min(lambda y: f(world(x.ravel()[:, None], y)), ylo, yhi)
+        return y.reshape(x.shape), v.reshape(x.shape)
+
+    lo, hi = np.array([uv[:, 0].min()]), np.array([uv[:, 0].max()])
+    x, _ = _bracket_min(lambda x: inner(x)[1], lo, hi)
+    y, _ = inner(x)
+    return world(x, y)[0]  # type: ignore[no-any-return]
+
+
+def _nearest_on(core: Any, p: FloatArray) -> FloatArray:
+    """The point of a core nearest to the point ``p`` (3,)."""
+    if not isinstance(core, dist.Polygon):
+        a, b = core
+        return a + dist._segment_param(p, a, b - a) * (b - a)  # type: ignore[no-any-return]
+    loc = core.local(p)
+    if bool(core.inside(loc[:2])):
+        return core.origin + core.axes[:, :2] @ loc[:2]  # type: ignore[no-any-return]
+    e0 = core.vertices()
+    e1 = e0[_next_vertex(len(e0))]
+    t = dist._segment_param(p, e0, e1 - e0)
+    cand = e0 + t[:, None] * (e1 - e0)
+    return cand[int(np.argmin(np.linalg.norm(cand - p, axis=1)))]  # type: ignore[no-any-return]
+
+
+def _unit(v: FloatArray) -> FloatArray:
+    norm = float(np.linalg.norm(v))
+    return v / norm if norm > 0.0 else np.zeros(3)
+
+
+def _surface(ob: Obstacle, p: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The point of the obstacle's boundary nearest to ``p`` and the unit gradient of its
+    signed distance at ``p`` (outward)."""
+    from stackik.obstacles import Box, Capsule, HalfSpace, Sphere
+
+    if isinstance(ob, Sphere | Capsule):
+        foot = ob.center if isinstance(ob, Sphere) else _nearest_on((ob.a, ob.b), p)
+        g = _unit(p - foot)
+        if not g.any():
+            g = np.array([0.0, 0.0, 1.0])
+        return foot + ob.radius * g, g
+    if isinstance(ob, HalfSpace):
+        return p - float((p - ob.point) @ ob.normal) * ob.normal, ob.normal
+    if isinstance(ob, Box):
+        R, h = ob._R, ob.half_extents
+        x = R.T @ (p - ob.center)
+        excess = np.abs(x) - h
+        if np.any(excess > 0.0):
+            q = np.clip(x, -h, h)
+            g = _unit(x - q)
+        else:  # inside: the nearest face
+            i = int(np.argmax(excess))
+            q = x.copy()
+            q[i] = np.copysign(h[i], x[i])
+            g = np.zeros(3)
+            g[i] = np.copysign(1.0, x[i])
+        return ob.center + R @ q, R @ g
+    raise ValueError(f"obstacles: no closest point for {type(ob).__name__}")
+
+
+def contact_points(
+    stack: Stack,
+    q: ArrayLike,
+    contact: Contact,
+    obstacles: Sequence[Obstacle] | Obstacle | None = (),
+    *,
+    phi: float | None = None,
+) -> ContactPoints:
+    """The closest points of a contact of :func:`clearances` (e.g. ``.closest``): to draw
+    the pair as a segment labelled with its distance.
+
+    From the same distance code as :func:`clearances`: the core point of body ``a`` is
+    where the other body's exact point distance (:mod:`stackik.distance`, or the
+    obstacle's signed distance) is least over ``a``'s core, a convex function, minimised
+    by bracketing searches to rounding; the other core's nearest point follows, and both
+    move out to the bodies' surfaces along the line joining them.
+
+    Parameters
+    ----------
+    stack, q, obstacles, phi
+        As given to :func:`clearances` for ``contact``.
+    contact : Contact
+
+    Returns
+    -------
+    ContactPoints
+    """
+    obs = as_obstacles(obstacles)
+    lay: _Layout = stack.derived("clearance_layout", _layout)
+    A, O = plate_frames(stack, q, phi)
+    B = O[:-1, None, :] + np.einsum("nij,nkj->nki", A[:-1], stack.base_nodes)
+    T = O[1:, None, :] + np.einsum("nij,nkj->nki", A[1:], stack.top_nodes)
+
+    def core(body: Body) -> tuple[Any, float]:
+        if body.kind == "leg":
+            i, k = body.index - 1, int(body.leg or 0)
+            return (B[i, k], T[i, k]), float(lay.radius[i])
+        j = body.index
+        return dist.Polygon(O[j], A[j], lay.uv[j]), float(lay.half_t[j])
+
+    core_a, r_a = core(contact.a)
+    if contact.b is None:
+        if contact.obstacle is None or not 0 <= contact.obstacle < len(obs):
+            raise ValueError(f"contact: obstacle {contact.obstacle} is not in obstacles")
+        ob = obs[contact.obstacle]
+        p = _core_min(core_a, ob.point_distance)
+        on_b, g = _surface(ob, p)
+        return ContactPoints(contact, p - r_a * g, on_b)
+    core_b, r_b = core(contact.b)
+    if isinstance(core_b, dist.Polygon):
+        to_b: Any = lambda x: dist.point_polygon(x, core_b)  # noqa: E731
+    else:
+        to_b = lambda x: dist.point_segment(x, *core_b)  # noqa: E731
+    p = _core_min(core_a, to_b)
+    pb = _nearest_on(core_b, p)
+    u = _unit(pb - p)
+    return ContactPoints(contact, p + r_a * u, pb - r_b * u)
