@@ -169,6 +169,39 @@ def run_capacity(args: argparse.Namespace, stack: Any, phi: float) -> int:
     return EXIT_OK if carried else EXIT_INFEASIBLE
 
 
+def _write_study(
+    args: argparse.Namespace, study: Any, rows: Any, clear: dict[str, Any], phi: float
+) -> list[Path]:
+    """Write workspace.csv, regression.json and the figures into ``--out`` (if given)."""
+    reg = study.regression
+    written: list[Path] = []
+    if args.out is not None:
+        from stackik._io import write_csv
+        from stackik.targets import PAPER_TARGETS
+
+        out: Path = args.out
+        out.mkdir(parents=True, exist_ok=True)
+        write_csv(out / "workspace.csv", rows)
+        reg_data = None if reg is None else reg.to_dict()
+        (out / "regression.json").write_text(json.dumps(reg_data, indent=2) + "\n")
+        written += [out / "workspace.csv", out / "regression.json"]
+
+        def draw(figures: Any) -> None:
+            highlight = [t[:2] for t in PAPER_TARGETS]
+            figures.plot_fn_ratio_map(
+                study, highlight=highlight, path=out / "fn_ratio_map.png",
+                obstacles=clear.get("obstacles"), phi=phi,
+            )  # fmt: skip
+            if reg is not None:
+                figures.plot_regression(study, path=out / "regression.png")
+
+        if draw_figures(draw):
+            written.append(out / "fn_ratio_map.png")
+            if reg is not None:
+                written.append(out / "regression.png")
+    return written
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``stackik map``; exit code 1 if no target was solved."""
     stack = load_stack(args.n, args.geometry)
@@ -213,31 +246,7 @@ def run(args: argparse.Namespace) -> int:
         )
     rows = study.rows()
     reg = study.regression
-    written: list[Path] = []
-    if args.out is not None:
-        from stackik._io import write_csv
-        from stackik.targets import PAPER_TARGETS
-
-        out: Path = args.out
-        out.mkdir(parents=True, exist_ok=True)
-        write_csv(out / "workspace.csv", rows)
-        reg_data = None if reg is None else reg.to_dict()
-        (out / "regression.json").write_text(json.dumps(reg_data, indent=2) + "\n")
-        written += [out / "workspace.csv", out / "regression.json"]
-
-        def draw(figures: Any) -> None:
-            highlight = [t[:2] for t in PAPER_TARGETS]
-            figures.plot_fn_ratio_map(
-                study, highlight=highlight, path=out / "fn_ratio_map.png",
-                obstacles=clear.get("obstacles"), phi=phi,
-            )  # fmt: skip
-            if reg is not None:
-                figures.plot_regression(study, path=out / "regression.png")
-
-        if draw_figures(draw):
-            written.append(out / "fn_ratio_map.png")
-            if reg is not None:
-                written.append(out / "regression.png")
+    written = _write_study(args, study, rows, clear, phi)
     import numpy as np
 
     valid = study.valid
