@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from stackik.analysis.figures import stack_nodes
+from stackik.analysis._nodes import stack_nodes
 from stackik.geometry import Stack
 from stackik.targets import PlanarTarget, SpatialTarget, Target
 
@@ -587,14 +587,16 @@ def _closest_trace(
 ) -> Any:
     """The pose's closest pair: a segment between its two closest points with its signed
     distance [mm] as text (red below the margin), named ``closest pair`` (empty if none)."""
-    from stackik.analysis.clearance_art import closest_contact, contact_color
+    from stackik.clearance import clearances, contact_points
 
-    cp = closest_contact(stack, q, tuple(obstacles or ()), phi)
+    obs = tuple(obstacles or ())
+    c = clearances(stack, q, obs, phi=phi).closest
+    cp = None if c is None else contact_points(stack, q, c, obs, phi=phi)
     if cp is None:
         return go.Scatter3d(x=[None], y=[None], z=[None], mode="lines", name="closest pair",
                             showlegend=False)  # fmt: skip
     ab = np.stack([cp.a, cp.b])
-    col = contact_color(cp.distance, clearance)
+    col = "#d62728" if cp.distance < max(clearance, 0.0) else "#1a7f37"  # as clearance_art
     what = str(cp.contact).rsplit(":", 1)[0]
     return go.Scatter3d(
         x=ab[:, 0], y=ab[:, 1], z=ab[:, 2], mode="lines+markers+text", name="closest pair",
