@@ -68,3 +68,16 @@ def test_map_records_obstacles_and_guards_its_checkpoint(tmp_path):
     cmap._check_checkpoint(ck, record)  # the same: resumes
     with pytest.raises(CLIError, match="other obstacles"):
         cmap._check_checkpoint(ck, {"obstacles": [], "clearance": 0.0})
+
+
+def test_path_animation_marks_the_closest_pair_per_frame(tmp_path):
+    from stackik import PlanarTarget
+    from stackik.paths import solve_path
+    from stackik.paths.animate import animate_path
+
+    stack = Stack.reference(2)
+    targets = [PlanarTarget(100.0 + 20 * k, 600.0, 0.0, 0.0) for k in range(3)]
+    res = solve_path(stack, targets, max_jump=(60.0, 0.3))
+    assert res.completed > 0
+    files = animate_path(res, stack, tmp_path / "a.gif", obstacles=OBS, clearance=5.0, mp4=False)
+    assert files[0].stat().st_size > 0
