@@ -266,8 +266,9 @@ def test_geometry_write_validate_roundtrip(
     rc, out, _ = _run(capsys, "geometry", "write", str(path), "--n", "2")
     assert rc == 0 and path.exists()
     assert Stack.from_file(path) == Stack.reference(2)
-    rc, out, _ = _run(capsys, "geometry", "validate", str(path))
+    rc, out, err = _run(capsys, "geometry", "validate", str(path))
     assert rc == 0 and out.startswith("valid")
+    assert "warning" in err and "leg_radius" in err  # the reference legs have no radius
     # no silent overwrite
     rc, _, err = _run(capsys, "geometry", "write", str(path))
     _assert_one_line_error(rc, err)
@@ -525,3 +526,14 @@ def test_help_texts_print_no_format_escapes(capsys: pytest.CaptureFixture[str]) 
             build_parser().parse_args([module.NAME, "--help"])
         out = capsys.readouterr().out
         assert "%%" not in out, module.NAME
+
+
+def test_geometry_validate_is_quiet_with_a_leg_radius(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    from stackik import PlatformGeometry
+
+    path = tmp_path / "thick.toml"
+    Stack.uniform(PlatformGeometry.hexagonal(leg_radius=10.0), 2).to_toml(path)
+    rc, out, err = _run(capsys, "geometry", "validate", str(path))
+    assert rc == 0 and out.startswith("valid") and "warning" not in err

@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from stackik.analysis.figures import stack_nodes
+from stackik.analysis._nodes import stack_nodes
 from stackik.geometry import Stack
 from stackik.targets import PlanarTarget, SpatialTarget, Target
 
@@ -563,6 +563,50 @@ def _obstacle_traces(go: Any, obstacles: Sequence[Any] | None, extent: float) ->
     return out
 
 
+def _marks_closest(
+    stack: Stack, obstacles: Sequence[Any] | None, clearance: float, closest: bool | None
+) -> bool:
+    if closest is not None:
+        return bool(closest)
+    from stackik.clearance import needs_clearances
+    from stackik.obstacles import Obstacle
+
+    obs = tuple(obstacles or ())
+    if not all(isinstance(ob, Obstacle) for ob in obs):  # plain drawing records
+        return False
+    return needs_clearances(stack, obs, clearance)
+
+
+def _closest_trace(
+    go: Any,
+    stack: Stack,
+    q: FloatArray,
+    phi: float | None,
+    obstacles: Sequence[Any] | None,
+    clearance: float,
+) -> Any:
+    """The pose's closest pair: a segment between its two closest points with its signed
+    distance [mm] as text (red below the margin), named ``closest pair`` (empty if none)."""
+    from stackik.clearance import clearances, contact_points
+
+    obs = tuple(obstacles or ())
+    c = clearances(stack, q, obs, phi=phi).closest
+    cp = None if c is None else contact_points(stack, q, c, obs, phi=phi)
+    if cp is None:
+        return go.Scatter3d(x=[None], y=[None], z=[None], mode="lines", name="closest pair",
+                            showlegend=False)  # fmt: skip
+    ab = np.stack([cp.a, cp.b])
+    col = "#d62728" if cp.distance < max(clearance, 0.0) else "#1a7f37"  # as clearance_art
+    what = str(cp.contact).rsplit(":", 1)[0]
+    return go.Scatter3d(
+        x=ab[:, 0], y=ab[:, 1], z=ab[:, 2], mode="lines+markers+text", name="closest pair",
+        line={"color": col, "width": 8}, marker={"size": 4, "color": col},
+        text=[cp.label(), ""], textposition="top center",
+        textfont={"color": col, "size": 14},
+        hovertext=f"closest pair: {what}, {cp.distance:.2f} mm", hoverinfo="text",
+    )  # fmt: skip
+
+
 def _layout(title: str, scene: dict[str, Any]) -> dict[str, Any]:
     return {
         "title": {"text": title, "x": 0.02, "xanchor": "left", "font": {"size": 15}},
@@ -590,6 +634,8 @@ def pose_figure(
     colorscale: Any = None,
     obstacles: Sequence[Any] | None = None,
     title: str | None = None,
+    clearance: float = 0.0,
+    closest: bool | None = None,
 ) -> Any:
     """Interactive 3D figure of one pose.
 
@@ -614,6 +660,13 @@ def pose_figure(
     obstacles : sequence, optional
         Obstacles to draw (:func:`obstacle_record` lists the accepted records).
     title : str, optional
+    clearance : float
+        Margin [mm]: a closest pair below it (or negative) is drawn red, else green.
+    closest : bool, optional
+        Mark the closest pair of bodies: a segment between the two closest points
+        (:func:`stackik.clearance.contact_points`) labelled with its distance [mm];
+        default: when a clearance can fail (:func:`stackik.clearance.needs_clearances`;
+        needs :class:`stackik.Obstacle` obstacles).
 
     Returns
     -------
@@ -630,6 +683,8 @@ def pose_figure(
         colorscale=colorscale,
         obstacles=obstacles,
         title=title,
+        clearance=clearance,
+        closest=closest,
     )
 
 
@@ -647,6 +702,8 @@ def path_figure(
     labels: Sequence[str] | None = None,
     title: str | None = None,
     frame_ms: int = 120,
+    clearance: float = 0.0,
+    closest: bool | None = None,
 ) -> Any:
     """Interactive 3D figure of a pose sequence: one frame per pose, a slider and a play
     button (a single pose gives a figure without them).
@@ -664,8 +721,8 @@ def path_figure(
     leg_values : array_like, shape (m, n, 6) or (n, 6), optional
         Colour of every leg at every pose, with ``leg_values_title`` (see
         :func:`pose_figure`).
-    leg_values_title, value_range, colorscale, obstacles, title
-        As in :func:`pose_figure`.
+    leg_values_title, value_range, colorscale, obstacles, title, clearance, closest
+        As in :func:`pose_figure` (the closest pair is marked at every pose).
     labels : sequence of str, length m, optional
         Slider labels (default the pose index).
     frame_ms : int
@@ -730,6 +787,9 @@ def path_figure(
         _pose_traces(go, stack, q, phi, t, colouring.values[k], colouring, axis_length, k == 0)
         for k, (q, t) in enumerate(zip(qa, tg, strict=True))
     ]
+    if _marks_closest(stack, obstacles, clearance, closest):
+        for k, q in enumerate(qa):
+            traces[k].append(_closest_trace(go, stack, q, phi, obstacles, clearance))
     static: list[Any] = _obstacle_traces(go, obstacles, extent)
     solid = [t for t in static if t.hovertext and "halfspace" not in t.hovertext]
     if solid:  # keep the bodies in view (a half-space is drawn as large as the scene)

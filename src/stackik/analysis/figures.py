@@ -18,9 +18,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from stackik.analysis._nodes import stack_nodes
 from stackik.geometry import Stack
 from stackik.kinematics import lift_planar, planar_fn2
-from stackik.rotations import euler_zyx, euler_zyx_from_matrix
+from stackik.rotations import euler_zyx_from_matrix
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -73,41 +74,6 @@ def planar_to_spatial(q: ArrayLike, phi: float) -> FloatArray:
     """Spatial pose (n, 6) ``[x, y, z, yaw, pitch, roll]`` equal to planar pose q (n, 3)."""
     P, R = lift_planar(q, phi)
     return np.concatenate([P, euler_zyx_from_matrix(R)], axis=-1)
-
-
-def stack_nodes(stack: Stack, q: ArrayLike, phi: float | None = None) -> dict[str, FloatArray]:
-    """3D plate frames and node positions of a pose in the base frame.
-
-    Parameters
-    ----------
-    stack : Stack
-    q : array_like, shape (n, 3) planar (then ``phi`` is required) or (n, 6) spatial
-    phi : float, optional
-        Plane azimuth of a planar pose [rad].
-
-    Returns
-    -------
-    dict with
-        ``O`` (n+1, 3) plate origins [mm], ``A`` (n+1, 3, 3) plate orientations,
-        ``base`` (n, 6, 3) and ``top`` (n, 6, 3) world leg end points of each platform [mm].
-    """
-    qa = np.asarray(q, dtype=float)
-    if qa.shape[-1] == 3:
-        if phi is None:
-            raise ValueError("phi is required for a planar pose")
-        P, R = lift_planar(qa, phi)
-    else:
-        P, R = qa[:, :3], euler_zyx(qa[:, 3:])
-    n = stack.n
-    O = np.zeros((n + 1, 3))
-    A = np.zeros((n + 1, 3, 3))
-    A[0] = np.eye(3)
-    for i in range(n):
-        O[i + 1] = O[i] + A[i] @ P[i]
-        A[i + 1] = A[i] @ R[i]
-    base = O[:-1, None, :] + np.einsum("nij,nkj->nki", A[:-1], stack.base_nodes)
-    top = O[1:, None, :] + np.einsum("nij,nkj->nki", A[1:], stack.top_nodes)
-    return {"O": O, "A": A, "base": base, "top": top}
 
 
 def _project(X: FloatArray, phi: float) -> FloatArray:
@@ -171,6 +137,9 @@ def plot_pose_diagram(
     labels: Sequence[str] | None = None,
     title: str | None = None,
     path: str | Path | None = None,
+    obstacles: Sequence[Any] | None = None,
+    clearance: float = 0.0,
+    closest: bool | None = None,
 ) -> Figure:
     """2D diagram of stack poses in the ``(rho, z)`` plane, one panel per pose.
 
@@ -189,6 +158,15 @@ def plot_pose_diagram(
         Panel titles (``FN`` is appended).
     path : str or Path, optional
         Save the figure there (PNG).
+    obstacles : sequence of Obstacle, optional
+        Drawn projected onto the plane (:mod:`stackik.analysis.clearance_art`).
+    clearance : float
+        Margin [mm]: a closest pair below it is drawn red.
+    closest : bool, optional
+        Mark each pose's closest pair of bodies (segment and distance [mm],
+        :func:`stackik.clearance.contact_points`); default: when a clearance can fail
+        (obstacles, leg radius, plate thickness or a margin:
+        :func:`~stackik.clearance.needs_clearances`).
     """
     k = len(poses)
     labels = list(labels) if labels is not None else [f"pose {i + 1}" for i in range(k)]
@@ -209,9 +187,31 @@ def plot_pose_diagram(
     axes[0].set_xlim(lo[0], hi[0])
     axes[0].set_ylim(min(lo[1], -50.0), hi[1])
     axes[0].set_ylabel("z [mm]")
+    obs = list(obstacles or ())
+    mark = _marks_closest(stack, obs, clearance, closest)
+    if obs or mark:
+        from stackik.analysis import clearance_art as art
+
+        for ax, q in zip(axes, poses, strict=True):
+            art.draw_obstacles_plane(ax, obs, phi)
+            if mark:
+                cp = art.closest_contact(stack, q, obs, phi)
+                if cp is not None:
+                    art.draw_contact_plane(ax, cp, phi, clearance)
     if title:
         fig.suptitle(title)
     return _save(fig, path)
+
+
+def _marks_closest(
+    stack: Stack, obstacles: Sequence[Any], clearance: float, closest: bool | None
+) -> bool:
+    """Whether to mark the closest pair (``closest``, by default when a clearance can fail)."""
+    if closest is not None:
+        return bool(closest)
+    from stackik.clearance import needs_clearances
+
+    return needs_clearances(stack, tuple(obstacles), clearance)
 
 
 def plot_perturbation_clouds(
@@ -262,11 +262,14 @@ def plot_fn_ratio_map(
     highlight: Sequence[tuple[float, float]] | None = None,
     title: str | None = None,
     path: str | Path | None = None,
+    obstacles: Sequence[Any] | None = None,
+    phi: float = 0.0,
 ) -> Figure:
     """Targets in the ``(rho, z)`` plane coloured by ``FN_opt / FN_non`` (lower = better).
 
     Targets where a solve failed are grey crosses; ``highlight`` points (e.g. the paper's
-    targets) are black stars.
+    targets) are black stars; ``obstacles`` are drawn projected onto the plane of azimuth
+    ``phi`` [rad] (:mod:`stackik.analysis.clearance_art`).
     """
     fig = _figure(6.4, 5.2)
     ax = fig.subplots()
@@ -285,10 +288,21 @@ def plot_fn_ratio_map(
     ax.set_ylabel("z [mm]")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
-    if np.any(~v) or highlight:
+    _map_obstacles(ax, obstacles, phi)
+    if np.any(~v) or highlight or obstacles:
         ax.legend(loc="lower left", fontsize=8)
     ax.set_title(title or f"{int(v.sum())} targets, FN ratio optimal / non-optimal")
     return _save(fig, path)
+
+
+def _map_obstacles(ax: Axes, obstacles: Sequence[Any] | None, phi: float) -> None:
+    """Obstacles behind a map's targets, the view widened to hold the bounded ones."""
+    if not obstacles:
+        return
+    from stackik.analysis import clearance_art
+
+    ax.autoscale_view()
+    clearance_art.draw_obstacles_plane(ax, obstacles, phi, keep_view=False)
 
 
 def _workspace_scatter(
@@ -299,6 +313,8 @@ def _workspace_scatter(
     title: str,
     path: Any,
     failed: str = "solve failed",
+    obstacles: Sequence[Any] | None = None,
+    phi: float = 0.0,
 ) -> Figure:
     """Targets in the ``(rho, z)`` plane coloured by ``values`` (grey crosses, labelled
     ``failed``, where not ``ok``)."""
@@ -312,39 +328,56 @@ def _workspace_scatter(
         fig.colorbar(sc, ax=ax, label=label)
     if np.any(~ok):
         ax.scatter(xy[~ok, 0], xy[~ok, 1], marker="x", color="0.6", s=18, label=failed)
-        ax.legend(loc="lower left", fontsize=8)
     ax.set_xlabel(r"$\rho$ [mm]")
     ax.set_ylabel("z [mm]")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
+    _map_obstacles(ax, obstacles, phi)
+    if np.any(~ok) or obstacles:
+        ax.legend(loc="lower left", fontsize=8)
     ax.set_title(title)
     return _save(fig, path)
 
 
-def plot_capacity_map(cmap: CapacityMap, path: str | Path | None = None) -> Figure:
+def plot_capacity_map(
+    cmap: CapacityMap,
+    path: str | Path | None = None,
+    obstacles: Sequence[Any] | None = None,
+    phi: float = 0.0,
+) -> Figure:
     """Targets in the ``(rho, z)`` plane coloured by their payload capacity [kg]
     (:func:`stackik.analysis.capacity.capacity_map`); crosses: not even the rest of the
-    load is carried."""
+    load is carried; ``obstacles`` projected onto the plane of azimuth ``phi`` [rad]."""
     rows = cmap.rows()
     xy = np.array([[r["rho"], r["z"]] for r in rows], dtype=float).reshape(-1, 2)
     mass = np.array([r["capacity_kg"] for r in rows], dtype=float)
     ok = np.array([r["carried"] for r in rows], dtype=bool)
     title = f"{len(rows)} targets, payload capacity"
     return _workspace_scatter(
-        xy, mass, ok, "payload capacity [kg]", title, path, "not even without payload"
-    )
+        xy, mass, ok, "payload capacity [kg]", title, path, "not even without payload",
+        obstacles, phi,
+    )  # fmt: skip
 
 
-def plot_peak_force_map(cmap: CapacityMap, path: str | Path | None = None) -> Figure:
+def plot_peak_force_map(
+    cmap: CapacityMap,
+    path: str | Path | None = None,
+    obstacles: Sequence[Any] | None = None,
+    phi: float = 0.0,
+) -> Figure:
     """Targets in the ``(rho, z)`` plane coloured by the peak leg force [N] of their
     least-FN pose without force limits and without payload
     (:attr:`~stackik.analysis.capacity.CapacityMap.free_peaks`): where it exceeds
-    ``force_max`` the limit shapes the pose before any payload."""
+    ``force_max`` the limit shapes the pose before any payload. ``obstacles``, ``phi``: as
+    in :func:`plot_capacity_map`."""
     rows = cmap.rows()
     xy = np.array([[r["rho"], r["z"]] for r in rows], dtype=float).reshape(-1, 2)
     peak = np.array([r["free_peak_force_N"] for r in rows], dtype=float)
     title = f"{len(rows)} targets, least-FN peak leg force (no payload, no force limit)"
-    return _workspace_scatter(xy, peak, np.isfinite(peak), "peak leg force [N]", title, path)
+    return _workspace_scatter(
+        xy, peak, np.isfinite(peak), "peak leg force [N]", title, path, "solve failed",
+        obstacles, phi,
+    )  # fmt: skip
 
 
 def plot_regression(
@@ -390,6 +423,9 @@ def plot_spatial_pose(
     path: str | Path | None = None,
     elev: float = 18.0,
     azim: float = -60.0,
+    obstacles: Sequence[Any] | None = None,
+    clearance: float = 0.0,
+    closest: bool | None = None,
 ) -> Figure:
     """3D drawing of a pose: plates, the six legs per platform, plate frames.
 
@@ -400,6 +436,8 @@ def plot_spatial_pose(
     Parameters
     ----------
     q : array_like, shape (n, 6) spatial, or (n, 3) planar with ``phi``
+    obstacles, clearance, closest
+        As in :func:`plot_pose_diagram` (the obstacles as 3D meshes).
     """
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
@@ -438,6 +476,15 @@ def plot_spatial_pose(
     pts = np.concatenate([base.reshape(-1, 3), top.reshape(-1, 3)])
     mid = 0.5 * (pts.max(0) + pts.min(0))
     half = 0.5 * float((pts.max(0) - pts.min(0)).max())
+    obs = list(obstacles or ())
+    if obs or _marks_closest(stack, obs, clearance, closest):
+        from stackik.analysis import clearance_art as art
+
+        art.draw_obstacles_3d(ax, obs, half)
+        if _marks_closest(stack, obs, clearance, closest):
+            cp = art.closest_contact(stack, q, obs, phi)
+            if cp is not None:
+                art.draw_contact_3d(ax, cp, clearance)
     ax.set_xlim(mid[0] - half, mid[0] + half)
     ax.set_ylim(mid[1] - half, mid[1] + half)
     ax.set_zlim(mid[2] - half, mid[2] + half)

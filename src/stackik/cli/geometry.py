@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ._common import EXIT_OK, CLIError, add_stack_args, load_stack
+from ._common import EXIT_OK, PROG, CLIError, add_stack_args, load_stack
 
 if TYPE_CHECKING:
     from stackik.geometry import Stack
@@ -93,6 +94,12 @@ def run(args: argparse.Namespace) -> int:
     if args.action == "validate":
         stack = Stack.from_file(args.file)
         print(f"valid: {args.file} ({stack.n} platform(s))")
+        if all(g.leg_radius == 0.0 for g in stack):
+            print(
+                f"{PROG}: warning: {args.file} gives no leg_radius: the legs are lines to the "
+                "clearance check (set leg_radius [mm] to keep real actuators apart)",
+                file=sys.stderr,
+            )
         return EXIT_OK
     # write
     path: Path = args.file

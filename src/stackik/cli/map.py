@@ -15,11 +15,13 @@ from ._common import (
     EXIT_OK,
     CLIError,
     NotAvailableError,
+    add_clearance_arguments,
     add_load_arguments,
     add_method_args,
     add_phi_args,
     add_scale_args,
     add_stack_args,
+    clearance_of,
     draw_figures,
     dump_json,
     executor_from_args,
@@ -78,7 +80,36 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     c.add_argument("--mass-max", type=finite_float, default=1000.0, metavar="KG",
                    help="largest payload tried [kg] (1000)")  # fmt: skip
     add_load_arguments(p)
+    add_clearance_arguments(p)
     return p
+
+
+def _clearance(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The solves' ``obstacles``/``clearance`` keywords (none when not given, so that a map
+    without them solves as before) and their JSON record."""
+    clear = clearance_of(args)
+    record = {"obstacles": [ob.to_dict() for ob in clear["obstacles"]],
+              "clearance": clear["clearance"]}  # fmt: skip
+    if not clear["obstacles"] and not clear["clearance"]:
+        return {}, record
+    return clear, record
+
+
+def _check_checkpoint(folder: Path, record: dict[str, Any]) -> None:
+    """Record the obstacles and margin in the checkpoint folder; refuse to resume a
+    checkpoint of other ones (its solves would not be this map's)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "clearance.json"
+    if path.exists():
+        old = json.loads(path.read_text())
+        if old != json.loads(json.dumps(record)):
+            raise CLIError(
+                f"--obstacles/--clearance: {folder} holds solves of other obstacles or "
+                "another margin (remove it or use another --out)"
+            )
+    elif any(folder.iterdir()) and (record["obstacles"] or record["clearance"]):
+        raise CLIError(f"--obstacles/--clearance: {folder} holds solves without them")
+    path.write_text(json.dumps(record) + "\n")
 
 
 def run_capacity(args: argparse.Namespace, stack: Any, phi: float) -> int:
@@ -91,7 +122,9 @@ def run_capacity(args: argparse.Namespace, stack: Any, phi: float) -> int:
 
     seed = DEFAULT_SEED if args.seed is None else args.seed
     targets = study_targets(stack, args.targets, seed=seed, phi=phi)
+    clear, record = _clearance(args)
     kw: dict[str, Any] = {"method": args.method, "qp_solver": resolve_qp(args.method, None)}
+    kw.update(clear)
     if args.force_weight:
         kw["force_weight"] = args.force_weight
     with executor_from_args(args) as executor:
@@ -111,15 +144,18 @@ def run_capacity(args: argparse.Namespace, stack: Any, phi: float) -> int:
         written.append(out / "capacity.csv")
 
         def draw(figures: Any) -> None:
-            figures.plot_capacity_map(cmap, path=out / "capacity_map.png")
-            figures.plot_peak_force_map(cmap, path=out / "peak_force_map.png")
+            obs = clear.get("obstacles")
+            figures.plot_capacity_map(cmap, path=out / "capacity_map.png", obstacles=obs, phi=phi)
+            figures.plot_peak_force_map(
+                cmap, path=out / "peak_force_map.png", obstacles=obs, phi=phi
+            )
 
         if draw_figures(draw):
             written += [out / "capacity_map.png", out / "peak_force_map.png"]
     carried = [r for r in rows if r["carried"]]
     if args.json:
         dump_json({"targets": len(rows), "carried": len(carried), "seed": seed, "phi": phi,
-                   "rows": rows, "geometry": stack.to_dict()})  # fmt: skip
+                   **record, "rows": rows, "geometry": stack.to_dict()})  # fmt: skip
     else:
         print(f"payload capacity: {len(carried)} of {len(rows)} targets carry their load")
         if carried:
@@ -131,6 +167,39 @@ def run_capacity(args: argparse.Namespace, stack: Any, phi: float) -> int:
         for path in written:
             print(f"wrote {path}")
     return EXIT_OK if carried else EXIT_INFEASIBLE
+
+
+def _write_study(
+    args: argparse.Namespace, study: Any, rows: Any, clear: dict[str, Any], phi: float
+) -> list[Path]:
+    """Write workspace.csv, regression.json and the figures into ``--out`` (if given)."""
+    reg = study.regression
+    written: list[Path] = []
+    if args.out is not None:
+        from stackik._io import write_csv
+        from stackik.targets import PAPER_TARGETS
+
+        out: Path = args.out
+        out.mkdir(parents=True, exist_ok=True)
+        write_csv(out / "workspace.csv", rows)
+        reg_data = None if reg is None else reg.to_dict()
+        (out / "regression.json").write_text(json.dumps(reg_data, indent=2) + "\n")
+        written += [out / "workspace.csv", out / "regression.json"]
+
+        def draw(figures: Any) -> None:
+            highlight = [t[:2] for t in PAPER_TARGETS]
+            figures.plot_fn_ratio_map(
+                study, highlight=highlight, path=out / "fn_ratio_map.png",
+                obstacles=clear.get("obstacles"), phi=phi,
+            )  # fmt: skip
+            if reg is not None:
+                figures.plot_regression(study, path=out / "regression.png")
+
+        if draw_figures(draw):
+            written.append(out / "fn_ratio_map.png")
+            if reg is not None:
+                written.append(out / "regression.png")
+    return written
 
 
 def run(args: argparse.Namespace) -> int:
@@ -152,6 +221,9 @@ def run(args: argparse.Namespace) -> int:
         return not_available(NAME, exc)
     qp = resolve_qp(args.method, args.qp_solver)
     seed = DEFAULT_SEED if args.seed is None else args.seed
+    clear, record = _clearance(args)
+    if args.out is not None:
+        _check_checkpoint(args.out / "checkpoint", record)
     with ExitStack() as cleanup:
         # the workers start (and load the kernels) while this process draws the targets
         with ThreadPoolExecutor(1) as starter:
@@ -169,33 +241,12 @@ def run(args: argparse.Namespace) -> int:
             phi=phi,
             progress=not args.quiet,
             executor=executor,
-            solve_kwargs={"method": args.method, "qp_solver": qp},
+            solve_kwargs={"method": args.method, "qp_solver": qp, **clear},
             checkpoint_dir=None if args.out is None else args.out / "checkpoint",
         )
     rows = study.rows()
     reg = study.regression
-    written: list[Path] = []
-    if args.out is not None:
-        from stackik._io import write_csv
-        from stackik.targets import PAPER_TARGETS
-
-        out: Path = args.out
-        out.mkdir(parents=True, exist_ok=True)
-        write_csv(out / "workspace.csv", rows)
-        reg_data = None if reg is None else reg.to_dict()
-        (out / "regression.json").write_text(json.dumps(reg_data, indent=2) + "\n")
-        written += [out / "workspace.csv", out / "regression.json"]
-
-        def draw(figures: Any) -> None:
-            highlight = [t[:2] for t in PAPER_TARGETS]
-            figures.plot_fn_ratio_map(study, highlight=highlight, path=out / "fn_ratio_map.png")
-            if reg is not None:
-                figures.plot_regression(study, path=out / "regression.png")
-
-        if draw_figures(draw):
-            written.append(out / "fn_ratio_map.png")
-            if reg is not None:
-                written.append(out / "regression.png")
+    written = _write_study(args, study, rows, clear, phi)
     import numpy as np
 
     valid = study.valid
@@ -212,6 +263,7 @@ def run(args: argparse.Namespace) -> int:
         "sigma_theta": study.sigma_theta,
         "seed": seed,
         "phi": phi,
+        **record,
     }
     if args.json:
         dump_json({**summary, "rows": rows, "geometry": stack.to_dict()})

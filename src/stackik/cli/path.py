@@ -281,7 +281,9 @@ def run(args: argparse.Namespace) -> int:
     if args.html is not None and result.completed > 0:
         from stackik import viz
 
-        fig = viz.path_figure(stack, result, obstacles=clear["obstacles"] or None)
+        fig = viz.path_figure(
+            stack, result, obstacles=clear["obstacles"] or None, clearance=clear["clearance"]
+        )
         files.append(viz.write_html(fig, args.html))
     try:
         from stackik.paths.animate import animate_path, plot_path
@@ -294,8 +296,9 @@ def run(args: argparse.Namespace) -> int:
             files.append(out / "path.png")
             if not args.no_animation:
                 files += animate_path(
-                    result, stack, out / "path.gif", fps=args.fps, max_frames=args.frames
-                )
+                    result, stack, out / "path.gif", fps=args.fps, max_frames=args.frames,
+                    obstacles=clear["obstacles"], clearance=clear["clearance"],
+                )  # fmt: skip
     except ImportError as exc:
         print(f"{PROG}: note: figures skipped ({exc}); install stackik[plot]", file=sys.stderr)
     summary = _summary(result, files)

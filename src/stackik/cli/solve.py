@@ -339,7 +339,12 @@ def run(args: argparse.Namespace) -> int:
         from stackik import viz
 
         fig = viz.pose_figure(
-            stack, result.q, phi=result.phi, target=target, obstacles=clear["obstacles"] or None
+            stack,
+            result.q,
+            phi=result.phi,
+            target=target,
+            obstacles=clear["obstacles"] or None,
+            clearance=clear["clearance"],
         )
         path = viz.write_html(fig, args.html)
         if not args.json:

@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import shutil
 import textwrap
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,6 +24,9 @@ from numpy.typing import NDArray
 from stackik.geometry import Stack
 from stackik.paths.result import PathResult
 from stackik.targets import PlanarTarget
+
+if TYPE_CHECKING:
+    from stackik.obstacles import Obstacle
 
 __all__ = ["animate_path", "default_caption", "plot_path", "stack_nodes"]
 
@@ -157,6 +161,9 @@ def animate_path(
     dpi: int = 90,
     caption: str | None = None,
     mp4: bool = True,
+    obstacles: Sequence[Obstacle] | None = None,
+    clearance: float = 0.0,
+    closest: bool | None = None,
 ) -> list[Path]:
     """Animate the stack along a solved path.
 
@@ -175,6 +182,13 @@ def animate_path(
         Text under the drawing (default :func:`default_caption`).
     mp4 : bool
         Also write an MP4 when ffmpeg is installed.
+    obstacles : sequence of Obstacle, optional
+        Drawn in every frame (planar: projected onto the path's plane).
+    clearance : float
+        Margin [mm]: a closest pair below it is drawn red.
+    closest : bool, optional
+        Mark each frame's closest pair of bodies (segment and distance [mm],
+        :func:`stackik.clearance.contact_points`); default: when a clearance can fail.
 
     Returns
     -------
@@ -227,6 +241,15 @@ def animate_path(
     cmap = plt.get_cmap("coolwarm")
     lmin, lmax = float(stack.leg_min.min()), float(stack.leg_max.max())
     ee = np.array([proj(nd["O"][-1]) for nd in nodes])
+    from stackik.analysis import clearance_art as art
+    from stackik.analysis.figures import _marks_closest
+
+    obs = list(obstacles or ())
+    mark = _marks_closest(stack, obs, clearance, closest)
+    plane = result.targets[0].phi if planar else None  # type: ignore[union-attr]
+    contacts = {
+        k: art.closest_contact(stack, result.q[k], obs, plane) if mark else None for k in frames
+    }
 
     def draw(k: int) -> None:
         ax.cla()
@@ -272,6 +295,15 @@ def animate_path(
             ),
             fontsize=10,
         )
+        if planar:
+            art.draw_obstacles_plane(ax, obs, float(plane or 0.0))
+        else:
+            art.draw_obstacles_3d(ax, obs, span)
+        if contacts[k] is not None:
+            if planar:
+                art.draw_contact_plane(ax, contacts[k], float(plane or 0.0), clearance)
+            else:
+                art.draw_contact_3d(ax, contacts[k], clearance)
         ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=4, fontsize=7)
 
     anim = FuncAnimation(fig, lambda i: draw(frames[i]), frames=len(frames), blit=False)
