@@ -14,8 +14,11 @@ with ``rng = seed`` (:func:`stackik.sampling.random_spatial_targets`,
   1950 mm here): the problem has no obstacle rows, the check still measures them;
 * ``near_clear``: the same two bodies 1500 mm from the base axis, within reach (the problem
   carries their rows) but, on most targets, clear of the pose the solve reaches (no
-  hand-over); the targets where they bind (another pose) are counted and left out of its
-  ratio.
+  hand-over); the targets where they bind or lead to another pose (FN differing from
+  ``plain``'s by more than ``SAME_FN`` relative) are counted and left out of its ratio.
+  The interior points carry the rows (both modes), whose barrier terms move the iterates
+  even where the rows never bind: the same minimum is then reached to about 1e-9 in FN,
+  not bit for bit.
 
 ``far`` must give the same pose as ``plain`` (asserted). Columns: median time per variant
 and the median of per-target time ratios against ``plain``.
@@ -44,6 +47,8 @@ def _bodies(r: float) -> list[Any]:
 
 
 VARIANTS = {"plain": [], "far": _bodies(3000.0), "near_clear": _bodies(1500.0)}
+#: relative FN difference beyond which a ``near_clear`` solve ended at another pose
+SAME_FN = 1e-6
 
 
 def run_mode(mode: str, count: int, repeats: int, seed: int) -> dict[str, Any]:
@@ -60,14 +65,14 @@ def run_mode(mode: str, count: int, repeats: int, seed: int) -> dict[str, Any]:
     binds = np.zeros(len(targets), dtype=bool)
     for _ in range(repeats):
         for k, t in enumerate(targets):
-            poses = {}
+            poses, fns = {}, {}
             for name, obs in VARIANTS.items():
                 t0 = time.perf_counter()
                 r = solve_ik(stack, t, obstacles=obs)
                 times[name][k].append(time.perf_counter() - t0)
-                poses[name] = r.q
+                poses[name], fns[name] = r.q, r.frobenius_norm
             assert np.array_equal(poses["plain"], poses["far"]), (mode, k)
-            binds[k] |= not np.array_equal(poses["plain"], poses["near_clear"])
+            binds[k] |= not abs(fns["near_clear"] / fns["plain"] - 1.0) <= SAME_FN
     med = {v: np.array([float(np.median(ts)) for ts in times[v]]) for v in VARIANTS}
     keep = {"plain": np.ones(len(targets), bool), "far": np.ones(len(targets), bool),
             "near_clear": ~binds}  # fmt: skip
@@ -87,10 +92,11 @@ def markdown(rows: list[dict[str, Any]], meta: dict[str, Any]) -> str:
     lines = [
         "# What clearance costs when it does not bind (benchmarks/bench_clearance_cost.py)",
         "",
-        f"`{meta['command']}` on {meta['machine']}, {meta['date']}. Same poses in every "
-        "variant (asserted). Ratio: median over the targets of the per-target median-time "
-        "ratio against the solve without obstacles; the issue's bound for far obstacles is "
-        "1.2x.",
+        f"`{meta['command']}` on {meta['machine']}, {meta['date']}. Far obstacles: the same "
+        "poses as without (asserted). Within reach: binding = another pose (FN differs by "
+        f"more than {SAME_FN:g} relative), left out of the ratio. Ratio: median over the "
+        "targets of the per-target median-time ratio against the solve without obstacles; "
+        "the issue's bound for far obstacles is 1.2x.",
         "",
         "| mode | targets x repeats | plain ms | far ms (ratio) | within reach, clear ms (ratio) "
         "| within reach, binding |",

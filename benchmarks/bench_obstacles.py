@@ -3,7 +3,8 @@ obstacle-free optimum, against IPOPT with the same obstacle rows (docs/clearance
 issue 29).
 
 Run: ``python benchmarks/bench_obstacles.py [--count 12] [--seed 2950] [--ref-starts 32]
-[--cases spatial4_sphere,spatial4_truss,planar4_sphere] [--out benchmarks/results]``;
+[--cases spatial4_sphere,spatial4_truss,planar4_sphere,planar4_truss]
+[--out benchmarks/results]``;
 writes ``obstacle_bench.{csv,json,md}``.
 
 Targets. On ``Stack.reference(4)`` (legs of zero radius, plates of zero thickness), target
@@ -16,7 +17,7 @@ on leg ``k mod 6`` of platform 2 (0-based 1) of that optimum, at the midpoint ``
 axis:
 
 * ``*_sphere``: ``Sphere(m, 15)``;
-* ``spatial4_truss``: ``Capsule(m - 300 d, m + 300 d, 10)``, ``d`` the unit vector
+* ``*_truss``: ``Capsule(m - 300 d, m + 300 d, 10)``, ``d`` the unit vector
   ``u x e_z`` (``u`` the leg's direction: perpendicular to the leg and horizontal), or
   ``u x e_x`` if the leg is within 1e-6 of vertical.
 
@@ -77,6 +78,7 @@ CASES = {
     "spatial4_sphere": (False, "sphere"),
     "spatial4_truss": (False, "truss"),
     "planar4_sphere": (True, "sphere"),
+    "planar4_truss": (True, "truss"),
 }
 N = 4
 PLATFORM = 1  # 0-based: the obstacle sits on a leg of platform 2
@@ -340,7 +342,7 @@ def markdown(lines: list[dict[str, Any]], meta: dict[str, Any]) -> str:
         f"`{meta['command']}` on {meta['machine']}. `Stack.reference(4)` (zero leg radius); "
         f"per target a sphere of radius {SPHERE_R:g} mm (`*_sphere`) or a capsule of radius "
         f"{TRUSS_R:g} mm and length {TRUSS_LEN:g} mm, horizontal and perpendicular to the leg "
-        "(`spatial4_truss`), on the midpoint of leg k mod 6 of platform 2 of the obstacle-free "
+        "(`*_truss`), on the midpoint of leg k mod 6 of platform 2 of the obstacle-free "
         "least-FN pose. Best known = least FN over IPOPT from "
         f"{meta['ref_starts']} starts and every other success of the row; a success is "
         "re-checked with this file's exact distances (legs and plates against the "

@@ -126,11 +126,12 @@ def test_interior_point_goes_around_obstacles_without_slsqp(kind: str, k: int) -
 
 def test_forces_still_hand_over() -> None:
     """Leg force limits are outside the kernels: a problem with them still hands poses that
-    fail only on them over (``rows_outside_ip``); obstacle rows alone do not."""
+    fail only on them over (``rows_outside_ip``); obstacle rows alone do not, planar too
+    (tests/test_ip_obstacles_planar.py)."""
     t = _targets()[0]
     sphere = sk.Sphere((0.0, 0.0, 700.0), 20.0)
     assert not Problem(REF, t, "frobenius", None, obstacles=[sphere]).rows_outside_ip
     limited = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(force_max=100.0), 4)
     assert Problem(limited, t, "frobenius", None, obstacles=[sphere]).rows_outside_ip
     planar = sk.PlanarTarget(150.0, 1200.0, 0.3)
-    assert Problem(REF, planar, "frobenius", None, obstacles=[sphere]).rows_outside_ip
+    assert not Problem(REF, planar, "frobenius", None, obstacles=[sphere]).rows_outside_ip

@@ -1,18 +1,21 @@
-"""Dense inequality rows of the compiled spatial interior point: rows ``c_D(q) >= 0`` whose
-Jacobian touches every platform (a leg moves with every platform below it), appended after
-the per-platform block rows (24 limits and the self-leg rows of each platform, the blocks
-``D`` (n, R, 6)).
+"""Dense inequality rows of the compiled interior points, spatial and planar: rows
+``c_D(q) >= 0`` whose Jacobian touches every platform (a leg moves with every platform
+below it), appended after the per-platform block rows (the blocks ``D`` (n, R, k), ``k``
+variables a platform: 6 spatial, the 24 limits and the self-leg rows of each platform; 3
+planar, its 24 limits; a path step's box rows too).
 
 The interior point's inequality Jacobian is then the pair ``AI = (D, JD)``: the blocks and
-the dense rows ``JD`` (rows, 6n) in scaled variables, the row values ``c_I`` the block rows
+the dense rows ``JD`` (rows, k n) in scaled variables, the row values ``c_I`` the block rows
 then the dense ones. The products here take the pair; with no dense rows (``JD`` empty)
-they do exactly the block arithmetic of :mod:`stackik._compiled.linalg` and nothing else
-(the fingerprint is unchanged).
+they do exactly the block arithmetic of :mod:`stackik._compiled.linalg` (and, for
+:func:`add_normal`, of the planar and spatial barrier loops before the pair) and nothing
+else (the fingerprint is unchanged).
 
 The rows themselves: the obstacle rows (:func:`stackik._compiled.obstacle_rows.obstacle_rows`,
-the family's one definition), called from :func:`dense_rows` alone. Their curvature is
-not formed (the rows are squared distances and plane distances; the limit and self-leg
-rows keep their exact Hessians).
+the family's one definition), called from :func:`dense_rows` alone with the mode's
+variables (``planar``, the plane angle ``phi``). Their curvature is not formed (the rows
+are squared distances and plane distances; the limit and self-leg rows keep their exact
+Hessians).
 """
 
 from __future__ import annotations
@@ -29,25 +32,29 @@ FloatArray = Any
 
 
 @_jit
-def dense_rows(q: FloatArray, P: Any) -> tuple[FloatArray, FloatArray]:
-    """The dense rows of the spatial problem ``P`` (:class:`stackik._compiled.spatial.SpatialData`)
-    at the raw pose ``q`` (n, 6) [mm, rad]: values ``c`` (rows,) and Jacobian (rows, 6n)
-    against ``q``. The one call of the obstacle rows' kernel (``P.obstacles``: its arrays,
-    :attr:`stackik.formulation.obstacle_rows.ObstacleRows.kernel_args`)."""
-    return obstacle_rows(q, *P.obstacles, P.ob_margin, P.ob_L, False, 0.0)  # type: ignore[call-arg]
+def dense_rows(q: FloatArray, P: Any, planar: bool, phi: float) -> tuple[FloatArray, FloatArray]:
+    """The dense rows of the problem ``P`` (:class:`stackik._compiled.spatial.SpatialData`,
+    or :class:`stackik._compiled.planar.PlanarData` with ``planar`` and its plane angle
+    ``phi`` [rad]) at the raw pose ``q`` (n, k) [mm, rad]: values ``c`` (rows,) and Jacobian
+    (rows, k n) against ``q``. The one call of the obstacle rows' kernel (``P.obstacles``:
+    its arrays, :attr:`stackik.formulation.obstacle_rows.ObstacleRows.kernel_args`)."""
+    return obstacle_rows(q, *P.obstacles, P.ob_margin, P.ob_L, planar, phi)  # type: ignore[call-arg]
 
 
 @_jit
-def with_dense_rows(u: FloatArray, P: Any, cI: FloatArray, D: FloatArray) -> tuple[Any, Any]:
+def with_dense_rows(u: FloatArray, P: Any, cI: FloatArray, D: FloatArray, planar: bool,
+                    phi: float) -> tuple[Any, Any]:  # fmt: skip
     """``c_I`` (block rows, then the dense rows) and the pair ``(D, JD)`` at the scaled
-    point ``u`` (6n,), ``JD`` in scaled variables; ``cI`` itself and an empty ``JD`` when
-    ``P`` has no dense rows."""
+    point ``u`` (k n,; ``k = D.shape[2]``), ``JD`` in scaled variables; ``cI`` itself and an
+    empty ``JD`` when ``P`` has no dense rows. ``planar``, ``phi``: the mode's variables
+    (:func:`dense_rows`; spatial: False, 0)."""
     N = u.size
     if P.n_dense == 0:
         return cI, (D, np.empty((0, N)))
-    n = N // 6
+    k = D.shape[2]
+    n = N // k
     xs = P.xs
-    cD, J = dense_rows((u * xs).reshape(n, 6), P)
+    cD, J = dense_rows((u * xs).reshape(n, k), P, planar, phi)
     JD = np.empty(J.shape)
     for r in range(J.shape[0]):
         for a in range(N):
@@ -102,14 +109,14 @@ def add_normal(W: FloatArray, AI: Any, Sig: FloatArray) -> None:
     """``W += A_I^T diag(Sig) A_I`` in place: the blocks on the diagonal, the dense rows
     everywhere."""
     D, JD = AI
-    n, R = D.shape[0], D.shape[1]
+    n, R, k = D.shape[0], D.shape[1], D.shape[2]
     for i in range(n):
-        for a in range(6):
-            for b in range(6):
+        for a in range(k):
+            for b in range(k):
                 acc = 0.0
                 for r in range(R):
                     acc += D[i, r, a] * Sig[R * i + r] * D[i, r, b]
-                W[6 * i + a, 6 * i + b] += acc
+                W[k * i + a, k * i + b] += acc
     if JD.shape[0] == 0:
         return
     mb = n * R
@@ -125,13 +132,13 @@ def add_normal(W: FloatArray, AI: Any, Sig: FloatArray) -> None:
 
 @_jit
 def ineq_row(AI: Any, r: int, out: FloatArray) -> None:
-    """Row ``r`` of ``A_I`` (block rows, then dense rows) into ``out`` (6n,)."""
+    """Row ``r`` of ``A_I`` (block rows, then dense rows) into ``out`` (k n,)."""
     D, JD = AI
-    R = D.shape[1]
+    R, k = D.shape[1], D.shape[2]
     mb = block_size(AI)
     if r < mb:
         i = r // R
         out[:] = 0.0
-        out[6 * i : 6 * i + 6] = D[i, r % R]
+        out[k * i : k * i + k] = D[i, r % R]
     else:
         out[:] = JD[r - mb]

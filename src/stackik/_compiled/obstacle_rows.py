@@ -28,7 +28,6 @@ import numpy as np
 
 from stackik._compiled.core import _jit
 from stackik._compiled.self_legs import _closest
-from stackik._compiled.spatial_kinematics import _euler
 
 FloatArray = Any
 
@@ -37,41 +36,70 @@ FloatArray = Any
 def _frames(q: FloatArray, planar: bool, phi: float) -> tuple[Any, ...]:
     """Plate rotations ``A`` (n+1, 3, 3), origins ``O`` (n+1, 3) and, per variable, its
     rotation axis ``w`` (zero for a translation), translation direction ``tdir`` and
-    whether it is an angle (``k n`` of each)."""
+    whether it is an angle (``k n`` of each). Scalar loops (3 x 3 products through numpy
+    allocate and call BLAS: most of an evaluation's time at n = 4)."""
     n = q.shape[0]
     k = 3 if planar else 6
-    A = np.empty((n + 1, 3, 3))
+    A = np.zeros((n + 1, 3, 3))
     O = np.zeros((n + 1, 3))
-    A[0] = np.eye(3)
+    for a in range(3):
+        A[0, a, a] = 1.0
     w = np.zeros((k * n, 3))
     tdir = np.zeros((k * n, 3))
     angle = np.zeros(k * n, dtype=np.bool_)
     cf, sf = math.cos(phi), math.sin(phi)
-    s = np.array([sf, -cf, 0.0])
-    K = np.array([[0.0, 0.0, -cf], [0.0, 0.0, -sf], [cf, sf, 0.0]])  # [s]x
+    s = np.array([sf, -cf, 0.0])  # the planar rotation axis s(phi); [s]x has the entries
+    K = np.array([[0.0, 0.0, -cf], [0.0, 0.0, -sf], [cf, sf, 0.0]])  # of K
+    R = np.empty((3, 3))
+    p = np.empty(3)
+    local = np.empty((3, 3))
     for i in range(n):
         Ai = A[i]
         if planar:
-            p = np.array([q[i, 0] * cf, q[i, 0] * sf, q[i, 1]])
+            p[0], p[1], p[2] = q[i, 0] * cf, q[i, 0] * sf, q[i, 1]
             c, sn = math.cos(q[i, 2]), math.sin(q[i, 2])
-            R = c * np.eye(3) + sn * K + (1.0 - c) * np.outer(s, s)
-            tdir[3 * i] = Ai @ np.array([cf, sf, 0.0])
-            tdir[3 * i + 1] = Ai[:, 2]
-            w[3 * i + 2] = s
+            for a in range(3):  # R = c I + sin [s]x + (1 - c) s s^T
+                for b in range(3):
+                    R[a, b] = sn * K[a, b] + (1.0 - c) * s[a] * s[b] + (c if a == b else 0.0)
+            for a in range(3):
+                tdir[3 * i, a] = Ai[a, 0] * cf + Ai[a, 1] * sf
+                tdir[3 * i + 1, a] = Ai[a, 2]
+                w[3 * i + 2, a] = s[a]
             angle[3 * i + 2] = True
         else:
-            p = q[i, :3].copy()
-            R, _ = _euler(q[i, 3], q[i, 4], q[i, 5])
-            cy, sy = math.cos(q[i, 3]), math.sin(q[i, 3])
-            cp, sp = math.cos(q[i, 4]), math.sin(q[i, 4])
-            local = np.array([[0.0, 0.0, 1.0], [-sy, cy, 0.0], [cy * cp, sy * cp, -sp]])
+            for a in range(3):
+                p[a] = q[i, a]
+            ca, sa = math.cos(q[i, 3]), math.sin(q[i, 3])
+            cb, sb = math.cos(q[i, 4]), math.sin(q[i, 4])
+            cc, sc = math.cos(q[i, 5]), math.sin(q[i, 5])
+            # R = Rz(yaw) Ry(pitch) Rx(roll)
+            R[0, 0], R[0, 1], R[0, 2] = ca * cb, ca * sb * sc - sa * cc, ca * sb * cc + sa * sc
+            R[1, 0], R[1, 1], R[1, 2] = sa * cb, sa * sb * sc + ca * cc, sa * sb * cc - ca * sc
+            R[2, 0], R[2, 1], R[2, 2] = -sb, cb * sc, cb * cc
+            # the angles' axes in plate i's frame: e_z, Rz e_y, Rz Ry e_x
+            local[0, 0], local[0, 1], local[0, 2] = 0.0, 0.0, 1.0
+            local[1, 0], local[1, 1], local[1, 2] = -sa, ca, 0.0
+            local[2, 0], local[2, 1], local[2, 2] = ca * cb, sa * cb, -sb
             for j in range(3):
-                tdir[6 * i + j] = Ai[:, j]
-                w[6 * i + 3 + j] = Ai @ local[j]
+                for a in range(3):
+                    tdir[6 * i + j, a] = Ai[a, j]
+                    w[6 * i + 3 + j, a] = (
+                        Ai[a, 0] * local[j, 0] + Ai[a, 1] * local[j, 1] + Ai[a, 2] * local[j, 2]
+                    )
                 angle[6 * i + 3 + j] = True
-        O[i + 1] = O[i] + Ai @ p
-        A[i + 1] = Ai @ R
+        for a in range(3):
+            O[i + 1, a] = O[i, a] + Ai[a, 0] * p[0] + Ai[a, 1] * p[1] + Ai[a, 2] * p[2]
+            for b in range(3):
+                A[i + 1, a, b] = Ai[a, 0] * R[0, b] + Ai[a, 1] * R[1, b] + Ai[a, 2] * R[2, b]
     return A, O, w, tdir, angle
+
+
+@_jit
+def _joint(A: FloatArray, O: FloatArray, plate: int, node: FloatArray, out: FloatArray) -> None:
+    """``O_plate + A_plate node`` (base frame) into ``out`` (3,)."""
+    for a in range(3):
+        out[a] = (O[plate, a] + A[plate, a, 0] * node[0] + A[plate, a, 1] * node[1]
+                  + A[plate, a, 2] * node[2])  # fmt: skip
 
 
 @_jit
@@ -116,8 +144,8 @@ def obstacle_rows(
     for i in range(n):
         for m in range(6):
             j = 6 * i + m
-            B[j] = O[i] + A[i] @ base[i, m]
-            T[j] = O[i + 1] + A[i + 1] @ top[i, m]
+            _joint(A, O, i, base[i, m], B[j])
+            _joint(A, O, i + 1, top[i, m], T[j])
             _point_jacobian(B[j], i, O, w, tdir, angle, k, JB[j])
             _point_jacobian(T[j], i + 1, O, w, tdir, angle, k, JT[j])
     rows = 0
@@ -128,6 +156,7 @@ def obstacle_rows(
     r = 0
     si = 0
     hi = 0
+    d1 = np.empty(3)
     d2 = np.empty(3)
     rr = np.empty(3)
     g = np.empty(3)
@@ -138,8 +167,8 @@ def obstacle_rows(
             for x in range(3):
                 d2[x] = b[x] - a[x]
             for j in range(nl):
-                d1 = T[j] - B[j]
                 for x in range(3):
+                    d1[x] = T[j, x] - B[j, x]
                     rr[x] = B[j, x] - a[x]
                 s, t = _closest(d1, d2, rr)
                 gg = 0.0

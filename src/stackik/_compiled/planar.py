@@ -44,7 +44,15 @@ from stackik._compiled.core import (
     _limit_rows,
     _now,
 )
-from stackik._compiled.linalg import _AI_dot, _AIT_dot, _cho_solve, _cholesky, _inv3
+from stackik._compiled.dense_rows import (
+    AI_dot,
+    AIT_dot,
+    add_normal,
+    block_part,
+    ineq_row,
+    with_dense_rows,
+)
+from stackik._compiled.linalg import _cho_solve, _cholesky, _inv3
 
 
 class PlanarData(NamedTuple):
@@ -68,20 +76,27 @@ class PlanarData(NamedTuple):
     lmax2: Any  #: squared maximum leg length (n,) [mm^2]
     sj: Any  #: sine of the minimum joint angle (n,)
     feasible: bool  #: the feasibility objective (f = 0) instead of FN^2
+    obstacles: Any  #: the obstacle rows' kernel arrays (ObstacleRows.kernel_args)
+    ob_margin: float  #: the obstacle rows' clearance margin [mm]
+    ob_L: float  #: the obstacle rows' length scale [mm]
+    ob_phi: float  #: the plane angle [rad] of the obstacle rows (the target's plane)
+    n_dense: int  #: number of dense rows (0: none; :mod:`stackik._compiled.dense_rows`)
 
 
 @_jit
 def _with_fscale(P0: Any, fscale: float) -> Any:
     """``P0`` with the objective scale ``fscale``."""
     return PlanarData(P0.xs, P0.cs, P0.es, P0.target, fscale, P0.c0, P0.w, P0.tf, P0.tz, P0.bf,
-                      P0.bz, P0.ls0, P0.lmin2, P0.lmax2, P0.sj, P0.feasible)  # fmt: skip
+                      P0.bz, P0.ls0, P0.lmin2, P0.lmax2, P0.sj, P0.feasible, P0.obstacles,
+                      P0.ob_margin, P0.ob_L, P0.ob_phi, P0.n_dense)  # fmt: skip
 
 
 @_jit
 def _with_target(P0: Any, target: Any) -> Any:
     """``P0`` with the target ``target`` (3,)."""
     return PlanarData(P0.xs, P0.cs, P0.es, target, P0.fscale, P0.c0, P0.w, P0.tf, P0.tz, P0.bf,
-                      P0.bz, P0.ls0, P0.lmin2, P0.lmax2, P0.sj, P0.feasible)  # fmt: skip
+                      P0.bz, P0.ls0, P0.lmin2, P0.lmax2, P0.sj, P0.feasible, P0.obstacles,
+                      P0.ob_margin, P0.ob_L, P0.ob_phi, P0.n_dense)  # fmt: skip
 
 
 FloatArray = np.ndarray
@@ -311,7 +326,9 @@ def _constraint_hessian(q: FloatArray, yraw: FloatArray, tf: FloatArray, tz: Flo
 @_jit
 def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
     """Scaled f, grad f, c_E, A_E (3, N), c_I (m,), A_I blocks (n, 24, 3) at ``u``."""
-    (xs, cs, es, yt, fscale, c0, w, tf, tz, bf, bz, ls, lmin2, lmax2, sj, feasible) = P
+    xs, cs, es, yt, fscale, c0, w, tf = P.xs, P.cs, P.es, P.target, P.fscale, P.c0, P.w, P.tf
+    tz, bf, bz, ls, lmin2, lmax2 = P.tz, P.bf, P.bz, P.ls0, P.lmin2, P.lmax2
+    sj, feasible = P.sj, P.feasible
     n = tf.shape[0]
     q = (u * xs).reshape(n, 3)
     c, s, y, J, d = _kinematics(q)
@@ -385,6 +402,18 @@ def _evaluate_ext(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Flo
 
 
 @_jit
+def _evaluate_ip(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+                 wq: float) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`_evaluate_ext` with the dense rows (:mod:`stackik._compiled.dense_rows`, the
+    obstacle rows in the target's plane ``P.ob_phi``): ``c_I`` the block rows then the
+    dense rows, and the pair ``AI = (D, JD)`` in place of ``D``; without dense rows
+    :func:`_evaluate_ext`'s values and an empty ``JD``."""
+    f, g, cE, AE, cI, D = _evaluate_ext(u, P, lo, hi, ug, wq)
+    cA, AI = with_dense_rows(u, P, cI, D, True, P.ob_phi)
+    return f, g, cE, AE, cA, AI
+
+
+@_jit
 def _lagrangian_hessian_ext(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
                             wq: float) -> FloatArray:  # fmt: skip
     """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem (``z``: 24 n or, with
@@ -399,7 +428,8 @@ def _lagrangian_hessian_ext(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any
 @_jit
 def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
     """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (N, N)."""
-    (xs, cs, es, yt, fscale, c0, w, tf, tz, bf, bz, ls, lmin2, lmax2, sj, feasible) = P
+    xs, cs, es, fscale, w, tf, tz, bf = P.xs, P.cs, P.es, P.fscale, P.w, P.tf, P.tz, P.bf
+    bz, ls, sj, feasible = P.bz, P.ls0, P.sj, P.feasible
     n = tf.shape[0]
     N = 3 * n
     q = (u * xs).reshape(n, 3)
@@ -559,13 +589,14 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     the iteration count and the final slacks ``s`` and multipliers ``z``, ``yE``
     (multipliers of the problem as ``P0`` states it, i.e. without the objective scaling
     the loop applies: a continuation step starts from them,
-    :func:`stackik._compiled.planar_path._pc_step`)."""
+    :func:`stackik._compiled.planar_path._pc_step`). The rows: 24 limits a platform (30
+    with a box), then ``P0``'s dense rows (:func:`_evaluate_ip`; ``s`` and ``z`` in that
+    order)."""
     n = P0.tf.shape[0]
-    R = 24 if lo.size == 0 else 30
-    m = R * n
     N = 3 * n
     x = u0.copy()
-    f, g, cE, AE, cI, D = _evaluate_ext(x, P0, lo, hi, ug, wq)
+    f, g, cE, AE, cI, AI = _evaluate_ip(x, P0, lo, hi, ug, wq)
+    m = cI.size
     if not (_finite(cI) and _finite(cE) and math.isfinite(f)):
         return x, IP_NONFINITE, 0, cI, np.ones(m), np.zeros(3)
     # objective scaling as IPOPT's gradient-based rule: max |grad f(x0)| <= OBJ_MAX_GRAD
@@ -579,7 +610,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     s = np.maximum(cI, 1e-2)
     z = np.ones(m)  # bound multipliers start at 1, as IPOPT's
     # least-squares equality multipliers
-    yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
+    yE = _ls_multipliers(AE, g, AIT_dot(AI, z))
     last_shift = 0.0
     logsum = np.log(s).sum()
     logsum_t = logsum
@@ -597,7 +628,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             break
         # --- optimality errors (fused loops: these vectors are short) ----------------
         AEty = _AET_dot(AE, yE)
-        AItz = _AIT_dot(D, z)
+        AItz = AIT_dot(AI, z)
         sd_acc = abs(yE[0]) + abs(yE[1]) + abs(yE[2])
         for r in range(m):
             sd_acc += abs(z[r])
@@ -624,22 +655,16 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             mu = max(mu_min, min(0.2 * mu, mu**1.5))
             nfilt = 0
         # --- Newton step -----------------------------------------------------------
-        W = _lagrangian_hessian_ext(x, yE, z, P, wq)
+        W = _lagrangian_hessian_ext(x, yE, block_part(z, AI), P, wq)
         if not (_finite(W) and _finite(g) and _finite(AE)):
             status = IP_NONFINITE
             break
         Sig = z / s
-        for i in range(n):
-            for a in range(3):
-                for b in range(3):
-                    acc = 0.0
-                    for r in range(R):
-                        acc += D[i, r, a] * Sig[R * i + r] * D[i, r, b]
-                    W[3 * i + a, 3 * i + b] += acc
+        add_normal(W, AI, Sig)  # the blocks' J^T Sigma J (and the dense rows', everywhere)
         v = np.empty(m)
         for r in range(m):
             v[r] = mu / s[r] - Sig[r] * (cI[r] - s[r])
-        AIv = _AIT_dot(D, v)
+        AIv = AIT_dot(AI, v)
         rhs = np.empty(N)
         for a in range(N):
             rhs[a] = -g[a] + AEty[a] + AIv[a]
@@ -649,7 +674,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             break
         if shift > 0.0:
             last_shift = shift
-        AIdx = _AI_dot(D, dx)
+        AIdx = AI_dot(AI, dx)
         ds = np.empty(m)
         dz = np.empty(m)
         for r in range(m):
@@ -683,7 +708,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             st = np.empty(m)
             for r in range(m):
                 st[r] = s[r] + alpha * ds[r]
-            ft, gt, cEt, AEt, cIt, Dt = _evaluate_ext(xt, P, lo, hi, ug, wq)
+            ft, gt, cEt, AEt, cIt, AIt = _evaluate_ip(xt, P, lo, hi, ug, wq)
             theta_t = abs(cEt[0]) + abs(cEt[1]) + abs(cEt[2])
             logsum_t = 0.0
             for r in range(m):
@@ -726,7 +751,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             alpha = min(alpha, 1e-8)
             xt = x + alpha * dx
             st = s + alpha * ds
-            ft, gt, cEt, AEt, cIt, Dt = _evaluate_ext(xt, P, lo, hi, ug, wq)
+            ft, gt, cEt, AEt, cIt, AIt = _evaluate_ip(xt, P, lo, hi, ug, wq)
             if not (math.isfinite(ft) and _finite(cIt)):
                 status = IP_NONFINITE
                 break
@@ -742,8 +767,8 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
                 s[r] = cIt[r]
             zr = z[r] + a_z * dz[r]
             z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
-        f, g, cE, AE, cI, D = ft, gt, cEt, AEt, cIt, Dt
-        yE = _ls_multipliers(AE, g, _AIT_dot(D, z))
+        f, g, cE, AE, cI, AI = ft, gt, cEt, AEt, cIt, AIt
+        yE = _ls_multipliers(AE, g, AIT_dot(AI, z))
     return x, status, it + 1 if status != IP_SUCCESS else it, s, z / fs, yE / fs
 
 
@@ -761,11 +786,13 @@ def _polished(cE: FloatArray, cI: FloatArray, reach: float) -> bool:
 @_jit
 def _polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> FloatArray:
     """Min-norm Newton corrections of the equalities and of limits violated by less than
-    ``reach`` (scaled), as :func:`stackik.formulation.polish` (tiny moves only)."""
+    ``reach`` (scaled), as :func:`stackik.formulation.polish` (tiny moves only); the dense
+    rows too (:mod:`stackik._compiled.dense_rows`)."""
     n = P.tf.shape[0]
     N = 3 * n
+    none = np.empty(0)
     for _ in range(iters):
-        f, g, cE, AE, cI, D = _evaluate(u, P)
+        f, g, cE, AE, cI, AI = _evaluate_ip(u, P, none, none, none, 0.0)
         if _polished(cE, cI, reach):
             break
         nv = 0
@@ -779,8 +806,7 @@ def _polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> F
         k = 3
         for r in range(cI.size):
             if -reach < cI[r] < 0.0:
-                i = r // 24
-                A[k, 3 * i : 3 * i + 3] = D[i, r % 24]
+                ineq_row(AI, r, A[k])
                 rr[k] = cI[r] - margin
                 k += 1
         if not (_finite(A) and _finite(rr)):
@@ -821,7 +847,7 @@ def _ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatA
         X[j] = x
         status[j] = st
         nit[j] = it
-        f, g, cE, AE, cI, D = _evaluate(x, P)
+        f, g, cE, AE, cI, _ = _evaluate_ip(x, P, none, none, none, 0.0)
         obj[j] = f
         viol[j] = max(np.abs(cE).max(), max(0.0, -cI.min()))
         if j + 1 == GIVE_UP_AFTER and viol[: j + 1].min() > GIVE_UP_VIOLATION:

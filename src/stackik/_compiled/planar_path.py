@@ -26,6 +26,7 @@ from stackik._compiled.path import (
 from stackik._compiled.planar import (
     _AET_dot,
     _evaluate,
+    _evaluate_ip,
     _ip_loop,
     _lagrangian_hessian,
     _polish,
@@ -454,9 +455,11 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
 def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: float,
              ang_tol: float) -> bool:  # fmt: skip
     """Whether the polished point ``xn`` reaches ``P``'s target (``pos_tol`` [mm],
-    ``ang_tol`` [rad], from the scaled equalities), violates no limit (scaled) and moves
-    no variable from ``x`` by more than ``jump`` (scaled, per variable)."""
-    f, g, cE, AE, cI, D = _evaluate(xn, P)
+    ``ang_tol`` [rad], from the scaled equalities), violates no limit nor dense row
+    (scaled) and moves no variable from ``x`` by more than ``jump`` (scaled, per
+    variable)."""
+    none = np.empty(0)
+    f, g, cE, AE, cI, _ = _evaluate_ip(xn, P, none, none, none, 0.0)
     return _reaches_at(xn, x, cE, cI, P.es, jump, pos_tol, ang_tol)
 
 
@@ -630,8 +633,9 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
             )
             if ok:
                 # the polish and test of a barrier step; the step's own constraint
-                # values at xn when the polish would not move it
-                if _polished(cEn, cIn, reach):
+                # values at xn when the polish would not move it (they have the block
+                # rows only: with dense rows, the polish and test see them too)
+                if P.n_dense == 0 and _polished(cEn, cIn, reach):
                     good = _reaches_at(xn, x, cEn, cIn, es, jump, pos_tol, ang_tol)
                 else:
                     xn = _polish(xn, P, 3, reach, margin)
@@ -653,7 +657,7 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
                          actp, yE2, z2, act2)  # fmt: skip
             return X, k, how, yE, z, active, have, hist
         xn = _polish(xn, P, 3, reach, margin)
-        f, g, cE, AE, cI, D = _evaluate(xn, P)
+        f, g, cE, AE, cI, _ = _evaluate_ip(xn, P, none, none, none, 0.0)
         if not _reaches_at(xn, x, cE, cI, es, jump, pos_tol, ang_tol):
             if _reaches_at(xn, x, cE, cI, es, far, pos_tol, ang_tol):
                 how[k] = -1  # a pose of the target farther than jump: it left its basin
@@ -663,8 +667,9 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
         X[k] = xn
         x2, y2, known2 = xprev, yprev, known
         xprev, yprev, ycur, known, cur_ok = x, ycur, yt.copy(), cur_ok, True
-        x, yE, z = xn, yE1, z1
-        active = z1 > s1
+        # the continuation step has the limit rows only (the dense rows are last)
+        x, yE, z = xn, yE1, z1[:M].copy()
+        active = z > s1[:M]
         have = st == IP_SUCCESS
         pcrun = 0
     hist = _hist(

@@ -404,7 +404,7 @@ def _evaluate_ip(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Floa
     ``c_I`` the block rows then the dense rows, and the pair ``AI = (D, JD)`` in place of
     ``D``."""
     f, g, cE, AE, cI, D, parts = _evaluate_ext(u, P, lo, hi, ug, wq)
-    cA, AI = with_dense_rows(u, P, cI, D)
+    cA, AI = with_dense_rows(u, P, cI, D, False, 0.0)
     return f, g, cE, AE, cA, AI, parts
 
 

@@ -97,7 +97,8 @@ class Clearance:
         The self-leg rows, or None.
     obstacle_rows : ObstacleRows or None
         The rows that keep the legs clear of the spheres, capsules and half-spaces
-        (:mod:`stackik.formulation.obstacle_rows`; spatial only), or None.
+        (:mod:`stackik.formulation.obstacle_rows`; planar ones in the target's plane), or
+        None.
     """
 
     margin: float = 0.0

@@ -1,4 +1,4 @@
-"""Obstacle rows of a spatial problem: every leg kept clear of every sphere, capsule and
+"""Obstacle rows of a problem, spatial or planar: every leg kept clear of every sphere, capsule and
 half-space (docs/clearance.md), the one definition the solvers' problems use.
 
 Leg k of platform i (0-based) is the segment from its base joint ``B = O_i + A_i b_k`` to
@@ -16,11 +16,10 @@ plate frames), a capsule of radius ``r_i = leg_radius_i``. With the clearance ma
 
 Boxes, and the plates against any obstacle, have no rows: the solvers do not steer
 around them, the check (:mod:`stackik.clearance`) refuses a pose that meets them.
-The rows are dense (a leg moves with every platform below it): the compiled spatial
-interior point carries them after its per-platform blocks
-(:mod:`stackik._compiled.dense_rows`); the planar one does not, and the ``auto`` policy
-hands a planar pose that fails only on them to an engine that has them
-(:func:`stackik.solve.stages.ip_stage`).
+The rows are dense (a leg moves with every platform below it): both compiled interior
+points, spatial and planar, carry them after their per-platform blocks
+(:mod:`stackik._compiled.dense_rows`), so no pose is handed over for them alone
+(:attr:`stackik.formulation.Problem.rows_outside_ip`).
 """
 
 from __future__ import annotations
@@ -40,7 +39,7 @@ FloatArray = NDArray[np.float64]
 
 
 class ObstacleRows:
-    """The obstacle rows of one spatial request (module doc).
+    """The obstacle rows of one request, spatial or planar (module doc).
 
     Parameters
     ----------
@@ -105,7 +104,8 @@ class ObstacleRows:
     def kernel_args(self) -> tuple[Any, ...]:
         """The kernel's array arguments after the pose (``base, top, radius, segs, halfs,
         kinds``, read-only), as the compiled interior point carries them
-        (:attr:`stackik._compiled.spatial.SpatialData.obstacles`)."""
+        (:attr:`stackik._compiled.spatial.SpatialData.obstacles`,
+        :attr:`stackik._compiled.planar.PlanarData.obstacles`)."""
         return self._args
 
     def __call__(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:

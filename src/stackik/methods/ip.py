@@ -75,7 +75,9 @@ def problem_arrays(prob: Any) -> PlanarData:
     tgt = prob.target
     feasible = prob.objective == "feasible"
     w = float(prob.w_th[0])
+    ob = prob.clearance.obstacle_rows
     from stackik._compiled.planar import PlanarData
+    from stackik.formulation.obstacle_rows import no_obstacle_rows
 
     return PlanarData(
         readonly(prob.xs),
@@ -94,6 +96,11 @@ def problem_arrays(prob: Any) -> PlanarData:
         readonly(fast.lmax2.reshape(n)),
         readonly(fast.sj.reshape(n)),
         feasible,
+        no_obstacle_rows(prob.stack) if ob is None else ob.kernel_args,
+        0.0 if ob is None else ob.margin,
+        float(np.max(prob.stack.leg_max)) if ob is None else ob.L,
+        0.0 if ob is None else float(ob.phi),
+        0 if ob is None else int(ob.size),
     )
 
 
@@ -200,11 +207,11 @@ class IPBatch:
     least-violation run among those checked otherwise; ``nit``: iterations over all
     starts; ``statuses``: the solver's status per start; ``bound``: with rows the compiled
     interior point does not carry (:attr:`Problem.rows_outside_ip`: leg force limits,
-    planar obstacle and self-leg rows), the poses of the runs that ranked before ``best``
-    (lower objective, near feasible) and failed the check only on rows some solver has:
-    starts for an engine that enforces them (:func:`stackik.solve.stages.ip_stage`). The
-    spatial obstacle rows are in the kernel (dense rows): a run failing on them is no
-    start.
+    planar self-leg rows), the poses of the runs that ranked before ``best`` (lower
+    objective, near feasible) and failed the check only on rows some solver has: starts
+    for an engine that enforces them (:func:`stackik.solve.stages.ip_stage`). The obstacle
+    rows are in both kernels (dense rows): without rows outside the interior point, a run
+    failing on them is no start.
     """
 
     best: Run | None
@@ -282,10 +289,13 @@ def _unconstrained_shortfall(prob: Problem, chk: Any) -> float:
     without rows (adjacent and non-adjacent bodies, self legs when absent, obstacles
     without rows such as boxes) but not those the rows cover (a platform's own legs; the
     legs against spheres, capsules and half-spaces: their distances include the plates,
-    which have no rows, so a plate's shortfall counts as covered there)."""
+    which have no rows, so a plate's shortfall counts as covered there). Only rows
+    outside the interior point (:attr:`Problem.rows_outside_ip`) make such a run a
+    hand-over start; the obstacle rows count as covered in both modes (the interior point
+    has them, and the engine it hands over to too)."""
     cl = prob.clearance
-    outside = cl.obstacle_rows is not None or (prob.planar and prob.self_legs is not None)
-    if not outside or chk.clearances is None:
+    rows = cl.obstacle_rows is not None or (prob.planar and prob.self_legs is not None)
+    if not rows or chk.clearances is None:
         return float(chk.clearance_violation)
     c, m = chk.clearances, cl.margin
     kinds = [c.adjacent_legs, c.non_adjacent]

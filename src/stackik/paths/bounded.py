@@ -184,8 +184,8 @@ def bounded_step(
         As :func:`stackik.solve_ik`'s: the step has the same self-leg, obstacle and
         leg-force rows (:mod:`stackik.formulation.clearance`,
         :mod:`stackik.formulation.forces`), so it goes around an obstacle or off a force
-        limit within the box (:func:`bounded_ip`'s compiled problem has the self-leg rows
-        and, spatial, the obstacle rows, not the force rows).
+        limit within the box (:func:`bounded_ip`'s compiled problem has the obstacle rows
+        and, spatial, the self-leg rows, not the force rows).
 
     Returns
     -------
