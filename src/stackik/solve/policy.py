@@ -25,6 +25,9 @@ from stackik.starts import (
 )
 
 __all__ = [
+    "ADAPTIVE_FIRST",
+    "ADAPTIVE_N",
+    "ADAPTIVE_RTOL",
     "FORCE_METHOD",
     "FORCE_STARTS",
     "RECENTRE_MU0",
@@ -54,6 +57,15 @@ SPATIAL_GIVE_UP_MM = 1.0
 #: limit it starts from.
 FORCE_METHOD = "slsqp"
 FORCE_STARTS = 2
+
+#: Planar default from ``n = ADAPTIVE_N`` on: the interior point runs the first
+#: ``ADAPTIVE_FIRST`` starts of the batch alone, and when each passes the check and their FN
+#: agree within ``ADAPTIVE_RTOL`` (relative), the solve stops there; otherwise the rest of
+#: the batch runs and the best pose overall is kept (:meth:`StartPlan.adaptive_first`,
+#: :func:`stackik.solve.stages.ip_stage`).
+ADAPTIVE_N: float = 32
+ADAPTIVE_FIRST = 2
+ADAPTIVE_RTOL = 2e-4
 
 #: Spatial ``starts=1`` from the paper's guess: initial barriers of the interior point's
 #: runs from its own pose after the first (:func:`stackik.solve.stages.ip_stage`).
@@ -132,6 +144,15 @@ class StartPlan:
         while len(qs) < self.n_planned:
             qs.append(sampler.draw())
         return qs
+
+    def adaptive_first(self, structured: bool, planar: bool, n: int) -> int:
+        """How many starts of :meth:`batch` run first on their own, before the rest only
+        if they disagree (:data:`ADAPTIVE_FIRST`): on the planar structured default
+        (no ``starts``, no ``x0``) from ``n = ADAPTIVE_N`` on; 0 (the whole batch in one
+        call) otherwise."""
+        if self.starts is None and structured and planar and n >= ADAPTIVE_N:
+            return ADAPTIVE_FIRST
+        return 0
 
 
 def plan_starts(req: Any) -> StartPlan:
