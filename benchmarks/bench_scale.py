@@ -15,7 +15,9 @@ drawn with ``rng = seed + k`` in the plane ``phi = 2 pi k / count``
 - ``ipopt8``: ``method="ipopt", starts=8`` (time for the eight, best FN);
 - ``ipopt_ref``: ``method="ipopt", starts=--ref-starts, rng=1000 + k``.
 
-Best known = least FN over every successful run of the row. Reported per n: successes,
+``--merge A.json B.json ...`` summarises the rows of earlier runs (sizes run as separate
+processes) into one report instead of solving. Best known = least FN over every
+successful run of the row. Reported per n: successes,
 within 0.1 % of the best known (on FN), median time, the speed-up against IPOPT-8 (median
 of per-target time ratios), and the growth exponent ``k`` of the median default time
 (``t ~ n^k``) between consecutive sizes and from the first size to the last.
@@ -24,6 +26,7 @@ of per-target time ratios), and the growth exponent ``k`` of the median default 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import time
 from pathlib import Path
@@ -166,20 +169,30 @@ def main() -> None:
     ap.add_argument("--ref-starts", type=int, default=16)
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results"))
     ap.add_argument("--stem", default="scale")
+    ap.add_argument("--merge", type=Path, nargs="+", help="scale JSON files to summarise")
     args = ap.parse_args()
-    solve_ik(Stack.reference(4), PlanarTarget(600.0, 1000.0, -1.57))  # kernels loaded
-    solve_ik(Stack.reference(2), PlanarTarget(0.0, 700.0, 0.0), method="ipopt")
     rows: list[dict[str, Any]] = []
-    for n in args.n:
-        rows += run_size(n, args.count, args.seed, args.ref_starts)
+    if args.merge:
+        parts = [json.loads(path.read_text()) for path in args.merge]
+        rows = sorted((r for part in parts for r in part["rows"]), key=lambda r: (r["n"], r["k"]))
+        meta = {
+            "command": " + ".join(part["meta"]["command"] for part in parts),
+            "machine": parts[0]["meta"]["machine"],
+            "ref_starts": parts[0]["meta"]["ref_starts"],
+        }
+    else:
+        solve_ik(Stack.reference(4), PlanarTarget(600.0, 1000.0, -1.57))  # kernels loaded
+        solve_ik(Stack.reference(2), PlanarTarget(0.0, 700.0, 0.0), method="ipopt")
+        for n in args.n:
+            rows += run_size(n, args.count, args.seed, args.ref_starts)
+        meta = {
+            "command": "python benchmarks/bench_scale.py --n "
+            + " ".join(map(str, args.n))
+            + f" --count {args.count} --seed {args.seed} --ref-starts {args.ref_starts}",
+            "machine": "{cpus} CPUs ({cpu}), {date}".format(**machine_info()),
+            "ref_starts": args.ref_starts,
+        }
     lines = summary(rows)
-    meta = {
-        "command": "python benchmarks/bench_scale.py --n "
-        + " ".join(map(str, args.n))
-        + f" --count {args.count} --seed {args.seed} --ref-starts {args.ref_starts}",
-        "machine": "{cpus} CPUs ({cpu}), {date}".format(**machine_info()),
-        "ref_starts": args.ref_starts,
-    }
     write_results(args.out, args.stem, meta, lines, rows, markdown(lines, meta))
 
 
