@@ -15,8 +15,10 @@ drawn with ``rng = seed + k`` in the plane ``phi = 2 pi k / count``
 - ``ipopt8``: ``method="ipopt", starts=8`` (time for the eight, best FN);
 - ``ipopt_ref``: ``method="ipopt", starts=--ref-starts, rng=1000 + k``.
 
-``--merge A.json B.json ...`` summarises the rows of earlier runs (sizes run as separate
-processes) into one report instead of solving. Best known = least FN over every
+``--part i/m`` runs only the targets ``k = i mod m``; every row is also appended to
+``<stem>.jsonl`` as it is done. ``--merge A.json B.json ...`` summarises the rows of
+earlier runs (sizes or parts run as separate processes) into one report instead of
+solving. Best known = least FN over every
 successful run of the row. Reported per n: successes,
 within 0.1 % of the best known (on FN), median time, the speed-up against IPOPT-8 (median
 of per-target time ratios), and the growth exponent ``k`` of the median default time
@@ -40,7 +42,7 @@ from stackik import PlanarTarget, Stack, solve_ik
 from stackik.bench import machine_info
 
 WITHIN = 1e-3  # "best known" within 0.1 %
-LABELS = ("default", "full", "ipopt8", "ipopt_ref")
+LABELS = ("default", "full", "ipopt8", "ipopt_ref")  # ipopt_ref: with --ref-starts > 0
 
 
 def _full(stack: Stack, target: Any) -> Any:
@@ -53,17 +55,24 @@ def _full(stack: Stack, target: Any) -> Any:
         policy.ADAPTIVE_N = saved
 
 
-def run_size(n: int, count: int, seed: int, ref_starts: int) -> list[dict[str, Any]]:
+def run_size(
+    n: int, count: int, seed: int, ref_starts: int, part: tuple[int, int], log: Path
+) -> list[dict[str, Any]]:
+    """The rows of size ``n``: targets ``k`` with ``k % part[1] == part[0]``, each also
+    appended to ``log`` (JSON lines) as it is done."""
     stack = Stack.reference(n)
     rows = []
     for k, target in enumerate(targets(True, stack, count, seed)):
+        if k % part[1] != part[0]:
+            continue
         row: dict[str, Any] = {"n": n, "k": k}
         runs: dict[str, dict[str, Any]] = {
             "default": {},
             "full": {},
             "ipopt8": {"method": "ipopt", "starts": 8},
-            "ipopt_ref": {"method": "ipopt", "starts": ref_starts, "rng": 1000 + k},
         }
+        if ref_starts > 0:
+            runs["ipopt_ref"] = {"method": "ipopt", "starts": ref_starts, "rng": 1000 + k}
         for label, kw in runs.items():
             t0 = time.perf_counter()
             r = _full(stack, target) if label == "full" else solve_ik(stack, target, **kw)
@@ -72,11 +81,13 @@ def run_size(n: int, count: int, seed: int, ref_starts: int) -> list[dict[str, A
             row[f"{label}_fn"] = r.frobenius_norm if r.success else math.nan
             row[f"{label}_nit"] = int(r.nit)
             row[f"{label}_starts"] = int(r.n_starts)
-        fns = [row[f"{label}_fn"] for label in LABELS if row[f"{label}_success"]]
+        fns = [row[f"{label}_fn"] for label in runs if row[f"{label}_success"]]
         row["best"] = min(fns) if fns else math.nan
-        for label in LABELS:
+        for label in runs:
             row[f"{label}_within"] = bool(row[f"{label}_fn"] <= row["best"] * (1 + WITHIN))
         rows.append(row)
+        with open(log, "a") as fh:
+            fh.write(json.dumps(row, default=float) + "\n")
         print(
             f"n={n} {k}: default {row['default_fn']:.6g} ({1e3 * row['default_time']:.0f} ms, "
             f"{row['default_starts']} starts) full {row['full_fn']:.6g} "
@@ -97,7 +108,7 @@ def summary(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     for n in dict.fromkeys(r["n"] for r in rows):
         rs = [r for r in rows if r["n"] == n]
         line: dict[str, Any] = {"n": n, "targets": len(rs)}
-        for label in LABELS:
+        for label in [lb for lb in LABELS if f"{lb}_time" in rs[0]]:
             line[f"{label}_success"] = sum(r[f"{label}_success"] for r in rs)
             line[f"{label}_within"] = sum(r[f"{label}_within"] for r in rs)
             line[f"{label}_median_ms"] = 1e3 * float(np.median([r[f"{label}_time"] for r in rs]))
@@ -154,8 +165,8 @@ def markdown(lines: list[dict[str, Any]], meta: dict[str, Any]) -> str:
     return (
         "# Planar stacks at scale (benchmarks/bench_scale.py)\n\n"
         f"`{meta['command']}` on {meta['machine']}. Reference stacks; best known = least FN "
-        f"over IPOPT from {meta['ref_starts']} starts, IPOPT-8, the default and the full "
-        "batch (the default without its adaptive early stop, i.e. the default before it). "
+        f"over IPOPT from {meta['ref_starts']} starts (0: not run), IPOPT-8, the default and "
+        "the full batch (the default without its adaptive early stop, i.e. the default before it). "
         "Times are wall times on a shared machine; ratios are medians of per-target "
         "ratios.\n\n" + head + body + tail
     )
@@ -169,6 +180,7 @@ def main() -> None:
     ap.add_argument("--ref-starts", type=int, default=16)
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results"))
     ap.add_argument("--stem", default="scale")
+    ap.add_argument("--part", default="0/1", help="i/m: only the targets k = i mod m")
     ap.add_argument("--merge", type=Path, nargs="+", help="scale JSON files to summarise")
     args = ap.parse_args()
     rows: list[dict[str, Any]] = []
@@ -178,17 +190,23 @@ def main() -> None:
         meta = {
             "command": " + ".join(part["meta"]["command"] for part in parts),
             "machine": parts[0]["meta"]["machine"],
-            "ref_starts": parts[0]["meta"]["ref_starts"],
+            "ref_starts": ", ".join(str(part["meta"]["ref_starts"]) for part in parts),
         }
     else:
         solve_ik(Stack.reference(4), PlanarTarget(600.0, 1000.0, -1.57))  # kernels loaded
         solve_ik(Stack.reference(2), PlanarTarget(0.0, 700.0, 0.0), method="ipopt")
+        part = tuple(int(x) for x in args.part.split("/"))
+        assert len(part) == 2 and 0 <= part[0] < part[1], "--part i/m with 0 <= i < m"
+        args.out.mkdir(parents=True, exist_ok=True)
+        log = args.out / f"{args.stem}.jsonl"
+        log.write_text("")
         for n in args.n:
-            rows += run_size(n, args.count, args.seed, args.ref_starts)
+            rows += run_size(n, args.count, args.seed, args.ref_starts, (part[0], part[1]), log)
         meta = {
             "command": "python benchmarks/bench_scale.py --n "
             + " ".join(map(str, args.n))
-            + f" --count {args.count} --seed {args.seed} --ref-starts {args.ref_starts}",
+            + f" --count {args.count} --seed {args.seed} --ref-starts {args.ref_starts}"
+            + (f" --part {args.part}" if args.part != "0/1" else ""),
             "machine": "{cpus} CPUs ({cpu}), {date}".format(**machine_info()),
             "ref_starts": args.ref_starts,
         }

@@ -169,8 +169,8 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         # the spatial kernels call LAPACK/BLAS on (6n)^2 matrices, the planar ones on
         # (3n)^2 from n = 48 on, where OpenBLAS starts threads (CPU 2x wall at n = 48-64)
         req.blas.apply()
-    first = plan.adaptive_first(req.structured, req.mode.planar, req.stack.n)
-    if first and not req.problem.rows_outside_ip and len(starts) > first:
+    first = plan.adaptive_first(req.structured, req.mode.planar, req.stack.n, len(starts))
+    if first and not req.problem.rows_outside_ip:
         batch, n_run = _adaptive_batch(req, method, starts, first)
     else:
         left = req.time_left(time.perf_counter())
@@ -225,22 +225,23 @@ def agree(runs: list[Run | None], rtol: float) -> bool:
 
 
 def _adaptive_batch(
-    req: Request, method: IPMethod, starts: list[FloatArray], first: int
+    req: Request, method: IPMethod, starts: list[FloatArray], first: list[int]
 ) -> tuple[IPBatch, int]:
-    """The adaptive plan (:data:`stackik.solve.policy.ADAPTIVE_N`): each of the first
-    ``first`` starts alone; when they all pass and :func:`agree`, they found the same basin
-    and the solve stops with the better of them; otherwise the other starts run in one
-    call and the best pose over all is kept (merged by :func:`_merge`, the same rule as
-    one call: the lowest objective that passes, ties to the earlier start). Returns the
-    merged batch and how many starts ran (``first`` or all)."""
+    """The adaptive plan (:data:`stackik.solve.policy.ADAPTIVE_N`): each of the starts
+    ``first`` (indices into ``starts``) alone; when they all pass and :func:`agree`, they
+    found the same basin and the solve stops with the better of them; otherwise the other
+    starts run in one call and the best pose over all is kept (merged by :func:`_merge`,
+    the same rule as one call: the lowest objective that passes, ties to the earlier
+    call). Returns the merged batch and how many starts ran (``len(first)`` or all)."""
     parts = []
-    for qs in starts[:first]:
+    for j in first:
         left = req.time_left(time.perf_counter())
-        parts.append(method.run_many(req.problem, [qs], req.options, left))
+        parts.append(method.run_many(req.problem, [starts[j]], req.options, left))
     if agree([p.best for p in parts], ADAPTIVE_RTOL) or req.out_of_time():
-        return _merge(parts), first
+        return _merge(parts), len(first)
+    rest = [qs for j, qs in enumerate(starts) if j not in first]
     left = req.time_left(time.perf_counter())
-    parts.append(method.run_many(req.problem, starts[first:], req.options, left))
+    parts.append(method.run_many(req.problem, rest, req.options, left))
     return _merge(parts), len(starts)
 
 
