@@ -165,10 +165,10 @@ def markdown(lines: list[dict[str, Any]], meta: dict[str, Any]) -> str:
     return (
         "# Planar stacks at scale (benchmarks/bench_scale.py)\n\n"
         f"`{meta['command']}` on {meta['machine']}. Reference stacks; best known = least FN "
-        f"over IPOPT from {meta['ref_starts']} starts (0: not run), IPOPT-8, the default and "
-        "the full batch (the default without its adaptive early stop, i.e. the default before it). "
-        "Times are wall times on a shared machine; ratios are medians of per-target "
-        "ratios.\n\n" + head + body + tail
+        f"over IPOPT from --ref-starts starts ({meta['ref_starts']}; 0: not run), IPOPT-8, the "
+        "default and the full batch (the default without its adaptive early stop, i.e. the "
+        "default before it). Times are wall times on a shared machine; ratios are medians "
+        "of per-target ratios.\n\n" + head + body + tail
     )
 
 
