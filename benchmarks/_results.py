@@ -1,15 +1,30 @@
 """A benchmark's summary columns and its results: ``<stem>.csv`` (every row), ``<stem>.json`` (meta,
 summary lines, rows) and ``<stem>.md`` (the report), shared by the benchmarks that
-compare stackik with IPOPT (bench_loads, bench_clearance, bench_obstacles)."""
+compare stackik with IPOPT (bench_loads, bench_clearance, bench_obstacles, bench_scale),
+and their random targets."""
 
 from __future__ import annotations
 
 import csv
 import json
+import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from stackik.sampling import random_planar_targets, random_spatial_targets
+
+
+def targets(planar: bool, stack: Any, count: int, seed: int) -> list[Any]:
+    """``count`` reachable targets of ``stack``, target k drawn with ``rng = seed + k``
+    (planar: in the plane ``phi = 2 pi k / count``)."""
+    if planar:
+        return [
+            random_planar_targets(stack, 1, rng=seed + k, phis=(2 * math.pi * k / count,))[0]
+            for k in range(count)
+        ]
+    return [random_spatial_targets(stack, 1, rng=seed + k)[0] for k in range(count)]
 
 
 def method_columns(

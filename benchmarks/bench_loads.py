@@ -35,13 +35,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from _results import write_results
+from _results import targets, write_results
 
 from stackik import Load, PlatformGeometry, Stack, check_pose, leg_forces, solve_ik
 from stackik.bench import machine_info
 from stackik.kinematics import lift_planar
 from stackik.rotations import euler_zyx
-from stackik.sampling import random_planar_targets, random_spatial_targets
 from stackik.targets import PlanarTarget
 
 CASES = {"spatial4": (False, 4), "spatial6": (False, 6), "planar4": (True, 4), "planar8": (True, 8)}
@@ -101,21 +100,12 @@ def independent_ok(stack: Stack, target: Any, q: np.ndarray) -> bool:
     )
 
 
-def _targets(planar: bool, stack: Stack, count: int, seed: int) -> list[Any]:
-    if planar:
-        return [
-            random_planar_targets(stack, 1, rng=seed + k, phis=(2 * math.pi * k / count,))[0]
-            for k in range(count)
-        ]
-    return [random_spatial_targets(stack, 1, rng=seed + k)[0] for k in range(count)]
-
-
 def run_case(name: str, count: int, seed: int, ref_starts: int) -> list[dict[str, Any]]:
     planar, n = CASES[name]
     g0 = PlatformGeometry.hexagonal(plate_mass=PLATE_MASS, leg_mass=LEG_MASS)
     free = Stack.uniform(g0, n)
     rows = []
-    for k, target in enumerate(_targets(planar, free, count, seed)):
+    for k, target in enumerate(targets(planar, free, count, seed)):
         phi = target.phi if planar else None
         r0 = solve_ik(free, target, load=LOAD)
         if not r0.success:

@@ -100,7 +100,13 @@ def solve_ik(
         the interior-point path with n >= 5, every sideways-fold pattern of the top 3 (n =
         5), 4 (n = 6-15), 5 (n = 16-31) or 3 (n >= 32) platforms
         (:func:`stackik.starts.fold_depth`, :func:`stackik.starts.fold_patterns`), plus five
-        random ones from n = 32 (:func:`stackik.starts.tall_random_starts`); in spatial mode
+        random ones from n = 32 (:func:`stackik.starts.tall_random_starts`); from n = 32
+        (:data:`stackik.solve.policy.ADAPTIVE_N`) the interior point first runs two of
+        the random ones alone, and when both pass the check with FN within 5e-4 of each
+        other (relative, :data:`~stackik.solve.policy.ADAPTIVE_RTOL`) returns the better
+        of them (``n_starts`` 2); otherwise it runs the other 14 too and keeps the best
+        pose of all (the adaptive plan, :func:`stackik.solve.stages.ip_stage`); in
+        spatial mode
         the interior point's structured starts (:func:`stackik.starts.spatial_starts`: 8
         up to n = 4, 18 from n = 5; twists, leans and folds; from n = 5 then 12 hops from
         the best pose, :func:`stackik.starts.spatial_hops`), the SQP engine's five

@@ -25,6 +25,9 @@ from stackik.starts import (
 )
 
 __all__ = [
+    "ADAPTIVE_FIRST",
+    "ADAPTIVE_N",
+    "ADAPTIVE_RTOL",
     "FORCE_METHOD",
     "FORCE_STARTS",
     "RECENTRE_MU0",
@@ -54,6 +57,17 @@ SPATIAL_GIVE_UP_MM = 1.0
 #: limit it starts from.
 FORCE_METHOD = "slsqp"
 FORCE_STARTS = 2
+
+#: Planar default from ``n = ADAPTIVE_N`` on: the interior point first runs
+#: ``ADAPTIVE_FIRST`` of the batch's random starts alone (:func:`tall_random_starts`), and
+#: when each passes the check and their FN agree within ``ADAPTIVE_RTOL`` (relative), the
+#: solve stops there; otherwise the rest of the batch runs and the best pose overall is
+#: kept (:meth:`StartPlan.adaptive_first`, :func:`stackik.solve.stages.ip_stage`).
+#: Random perturbations of the paper's guess, not its folds: on the design targets the
+#: structured starts often agree on the same worse basin (docs/benchmarks.md, 2026-12-03).
+ADAPTIVE_N: float = 32
+ADAPTIVE_FIRST = 2
+ADAPTIVE_RTOL = 5e-4
 
 #: Spatial ``starts=1`` from the paper's guess: initial barriers of the interior point's
 #: runs from its own pose after the first (:func:`stackik.solve.stages.ip_stage`).
@@ -132,6 +146,18 @@ class StartPlan:
         while len(qs) < self.n_planned:
             qs.append(sampler.draw())
         return qs
+
+    def adaptive_first(self, structured: bool, planar: bool, n: int, count: int) -> list[int]:
+        """Which of the ``count`` starts of :meth:`batch` run first on their own, before
+        the others only if they disagree: on the planar structured default (no ``starts``,
+        no ``x0``) from ``n = ADAPTIVE_N`` on, the first :data:`ADAPTIVE_FIRST` random
+        starts (the batch ends with its :func:`tall_random_starts`); none (the whole batch
+        in one call) otherwise."""
+        tall = tall_random_starts(n)
+        if self.starts is None and structured and planar and n >= ADAPTIVE_N and tall:
+            first = count - tall
+            return list(range(first, first + min(ADAPTIVE_FIRST, tall)))
+        return []
 
 
 def plan_starts(req: Any) -> StartPlan:

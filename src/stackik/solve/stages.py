@@ -25,6 +25,7 @@ from stackik.solve.nearest import (
     stretch_toward,
 )
 from stackik.solve.policy import (
+    ADAPTIVE_RTOL,
     FORCE_METHOD,
     FORCE_STARTS,
     RECENTRE_MU0,
@@ -41,7 +42,15 @@ from stackik.starts import spatial_hop_count, spatial_hops
 if TYPE_CHECKING:
     from stackik.methods.ip import IPBatch, IPMethod
 
-__all__ = ["PLANAR_BLAS_N", "Handover", "Tally", "Verdict", "ip_stage", "local_stage"]
+__all__ = [
+    "PLANAR_BLAS_N",
+    "Handover",
+    "Tally",
+    "Verdict",
+    "agree",
+    "ip_stage",
+    "local_stage",
+]
 
 #: Planar stacks from this size get the solve's BLAS thread limit in the interior point.
 PLANAR_BLAS_N = 32
@@ -148,7 +157,8 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     A passing pose ends the solve. Otherwise an explicit ``method="ip"`` reports the
     least-violation pose; ``"auto"`` answers an unreachable target (every start stalled)
     with the bisection's limit-respecting pose (:func:`stretch_toward`), or hands over
-    to the SQP engine with the options both engines take.
+    to the SQP engine with the options both engines take. The planar structured default
+    from ``n = ADAPTIVE_N`` on runs the batch adaptively (:func:`_adaptive_batch`).
     """
     from stackik.methods.ip import IPMethod
 
@@ -159,19 +169,23 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         # the spatial kernels call LAPACK/BLAS on (6n)^2 matrices, the planar ones on
         # (3n)^2 from n = 48 on, where OpenBLAS starts threads (CPU 2x wall at n = 48-64)
         req.blas.apply()
-    left = req.time_left(time.perf_counter())
-    batch = method.run_many(req.problem, starts, req.options, left)
+    first = plan.adaptive_first(req.structured, req.mode.planar, req.stack.n, len(starts))
+    if first and not req.problem.rows_outside_ip:
+        batch, n_run = _adaptive_batch(req, method, starts, first)
+    else:
+        left = req.time_left(time.perf_counter())
+        batch, n_run = method.run_many(req.problem, starts, req.options, left), len(starts)
     if batch.bound:
-        return _force_handover(req, batch, len(starts))
+        return _force_handover(req, batch, n_run)
     if batch.best is not None:
-        best, nit, tried = batch.best, batch.nit, len(starts)
+        best, nit, tried = batch.best, batch.nit, n_run
         if plan.spatial_default:
             best, nit, tried = _hop(req, method, best, nit, tried)
         elif plan.starts == 1 and req.structured and _recentres(req):
             best, nit = _recentre(req, method, best, nit)
         return Verdict(best, IKStatus.SUCCESS, nit, tried, "ip")
     if not req.auto:
-        return Verdict(batch.least, _ip_status(batch.statuses), batch.nit, len(starts), "ip")
+        return Verdict(batch.least, _ip_status(batch.statuses), batch.nit, n_run, "ip")
     # with obstacle rows in the interior point, stalled runs may mean no clear pose (not an
     # unreachable target): the SQP engine decides, with the rows
     stalled = req.problem.clearance.obstacle_rows is None and all(
@@ -189,14 +203,65 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         )  # fmt: skip
         planar = req.mode.planar
         if near is not None and (t_near <= NEAREST_MAX_T or not planar):
-            n = len(starts) + n_near
+            n = n_run + n_near
             nit = batch.nit + nit_near
             message = NEAREST_MESSAGE if planar else SPATIAL_NEAREST_MESSAGE
             return Verdict(near, IKStatus.INFEASIBLE, nit, n, "ip", message)
         if near is not None:  # planar, nearly there: the SQP engine starts from that pose
             queue.insert(0, near.q)
     shared = {key: v for key, v in req.options.items() if key in SHARED_OPTIONS}
-    return Handover(queue, batch.least, batch.nit, len(starts), stalled, shared)
+    return Handover(queue, batch.least, batch.nit, n_run, stalled, shared)
+
+
+def agree(runs: list[Run | None], rtol: float) -> bool:
+    """Every run passed the check and their objectives agree: the square roots (FN for
+    the default objective) within ``rtol`` of the least, relative
+    (:data:`stackik.solve.policy.ADAPTIVE_RTOL` in the adaptive plan)."""
+    if not runs or any(r is None for r in runs):
+        return False
+    roots = [float(np.sqrt(max(r.obj, 0.0))) for r in runs if r is not None]
+    low = min(roots)
+    return max(roots) - low <= rtol * abs(low)
+
+
+def _adaptive_batch(
+    req: Request, method: IPMethod, starts: list[FloatArray], first: list[int]
+) -> tuple[IPBatch, int]:
+    """The adaptive plan (:data:`stackik.solve.policy.ADAPTIVE_N`): each of the starts
+    ``first`` (indices into ``starts``) alone; when they all pass and :func:`agree`, they
+    found the same basin and the solve stops with the better of them; otherwise the other
+    starts run in one call and the best pose over all is kept (merged by :func:`_merge`,
+    the same rule as one call: the lowest objective that passes, ties to the earlier
+    call). Returns the merged batch and how many starts ran (``len(first)`` or all)."""
+    parts = []
+    for j in first:
+        left = req.time_left(time.perf_counter())
+        parts.append(method.run_many(req.problem, [starts[j]], req.options, left))
+    if agree([p.best for p in parts], ADAPTIVE_RTOL) or req.out_of_time():
+        return _merge(parts), len(first)
+    rest = [qs for j, qs in enumerate(starts) if j not in first]
+    left = req.time_left(time.perf_counter())
+    parts.append(method.run_many(req.problem, rest, req.options, left))
+    return _merge(parts), len(starts)
+
+
+def _merge(parts: list[IPBatch]) -> IPBatch:
+    """The batches of consecutive calls as one: the best passing run (the lowest
+    objective; ties to the earlier), the least-violation run, iterations, statuses and
+    bound runs in order."""
+    from stackik.methods.ip import IPBatch
+
+    out = IPBatch(None, None, 0, [])
+    for part in parts:
+        if part.best is not None and (out.best is None or _lower(part.best, out.best)):
+            out.best = part.best
+        pl, ol = part.least, out.least
+        if pl is not None and (ol is None or pl.check.violation_mm < ol.check.violation_mm):
+            out.least = pl
+        out.nit += part.nit
+        out.statuses += part.statuses
+        out.bound += part.bound
+    return out
 
 
 def _force_handover(req: Request, batch: IPBatch, tried: int) -> Handover:
