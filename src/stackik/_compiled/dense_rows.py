@@ -9,10 +9,11 @@ then the dense ones. The products here take the pair; with no dense rows (``JD``
 they do exactly the block arithmetic of :mod:`stackik._compiled.linalg` and nothing else
 (the fingerprint is unchanged).
 
-The rows themselves: the obstacle rows (:func:`stackik._compiled.obstacle_rows.obstacle_rows`,
-the family's one definition), called from :func:`dense_rows` alone. Their curvature is
-not formed (the rows are squared distances and plane distances; the limit and self-leg
-rows keep their exact Hessians).
+The rows themselves: the obstacle rows (:func:`stackik._compiled.obstacle_rows.obstacle_rows`)
+and the leg-force limit rows (:func:`stackik._compiled.force_rows.force_rows`), each its
+family's one definition, called from :func:`dense_rows` alone. Their curvature is not
+formed (squared distances, plane distances and leg forces; the limit and self-leg rows keep
+their exact Hessians).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from stackik._compiled.core import _jit
+from stackik._compiled.force_rows import force_rows
 from stackik._compiled.linalg import _AI_dot, _AIT_dot
 from stackik._compiled.obstacle_rows import obstacle_rows
 
@@ -32,9 +34,17 @@ FloatArray = Any
 def dense_rows(q: FloatArray, P: Any) -> tuple[FloatArray, FloatArray]:
     """The dense rows of the spatial problem ``P`` (:class:`stackik._compiled.spatial.SpatialData`)
     at the raw pose ``q`` (n, 6) [mm, rad]: values ``c`` (rows,) and Jacobian (rows, 6n)
-    against ``q``. The one call of the obstacle rows' kernel (``P.obstacles``: its arrays,
-    :attr:`stackik.formulation.obstacle_rows.ObstacleRows.kernel_args`)."""
-    return obstacle_rows(q, *P.obstacles, P.ob_margin, P.ob_L, False, 0.0)  # type: ignore[call-arg]
+    against ``q``: the obstacle rows (``P.obstacles``: their kernel's arrays,
+    :attr:`stackik.formulation.obstacle_rows.ObstacleRows.kernel_args`), then the leg-force
+    limit rows (``P.forces``: :attr:`stackik.formulation.forces.ForceLimits.kernel_args`;
+    the limited platforms are its entry 7)."""
+    cO, JO = obstacle_rows(q, *P.obstacles, P.ob_margin, P.ob_L, False, 0.0)  # type: ignore[call-arg]
+    if P.forces[7].size == 0:
+        return cO, JO
+    cF, JF = force_rows(q, P.top, P.base, *P.forces, False, 0.0)  # type: ignore[call-arg]
+    if cO.size == 0:
+        return cF, JF
+    return np.concatenate((cO, cF)), np.vstack((JO, JF))
 
 
 @_jit

@@ -188,13 +188,15 @@ class Problem:
 
     @property
     def rows_outside_ip(self) -> bool:
-        """Whether the problem has rows the compiled interior point does not carry: leg-force
-        limits, and planar obstacle and self-leg rows (the spatial interior point carries
-        the obstacle rows as dense rows, :mod:`stackik._compiled.dense_rows`). A run that
-        fails only on such rows is a start for an engine that has them
+        """Whether the problem has rows the compiled interior point does not carry: planar
+        leg-force limits, obstacle and self-leg rows (the spatial interior point carries the
+        obstacle and leg-force rows as dense rows, :mod:`stackik._compiled.dense_rows`). A
+        run that fails only on such rows is a start for an engine that has them
         (:func:`stackik.methods.ip.ip_starts`)."""
-        return self.forces is not None or (
-            self.planar and (self.clearance.obstacle_rows is not None or self.self_legs is not None)
+        return self.planar and (
+            self.forces is not None
+            or self.clearance.obstacle_rows is not None
+            or self.self_legs is not None
         )
 
     @property
