@@ -13,7 +13,7 @@ import pytest
 
 import stackik.solve.policy as policy
 import stackik.solve.stages as stages
-from stackik import Load, PlanarTarget, PlatformGeometry, Stack, solve_ik
+from stackik import PlanarTarget, PlatformGeometry, Stack, solve_ik
 from stackik.methods.ip import IPMethod
 from stackik.sampling import random_planar_targets
 from stackik.solve.policy import ADAPTIVE_FIRST, ADAPTIVE_N, StartPlan
@@ -138,13 +138,13 @@ def test_default_at_adaptive_n_is_reproducible(spy: list[list[Any]]) -> None:
     assert _counts(spy)[:ADAPTIVE_FIRST] == [1] * ADAPTIVE_FIRST  # the adaptive plan ran
 
 
-def test_explicit_starts_and_force_limits_keep_one_call(spy: list[list[Any]]) -> None:
+def test_explicit_starts_and_rows_outside_the_ip_keep_one_call(spy: list[list[Any]]) -> None:
     stack, target = Stack.reference(N_BIG), _target(N_BIG)
     solve_ik(stack, target, method="ip", starts=3)
     assert _counts(spy) == [3]
     spy.clear()
     g = PlatformGeometry.reference()
-    g = PlatformGeometry(**{**g.to_dict(), "force_max": 1e6})  # a limit that never binds
-    limited = Stack((g,) * N_BIG)
-    solve_ik(limited, target, load=Load(mass=1.0), method="ip")
+    g = PlatformGeometry(**{**g.to_dict(), "leg_radius": 1.0})  # planar self-leg rows
+    fat = Stack((g,) * N_BIG)
+    solve_ik(fat, target, method="ip")
     assert _counts(spy) == [_batch_size(N_BIG)]  # rows outside the interior point: one call

@@ -261,3 +261,88 @@ def test_force_residuals_jacobian() -> None:
 
     num = fd.central(values, q.ravel(), typical=np.tile(fd.TYPICAL_SPATIAL, 3), richardson=True)
     fd.assert_derivative_close(J, num, f_scale=1.0 + float(np.abs(r).max()), what="force residuals")
+
+
+@pytest.mark.parametrize("planar", [False, True])
+@pytest.mark.parametrize("gravity", ["earth", "moon", "mars", "none", (1.0, -2.0, -9.0)])
+@pytest.mark.parametrize("frame", ["base", "end_effector"])
+def test_compiled_statics_equal_the_independent_model(planar, gravity, frame) -> None:
+    """The solvers' compiled leg forces (stackik._compiled.force_rows, the family's one
+    definition) equal the check's statics (stackik.leg_forces, numpy with an SVD per
+    platform) to 1e-9 relative on random poses of a mixed stack, every gravity preset,
+    either load frame; the Jacobian of every platform's forces matches central
+    differences of stackik.leg_forces."""
+    from stackik._compiled.force_rows import leg_force_jacobian
+    from stackik.formulation.forces import force_kernel_args
+
+    load = Load(
+        mass=2.0, com=(5.0, -3.0, 12.0), force=(2.0, -1.0, 4.0), moment=(0.3, 0.1, -0.2),
+        frame=frame, gravity=gravity,
+    )  # fmt: skip
+    n = 3
+    stack = _mixed_stack(n)
+    phi = 0.9 if planar else None
+    rng = np.random.default_rng(7)
+    for _ in range(3):
+        q = _pose(planar, n, rng)
+        f, J, ok = leg_force_jacobian(
+            np.ascontiguousarray(q), stack.top_nodes, stack.base_nodes,
+            *force_kernel_args(stack, load), planar, 0.0 if phi is None else phi,
+        )  # fmt: skip
+        ref = leg_forces(stack, q, load, phi=phi)
+        assert ok
+        scale = float(np.abs(ref).max())
+        np.testing.assert_allclose(f, ref, rtol=0, atol=1e-9 * scale)
+    typical = fd.TYPICAL_PLANAR if planar else fd.TYPICAL_SPATIAL
+    num = fd.central(
+        lambda x: leg_forces(stack, x.reshape(q.shape), load, phi=phi).ravel(), q.ravel(),
+        typical=np.tile(typical, n), richardson=True,
+    )  # fmt: skip
+    fd.assert_derivative_close(J, num, f_scale=scale, what="leg forces")
+
+
+def test_compiled_statics_singular_platform_is_nan() -> None:
+    """A platform whose legs have no length (top nodes on the base nodes) has no leg wrench
+    matrix: the rows are NaN (the interior point reports a non-finite evaluation), no
+    exception."""
+    stack = _mixed_stack(2)
+    rows = ForceLimits(stack, LOAD, None)
+    q = np.zeros((2, 6))
+    q[1, 2] = 350.0
+    c, J = rows(q)
+    assert c.shape == (12,) and J.shape == (12, 12)  # platform 0 has a limit
+    assert np.isnan(c).all() and np.isnan(J).all()
+
+
+def _spatial_binding(fraction: float) -> tuple[Stack, object, float]:
+    """A spatial n = 3 target whose unloaded least-FN pose has its peak leg force over
+    ``fraction`` of it as the limit (the stack's weight and a 4 kg payload)."""
+    from stackik import SpatialTarget, spatial_forward
+
+    free = Stack.uniform(PlatformGeometry.hexagonal(plate_mass=5.0, leg_mass=1.5), 3)
+    q = np.tile([0.0, 0.0, 330.0, 0.0, 0.0, 0.0], (3, 1))
+    q[:, 0] = [40.0, 50.0, 30.0]
+    q[:, 4] = [0.15, 0.1, 0.2]
+    P, R = spatial_forward(q)
+    target = SpatialTarget(P, R)
+    load = Load(mass=4.0)
+    r0 = solve_ik(free, target, load=load)
+    assert r0.success
+    peak = float(np.abs(leg_forces(free, r0.q, load)).max())
+    g = PlatformGeometry.hexagonal(plate_mass=5.0, leg_mass=1.5, force_max=fraction * peak)
+    return Stack.uniform(g, 3), target, r0.frobenius_norm
+
+
+@pytest.mark.parametrize("method", ["auto", "ip"])
+def test_spatial_interior_point_carries_the_force_rows(method: str) -> None:
+    """Spatial: a binding force limit is met by the compiled interior point itself (the
+    result's method is "ip", no hand-over to SLSQP); the independent check passes and the
+    FN is no lower than the unconstrained optimum's."""
+    stack, target, fn_free = _spatial_binding(0.85)
+    load = Load(mass=4.0)
+    r = solve_ik(stack, target, load=load, method=method)
+    assert r.success, (r.status, r.message)
+    assert r.method == "ip"
+    chk = check_pose(stack, target, r.q, load=load)
+    assert chk.ok and chk.peak_force_ratio <= 1 + 1e-6
+    assert r.frobenius_norm >= fn_free * (1 - 1e-9)

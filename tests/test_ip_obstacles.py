@@ -124,14 +124,17 @@ def test_interior_point_goes_around_obstacles_without_slsqp(kind: str, k: int) -
         assert r.frobenius_norm <= plain.frobenius_norm * 1.01
 
 
-def test_forces_still_hand_over() -> None:
-    """Leg force limits are outside the kernels: a problem with them still hands poses that
-    fail only on them over (``rows_outside_ip``); obstacle rows alone do not, planar too
-    (tests/test_ip_obstacles_planar.py)."""
+def test_only_planar_self_legs_hand_over() -> None:
+    """Obstacle and leg-force rows are in both interior points (dense rows): a problem with
+    them hands nothing over (``rows_outside_ip`` False, spatial and planar); the planar
+    self-leg rows are the one family outside the kernels."""
     t = _targets()[0]
     sphere = sk.Sphere((0.0, 0.0, 700.0), 20.0)
     assert not Problem(REF, t, "frobenius", None, obstacles=[sphere]).rows_outside_ip
     limited = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(force_max=100.0), 4)
-    assert Problem(limited, t, "frobenius", None, obstacles=[sphere]).rows_outside_ip
+    assert not Problem(limited, t, "frobenius", None, obstacles=[sphere]).rows_outside_ip
     planar = sk.PlanarTarget(150.0, 1200.0, 0.3)
     assert not Problem(REF, planar, "frobenius", None, obstacles=[sphere]).rows_outside_ip
+    assert not Problem(limited, planar, "frobenius", None).rows_outside_ip
+    fat = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=8.0), 4)
+    assert Problem(fat, planar, "frobenius", None).rows_outside_ip

@@ -162,15 +162,15 @@ def test_planar_floor_and_sphere_together() -> None:
 
 
 def test_planar_rows_outside_the_interior_point() -> None:
-    """Planar obstacle rows are in the kernel; planar self-leg rows and force limits are
-    not (a run failing only on them is still handed over)."""
+    """Planar obstacle and leg-force rows are in the kernel; planar self-leg rows are not (a
+    run failing only on them is still handed over)."""
     t = _targets()[0]
     sphere = sk.Sphere((0.0, 0.0, 700.0), 20.0)
     assert not Problem(REF, t, "frobenius", None, obstacles=[sphere]).rows_outside_ip
     fat = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 4)
     assert Problem(fat, t, "frobenius", None, obstacles=[sphere]).rows_outside_ip
     limited = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(force_max=100.0), 4)
-    assert Problem(limited, t, "frobenius", None, obstacles=[sphere]).rows_outside_ip
+    assert not Problem(limited, t, "frobenius", None, obstacles=[sphere]).rows_outside_ip
 
 
 def test_planar_bad_obstacles_are_refused() -> None:

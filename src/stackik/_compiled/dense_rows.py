@@ -11,20 +11,23 @@ they do exactly the block arithmetic of :mod:`stackik._compiled.linalg` (and, fo
 :func:`add_normal`, of the planar and spatial barrier loops before the pair) and nothing
 else (the fingerprint is unchanged).
 
-The rows themselves: the obstacle rows (:func:`stackik._compiled.obstacle_rows.obstacle_rows`,
-the family's one definition), called from :func:`dense_rows` alone with the mode's
-variables (``planar``, the plane angle ``phi``). Their curvature is not formed (the rows
-are squared distances and plane distances; the limit and self-leg rows keep their exact
-Hessians).
+The rows themselves: the obstacle rows (:func:`stackik._compiled.obstacle_rows.obstacle_rows`)
+and the leg-force limit rows (:func:`stackik._compiled.force_rows.force_rows`), each its
+family's one definition, called from :func:`dense_rows` alone with the mode's variables
+(``planar``, the plane angle ``phi``). Their exact curvature is not formed (squared
+distances, plane distances and leg forces; the limit and self-leg rows keep their exact
+Hessians); the leg-force rows get an SR1 estimate (:func:`force_sr1`).
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
 from stackik._compiled.core import _jit
+from stackik._compiled.force_rows import force_rows
 from stackik._compiled.linalg import _AI_dot, _AIT_dot
 from stackik._compiled.obstacle_rows import obstacle_rows
 
@@ -36,9 +39,17 @@ def dense_rows(q: FloatArray, P: Any, planar: bool, phi: float) -> tuple[FloatAr
     """The dense rows of the problem ``P`` (:class:`stackik._compiled.spatial.SpatialData`,
     or :class:`stackik._compiled.planar.PlanarData` with ``planar`` and its plane angle
     ``phi`` [rad]) at the raw pose ``q`` (n, k) [mm, rad]: values ``c`` (rows,) and Jacobian
-    (rows, k n) against ``q``. The one call of the obstacle rows' kernel (``P.obstacles``:
-    its arrays, :attr:`stackik.formulation.obstacle_rows.ObstacleRows.kernel_args`)."""
-    return obstacle_rows(q, *P.obstacles, P.ob_margin, P.ob_L, planar, phi)  # type: ignore[call-arg]
+    (rows, k n) against ``q``: the obstacle rows (``P.obstacles``: their kernel's arrays,
+    :attr:`stackik.formulation.obstacle_rows.ObstacleRows.kernel_args`), then the leg-force
+    limit rows (``P.forces``: :attr:`stackik.formulation.forces.ForceLimits.kernel_args`;
+    the limited platforms are its entry 9)."""
+    cO, JO = obstacle_rows(q, *P.obstacles, P.ob_margin, P.ob_L, planar, phi)  # type: ignore[call-arg]
+    if P.forces[9].size == 0:
+        return cO, JO
+    cF, JF = force_rows(q, *P.forces, planar, phi)  # type: ignore[call-arg]
+    if cO.size == 0:
+        return cF, JF
+    return np.concatenate((cO, cF)), np.vstack((JO, JF))
 
 
 @_jit
@@ -121,13 +132,13 @@ def add_normal(W: FloatArray, AI: Any, Sig: FloatArray) -> None:
         return
     mb = n * R
     N = W.shape[0]
-    for r in range(JD.shape[0]):
+    nd = JD.shape[0]
+    SJ = np.empty((N, nd))  # (diag(Sig) JD)^T: one matrix product (BLAS) for the dense rows
+    for r in range(nd):
         sr = Sig[mb + r]
         for a in range(N):
-            ja = JD[r, a] * sr
-            if ja != 0.0:
-                for b in range(N):
-                    W[a, b] += ja * JD[r, b]
+            SJ[a, r] = JD[r, a] * sr
+    W += SJ @ JD
 
 
 @_jit
@@ -142,3 +153,36 @@ def ineq_row(AI: Any, r: int, out: FloatArray) -> None:
         out[k * i : k * i + k] = D[i, r % R]
     else:
         out[:] = JD[r - mb]
+
+
+@_jit
+def force_sr1(B: FloatArray, sv: FloatArray, JD0: FloatArray, JD1: FloatArray, z: FloatArray,
+              n_force: int) -> None:  # fmt: skip
+    """SR1 update in place of ``B``, the barrier loops' estimate of the leg-force rows' part
+    of the Lagrangian's Hessian ``-sum_r z_r d^2 c_r`` (the rows' exact curvature is not
+    formed; without it a binding force limit zig-zags for hundreds of iterations): after
+    the step ``sv`` (scaled), with ``JD0``/``JD1`` the dense rows' Jacobians before and
+    after it (the force rows last) and the new multipliers ``z`` (the force rows last),
+    ``y = -(JD1 - JD0)^T z_F`` and ``B += r r^T / (r . sv)`` with ``r = y - B sv``,
+    skipped when ``|r . sv|`` is below ``1e-8 |r| |sv|`` (Nocedal & Wright 2006, eq. 6.26)."""
+    N = sv.size
+    nd = JD1.shape[0]
+    m = z.size
+    r = np.zeros(N)
+    for t in range(n_force):
+        zt = z[m - n_force + t]
+        row = nd - n_force + t
+        for a in range(N):
+            r[a] -= (JD1[row, a] - JD0[row, a]) * zt
+    for a in range(N):
+        acc = 0.0
+        for b in range(N):
+            acc += B[a, b] * sv[b]
+        r[a] -= acc
+    den = r @ sv
+    if not abs(den) > 1e-8 * math.sqrt(r @ r) * math.sqrt(sv @ sv):
+        return
+    for a in range(N):
+        ra = r[a] / den
+        for b in range(N):
+            B[a, b] += ra * r[b]

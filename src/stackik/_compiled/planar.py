@@ -49,6 +49,7 @@ from stackik._compiled.dense_rows import (
     AIT_dot,
     add_normal,
     block_part,
+    force_sr1,
     ineq_row,
     with_dense_rows,
 )
@@ -80,6 +81,7 @@ class PlanarData(NamedTuple):
     ob_margin: float  #: the obstacle rows' clearance margin [mm]
     ob_L: float  #: the obstacle rows' length scale [mm]
     ob_phi: float  #: the plane angle [rad] of the obstacle rows (the target's plane)
+    forces: Any  #: the force rows' kernel arrays (ForceLimits.kernel_args)
     n_dense: int  #: number of dense rows (0: none; :mod:`stackik._compiled.dense_rows`)
 
 
@@ -88,7 +90,7 @@ def _with_fscale(P0: Any, fscale: float) -> Any:
     """``P0`` with the objective scale ``fscale``."""
     return PlanarData(P0.xs, P0.cs, P0.es, P0.target, fscale, P0.c0, P0.w, P0.tf, P0.tz, P0.bf,
                       P0.bz, P0.ls0, P0.lmin2, P0.lmax2, P0.sj, P0.feasible, P0.obstacles,
-                      P0.ob_margin, P0.ob_L, P0.ob_phi, P0.n_dense)  # fmt: skip
+                      P0.ob_margin, P0.ob_L, P0.ob_phi, P0.forces, P0.n_dense)  # fmt: skip
 
 
 @_jit
@@ -96,7 +98,7 @@ def _with_target(P0: Any, target: Any) -> Any:
     """``P0`` with the target ``target`` (3,)."""
     return PlanarData(P0.xs, P0.cs, P0.es, target, P0.fscale, P0.c0, P0.w, P0.tf, P0.tz, P0.bf,
                       P0.bz, P0.ls0, P0.lmin2, P0.lmax2, P0.sj, P0.feasible, P0.obstacles,
-                      P0.ob_margin, P0.ob_L, P0.ob_phi, P0.n_dense)  # fmt: skip
+                      P0.ob_margin, P0.ob_L, P0.ob_phi, P0.forces, P0.n_dense)  # fmt: skip
 
 
 FloatArray = np.ndarray
@@ -622,6 +624,10 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     status = IP_MAX_ITER
     fails = 0
     it = 0
+    # the leg-force rows' curvature (the last n_force dense rows): an SR1 estimate
+    n_force = 12 * P0.forces[9].size
+    N = x.size
+    B = np.zeros((N, N)) if n_force > 0 else np.zeros((0, 0))
     for it in range(max_iter):
         if it % 16 == 15 and _now() > deadline:
             status = IP_MAX_TIME
@@ -659,6 +665,8 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         if not (_finite(W) and _finite(g) and _finite(AE)):
             status = IP_NONFINITE
             break
+        if n_force > 0:
+            W += B
         Sig = z / s
         add_normal(W, AI, Sig)  # the blocks' J^T Sigma J (and the dense rows', everywhere)
         v = np.empty(m)
@@ -767,6 +775,8 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
                 s[r] = cIt[r]
             zr = z[r] + a_z * dz[r]
             z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
+        if n_force > 0:
+            force_sr1(B, alpha * dx, AI[1], AIt[1], z, n_force)
         f, g, cE, AE, cI, AI = ft, gt, cEt, AEt, cIt, AIt
         yE = _ls_multipliers(AE, g, AIT_dot(AI, z))
     return x, status, it + 1 if status != IP_SUCCESS else it, s, z / fs, yE / fs

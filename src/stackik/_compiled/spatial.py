@@ -58,6 +58,7 @@ from stackik._compiled.dense_rows import (
     AIT_dot,
     add_normal,
     block_part,
+    force_sr1,
     ineq_row,
     with_dense_rows,
 )
@@ -98,6 +99,7 @@ class SpatialData(NamedTuple):
     obstacles: Any  #: the obstacle rows' kernel arrays (ObstacleRows.kernel_args)
     ob_margin: float  #: the obstacle rows' clearance margin [mm]
     ob_L: float  #: the obstacle rows' length scale [mm]
+    forces: Any  #: the force rows' kernel arrays (ForceLimits.kernel_args)
     n_dense: int  #: number of dense rows (0: none; :mod:`stackik._compiled.dense_rows`)
 
 
@@ -617,7 +619,7 @@ def _with_fscale(P0: Any, fscale: float) -> Any:
     return SpatialData(P0.xs, P0.cs, P0.es, P0.position, P0.rotation, fscale, P0.c0, P0.w,
                        P0.top, P0.base, P0.leg_min, P0.leg_max, P0.sin_joint,
                        P0.feasible, P0.pairs, P0.rho, P0.pair_scale, P0.obstacles,
-                       P0.ob_margin, P0.ob_L, P0.n_dense)  # fmt: skip
+                       P0.ob_margin, P0.ob_L, P0.forces, P0.n_dense)  # fmt: skip
 
 
 @_jit
@@ -626,7 +628,7 @@ def _with_target(P0: Any, position: Any, rotation: Any) -> Any:
     return SpatialData(P0.xs, P0.cs, P0.es, position, rotation, P0.fscale, P0.c0, P0.w,
                        P0.top, P0.base, P0.leg_min, P0.leg_max, P0.sin_joint,
                        P0.feasible, P0.pairs, P0.rho, P0.pair_scale, P0.obstacles,
-                       P0.ob_margin, P0.ob_L, P0.n_dense)  # fmt: skip
+                       P0.ob_margin, P0.ob_L, P0.forces, P0.n_dense)  # fmt: skip
 
 
 @_jit
@@ -664,6 +666,10 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     status = IP_MAX_ITER
     fails = 0
     it = 0
+    # the leg-force rows' curvature (the last n_force dense rows): an SR1 estimate
+    n_force = 12 * P0.forces[9].size
+    N = x.size
+    B = np.zeros((N, N)) if n_force > 0 else np.zeros((0, 0))
     for it in range(max_iter):
         if it % 8 == 7 and _now() > deadline:
             status = IP_MAX_TIME
@@ -694,6 +700,10 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         if not (np.all(np.isfinite(W)) and np.all(np.isfinite(g)) and np.all(np.isfinite(AE))):
             status = IP_NONFINITE
             break
+        if n_force > 0:
+            for a in range(N):
+                for b in range(N):
+                    W[a, b] += B[a, b]
         Sig = z / s
         add_normal(W, AI, Sig)
         v = np.empty(m)
@@ -794,6 +804,8 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
                 s[r] = cIt[r]
             zr = z[r] + a_z * dz[r]
             z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
+        if n_force > 0:
+            force_sr1(B, alpha * dx, AI[1], AI_t[1], z, n_force)
         f, g, cE, AE, cI, AI, parts = ft, gt, cEt, AEt, cIt, AI_t, parts_t
         yE = _ls_multipliers(AE, g, AIT_dot(AI, z))
     return x, status, it + 1 if status != IP_SUCCESS else it, s, z / fs, yE / fs

@@ -11,12 +11,14 @@ request's :class:`~stackik.Load` (``None``: the stack's own weight, earth gravit
 are dimensionless; platforms without a limit have none, so a stack without finite
 ``force_max`` has no rows at all and every solve is unchanged.
 
-Values come from :mod:`stackik.loads` (the statics model the check uses); the Jacobian with
-respect to the pose ``q`` by the **complex step**: ``df/dq_a = Im f(q + i h e_a) / h`` with
-``h = 1e-30``, exact to rounding (no subtraction), all ``k n`` directions in one batched
-evaluation of the statics (``tests/test_forces_family.py`` checks it against central
-differences of :func:`stackik.leg_forces`). Second derivatives are not formed: engines that
-need a Hessian of the Lagrangian take a quasi-Newton one when these rows are present.
+Values and the Jacobian with respect to the pose ``q`` (closed form) come from the compiled
+kernel :mod:`stackik._compiled.force_rows`, the family's one definition for every engine
+(the compiled spatial interior point carries the same rows as dense rows);
+``tests/test_forces_family.py`` holds its forces equal to the independent statics of
+:func:`stackik.leg_forces` (the check's) and its Jacobian to central differences of them.
+Second derivatives are not formed: engines that need a Hessian of the Lagrangian take a
+quasi-Newton one when these rows are present (the interior point leaves the rows'
+curvature out, as for the obstacle rows).
 
 The forces are eliminated rather than lifted as variables: the rows then live in the pose's
 variables only, and every engine that takes inequality rows and their Jacobian (SLSQP,
@@ -33,17 +35,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from stackik.geometry import Stack
-from stackik.loads import Load, _load, _system
-from stackik.rotations import plane_axis
+from stackik.loads import _MM_PER_M, Load, _load, characteristic_length
 
-__all__ = ["ForceLimits", "ForceResiduals", "force_limited", "force_scales"]
+__all__ = [
+    "ForceLimits",
+    "ForceResiduals",
+    "force_kernel_args",
+    "force_limited",
+    "force_scales",
+    "no_force_rows",
+]
 
 FloatArray = NDArray[np.float64]
-#: real or complex (the complex step passes through the same code)
-Array = NDArray[Any]
-
-#: Complex-step size: the imaginary part carries the derivative; any tiny value is exact.
-STEP = 1e-30
 
 
 def force_limited(stack: Stack) -> bool:
@@ -51,17 +54,31 @@ def force_limited(stack: Stack) -> bool:
     return bool(np.isfinite(stack.force_max).any())
 
 
-def _rot_zyx(a: Array) -> Array:
-    """``Rz(a0) Ry(a1) Rx(a2)`` for (..., 3) angles, real or complex, shape (..., 3, 3)."""
-    c, s = np.cos(a), np.sin(a)
-    cz, cy, cx = c[..., 0], c[..., 1], c[..., 2]
-    sz, sy, sx = s[..., 0], s[..., 1], s[..., 2]
-    rows = [
-        [cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx],
-        [sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx],
-        [-sy, cy * sx, cy * cx],
-    ]
-    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+def force_kernel_args(stack: Stack, load: Load | None) -> tuple[Any, ...]:
+    """The statics of ``stack`` under ``load`` as :func:`stackik._compiled.force_rows.leg_forces_c`
+    takes them after the pose and the nodes: ``(L, m, c, g, F_ext, M_ext, ee_frame)`` with
+    ``L`` (n,) [mm] the characteristic lengths, ``m`` (n,) [kg] the mass lumped on each
+    top plate (the plate, half of its own legs and half of the legs above, the payload on
+    the last) and ``c`` (n, 3) [kg mm] its first moment in that plate's frame, ``g`` (3,)
+    [m/s^2], the external force [N] and moment [N mm] and whether they are given in the
+    end effector's frame (the lumping of :func:`stackik.loads._system`)."""
+    ld = _load(load)
+    half = 0.5 * np.asarray(stack.leg_mass, dtype=float)
+    m = np.asarray(stack.plate_mass, dtype=float) + 6.0 * half
+    m[:-1] += 6.0 * half[1:]
+    m[-1] += ld.mass
+    c = half[:, None] * stack.top_nodes.sum(axis=1)
+    c[:-1] += half[1:, None] * stack.base_nodes[1:].sum(axis=1)
+    c[-1] += ld.mass * np.asarray(ld.com, dtype=float)
+    L = np.asarray(characteristic_length(stack), dtype=float)
+    F = np.asarray(ld.force, dtype=float)
+    arrays = [L, m, c, ld.g, F, np.asarray(ld.moment, dtype=float) * _MM_PER_M]
+    out = []
+    for a in arrays:
+        a = np.ascontiguousarray(a, dtype=float).copy()
+        a.setflags(write=False)
+        out.append(a)
+    return (*out, ld.frame == "end_effector")
 
 
 class ForceLimits:
@@ -90,74 +107,78 @@ class ForceLimits:
         self.phi = phi
         self.k = 6 if phi is None else 3
         fmax = np.asarray(stack.force_max, dtype=float)
-        self.platforms = np.flatnonzero(np.isfinite(fmax))
+        self.platforms = np.flatnonzero(np.isfinite(fmax)).astype(np.int64)
+        self.platforms.setflags(write=False)
         self.size = 12 * self.platforms.size
-        self._inv = 1.0 / fmax[self.platforms]  # (p,) [1/N]
-        #: the last complex-step batch of forces: (pose bytes, forces or None if singular)
-        self._batch: tuple[bytes, Array | None] = (b"", None)
-        if phi is not None:
-            s = plane_axis(phi)
-            K = np.array([[0.0, -s[2], s[1]], [s[2], 0.0, -s[0]], [-s[1], s[0], 0.0]])
-            self._plane = (np.array([np.cos(phi), np.sin(phi)]), np.eye(3), K, np.outer(s, s))
+        inv = 1.0 / fmax[self.platforms]  # (p,) [1/N]
+        inv.setflags(write=False)
+        self._statics = force_kernel_args(stack, self.load)
+        self._args = (stack.top_nodes, stack.base_nodes, *self._statics, self.platforms, inv)
 
-    def _parts(self, q: Array) -> tuple[Array, ...]:
-        """Per-platform translations (..., n, 3) and rotations (..., n, 3, 3) of poses
-        (..., n, k), real or complex (the arithmetic of :func:`stackik.loads.leg_forces`'s
-        pose parts, written without ``dtype=float`` so that the complex step passes)."""
-        if self.phi is None:
-            return q[..., :3], _rot_zyx(q[..., 3:])
-        e, eye, K, ss = self._plane
-        rho, z, th = q[..., 0], q[..., 1], q[..., 2]
-        P = np.stack([rho * e[0], rho * e[1], z], axis=-1)
-        c, s = np.cos(th)[..., None, None], np.sin(th)[..., None, None]
-        return P, c * eye + s * K + (1.0 - c) * ss
+    @property
+    def kernel_args(self) -> tuple[Any, ...]:
+        """The row kernel's arguments after the pose and the nodes
+        (:func:`stackik._compiled.force_rows.force_rows`: the top and base nodes, the
+        statics of :func:`force_kernel_args`, the limited platforms and their
+        ``1 / force_max``), as
+        the compiled interior point carries them
+        (:attr:`stackik._compiled.spatial.SpatialData.forces`)."""
+        return self._args
 
-    def forces(self, q: Array) -> Array:
-        """Leg forces (..., n, 6) [N] of poses (..., n, k), compression positive (the
-        limited platforms' only matter); complex in, complex out."""
-        P, R = self._parts(q)
-        G, w = _system(self.stack, P, R, self.load)
-        return -np.linalg.solve(G, w[..., None])[..., 0]
+    def _pose(self, q: FloatArray) -> FloatArray:
+        return np.ascontiguousarray(np.asarray(q, dtype=float).reshape(self.stack.n, self.k))
 
-    def _rows(self, f: Array) -> Array:
-        r = f[..., self.platforms, :] * self._inv[:, None]  # (..., p, 6)
-        return np.concatenate([1.0 - r, 1.0 + r], axis=-1).reshape(f.shape[:-2] + (-1,))
+    def force_jacobian(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Leg forces (n, 6) [N] at the pose ``q`` (n, k) and their Jacobian (6 n, n k)
+        (unscaled q: mm and rad); NaN where a platform is singular."""
+        from stackik._compiled.force_rows import leg_force_jacobian
+
+        st = self.stack
+        f, J, _ = leg_force_jacobian(  # type: ignore[call-arg]
+            self._pose(q), st.top_nodes, st.base_nodes, *self._statics, self.phi is not None,
+            0.0 if self.phi is None else float(self.phi),
+        )  # fmt: skip
+        return f, J
+
+    def forces(self, q: FloatArray) -> FloatArray:
+        """Leg forces (n, 6) [N] at the pose ``q`` (n, k), compression positive; NaN where
+        a platform is singular."""
+        return self.force_jacobian(q)[0]
 
     def values(self, q: FloatArray) -> FloatArray:
         """Row values (size,) at a pose (n, k); non-finite where a platform is singular."""
-        q = np.asarray(q, dtype=float).reshape(self.stack.n, self.k)
-        try:
-            return np.asarray(self._rows(self.forces(q)).real, dtype=float)
-        except np.linalg.LinAlgError:
-            return np.full(self.size, np.nan)
+        return self(q)[0]
 
     def __call__(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Row values (size,) and their Jacobian (size, n k) with respect to ``q`` (unscaled:
         mm and rad); NaN where a platform is singular."""
-        return self._complex_step(q, self._rows, self.size)
+        from stackik._compiled.force_rows import force_rows
 
-    def _complex_step(
-        self, q: FloatArray, of_forces: Any, size: int
-    ) -> tuple[FloatArray, FloatArray]:
-        """``of_forces(f)`` (size,) and its Jacobian (size, n k) at pose ``q``, by the complex
-        step: every direction in one batch of poses ``q + i h e_a``; NaN if singular."""
-        n, k = self.stack.n, self.k
-        q = np.asarray(q, dtype=float).reshape(n, k)
-        N = n * k
-        key = q.tobytes()
-        if self._batch[0] != key:  # the rows and the force objective share one batch
-            Q = np.empty((N + 1, n, k), dtype=complex)
-            Q[:] = q
-            Q[1:].reshape(N, N)[np.arange(N), np.arange(N)] += 1j * STEP
-            try:
-                self._batch = (key, self.forces(Q))
-            except np.linalg.LinAlgError:
-                self._batch = (key, None)
-        F = self._batch[1]
-        if F is None:  # a singular platform
-            return np.full(size, np.nan), np.full((size, N), np.nan)
-        out = of_forces(F).reshape(N + 1, size)
-        return out[0].real.copy(), (out[1:].imag / STEP).T
+        return force_rows(  # type: ignore[no-any-return, call-arg]
+            self._pose(q), *self._args, self.phi is not None,
+            0.0 if self.phi is None else float(self.phi),
+        )  # fmt: skip
+
+
+def no_force_rows(stack: Stack) -> tuple[Any, ...]:
+    """:attr:`ForceLimits.kernel_args` of a problem without force rows (no limited
+    platform; cached per stack), of the same types as with them (one compiled
+    specialisation of the interior point)."""
+    return stack.derived(  # type: ignore[no-any-return]
+        ("no_force_rows",),
+        lambda st: (
+            st.top_nodes,
+            st.base_nodes,
+            *force_kernel_args(st, None),
+            _readonly(np.zeros(0, dtype=np.int64)),
+            _readonly(np.zeros(0)),
+        ),
+    )
+
+
+def _readonly(a: NDArray[Any]) -> NDArray[Any]:
+    a.setflags(write=False)
+    return a
 
 
 def force_scales(stack: Stack) -> FloatArray:
@@ -189,4 +210,6 @@ class ForceResiduals(ForceLimits):
 
     def residuals(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """``r`` (6 n,) and ``dr/dq`` (6 n, k n) [unscaled q: mm, rad]; NaN if singular."""
-        return self._complex_step(q, lambda f: f * self._scale[:, None], 6 * self.stack.n)
+        f, J = self.force_jacobian(q)
+        s = np.repeat(self._scale, 6)
+        return (f * self._scale[:, None]).reshape(-1), J * s[:, None]

@@ -188,11 +188,11 @@ class Problem:
 
     @property
     def rows_outside_ip(self) -> bool:
-        """Whether the problem has rows the compiled interior point does not carry: leg-force
-        limits, and planar self-leg rows (both interior points carry the obstacle rows as
-        dense rows, :mod:`stackik._compiled.dense_rows`). A run that fails only on such
-        rows is a start for an engine that has them (:func:`stackik.methods.ip.ip_starts`)."""
-        return self.forces is not None or (self.planar and self.self_legs is not None)
+        """Whether the problem has rows the compiled interior point does not carry: planar
+        self-leg rows (both interior points carry the obstacle and leg-force rows as dense
+        rows, :mod:`stackik._compiled.dense_rows`). A run that fails only on such rows is a
+        start for an engine that has them (:func:`stackik.methods.ip.ip_starts`)."""
+        return self.planar and self.self_legs is not None
 
     @property
     def n_ineq(self) -> int:

@@ -34,12 +34,14 @@ def spatial_problem_arrays(prob: Any) -> SpatialData:
     :class:`~stackik.formulation.Problem` (every array read-only)."""
     from stackik._compiled.spatial import SpatialData
     from stackik.formulation.clearance import NO_PAIRS
+    from stackik.formulation.forces import no_force_rows
     from stackik.formulation.obstacle_rows import no_obstacle_rows
 
     st = prob.stack
     tgt = prob.target
     sl = prob.self_legs
     ob = prob.clearance.obstacle_rows
+    fr = prob.forces
     return SpatialData(
         readonly(prob.xs),
         readonly(prob.cs),
@@ -61,7 +63,8 @@ def spatial_problem_arrays(prob: Any) -> SpatialData:
         no_obstacle_rows(st) if ob is None else ob.kernel_args,
         0.0 if ob is None else ob.margin,
         float(np.max(st.leg_max)) if ob is None else ob.L,
-        0 if ob is None else int(ob.size),
+        no_force_rows(st) if fr is None else fr.kernel_args,
+        (0 if ob is None else int(ob.size)) + (0 if fr is None else int(fr.size)),
     )
 
 
@@ -76,7 +79,9 @@ def problem_arrays(prob: Any) -> PlanarData:
     feasible = prob.objective == "feasible"
     w = float(prob.w_th[0])
     ob = prob.clearance.obstacle_rows
+    fr = prob.forces
     from stackik._compiled.planar import PlanarData
+    from stackik.formulation.forces import no_force_rows
     from stackik.formulation.obstacle_rows import no_obstacle_rows
 
     return PlanarData(
@@ -99,8 +104,9 @@ def problem_arrays(prob: Any) -> PlanarData:
         no_obstacle_rows(prob.stack) if ob is None else ob.kernel_args,
         0.0 if ob is None else ob.margin,
         float(np.max(prob.stack.leg_max)) if ob is None else ob.L,
-        0.0 if ob is None else float(ob.phi),
-        0 if ob is None else int(ob.size),
+        float(tgt.phi),
+        no_force_rows(prob.stack) if fr is None else fr.kernel_args,
+        (0 if ob is None else int(ob.size)) + (0 if fr is None else int(fr.size)),
     )
 
 

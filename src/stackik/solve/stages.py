@@ -186,11 +186,12 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         return Verdict(best, IKStatus.SUCCESS, nit, tried, "ip")
     if not req.auto:
         return Verdict(batch.least, _ip_status(batch.statuses), batch.nit, n_run, "ip")
-    # with obstacle rows in the interior point, stalled runs may mean no clear pose (not an
-    # unreachable target): the SQP engine decides, with the rows
-    stalled = req.problem.clearance.obstacle_rows is None and all(
-        s in (RunStatus.STALLED, RunStatus.SKIPPED) for s in batch.statuses
-    )
+    # with obstacle or force rows in the interior point, stalled runs may mean no clear
+    # pose or no pose that carries the load (not an unreachable target): the SQP engine
+    # decides, with the rows
+    prob = req.problem
+    dense = prob.clearance.obstacle_rows is not None or prob.forces is not None
+    stalled = not dense and all(s in (RunStatus.STALLED, RunStatus.SKIPPED) for s in batch.statuses)
     queue = plan.queue
     if stalled:
         # the bisection toward the target (spatial: in the vertical plane through its

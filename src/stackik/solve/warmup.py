@@ -48,9 +48,10 @@ def _dispatchers(kind: str) -> list[Any]:
         return [_ipm._ip_multi, _ipm.ip_box, _ipm_path.ip_path, _ipm._evaluate,
                 _ipm._lagrangian_hessian, _check._planar_check,
                 _check._planar_check_many, _check._planar_path_arrays]  # fmt: skip
-    # (the obstacle rows, shared by both modes, are a spatial entry point; the planar
-    # warm-up runs them too)
+    # (the obstacle and force rows, shared by both modes, are spatial entry points; the
+    # planar warm-up runs them too)
     from stackik._compiled import check as _check
+    from stackik._compiled import force_rows as _force_rows
     from stackik._compiled import obstacle_rows as _obstacle_rows
     from stackik._compiled import self_legs as _self_legs
     from stackik._compiled import spatial as _spatial_ipm
@@ -61,7 +62,8 @@ def _dispatchers(kind: str) -> list[Any]:
             _spatial_ipm.ip_box, _spatial_ipm_path.ip_path, _spatial_ipm.evaluate,
             _spatial_ipm.polish, _spatial_ipm.lagrangian_hessian, _check._spatial_check,
             _check._spatial_check_many, _self_legs.self_leg_block,
-            _obstacle_rows.obstacle_rows]  # fmt: skip
+            _obstacle_rows.obstacle_rows, _force_rows.force_rows,
+            _force_rows.leg_force_jacobian]  # fmt: skip
 
 
 def _small_problem(planar: bool) -> tuple[Any, ...]:
@@ -179,6 +181,10 @@ def _warm(kind: str) -> None:
 
     fat = Stack.uniform(PlatformGeometry.hexagonal(leg_radius=1.0), prob.n)
     Problem(fat, prob.target, "frobenius", None).evaluate(prob.u_of(q0))
+    # the leg-force rows and the force objective's residuals (stackik._compiled.force_rows)
+    limited = Stack.uniform(PlatformGeometry.hexagonal(plate_mass=1.0, force_max=1e3), prob.n)
+    for objective in ("frobenius", "force"):
+        Problem(limited, prob.target, objective, None).evaluate(prob.u_of(q0))
 
 
 class _Progress:
