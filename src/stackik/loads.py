@@ -213,6 +213,21 @@ def _pose_parts(
     )
 
 
+def lumped_masses(stack: Stack, load: Load) -> tuple[FloatArray, FloatArray]:
+    """The masses the statics lump on each top plate j = 1..n: ``m`` (n,) [kg] (the plate,
+    half of its own legs, half of the legs above it, the payload on the last) and their
+    first moment ``c`` (n, 3) [kg mm] in that plate's frame (the half legs at their
+    joints, the payload at its centre of mass)."""
+    half = 0.5 * np.asarray(stack.leg_mass, dtype=float)  # (n,) per joint
+    m = np.asarray(stack.plate_mass, dtype=float) + 6.0 * half
+    m[:-1] += 6.0 * half[1:]
+    m[-1] += load.mass
+    c = half[:, None] * stack.top_nodes.sum(axis=1)
+    c[:-1] += half[1:, None] * stack.base_nodes[1:].sum(axis=1)
+    c[-1] += load.mass * np.asarray(load.com, dtype=float)
+    return m, c
+
+
 def _system(
     stack: Stack, P: FloatArray, R: FloatArray, load: Load
 ) -> tuple[FloatArray, FloatArray]:
@@ -240,14 +255,7 @@ def _system(
     G = np.concatenate([u, _cross(Rt, u) / L[:, None, None]], axis=-1)  # (..., n, 6 legs, 6)
     G = np.swapaxes(G, -1, -2)  # columns = legs
 
-    # masses per plate j = 1..n (kg) and their first moment in plate j's frame (kg mm)
-    half = 0.5 * stack.leg_mass  # (n,) per joint
-    m = stack.plate_mass + 6.0 * half
-    m[:-1] += 6.0 * half[1:]
-    m[-1] += load.mass
-    c = half[:, None] * stack.top_nodes.sum(axis=1)
-    c[:-1] += half[1:, None] * stack.base_nodes[1:].sum(axis=1)
-    c[-1] += load.mass * load.com
+    m, c = lumped_masses(stack, load)
     s = m[:, None] * O[..., 1:, :] + np.einsum("...jab,jb->...ja", A[..., 1:, :, :], c)
     # the body above platform i's legs: plates i..n (suffix sums)
     M_cut = np.cumsum(m[::-1])[::-1]  # (n,)

@@ -13,12 +13,12 @@ are dimensionless; platforms without a limit have none, so a stack without finit
 
 Values and the Jacobian with respect to the pose ``q`` (closed form) come from the compiled
 kernel :mod:`stackik._compiled.force_rows`, the family's one definition for every engine
-(the compiled spatial interior point carries the same rows as dense rows);
+(both compiled interior points carry the same rows as dense rows);
 ``tests/test_forces_family.py`` holds its forces equal to the independent statics of
 :func:`stackik.leg_forces` (the check's) and its Jacobian to central differences of them.
 Second derivatives are not formed: engines that need a Hessian of the Lagrangian take a
-quasi-Newton one when these rows are present (the interior point leaves the rows'
-curvature out, as for the obstacle rows).
+quasi-Newton one when these rows are present (the interior points take an SR1 estimate of the
+rows' part, :func:`stackik._compiled.dense_rows.force_sr1`).
 
 The forces are eliminated rather than lifted as variables: the rows then live in the pose's
 variables only, and every engine that takes inequality rows and their Jacobian (SLSQP,
@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from stackik.geometry import Stack
-from stackik.loads import _MM_PER_M, Load, _load, characteristic_length
+from stackik.loads import _MM_PER_M, Load, _load, characteristic_length, lumped_masses
 
 __all__ = [
     "ForceLimits",
@@ -55,21 +55,15 @@ def force_limited(stack: Stack) -> bool:
 
 
 def force_kernel_args(stack: Stack, load: Load | None) -> tuple[Any, ...]:
-    """The statics of ``stack`` under ``load`` as :func:`stackik._compiled.force_rows.leg_forces_c`
-    takes them after the pose and the nodes: ``(L, m, c, g, F_ext, M_ext, ee_frame)`` with
-    ``L`` (n,) [mm] the characteristic lengths, ``m`` (n,) [kg] the mass lumped on each
-    top plate (the plate, half of its own legs and half of the legs above, the payload on
-    the last) and ``c`` (n, 3) [kg mm] its first moment in that plate's frame, ``g`` (3,)
-    [m/s^2], the external force [N] and moment [N mm] and whether they are given in the
-    end effector's frame (the lumping of :func:`stackik.loads._system`)."""
+    """The statics of ``stack`` under ``load`` as
+    :func:`stackik._compiled.force_rows.leg_force_jacobian` takes them after the pose and
+    the nodes: ``(L, m, c, g, F_ext, M_ext, ee_frame)`` with ``L`` (n,) [mm] the
+    characteristic lengths, ``m`` (n,) [kg] and ``c`` (n, 3) [kg mm] the masses lumped on
+    each top plate and their first moments (:func:`stackik.loads.lumped_masses`), ``g``
+    (3,) [m/s^2], the external force [N] and moment [N mm] and whether they are given in
+    the end effector's frame."""
     ld = _load(load)
-    half = 0.5 * np.asarray(stack.leg_mass, dtype=float)
-    m = np.asarray(stack.plate_mass, dtype=float) + 6.0 * half
-    m[:-1] += 6.0 * half[1:]
-    m[-1] += ld.mass
-    c = half[:, None] * stack.top_nodes.sum(axis=1)
-    c[:-1] += half[1:, None] * stack.base_nodes[1:].sum(axis=1)
-    c[-1] += ld.mass * np.asarray(ld.com, dtype=float)
+    m, c = lumped_masses(stack, ld)
     L = np.asarray(characteristic_length(stack), dtype=float)
     F = np.asarray(ld.force, dtype=float)
     arrays = [L, m, c, ld.g, F, np.asarray(ld.moment, dtype=float) * _MM_PER_M]
@@ -117,12 +111,11 @@ class ForceLimits:
 
     @property
     def kernel_args(self) -> tuple[Any, ...]:
-        """The row kernel's arguments after the pose and the nodes
+        """The row kernel's arguments after the pose
         (:func:`stackik._compiled.force_rows.force_rows`: the top and base nodes, the
         statics of :func:`force_kernel_args`, the limited platforms and their
-        ``1 / force_max``), as
-        the compiled interior point carries them
-        (:attr:`stackik._compiled.spatial.SpatialData.forces`)."""
+        ``1 / force_max``), as the compiled interior points carry them
+        (``SpatialData.forces``, ``PlanarData.forces``)."""
         return self._args
 
     def _pose(self, q: FloatArray) -> FloatArray:
