@@ -4,7 +4,8 @@ The planar problem of :class:`stackik.formulation.Problem` (scaled variables ``u
 
     min f(u) = (c0 + w |r(u)|^2) / fscale
     s.t. c_E(u) = 0   (3 end-effector equalities, scaled by ``es``)
-         c_I(u) >= 0  (24 n limits, scaled by ``cs``)
+         c_I(u) >= 0  (24 n limits, scaled by ``cs``; then the dense obstacle and
+                       leg-force rows, :mod:`stackik._compiled.dense_rows`)
 
 is solved by a primal-dual barrier method in the spirit of IPOPT (Waechter & Biegler 2006;
 Nocedal & Wright 2006, ch. 19): slacks ``s > 0`` with ``c_I(u) - s = 0``, barrier
