@@ -70,11 +70,12 @@ def _small_problem(planar: bool) -> tuple[Any, ...]:
     """``(stack, planar target, target of the mode, Problem, paper's guess)`` of the
     two-platform problem the warm-ups run the kernels on."""
     from stackik.formulation import Problem
-    from stackik.geometry import Stack
+    from stackik.geometry import PlatformGeometry, Stack
     from stackik.starts import paper_initial_guess
     from stackik.targets import PlanarTarget
 
-    stack = Stack.reference(2)
+    # the paper's model (legs of zero radius): the variants with rows are warmed apart
+    stack = Stack.uniform(PlatformGeometry.hexagonal(), 2)
     pt = PlanarTarget(0.0, 700.0, 0.0)
     target = pt if planar else pt.to_spatial()
     return (
@@ -99,7 +100,7 @@ def _warm_sqp_kernels(planar: bool) -> None:
     nlp = CompiledNLP(prob)
     u = prob.u_of(q0)
     nlp.evaluate(u)
-    nlp.hessian(u, np.zeros(3 if planar else 6), np.zeros(24 * stack.n))
+    nlp.hessian(u, np.zeros(3 if planar else 6), np.zeros(nlp.R * stack.n))
 
 
 def _warm_path_kernels(planar: bool) -> None:
