@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import stackik as sk
+from stackik.clearance import plate_frames
 from stackik.kinematics import spatial_chain
 from stackik.paths import interpolate_targets
 from stackik.rotations import euler_zyx
@@ -112,3 +113,52 @@ def test_cli_path_refuses_force_weight(capsys) -> None:
             "--force-weight", "1", "--no-animation"]  # fmt: skip
     assert main(argv) == 2
     assert "--force-weight" in capsys.readouterr().err
+
+
+def _planar_path() -> list[sk.PlanarTarget]:
+    a = sk.PlanarTarget(-150.0, 1250.0, 0.1)
+    b = sk.PlanarTarget(150.0, 1300.0, -0.1)
+    return interpolate_targets([a, b], steps=12)
+
+
+def test_planar_path_goes_around_a_truss_member() -> None:
+    """A truss member across one leg of the least-FN planar path's middle pose,
+    perpendicular to the plane: every waypoint of the path with the member passes the
+    full check, no step goes over max_jump."""
+    ts = _planar_path()
+    plain = sk.solve_path(REF, ts)
+    assert plain.success
+    q = plain.q[len(ts) // 2]
+    A, O = plate_frames(REF, q, phi=0.0)
+    i, k = 1, 2
+    B = O[i] + A[i] @ REF.base_nodes[i][k]
+    T = O[i + 1] + A[i + 1] @ REF.top_nodes[i][k]
+    normal = np.array([0.0, 1.0, 0.0])  # the plane of phi = 0 is x-z
+    member = sk.Capsule((B + T) / 2 - 300 * normal, (B + T) / 2 + 300 * normal, 10.0)
+    assert min(sk.clearances(REF, p, [member], phi=0.0).obstacles[0] for p in plain.q) < 0
+    path = sk.solve_path(REF, ts, obstacles=[member])
+    assert path.completed == len(ts) and path.success
+    d = np.abs(np.diff(path.q, axis=0))
+    assert np.all(d[..., :2] <= 50.0) and np.all(d[..., 2] <= 0.25)
+    for t, p in zip(ts, path.q):
+        assert sk.check_pose(REF, t, p, obstacles=[member]).ok
+
+
+def test_planar_path_beside_a_wall() -> None:
+    """A wall (half-space x < 180 mm) through the plain path's legs: every waypoint the
+    path completes keeps every body on the wall's free side; where it breaks, a solve of
+    that waypoint alone finds no clear pose either, and the message names the waypoint
+    and the obstacle."""
+    ts = _planar_path()
+    plain = sk.solve_path(REF, ts)
+    wall = sk.HalfSpace((180.0, 0.0, 0.0), (-1.0, 0.0, 0.0))  # keep x < 180 mm
+    assert min(sk.clearances(REF, p, [wall], phi=0.0).obstacles[0] for p in plain.q) < 0
+    path = sk.solve_path(REF, ts, obstacles=[wall])
+    assert path.completed >= 2
+    for t, p in zip(ts[: path.completed], path.q[: path.completed]):
+        assert sk.check_pose(REF, t, p, obstacles=[wall]).ok
+    if path.completed < len(ts):
+        k = path.completed
+        assert not path.success and f"waypoint {k}" in path.message
+        assert "obstacle" in path.message
+        assert not sk.solve_ik(REF, ts[k], obstacles=[wall]).success
