@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from stackik import distance as dist
+from stackik._compiled.body_distances import body_clearances
 from stackik.geometry import Stack
 from stackik.obstacles import Obstacle, as_obstacles
 from stackik.platform import validate_pose_array as _check_q
@@ -326,11 +327,6 @@ def _layout(stack: Stack) -> _Layout:
     return out
 
 
-def _gap(a: FloatArray, b: FloatArray) -> FloatArray:
-    d = a - b
-    return np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2 + d[..., 2] ** 2)  # type: ignore[no-any-return]
-
-
 #: Pairs of least lower bound evaluated first by :meth:`_Best.screen`, to get a bound.
 _HEAD = 8
 #: Up to this many candidate pairs are evaluated in one call (no head first).
@@ -365,42 +361,6 @@ class _Best:
             if d[x] < self.value:
                 self.value, found = float(d[x]), int(part[x])
         return found
-
-
-def _side(V: FloatArray, origin: FloatArray, normal: FloatArray) -> FloatArray:
-    """Least |height| of the vertices ``V`` (P, M, 3) above planes (P, 3) when they all lie
-    on one side, else 0: a lower bound on the distance of their hull to the plane."""
-    h = np.einsum("pmi,pi->pm", V - origin[:, None, :], normal)
-    one_side = (h.min(axis=1) > 0.0) | (h.max(axis=1) < 0.0)
-    return np.where(one_side, np.abs(h).min(axis=1), 0.0)  # type: ignore[no-any-return]
-
-
-def _legs_vs_legs(
-    best: _Best,
-    pairs: IntArray,
-    B: FloatArray,
-    T: FloatArray,
-    r: FloatArray,
-    leg_c: FloatArray,
-    leg_R: FloatArray,
-) -> None:
-    """Offer the leg pairs ``pairs`` (L, 4) to ``best``, screened by bounding spheres."""
-    if not len(pairs):
-        return
-    ia, ka, ib, kb = pairs.T
-    lb = _gap(leg_c[ia, ka], leg_c[ib, kb]) - leg_R[ia, ka] - leg_R[ib, kb]
-
-    def exact(x: IntArray) -> FloatArray:
-        a_, b_ = (ia[x], ka[x]), (ib[x], kb[x])
-        core = dist.segment_segment(B[a_], T[a_], B[b_], T[b_])
-        return core - r[ia[x]] - r[ib[x]]  # type: ignore[no-any-return]
-
-    x = best.screen(lb, exact)
-    if x is not None:
-        best.bodies = (
-            Body("leg", int(ia[x]) + 1, int(ka[x])),
-            Body("leg", int(ib[x]) + 1, int(kb[x])),
-        )
 
 
 def _check_base(stack: Stack, obstacles: Sequence[Obstacle], radius: float) -> None:
@@ -460,75 +420,44 @@ def clearances(
     r = lay.radius
     contacts: list[Contact] = []
 
-    # legs of one platform
+    # the bodies of the stack against each other: one compiled call (exact, screened)
+    d_self, adj_min, adj_at, non_adj, kind, at = body_clearances(
+        B, T, r, A, O, lay.uv, lay.centre, lay.reach, lay.half_t,
+        lay.self_k, lay.self_m, lay.adj, lay.ll, lay.lp, lay.pp,
+    )  # fmt: skip
     k, m = lay.self_k, lay.self_m
-    d_self = dist.segment_segment(B[:, k], T[:, k], B[:, m], T[:, m]) - 2.0 * r[:, None]
     by_plat = d_self.min(axis=1)
     i, p = np.unravel_index(int(np.argmin(d_self)), d_self.shape)
     self_min = float(d_self[i, p])
     contacts.append(
         Contact(self_min, Body("leg", int(i) + 1, int(k[p])), Body("leg", int(i) + 1, int(m[p])))
     )
-
-    # bounding spheres of the bodies: a pair's distance is at least that of its spheres
-    leg_c = 0.5 * (B + T)  # (n, 6, 3)
-    leg_R = 0.5 * np.linalg.norm(T - B, axis=-1) + r[:, None]
-    plate_c = O + np.einsum("nij,nj->ni", A[:, :, :2], lay.centre)  # (n+1, 3)
-    plate_R = lay.reach + lay.half_t
-
-    # legs of adjacent platforms, then the non-adjacent bodies: the least exact distance
-    # over the pairs their spheres allow
-    adjacent = _Best()
-    _legs_vs_legs(adjacent, lay.adj, B, T, r, leg_c, leg_R)
-    if adjacent.bodies is not None:
-        contacts.append(Contact(adjacent.value, *adjacent.bodies))
-    best = _Best()
-    _legs_vs_legs(best, lay.ll, B, T, r, leg_c, leg_R)
-    if len(lay.lp):
-        il, kl, jl = lay.lp.T
-        lb = _gap(leg_c[il, kl], plate_c[jl]) - leg_R[il, kl] - plate_R[jl]
-        # a leg wholly on one side of a plate's plane is at least its nearer end's height
-        # from the plate
-        normal, origin = A[jl, :, 2], O[jl]
-        ha = np.sum((B[il, kl] - origin) * normal, axis=-1)
-        hb = np.sum((T[il, kl] - origin) * normal, axis=-1)
-        side = np.where(ha * hb > 0.0, np.minimum(np.abs(ha), np.abs(hb)), 0.0)
-        lb = np.maximum(lb, side - r[il] - lay.half_t[jl])
-
-        def d_lp(x: IntArray) -> FloatArray:
-            j = jl[x]
-            poly = dist.Polygon(O[j], A[j], lay.uv[j])
-            core = dist.segment_polygon(B[il[x], kl[x]], T[il[x], kl[x]], poly)
-            return core - r[il[x]] - lay.half_t[j]  # type: ignore[no-any-return]
-
-        x = best.screen(lb, d_lp)
-        if x is not None:
-            best.bodies = (Body("leg", int(il[x]) + 1, int(kl[x])), Body("plate", int(jl[x])))
-    if len(lay.pp):
-        j1, j2 = lay.pp.T
-        lb = _gap(plate_c[j1], plate_c[j2]) - plate_R[j1] - plate_R[j2]
-        # a plate wholly on one side of the other's plane: its least vertex height
-        V = O[:, None, :] + np.einsum("jik,jmk->jmi", A[:, :, :2], lay.uv)  # (n+1, M, 3)
-        side = np.maximum(_side(V[j2], O[j1], A[j1, :, 2]), _side(V[j1], O[j2], A[j2, :, 2]))
-        lb = np.maximum(lb, side - lay.half_t[j1] - lay.half_t[j2])
-
-        def d_pp(x: IntArray) -> FloatArray:
-            a_, b_ = j1[x], j2[x]
-            p1 = dist.Polygon(O[a_], A[a_], lay.uv[a_])
-            p2 = dist.Polygon(O[b_], A[b_], lay.uv[b_])
-            return dist.polygon_polygon(p1, p2) - lay.half_t[a_] - lay.half_t[b_]  # type: ignore[no-any-return]
-
-        x = best.screen(lb, d_pp)
-        if x is not None:
-            best.bodies = (Body("plate", int(j1[x])), Body("plate", int(j2[x])))
-    non_adj = best.value
-    if best.bodies is not None:
-        contacts.append(Contact(best.value, *best.bodies))
+    if adj_at >= 0:
+        ia, ka, ib, kb = lay.adj[adj_at]
+        contacts.append(
+            Contact(adj_min, Body("leg", int(ia) + 1, int(ka)), Body("leg", int(ib) + 1, int(kb)))
+        )
+    if kind == 0:
+        ia, ka, ib, kb = lay.ll[at]
+        bodies = (Body("leg", int(ia) + 1, int(ka)), Body("leg", int(ib) + 1, int(kb)))
+    elif kind == 1:
+        il, kl, jl = lay.lp[at]
+        bodies = (Body("leg", int(il) + 1, int(kl)), Body("plate", int(jl)))
+    elif kind == 2:
+        j1, j2 = lay.pp[at]
+        bodies = (Body("plate", int(j1)), Body("plate", int(j2)))
+    if kind >= 0:
+        contacts.append(Contact(non_adj, *bodies))
 
     # obstacles: every leg, every plate but the base (signed distances are 1-Lipschitz,
     # so a sphere's centre bounds its body's distance from below)
     ob_min: list[float] = []
     if obs:
+        # bounding spheres of the bodies: a pair's distance is at least that of its spheres
+        leg_c = 0.5 * (B + T)  # (n, 6, 3)
+        leg_R = 0.5 * np.linalg.norm(T - B, axis=-1) + r[:, None]
+        plate_c = O + np.einsum("nij,nj->ni", A[:, :, :2], lay.centre)  # (n+1, 3)
+        plate_R = lay.reach + lay.half_t
         a, b = B.reshape(-1, 3), T.reshape(-1, 3)
         r_leg = np.repeat(r, 6)
         c_leg, R_leg = leg_c.reshape(-1, 3), leg_R.reshape(-1)
@@ -553,7 +482,9 @@ def clearances(
             ob_min.append(best.value)
             contacts.append(Contact(best.value, best.bodies[0], obstacle=o_i))
     by_plat.setflags(write=False)
-    return Clearances(self_min, by_plat, adjacent.value, non_adj, tuple(ob_min), tuple(contacts))
+    return Clearances(
+        self_min, by_plat, float(adj_min), float(non_adj), tuple(ob_min), tuple(contacts)
+    )
 
 
 def needs_clearances(

@@ -40,6 +40,8 @@ _LOCK = threading.Lock()
 
 
 def _dispatchers(kind: str) -> list[Any]:
+    from stackik._compiled import body_distances as _body
+
     if kind == "planar":
         from stackik._compiled import check as _check
         from stackik._compiled import planar as _ipm
@@ -47,7 +49,8 @@ def _dispatchers(kind: str) -> list[Any]:
 
         return [_ipm._ip_multi, _ipm.ip_box, _ipm_path.ip_path, _ipm._evaluate,
                 _ipm._lagrangian_hessian, _check._planar_check,
-                _check._planar_check_many, _check._planar_path_arrays]  # fmt: skip
+                _check._planar_check_many, _check._planar_path_arrays,
+                _body.body_clearances]  # fmt: skip
     # (the obstacle and force rows, shared by both modes, are spatial entry points; the
     # planar warm-up runs them too)
     from stackik._compiled import check as _check
@@ -62,7 +65,7 @@ def _dispatchers(kind: str) -> list[Any]:
             _spatial_ipm.ip_box, _spatial_ipm_path.ip_path, _spatial_ipm.evaluate,
             _spatial_ipm.polish, _spatial_ipm.lagrangian_hessian, _check._spatial_check,
             _check._spatial_check_many, _self_legs.self_leg_block,
-            _obstacle_rows.obstacle_rows, _force_rows.force_rows,
+            _obstacle_rows.obstacle_rows, _force_rows.force_rows, _body.body_clearances,
             _force_rows.leg_force_jacobian]  # fmt: skip
 
 
@@ -182,6 +185,10 @@ def _warm(kind: str) -> None:
 
     fat = Stack.uniform(PlatformGeometry.hexagonal(leg_radius=1.0), prob.n)
     Problem(fat, prob.target, "frobenius", None).evaluate(prob.u_of(q0))
+    # the check's distances between the bodies (stackik._compiled.body_distances)
+    from stackik.clearance import clearances
+
+    clearances(fat, q0, phi=getattr(prob.target, "phi", None) if planar else None)
     # the leg-force rows and the force objective's residuals (stackik._compiled.force_rows)
     limited = Stack.uniform(PlatformGeometry.hexagonal(plate_mass=1.0, force_max=1e3), prob.n)
     for objective in ("frobenius", "force"):
