@@ -175,7 +175,7 @@ def test_handover_only_for_what_the_rows_cover():
     hand-over start; one whose adjacent-platform legs collide (no rows) is not."""
     import stackik as sk
     from stackik.formulation import Problem
-    from stackik.methods.ip import _unconstrained_shortfall
+    from stackik.methods.ip import unconstrained_shortfall
 
     stack = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=30.0), 4)
     t = sk.PlanarTarget(600.0, 1000.0, -1.57)
@@ -184,10 +184,33 @@ def test_handover_only_for_what_the_rows_cover():
     chk = prob.check(q)
     cl = chk.clearances
     assert cl is not None and cl.self_legs < 0 and cl.adjacent_legs < 0
-    assert _unconstrained_shortfall(prob, chk) == pytest.approx(-cl.adjacent_legs)
+    assert unconstrained_shortfall(prob, chk) == pytest.approx(-cl.adjacent_legs)
     thin = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 4)
     p12 = Problem(thin, t, "frobenius", None, clearance=1.0)
     c12 = p12.check(q)
     assert c12.clearances is not None
     expect = max(0.0, 1.0 - min(c12.clearances.adjacent_legs, c12.clearances.non_adjacent))
-    assert _unconstrained_shortfall(p12, c12) == pytest.approx(expect)
+    assert unconstrained_shortfall(p12, c12) == pytest.approx(expect)
+
+
+def test_planar_self_leg_rows_are_lazy() -> None:
+    """Planar self-leg rows only where a run needs them (stages._local_run): legs with a
+    radius that stay clear give the zero-radius solve exactly; legs that would meet get a
+    second run with the rows, and a clear pose."""
+    import stackik as sk
+    from stackik.sampling import random_planar_targets
+
+    ref = sk.Stack.reference(4)
+    fat = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 4)
+    t = random_planar_targets(ref, 1, rng=np.random.default_rng(7))[0]
+    for method in ("sqp", "slsqp"):
+        a, b = sk.solve_ik(ref, t, method=method), sk.solve_ik(fat, t, method=method)
+        assert b.success and np.array_equal(a.q, b.q) and a.nit == b.nit
+    ref2 = sk.Stack.reference(2)
+    t = random_planar_targets(ref2, 8, rng=np.random.default_rng(3))[6]
+    d = sk.clearances(ref2, sk.solve_ik(ref2, t).q, phi=t.phi).self_legs
+    thick = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=d / 2 + 2.0), 2)
+    for method in ("sqp", "slsqp"):
+        r = sk.solve_ik(thick, t, method=method)
+        assert r.success and r.clearances is not None and r.clearances.self_legs >= -1e-6
+        assert r.nit > sk.solve_ik(ref2, t, method=method).nit  # without the rows, then with

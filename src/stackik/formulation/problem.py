@@ -13,6 +13,8 @@ says which evaluation applies (planar: :class:`PlanarEvaluator`; spatial: the co
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import math
 from functools import cached_property
 from typing import Any
@@ -193,6 +195,24 @@ class Problem:
         rows, :mod:`stackik._compiled.dense_rows`). A run that fails only on such rows is a
         start for an engine that has them (:func:`stackik.methods.ip.ip_starts`)."""
         return self.planar and self.self_legs is not None
+
+    @property
+    def lazy_self_legs(self) -> bool:
+        """Whether the local engines first run without the self-leg rows: planar problems
+        with them (:meth:`without_self_legs`; planar poses rarely bring two legs of a
+        platform close, so a run that does not need the rows is the run on the problem
+        without them)."""
+        return self.planar and self.self_legs is not None
+
+    def without_self_legs(self) -> Problem:
+        """This problem without its self-leg rows (same stack, target, load, obstacles and
+        margin: :meth:`check` still enforces every clearance)."""
+        lean = copy.copy(self)
+        lean.clearance = dataclasses.replace(self.clearance, self_legs=None)
+        lean._gn_cache, lean._cache = None, None
+        lean._fn_cache = (np.zeros(0), np.zeros((0, 0)))
+        lean.nfev = 0
+        return lean
 
     @property
     def n_ineq(self) -> int:

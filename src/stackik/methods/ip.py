@@ -26,7 +26,15 @@ if TYPE_CHECKING:
     from stackik._compiled.planar import PlanarData
     from stackik._compiled.spatial import SpatialData
 
-__all__ = ["IP_DEFAULTS", "IPMethod", "ip_multi", "ip_solve", "problem_arrays", "warm_up"]
+__all__ = [
+    "IP_DEFAULTS",
+    "IPMethod",
+    "ip_multi",
+    "ip_solve",
+    "problem_arrays",
+    "unconstrained_shortfall",
+    "warm_up",
+]
 
 
 def spatial_problem_arrays(prob: Any) -> SpatialData:
@@ -277,7 +285,7 @@ def ip_starts(
             return IPBatch(run, least, total, statuses, bound)
         # a pose that fails only on rows outside the interior point is a start for the
         # engine that has them; a shortfall no engine constrains is not
-        clear = _unconstrained_shortfall(prob, chk)
+        clear = unconstrained_shortfall(prob, chk)
         if prob.rows_outside_ip and pose_ok(
             chk.position_error, chk.angle_error, max(chk.max_violation_mm, clear), True
         ):
@@ -289,7 +297,7 @@ def ip_starts(
     return IPBatch(None, least, total, statuses, bound)
 
 
-def _unconstrained_shortfall(prob: Problem, chk: Any) -> float:
+def unconstrained_shortfall(prob: Problem, chk: Any) -> float:
     """The clearance shortfall [mm] of ``chk`` that no solver's rows of ``prob`` can
     remove: all of it without obstacle or planar self-leg rows; with them, the kinds
     without rows (adjacent and non-adjacent bodies, self legs when absent, obstacles

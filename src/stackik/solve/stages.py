@@ -8,6 +8,7 @@ independent check, else the run with the least violation (as a length).
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -320,6 +321,32 @@ def _recentre(req: Request, method: IPMethod, best: Run, nit: int) -> tuple[Run,
     return best, nit
 
 
+def _local_run(
+    req: Request, method: Method, qs: FloatArray, options: dict[str, object], left: float
+) -> Run:
+    """One local run from ``qs``. A planar problem's self-leg rows are lazy
+    (:attr:`Problem.lazy_self_legs`): the run is first made without them, and made again
+    with them only when its pose fails the check on a platform's own legs alone (at the
+    target, within every limit and every other clearance), the iterations of both
+    counted. A run whose legs stay clear is thus the run of the problem without the rows,
+    and a solve on legs with a radius that never come close is the zero-radius solve."""
+    prob = req.problem
+    if not prob.lazy_self_legs:
+        return method.run(prob, qs, options, left, req.qp_solver)
+    run = method.run(prob.without_self_legs(), qs, options, left, req.qp_solver)
+    chk = run.check
+    if chk.ok or chk.clearances is None:
+        return run
+    from stackik.check import pose_ok
+    from stackik.methods.ip import unconstrained_shortfall
+
+    others = max(chk.max_violation_mm, unconstrained_shortfall(prob, chk))
+    if not pose_ok(chk.position_error, chk.angle_error, others, True, chk.peak_force_ratio):
+        return run
+    again = method.run(prob, qs, options, req.time_left(time.perf_counter()), req.qp_solver)
+    return dataclasses.replace(again, nit=run.nit + again.nit)
+
+
 def _screen(req: Request, method: Method, queue: list[FloatArray], tally: Tally) -> None:
     """Screen the structured starts with a loose KKT tolerance, best passing first (its FN
     is within ~1e-8 of the fully converged value); when none passes, the others are
@@ -327,7 +354,7 @@ def _screen(req: Request, method: Method, queue: list[FloatArray], tally: Tally)
     for qs in queue:
         left = req.time_left(time.perf_counter())
         opts = {**SCREEN_OPTIONS, **req.options}
-        run = method.run(req.problem, qs, opts, left, req.qp_solver)
+        run = _local_run(req, method, qs, opts, left)
         tally.nit += run.nit
         tally.screened.append(run)
         if not run.check.ok:
@@ -377,7 +404,10 @@ def local_stage(req: Request, plan: StartPlan, handover: Handover | None) -> Ver
             break
         qs = _next_start(req, queue, tally, n_planned - fallback)
         left = req.time_left(time.perf_counter())
-        tally.offer(method.run(req.problem, qs, options, left, req.qp_solver))
+        if handover is None:
+            tally.offer(_local_run(req, method, qs, options, left))
+        else:  # the starts of a hand-over failed on the rows: the engine gets them all
+            tally.offer(method.run(req.problem, qs, options, left, req.qp_solver))
         tally.tried += 1
         if quick and (tally.last is RunStatus.INFEASIBLE or tally.best is not None):
             break
