@@ -17,6 +17,17 @@ FloatArray = Any
 
 
 @_jit
+def min_norm_solve(A: FloatArray, b: FloatArray) -> FloatArray:
+    """Least-squares, least-norm solution of ``A x = b`` with numpy's default cut-off
+    (``rcond = eps max(A.shape)``, :func:`numpy.linalg.lstsq` with ``rcond=None``, as
+    :func:`stackik.formulation.polish` uses): numba's default keeps singular values down to
+    machine precision, so two equal rows (a symmetric pose's twin limits) gave a rounding-
+    sized singular value and a step of rounding divided by it, different on every CPU."""
+    rcond = np.finfo(np.float64).eps * max(A.shape[0], A.shape[1])
+    return np.linalg.lstsq(A, b, rcond=rcond)[0]  # type: ignore[no-any-return]
+
+
+@_jit
 def _inv3(A: FloatArray) -> FloatArray:
     """Inverse of a 3x3 matrix by its adjugate (no LAPACK call for so small a matrix)."""
     out = np.empty((3, 3))

@@ -54,7 +54,7 @@ from stackik._compiled.dense_rows import (
     ineq_row,
     with_dense_rows,
 )
-from stackik._compiled.linalg import _cho_solve, _cholesky, _inv3
+from stackik._compiled.linalg import _cho_solve, _cholesky, _inv3, min_norm_solve
 
 
 class PlanarData(NamedTuple):
@@ -822,7 +822,7 @@ def _polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> F
                 k += 1
         if not (_finite(A) and _finite(rr)):
             break
-        du = np.linalg.lstsq(A, rr)[0]
+        du = min_norm_solve(A, rr)
         u = u - du
     return u
 

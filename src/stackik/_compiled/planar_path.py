@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from stackik._compiled.core import IP_NONFINITE, IP_SUCCESS, OBJ_MAX_GRAD, _finite, _jit
-from stackik._compiled.linalg import _AIT_dot, _lu_solve
+from stackik._compiled.linalg import _AIT_dot, _lu_solve, min_norm_solve
 from stackik._compiled.path import (
     PC_CHANGES,
     PC_CONTRACT,
@@ -504,7 +504,7 @@ def _ls_state(x: FloatArray, P: Any) -> tuple[FloatArray, FloatArray, FloatArray
         i = idx[j] // 24
         for k in range(3):
             A[3 * i + k, 3 + j] = D[i, idx[j] % 24, k]
-    lam = np.linalg.lstsq(A, g)[0]
+    lam = min_norm_solve(A, g)
     yE = lam[:3].copy()
     z = np.zeros(m)
     for j in range(idx.size):

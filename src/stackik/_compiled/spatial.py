@@ -67,6 +67,7 @@ from stackik._compiled.linalg import (
     _cholesky,
     _mm3,
     _solve6,
+    min_norm_solve,
 )
 from stackik._compiled.self_legs import self_leg_hessians, self_leg_rows
 from stackik._compiled.spatial_kinematics import spatial_parts
@@ -888,5 +889,5 @@ def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> Fl
                 k += 1
         if not (np.all(np.isfinite(A)) and np.all(np.isfinite(rr))):
             break
-        u = u - np.linalg.lstsq(A, rr)[0]
+        u = u - min_norm_solve(A, rr)
     return u

@@ -1,0 +1,20 @@
+"""The compiled kernels' least-norm solve (the polishes' step) cuts singular values as
+numpy does, so twin rows that differ by rounding do not blow the step up."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from stackik._compiled.linalg import min_norm_solve
+
+
+def test_min_norm_solve_ignores_rounding_sized_singular_values() -> None:
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(4, 9))
+    A = np.vstack([A, A[2] * (1.0 + 1e-16) + 1e-17])  # a twin row, apart by rounding
+    b = rng.normal(size=5) * 1e-10
+    b[4] = b[2] + 3e-26
+    x = min_norm_solve(A, b)
+    ref = np.linalg.lstsq(A, b, rcond=None)[0]
+    assert np.abs(x).max() < 1e-8  # a step of the size of b, not of rounding / 1e-17
+    assert np.allclose(x, ref, rtol=1e-8, atol=1e-18)
