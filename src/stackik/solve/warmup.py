@@ -40,8 +40,6 @@ _LOCK = threading.Lock()
 
 
 def _dispatchers(kind: str) -> list[Any]:
-    from stackik._compiled import body_distances as _body
-
     if kind == "planar":
         from stackik._compiled import check as _check
         from stackik._compiled import planar as _ipm
@@ -49,10 +47,10 @@ def _dispatchers(kind: str) -> list[Any]:
 
         return [_ipm._ip_multi, _ipm.ip_box, _ipm_path.ip_path, _ipm._evaluate,
                 _ipm._lagrangian_hessian, _check._planar_check,
-                _check._planar_check_many, _check._planar_path_arrays,
-                _body.body_clearances]  # fmt: skip
-    # (the obstacle and force rows, shared by both modes, are spatial entry points; the
-    # planar warm-up runs them too)
+                _check._planar_check_many, _check._planar_path_arrays]  # fmt: skip
+    # (the obstacle and force rows and the check's body distances, shared by both modes,
+    # are spatial entry points; the planar warm-up runs them too)
+    from stackik._compiled import body_distances as _body
     from stackik._compiled import check as _check
     from stackik._compiled import force_rows as _force_rows
     from stackik._compiled import obstacle_rows as _obstacle_rows
