@@ -13,6 +13,7 @@ says which evaluation applies (planar: :class:`PlanarEvaluator`; spatial: the co
 
 from __future__ import annotations
 
+import copy
 import math
 from functools import cached_property
 from typing import Any
@@ -174,6 +175,19 @@ class Problem:
         return check_pose(
             self.stack, self.target, q, self.load, obstacles=cl.obstacles, clearance=cl.margin
         )
+
+    def without_force_limits(self) -> Problem:
+        """This problem without its leg-force limit rows (a shallow copy, its own
+        evaluation caches): what the solvers see of it is the unloaded problem's, the
+        rows and arrays of a stack without a finite ``force_max``. Its :meth:`check` is
+        still this problem's (load and force limits): it serves starts, not answers
+        (:func:`stackik.solve.stages.ip_stage`, the spatial default with force limits)."""
+        out = copy.copy(self)
+        out.forces = None
+        out._gn_cache = None
+        out._fn_cache = (np.zeros(0), np.zeros((0, 0)))
+        out._cache = None
+        return out
 
     @property
     def dense_rows(self) -> bool:

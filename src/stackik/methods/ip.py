@@ -26,7 +26,16 @@ if TYPE_CHECKING:
     from stackik._compiled.planar import PlanarData
     from stackik._compiled.spatial import SpatialData
 
-__all__ = ["IP_DEFAULTS", "IPMethod", "ip_multi", "ip_solve", "problem_arrays", "warm_up"]
+__all__ = [
+    "IP_DEFAULTS",
+    "Basins",
+    "IPMethod",
+    "ip_basins",
+    "ip_multi",
+    "ip_solve",
+    "problem_arrays",
+    "warm_up",
+]
 
 
 def spatial_problem_arrays(prob: Any) -> SpatialData:
@@ -287,6 +296,55 @@ def ip_starts(
         if viols[j] > RANK_VIOLATION:  # the rest are farther off: stop checking
             break
     return IPBatch(None, least, total, statuses, bound)
+
+
+@dataclass
+class Basins:
+    """The end poses of one compiled call over many starts, unchecked (:func:`ip_basins`):
+    ``poses`` (raw) and their objective values ``objs``, lowest first, one per basin;
+    ``nit``: iterations over all starts; ``statuses``: the solver's status per start."""
+
+    poses: list[FloatArray]
+    objs: list[float]
+    nit: int
+    statuses: list[RunStatus]
+
+    def add(self, q: FloatArray, obj: float) -> None:
+        """Keep ``q`` in order of objective unless a kept pose's objective is within
+        :data:`SAME_BASIN_RTOL` of ``obj`` (the same basin)."""
+        if any(abs(obj - o) <= SAME_BASIN_RTOL * abs(o) for o in self.objs):
+            return
+        at = int(np.searchsorted(self.objs, obj, side="right"))
+        self.poses.insert(at, q)
+        self.objs.insert(at, obj)
+
+
+#: Two end poses whose objectives agree within this (relative) are one basin's minimum.
+SAME_BASIN_RTOL = 1e-7
+
+
+def ip_basins(
+    prob: Problem, starts: list[FloatArray], options: dict[str, Any], max_time: float
+) -> Basins:
+    """Interior-point runs (spatial) from every start in one compiled call, as starts for
+    other runs rather than answers: the end poses of the runs within
+    :data:`RANK_VIOLATION` of feasibility, in order of objective (unscaled, as
+    :meth:`Problem.objective_value`), one per basin (the first of those within
+    :data:`SAME_BASIN_RTOL` of each other). No pose is polished or checked."""
+    U0 = np.stack([prob.u_of(q) for q in starts])
+    opts = {"max_time": max_time, **options}
+    try:
+        X, texts, nits, objs, viols = ip_multi(prob, U0, opts)
+    except OptionError:
+        raise
+    except Exception:  # noqa: BLE001 - as ip_starts: no run
+        return Basins([], [], 0, [])
+    out = Basins([], [], int(np.sum(nits)), [run_status(t) for t in texts])
+    for j in sorted(range(len(starts)), key=lambda j: objs[j]):
+        if not viols[j] <= RANK_VIOLATION:
+            continue
+        out.add(prob.q_of(X[j]), float(objs[j]) * prob.fscale)
+    return out
 
 
 def _unconstrained_shortfall(prob: Problem, chk: Any) -> float:
