@@ -300,26 +300,45 @@ def ip_starts(
 
 @dataclass
 class Basins:
-    """The end poses of one compiled call over many starts, unchecked (:func:`ip_basins`):
-    ``poses`` (raw) and their objective values ``objs``, lowest first, one per basin;
-    ``nit``: iterations over all starts; ``statuses``: the solver's status per start."""
+    """The end points of interior-point runs, unchecked (:func:`ip_basins`), one per
+    basin, lowest objective first: ``points`` (scaled, as the kernel left them), their
+    objective values ``objs`` (unscaled, as :meth:`Problem.objective_value`) and each
+    run's iterations and status text ``runs``; ``nit``: iterations over all starts;
+    ``statuses``: the solver's status per start."""
 
-    poses: list[FloatArray]
+    points: list[FloatArray]
     objs: list[float]
+    runs: list[tuple[int, str]]
     nit: int
     statuses: list[RunStatus]
 
-    def add(self, q: FloatArray, obj: float) -> None:
-        """Keep ``q`` in order of objective unless a kept pose's objective is within
+    def add(self, u: FloatArray, obj: float, run: tuple[int, str]) -> None:
+        """Keep ``u`` in order of objective unless a kept point's objective is within
         :data:`SAME_BASIN_RTOL` of ``obj`` (the same basin)."""
         if any(abs(obj - o) <= SAME_BASIN_RTOL * abs(o) for o in self.objs):
             return
         at = int(np.searchsorted(self.objs, obj, side="right"))
-        self.poses.insert(at, q)
+        self.points.insert(at, u)
         self.objs.insert(at, obj)
+        self.runs.insert(at, run)
+
+    def merge(self, other: Basins) -> None:
+        """``other``'s basins added (:meth:`add`), its iterations and statuses counted."""
+        for u, obj, run in zip(other.points, other.objs, other.runs):
+            self.add(u, obj, run)
+        self.nit += other.nit
+        self.statuses += other.statuses
+
+    def checked(self, prob: Problem, i: int) -> Run:
+        """Basin ``i``'s point polished (:func:`polish` with the rows of ``prob``) and
+        checked (:meth:`Problem.check`: for :meth:`Problem.without_force_limits`, the
+        request's check with its force limits), as :func:`ip_starts` makes a run."""
+        q = prob.q_of(polish(prob, self.points[i]))
+        nit, text = self.runs[i]
+        return Run(q, nit, run_status(text), prob.check(q), prob.objective_value(q), None, text)
 
 
-#: Two end poses whose objectives agree within this (relative) are one basin's minimum.
+#: Two end points whose objectives agree within this (relative) are one basin's minimum.
 SAME_BASIN_RTOL = 1e-7
 
 
@@ -327,10 +346,10 @@ def ip_basins(
     prob: Problem, starts: list[FloatArray], options: dict[str, Any], max_time: float
 ) -> Basins:
     """Interior-point runs (spatial) from every start in one compiled call, as starts for
-    other runs rather than answers: the end poses of the runs within
-    :data:`RANK_VIOLATION` of feasibility, in order of objective (unscaled, as
-    :meth:`Problem.objective_value`), one per basin (the first of those within
-    :data:`SAME_BASIN_RTOL` of each other). No pose is polished or checked."""
+    other runs rather than answers: the end points of the runs within
+    :data:`RANK_VIOLATION` of feasibility, one per basin (:class:`Basins`: the lowest of
+    those whose objectives agree within :data:`SAME_BASIN_RTOL`). No point is polished or
+    checked (:meth:`Basins.checked` does it for one)."""
     U0 = np.stack([prob.u_of(q) for q in starts])
     opts = {"max_time": max_time, **options}
     try:
@@ -338,12 +357,11 @@ def ip_basins(
     except OptionError:
         raise
     except Exception:  # noqa: BLE001 - as ip_starts: no run
-        return Basins([], [], 0, [])
-    out = Basins([], [], int(np.sum(nits)), [run_status(t) for t in texts])
+        return Basins([], [], [], 0, [])
+    out = Basins([], [], [], int(np.sum(nits)), [run_status(t) for t in texts])
     for j in sorted(range(len(starts)), key=lambda j: objs[j]):
-        if not viols[j] <= RANK_VIOLATION:
-            continue
-        out.add(prob.q_of(X[j]), float(objs[j]) * prob.fscale)
+        if viols[j] <= RANK_VIOLATION:
+            out.add(X[j], float(objs[j]) * prob.fscale, (int(nits[j]), texts[j]))
     return out
 
 

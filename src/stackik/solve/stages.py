@@ -8,7 +8,6 @@ independent check, else the run with the least violation (as a length).
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -316,15 +315,16 @@ def _free_first_applies(req: Request, plan: StartPlan) -> bool:
 def _free_first(
     req: Request, method: IPMethod, starts: list[FloatArray]
 ) -> tuple[Run | None, int, int, bool]:
-    """Spatial default with binding leg-force limits: the batch (and, from n = 5, the hops
-    from its best pose) without the force rows, which is the unloaded default's search,
-    then runs with the force rows from those basins' minima, lowest FN first, with the
-    small initial barrier :data:`FORCE_MU0`, for as long as a basin's unloaded minimum is
-    below the best passing FN so far (a limit only raises a basin's minimum) and that is
-    within :data:`FORCE_COST_RTOL` of the unloaded search's least FN. Beyond it the limits
-    moved the optimum away from the unloaded basins, which then say little: the pose is
-    not settled, and the caller runs the batch with the force rows from the plan's starts
-    too.
+    """Spatial default with leg-force limits: the batch (and, from n = 5, the hops from its
+    best pose) without the force rows, which is the unloaded default's search. When its
+    best pose carries the load within the limits, it is the answer (the limits do not
+    bind: the unloaded default's pose). Otherwise runs with the force rows start from
+    those basins' minima, lowest FN first, with the small initial barrier
+    :data:`FORCE_MU0`, for as long as a basin's unloaded minimum is below the best passing
+    FN so far (a limit only raises a basin's minimum) and that FN is within
+    :data:`FORCE_COST_RTOL` of the unloaded search's least. Beyond it the limits moved the
+    optimum away from the unloaded basins, which then say little: the pose is not
+    settled, and the caller runs the batch with the force rows from the plan's starts too.
 
     Why (docs/loads.md): with the force rows from the plan's starts, the runs' paths bend
     away from the force limits into other basins, and on 3 of 10 spatial n = 4 targets
@@ -342,20 +342,27 @@ def _free_first(
     free = prob.without_force_limits()
     left = req.time_left(time.perf_counter())
     basins = ip_basins(free, starts, req.options, left)
-    nit, tried = basins.nit, len(starts)
-    hops = spatial_hops(req.stack, basins.poses[0]) if basins.poses else []
-    hops = hops[: spatial_hop_count(req.stack.n)]
-    if hops and not req.out_of_time():
+    tried = len(starts)
+    if not basins.points:
+        return None, basins.nit, tried, False
+    first = basins.checked(free, 0)
+    if spatial_hop_count(req.stack.n) and not req.out_of_time():
+        # the hops of the unloaded default (_hop), from the batch's best pose
+        hops = spatial_hops(req.stack, first.q)[: spatial_hop_count(req.stack.n)]
         left = req.time_left(time.perf_counter())
         more = ip_basins(free, hops, req.options, left)
-        nit += more.nit
         tried += sum(st is not RunStatus.SKIPPED for st in more.statuses)
-        for q, obj in zip(more.poses, more.objs):
-            basins.add(q, obj)
+        if more.points:  # a lower hop replaces the batch's pose, as in _hop
+            hop = more.checked(free, 0)
+            first = hop if _lower(hop, first) else first
+        basins.merge(more)
+    nit = basins.nit
+    if first.check.ok:  # the limits do not bind at the unloaded optimum
+        return first, nit, tried, True
     best: Run | None = None
     opts = {"mu0": FORCE_MU0, **req.options}
-    cap = basins.objs[0] * (1.0 + FORCE_COST_RTOL) ** 2 if basins.objs else -math.inf
-    for q, obj in zip(basins.poses, basins.objs):
+    cap = basins.objs[0] * (1.0 + FORCE_COST_RTOL) ** 2
+    for u, obj in zip(basins.points, basins.objs):
         if best is not None and (best.obj > cap or not _lower_obj(obj, best)):
             # costly limits (the caller's batch decides), or this basin's minimum without
             # the limits is no lower than the best with them: nor is it with them
@@ -363,7 +370,7 @@ def _free_first(
         if req.out_of_time():
             break
         left = req.time_left(time.perf_counter())
-        batch = method.run_many(prob, [q], opts, left)
+        batch = method.run_many(prob, [free.q_of(u)], opts, left)
         nit += batch.nit
         if batch.best is not None and (best is None or _lower(batch.best, best)):
             best = batch.best
