@@ -329,11 +329,14 @@ class Basins:
         self.nit += other.nit
         self.statuses += other.statuses
 
-    def checked(self, prob: Problem, i: int) -> Run:
-        """Basin ``i``'s point polished (:func:`polish` with the rows of ``prob``) and
-        checked (:meth:`Problem.check`: for :meth:`Problem.without_force_limits`, the
-        request's check with its force limits), as :func:`ip_starts` makes a run."""
-        q = prob.q_of(polish(prob, self.points[i]))
+    def pose(self, prob: Problem, i: int) -> FloatArray:
+        """Basin ``i``'s point polished (:func:`polish` with the rows of ``prob``), raw."""
+        return prob.q_of(polish(prob, self.points[i]))
+
+    def run(self, prob: Problem, i: int, q: FloatArray) -> Run:
+        """Basin ``i``'s run at its polished pose ``q`` (:meth:`pose`), checked
+        (:meth:`Problem.check`: for :meth:`Problem.without_force_limits`, the request's
+        check with its force limits), as :func:`ip_starts` makes a run."""
         nit, text = self.runs[i]
         return Run(q, nit, run_status(text), prob.check(q), prob.objective_value(q), None, text)
 
@@ -349,7 +352,7 @@ def ip_basins(
     other runs rather than answers: the end points of the runs within
     :data:`RANK_VIOLATION` of feasibility, one per basin (:class:`Basins`: the lowest of
     those whose objectives agree within :data:`SAME_BASIN_RTOL`). No point is polished or
-    checked (:meth:`Basins.checked` does it for one)."""
+    checked (:meth:`Basins.pose` and :meth:`Basins.run` do it for one)."""
     U0 = np.stack([prob.u_of(q) for q in starts])
     opts = {"max_time": max_time, **options}
     try:

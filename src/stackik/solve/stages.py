@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from stackik.check import FEAS_TOL
+from stackik.check import FEAS_TOL, FORCE_TOL
 from stackik.methods import Method, Run, RunStatus, get_method
 from stackik.result import IKStatus
 from stackik.solve.nearest import (
@@ -42,6 +42,7 @@ from stackik.solve.request import Request
 from stackik.starts import spatial_hop_count, spatial_hops
 
 if TYPE_CHECKING:
+    from stackik.formulation import Problem
     from stackik.methods.ip import IPBatch, IPMethod
 
 __all__ = [
@@ -96,12 +97,12 @@ class Handover:
 
 def _lower(run: Run, best: Run) -> bool:
     """``run``'s objective is below ``best``'s by more than rounding."""
-    return _lower_obj(run.obj, best)
+    return _below(run.obj, best.obj)
 
 
-def _lower_obj(obj: float, best: Run) -> bool:
-    """``obj`` is below ``best``'s objective by more than rounding."""
-    return obj < best.obj - 1e-12 * abs(best.obj)
+def _below(obj: float, other: float) -> bool:
+    """Objective value ``obj`` is below ``other`` by more than rounding."""
+    return obj < other - 1e-12 * abs(other)
 
 
 @dataclass
@@ -345,25 +346,31 @@ def _free_first(
     tried = len(starts)
     if not basins.points:
         return None, basins.nit, tried, False
-    first = basins.checked(free, 0)
+    # the unloaded default's pose, checked unless a leg is far over its limit there
+    q = basins.pose(free, 0)
+    first = None if _over_limits(prob, q) else basins.run(free, 0, q)
     if spatial_hop_count(req.stack.n) and not req.out_of_time():
         # the hops of the unloaded default (_hop), from the batch's best pose
-        hops = spatial_hops(req.stack, first.q)[: spatial_hop_count(req.stack.n)]
+        hops = spatial_hops(req.stack, q)[: spatial_hop_count(req.stack.n)]
         left = req.time_left(time.perf_counter())
         more = ip_basins(free, hops, req.options, left)
         tried += sum(st is not RunStatus.SKIPPED for st in more.statuses)
         if more.points:  # a lower hop replaces the batch's pose, as in _hop
-            hop = more.checked(free, 0)
-            first = hop if _lower(hop, first) else first
+            qh = more.pose(free, 0)
+            hop = None if _over_limits(prob, qh) else more.run(free, 0, qh)
+            if first is not None and hop is not None:
+                first = hop if _lower(hop, first) else first
+            elif _below(more.objs[0], basins.objs[0]):
+                first = hop  # the lowest pose now, over a limit (None) or not
         basins.merge(more)
     nit = basins.nit
-    if first.check.ok:  # the limits do not bind at the unloaded optimum
+    if first is not None and first.check.ok:  # the limits do not bind there
         return first, nit, tried, True
     best: Run | None = None
     opts = {"mu0": FORCE_MU0, **req.options}
     cap = basins.objs[0] * (1.0 + FORCE_COST_RTOL) ** 2
     for u, obj in zip(basins.points, basins.objs):
-        if best is not None and (best.obj > cap or not _lower_obj(obj, best)):
+        if best is not None and (best.obj > cap or not _below(obj, best.obj)):
             # costly limits (the caller's batch decides), or this basin's minimum without
             # the limits is no lower than the best with them: nor is it with them
             break
@@ -375,6 +382,15 @@ def _free_first(
         if batch.best is not None and (best is None or _lower(batch.best, best)):
             best = batch.best
     return best, nit, tried, best is not None and best.obj <= cap
+
+
+def _over_limits(prob: Problem, q: FloatArray) -> bool:
+    """A leg force of the raw pose ``q`` is over its limit by more than ``100 FORCE_TOL``
+    (relative) by the solvers' rows (:attr:`Problem.forces`), or a platform is singular:
+    the check would refuse the pose, and its statics need not be computed."""
+    assert prob.forces is not None
+    c, _ = prob.forces(q)
+    return not bool(np.all(c >= -100.0 * FORCE_TOL))
 
 
 def _hop(req: Request, method: IPMethod, best: Run, nit: int, tried: int) -> tuple[Run, int, int]:
