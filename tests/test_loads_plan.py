@@ -38,6 +38,28 @@ def _binding(n: int, rng: int, bind: float) -> tuple[Stack, Any, Any]:
     return _stack(n, bind * peak), target, free
 
 
+def _solve_limited(
+    rng: int, bind: float, batches: list[tuple[int, bool]]
+) -> tuple[Stack, Any, Any, Any]:
+    """:func:`_binding` at n = 4, then the default solve under the load (``batches``
+    cleared before it): it passes the check."""
+    stack, target, free = _binding(4, rng, bind)
+    batches.clear()
+    r = solve_ik(stack, target, load=LOAD)
+    assert r.success and r.method == "ip"
+    assert check_pose(stack, target, r.q, LOAD).ok
+    return stack, target, free, r
+
+
+def _without_rule(monkeypatch: pytest.MonkeyPatch, stack: Stack, target: Any) -> Any:
+    """The default solve without the rule (the loaded batch from the plan's starts alone,
+    as before it)."""
+    monkeypatch.setattr(stages, "_free_first_applies", lambda *a: False)
+    old = solve_ik(stack, target, load=LOAD)
+    assert old.success
+    return old
+
+
 @pytest.fixture
 def calls(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
     """``settled`` of every _free_first call of a solve."""
@@ -101,12 +123,8 @@ def test_binding_limits_take_force_runs_from_the_unloaded_optimum(
     # seed 9805 (bench_loads --seed 9800, target 5): the loaded batch from the plan's
     # starts ended 0.16 % above the best known, the force runs from the unloaded optimum
     # at it
-    stack, target, free = _binding(4, 9805, 0.85)
-    batches.clear()
-    r = solve_ik(stack, target, load=LOAD)
+    stack, target, free, r = _solve_limited(9805, 0.85, batches)
     assert calls == [True]
-    assert r.success and r.method == "ip"
-    assert check_pose(stack, target, r.q, LOAD).ok
     assert np.abs(leg_forces(stack, r.q, LOAD)).max() <= stack.force_max.max() * (1 + 1e-6)
     # force rows only after the unloaded search, and no loaded batch from the plan's starts
     assert batches and all(size == 1 and forces for size, forces in batches)
@@ -116,10 +134,8 @@ def test_binding_limits_take_force_runs_from_the_unloaded_optimum(
                    options={"mu0": FORCE_MU0})  # fmt: skip
     assert one.success
     assert r.frobenius_norm <= one.frobenius_norm * (1 + 1e-6)
-    # without the rule (the loaded batch alone) the pose is not better on this target
-    monkeypatch.setattr(stages, "_free_first_applies", lambda *a: False)
-    old = solve_ik(stack, target, load=LOAD)
-    assert old.success
+    # without the rule the pose is not better on this target
+    old = _without_rule(monkeypatch, stack, target)
     assert r.frobenius_norm <= old.frobenius_norm * (1 + 1e-9)
 
 
@@ -128,15 +144,11 @@ def test_costly_limits_run_the_loaded_batch_too(
 ) -> None:
     # force_max 0.4 x the unloaded optimum's peak: the best force run costs more than
     # FORCE_COST_RTOL of FN, so the plan's eight starts run with the force rows as well
-    stack, target, free = _binding(4, 9701, 0.4)
-    batches.clear()
-    r = solve_ik(stack, target, load=LOAD)
+    stack, target, free, r = _solve_limited(9701, 0.4, batches)
     assert calls == [False]
     assert (8, True) in batches
-    assert r.success and check_pose(stack, target, r.q, LOAD).ok
     assert r.frobenius_norm > free.frobenius_norm * (1 + FORCE_COST_RTOL)
-    monkeypatch.setattr(stages, "_free_first_applies", lambda *a: False)
-    old = solve_ik(stack, target, load=LOAD)
+    old = _without_rule(monkeypatch, stack, target)
     assert r.frobenius_norm <= old.frobenius_norm * (1 + 1e-12)  # the better of both
 
 

@@ -236,6 +236,22 @@ class IPBatch:
     bound: list[Run] = field(default_factory=list)
 
 
+def _run_batch(
+    prob: Problem, starts: list[FloatArray], options: dict[str, Any], max_time: float
+) -> tuple[Any, ...] | None:
+    """:func:`ip_multi` from the raw poses ``starts`` within ``max_time`` [s]: ``(X, texts,
+    nits, objs, viols)``, or None when the kernel failed (e.g. a LAPACK failure on absurd
+    input: no run); option errors raise."""
+    U0 = np.stack([prob.u_of(q) for q in starts])
+    opts = {"max_time": max_time, **options}
+    try:
+        return ip_multi(prob, U0, opts)
+    except OptionError:
+        raise
+    except Exception:  # noqa: BLE001
+        return None
+
+
 def ip_starts(
     prob: Problem, starts: list[FloatArray], options: dict[str, Any], max_time: float
 ) -> IPBatch:
@@ -246,14 +262,10 @@ def ip_starts(
     from stackik.check import pose_ok
     from stackik.clearance import clearances_can_fail
 
-    U0 = np.stack([prob.u_of(q) for q in starts])
-    opts = {"max_time": max_time, **options}
-    try:
-        X, texts, nits, objs, viols = ip_multi(prob, U0, opts)
-    except OptionError:
-        raise
-    except Exception:  # noqa: BLE001 - e.g. a LAPACK failure on absurd input: no run
+    ran = _run_batch(prob, starts, options, max_time)
+    if ran is None:
         return IPBatch(None, None, 0, [])
+    X, texts, nits, objs, viols = ran
     statuses = [run_status(t) for t in texts]
     order = sorted(range(len(starts)), key=lambda j: (not viols[j] <= RANK_VIOLATION, objs[j]))
     least: Run | None = None
@@ -353,14 +365,10 @@ def ip_basins(
     :data:`RANK_VIOLATION` of feasibility, one per basin (:class:`Basins`: the lowest of
     those whose objectives agree within :data:`SAME_BASIN_RTOL`). No point is polished or
     checked (:meth:`Basins.pose` and :meth:`Basins.run` do it for one)."""
-    U0 = np.stack([prob.u_of(q) for q in starts])
-    opts = {"max_time": max_time, **options}
-    try:
-        X, texts, nits, objs, viols = ip_multi(prob, U0, opts)
-    except OptionError:
-        raise
-    except Exception:  # noqa: BLE001 - as ip_starts: no run
+    ran = _run_batch(prob, starts, options, max_time)
+    if ran is None:
         return Basins([], [], [], 0, [])
+    X, texts, nits, objs, viols = ran
     out = Basins([], [], [], int(np.sum(nits)), [run_status(t) for t in texts])
     for j in sorted(range(len(starts)), key=lambda j: objs[j]):
         if viols[j] <= RANK_VIOLATION:
