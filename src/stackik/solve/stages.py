@@ -302,8 +302,9 @@ def _force_handover(req: Request, batch: IPBatch, tried: int) -> Handover:
 
 def _free_first_applies(req: Request, plan: StartPlan) -> bool:
     """The spatial structured default (:attr:`StartPlan.spatial_default`) of a problem with
-    leg-force limit rows (a finite ``force_max``) and the FN objective: :func:`_free_first`.
-    Nothing else (unloaded solves, planar ones, explicit ``starts``) takes it."""
+    leg-force limit rows (a finite ``force_max``) and the FN or weighted objective:
+    :func:`_free_first`. Nothing else (unloaded solves, planar ones, explicit ``starts`` or
+    ``x0``, the force objective or a force weight) takes it."""
     prob = req.problem
     return (
         plan.spatial_default
