@@ -177,6 +177,24 @@ class Problem:
             self.stack, self.target, q, self.load, obstacles=cl.obstacles, clearance=cl.margin
         )
 
+    def without_force_limits(self) -> Problem:
+        """This problem without its leg-force limit rows (a shallow copy, its own
+        evaluation caches): what the solvers see of it is the unloaded problem's, the
+        rows and arrays of a stack without a finite ``force_max``. Its :meth:`check` is
+        still this problem's (load and force limits): it serves starts, not answers
+        (:func:`stackik.solve.stages.ip_stage`, the spatial default with force limits)."""
+        out = self._variant()
+        out.forces = None
+        return out
+
+    def _variant(self) -> Problem:
+        """A shallow copy with its own evaluation caches (for a copy with fewer rows)."""
+        out = copy.copy(self)
+        out._gn_cache, out._cache = None, None
+        out._fn_cache = (np.zeros(0), np.zeros((0, 0)))
+        out.nfev = 0
+        return out
+
     @property
     def dense_rows(self) -> bool:
         """Whether the problem has rows outside the per-platform blocks of the compiled
@@ -207,11 +225,8 @@ class Problem:
     def without_self_legs(self) -> Problem:
         """This problem without its self-leg rows (same stack, target, load, obstacles and
         margin: :meth:`check` still enforces every clearance)."""
-        lean = copy.copy(self)
+        lean = self._variant()
         lean.clearance = dataclasses.replace(self.clearance, self_legs=None)
-        lean._gn_cache, lean._cache = None, None
-        lean._fn_cache = (np.zeros(0), np.zeros((0, 0)))
-        lean.nfev = 0
         return lean
 
     @property

@@ -28,7 +28,9 @@ if TYPE_CHECKING:
 
 __all__ = [
     "IP_DEFAULTS",
+    "Basins",
     "IPMethod",
+    "ip_basins",
     "ip_multi",
     "ip_solve",
     "problem_arrays",
@@ -235,6 +237,22 @@ class IPBatch:
     bound: list[Run] = field(default_factory=list)
 
 
+def _run_batch(
+    prob: Problem, starts: list[FloatArray], options: dict[str, Any], max_time: float
+) -> tuple[Any, ...] | None:
+    """:func:`ip_multi` from the raw poses ``starts`` within ``max_time`` [s]: ``(X, texts,
+    nits, objs, viols)``, or None when the kernel failed (e.g. a LAPACK failure on absurd
+    input: no run); option errors raise."""
+    U0 = np.stack([prob.u_of(q) for q in starts])
+    opts = {"max_time": max_time, **options}
+    try:
+        return ip_multi(prob, U0, opts)
+    except OptionError:
+        raise
+    except Exception:  # noqa: BLE001
+        return None
+
+
 def ip_starts(
     prob: Problem, starts: list[FloatArray], options: dict[str, Any], max_time: float
 ) -> IPBatch:
@@ -245,14 +263,10 @@ def ip_starts(
     from stackik.check import pose_ok
     from stackik.clearance import clearances_can_fail
 
-    U0 = np.stack([prob.u_of(q) for q in starts])
-    opts = {"max_time": max_time, **options}
-    try:
-        X, texts, nits, objs, viols = ip_multi(prob, U0, opts)
-    except OptionError:
-        raise
-    except Exception:  # noqa: BLE001 - e.g. a LAPACK failure on absurd input: no run
+    ran = _run_batch(prob, starts, options, max_time)
+    if ran is None:
         return IPBatch(None, None, 0, [])
+    X, texts, nits, objs, viols = ran
     statuses = [run_status(t) for t in texts]
     order = sorted(range(len(starts)), key=lambda j: (not viols[j] <= RANK_VIOLATION, objs[j]))
     least: Run | None = None
@@ -295,6 +309,72 @@ def ip_starts(
         if viols[j] > RANK_VIOLATION:  # the rest are farther off: stop checking
             break
     return IPBatch(None, least, total, statuses, bound)
+
+
+@dataclass
+class Basins:
+    """The end points of interior-point runs, unchecked (:func:`ip_basins`), one per
+    basin, lowest objective first: ``points`` (scaled, as the kernel left them), their
+    objective values ``objs`` (unscaled, as :meth:`Problem.objective_value`) and each
+    run's iterations and status text ``runs``; ``nit``: iterations over all starts;
+    ``statuses``: the solver's status per start."""
+
+    points: list[FloatArray]
+    objs: list[float]
+    runs: list[tuple[int, str]]
+    nit: int
+    statuses: list[RunStatus]
+
+    def add(self, u: FloatArray, obj: float, run: tuple[int, str]) -> None:
+        """Keep ``u`` in order of objective unless a kept point's objective is within
+        :data:`SAME_BASIN_RTOL` of ``obj`` (the same basin)."""
+        if any(abs(obj - o) <= SAME_BASIN_RTOL * abs(o) for o in self.objs):
+            return
+        at = int(np.searchsorted(self.objs, obj, side="right"))
+        self.points.insert(at, u)
+        self.objs.insert(at, obj)
+        self.runs.insert(at, run)
+
+    def merge(self, other: Basins) -> None:
+        """``other``'s basins added (:meth:`add`), its iterations and statuses counted."""
+        for u, obj, run in zip(other.points, other.objs, other.runs):
+            self.add(u, obj, run)
+        self.nit += other.nit
+        self.statuses += other.statuses
+
+    def pose(self, prob: Problem, i: int) -> FloatArray:
+        """Basin ``i``'s point polished (:func:`polish` with the rows of ``prob``), raw."""
+        return prob.q_of(polish(prob, self.points[i]))
+
+    def run(self, prob: Problem, i: int, q: FloatArray) -> Run:
+        """Basin ``i``'s run at its polished pose ``q`` (:meth:`pose`), checked
+        (:meth:`Problem.check`: for :meth:`Problem.without_force_limits`, the request's
+        check with its force limits), as :func:`ip_starts` makes a run."""
+        nit, text = self.runs[i]
+        return Run(q, nit, run_status(text), prob.check(q), prob.objective_value(q), None, text)
+
+
+#: Two end points whose objectives agree within this (relative) are one basin's minimum.
+SAME_BASIN_RTOL = 1e-7
+
+
+def ip_basins(
+    prob: Problem, starts: list[FloatArray], options: dict[str, Any], max_time: float
+) -> Basins:
+    """Interior-point runs (spatial) from every start in one compiled call, as starts for
+    other runs rather than answers: the end points of the runs within
+    :data:`RANK_VIOLATION` of feasibility, one per basin (:class:`Basins`: the lowest of
+    those whose objectives agree within :data:`SAME_BASIN_RTOL`). No point is polished or
+    checked (:meth:`Basins.pose` and :meth:`Basins.run` do it for one)."""
+    ran = _run_batch(prob, starts, options, max_time)
+    if ran is None:
+        return Basins([], [], [], 0, [])
+    X, texts, nits, objs, viols = ran
+    out = Basins([], [], [], int(np.sum(nits)), [run_status(t) for t in texts])
+    for j in sorted(range(len(starts)), key=lambda j: objs[j]):
+        if viols[j] <= RANK_VIOLATION:
+            out.add(X[j], float(objs[j]) * prob.fscale, (int(nits[j]), texts[j]))
+    return out
 
 
 def unconstrained_shortfall(prob: Problem, chk: Any) -> float:

@@ -28,7 +28,9 @@ __all__ = [
     "ADAPTIVE_FIRST",
     "ADAPTIVE_N",
     "ADAPTIVE_RTOL",
+    "FORCE_COST_RTOL",
     "FORCE_METHOD",
+    "FORCE_MU0",
     "FORCE_STARTS",
     "RECENTRE_MU0",
     "SCREEN_FEAS_MM",
@@ -57,6 +59,14 @@ SPATIAL_GIVE_UP_MM = 1.0
 #: limit it starts from.
 FORCE_METHOD = "slsqp"
 FORCE_STARTS = 2
+#: Spatial default with leg-force limits (:func:`stackik.solve.stages._free_first`): the
+#: initial barrier of the interior point's runs with the force rows from the minima of the
+#: unloaded search (small: a run that starts over a force limit stays in its basin).
+FORCE_MU0 = 1e-3
+#: ... and when the best pose it finds has an FN more than this (relative) above the
+#: unloaded search's least, the limits moved the optimum away from the unloaded basins:
+#: the batch with the force rows from the plan's starts runs too, and the better wins.
+FORCE_COST_RTOL = 1e-3
 
 #: Planar default from ``n = ADAPTIVE_N`` on: the interior point first runs
 #: ``ADAPTIVE_FIRST`` of the batch's random starts alone (:func:`tall_random_starts`), and
