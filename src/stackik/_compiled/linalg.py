@@ -56,7 +56,10 @@ def _mm3(A: FloatArray, B: FloatArray) -> FloatArray:
 
 @_jit
 def _cholesky(A: FloatArray, shift: float) -> tuple[FloatArray, bool]:
-    """Lower Cholesky factor of ``A + shift I``; ``ok`` False when not positive definite."""
+    """Lower Cholesky factor of ``A + shift I``; ``ok`` False when not positive definite.
+
+    Reads only the lower triangle and the diagonal of ``A`` (the planar KKT step forms no
+    other): LAPACK's ``potrf`` on numba's copy, or the loops below."""
     k = A.shape[0]
     if k >= 24:  # LAPACK pays off beyond small sizes
         B = A.copy()
