@@ -114,13 +114,55 @@ def test_ipopt_box_rows_are_the_kernels() -> None:
     qs = ca.SX.sym("q", 6 * stack.n)
     for _ in range(4):
         q = _pose(stack, None, rng)
-        obstacles = (*_boxes(stack, q, None, rng), sk.HalfSpace((0, 0, -20.0), (0.1, 0, 1)))
+        obstacles = (*_boxes(stack, q, None, rng), sk.HalfSpace((0, 0, -20.0), (0.1, 0, 1)),
+                     *_plate_spheres(stack, q, None))  # fmt: skip
         rows = ObstacleRows(stack, obstacles, 2.0)
         f = obstacle_function(stack, obstacles, 2.0)
         Jf = ca.Function("J", [qs], [ca.jacobian(f(qs), qs)])
         c, J = rows(q)
         np.testing.assert_allclose(np.asarray(f(q.ravel())).ravel(), c, rtol=0, atol=1e-12)
         np.testing.assert_allclose(np.asarray(Jf(q.ravel())), J, rtol=0, atol=1e-10)
+
+
+def _plate_spheres(stack: sk.Stack, q: np.ndarray, phi: float | None) -> tuple[sk.Sphere, ...]:
+    """A sphere 25 mm above plate 2's centre, one through plate 1's rim and one beside
+    plate 3's rim (outside its polygon, in its plane)."""
+    from stackik.clearance import plate_frames
+
+    A, O = plate_frames(stack, q, phi=phi)
+    rim = stack.top_nodes[0][0]
+    side = stack.top_nodes[2][3] * 1.2
+    return (
+        sk.Sphere(O[2] + 25.0 * A[2][:, 2], 10.0),
+        sk.Sphere(O[1] + A[1] @ rim + 3.0 * A[1][:, 2], 8.0),
+        sk.Sphere(O[3] + A[3] @ side, 5.0),
+    )
+
+
+@pytest.mark.derivatives
+@pytest.mark.parametrize("phi", [None, 0.4])
+def test_sphere_plate_rows_derivatives_and_values(phi: float | None) -> None:
+    """A sphere's rows: the legs', then one per plate (1..n); their Jacobian against central
+    differences, and the least surface distance they give equal to the check's."""
+    rng = np.random.default_rng(17)
+    stack = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=6.0, plate_thickness=8.0), 3)
+    q = _pose(stack, phi, rng)
+    spheres = _plate_spheres(stack, q, phi)
+    rows = ObstacleRows(stack, spheres, 1.0, phi)
+    c, J = rows(q)
+    n = stack.n
+    assert c.shape == (rows.size,) == (3 * 7 * n,)
+    num = fd.central(lambda x: rows(x.reshape(q.shape))[0], q.ravel())
+    fd.assert_derivative_close(J, num, f_scale=fd.term_scale(c, num), what="sphere-plate rows")
+    L = rows.L
+    cl = sk.clearances(stack, q, spheres, phi=phi)
+    for s, sp in enumerate(spheres):
+        block = c[7 * n * s : 7 * n * (s + 1)]
+        R = sp.radius
+        legs = np.sqrt(block[: 6 * n] * L**2 + (R + 6.0 + 1.0) ** 2) - R - 6.0
+        plates = np.sqrt(block[6 * n :] * L**2 + (R + 4.0 + 1.0) ** 2) - R - 4.0
+        assert min(legs.min(), plates.min()) == pytest.approx(cl.obstacles[s], abs=1e-9)
+    assert c[6 * n + 1] > 0.0 and c[7 * n + 6 * n] < 0.0  # above plate 2; through plate 1
 
 
 def test_halfspace_rows_hold_the_plates() -> None:

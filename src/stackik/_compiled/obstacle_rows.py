@@ -6,7 +6,11 @@ Every leg j (platform ``i = j // 6``, leg ``k = j % 6``): the segment from its b
 Against an obstacle axis ``[a, b]`` of radius ``R`` (a sphere: ``a = b``) the row is
 ``(d^2 - (R + r_j + margin)^2) / L^2`` with ``d`` the distance of the two segments at their
 clamped closest points (:func:`stackik._compiled.self_legs._closest`); its gradient is the
-envelope rule's ``2 g . ((1 - s) dB + s dT) / L^2``. Against a half-space (point ``p``,
+envelope rule's ``2 g . ((1 - s) dB + s dT) / L^2``. A sphere then has one row per plate
+``p = 1..n``, ``(d^2 - (R + tau_p + margin)^2) / L^2`` with ``d`` the distance of its centre
+from the plate's polygon (:func:`_polygon_closest`) and ``tau_p`` the plate's half
+thickness, its gradient ``-2 g . dY / L^2`` at the polygon's nearest point ``Y`` (fixed on
+plate ``p``). Against a half-space (point ``p``,
 unit normal ``u``) the rows are ``(u . (X - p) - rho_X - margin) / L`` for every base joint,
 then every top joint, ``rho_X`` the larger of the leg radius and the reach of the plate the
 joint is a node of (``jrad``; the base plate has none). Against an oriented box the row is
@@ -131,8 +135,8 @@ def _point_jacobian(
 @_jit
 def obstacle_rows(
     q: FloatArray, base: FloatArray, top: FloatArray, radius: FloatArray, segs: FloatArray,
-    halfs: FloatArray, boxes: FloatArray, jrad: FloatArray, kinds: Any, margin: float,
-    L: float, planar: bool, phi: float,
+    halfs: FloatArray, boxes: FloatArray, jrad: FloatArray, hulls: FloatArray,
+    hthick: FloatArray, kinds: Any, margin: float, L: float, planar: bool, phi: float,
 ) -> tuple[FloatArray, FloatArray]:  # fmt: skip
     """Rows ``c`` and Jacobian ``J`` (rows, k n) against the raw pose ``q`` (n, k).
 
@@ -142,7 +146,10 @@ def obstacle_rows(
     rotation (row-major, columns the box axes) of the boxes; ``jrad`` (2, n): the radius
     [mm] a half-space keeps from the base joints (row 0) and the top joints (row 1) of
     each platform's legs (the leg radius, or half the thickness of the plate the joint is
-    a node of, if larger); ``kinds`` (s + h + x,): 0 for the next of ``segs``, 1 for the
+    a node of, if larger); ``hulls`` (n, M, 2): plates 1..n's polygons (counter-clockwise,
+    padded by repeating a vertex) in their frames' ``z = 0``; ``hthick`` (n,) their half
+    thicknesses [mm]; ``kinds`` (s + h + x,): 0 for the next of ``segs`` (a capsule), 3 for
+    the next of ``segs`` that is a sphere (its leg rows, then one row per plate), 1 for the
     next of ``halfs``, 2 for the next of ``boxes``, in the obstacles' order (the rows'
     order)."""
     n = q.shape[0]
@@ -162,7 +169,7 @@ def obstacle_rows(
             _point_jacobian(T[j], i + 1, O, w, tdir, angle, k, JT[j])
     rows = 0
     for kind in kinds:
-        rows += 2 * nl if kind == 1 else nl
+        rows += 2 * nl if kind == 1 else (nl + n if kind == 3 else nl)
     c = np.empty(rows)
     J = np.zeros((rows, k * n))
     r = 0
@@ -175,8 +182,9 @@ def obstacle_rows(
     p0 = np.empty(3)
     gl = np.empty(3)
     bi = 0
+    JY = np.empty((3, k * n))
     for kind in kinds:
-        if kind == 0:
+        if kind == 0 or kind == 3:
             a, b, R = segs[si, :3], segs[si, 3:6], segs[si, 6]
             si += 1
             for x in range(3):
@@ -198,6 +206,20 @@ def obstacle_rows(
                         acc += g[x] * ((1.0 - s) * JB[j, x, v] + s * JT[j, x, v])
                     J[r, v] = 2.0 * acc / (L * L)
                 r += 1
+            if kind == 3:  # the sphere against plates 1..n
+                for p in range(1, n + 1):
+                    _polygon_closest(A[p], O[p], hulls[p - 1], a, g)  # g: the nearest point
+                    _point_jacobian(g, p, O, w, tdir, angle, k, JY)
+                    gg = 0.0
+                    for x in range(3):
+                        g[x] = a[x] - g[x]
+                        gg += g[x] * g[x]
+                    rho = R + hthick[p - 1] + margin
+                    c[r] = (gg - rho * rho) / (L * L)
+                    for v in range(k * n):
+                        J[r, v] = -2.0 * (g[0] * JY[0, v] + g[1] * JY[1, v]
+                                          + g[2] * JY[2, v]) / (L * L)  # fmt: skip
+                    r += 1
         elif kind == 2:
             ctr, hb, Rb = boxes[bi, :3], boxes[bi, 3:6], boxes[bi, 6:15]
             bi += 1
@@ -236,6 +258,35 @@ def obstacle_rows(
                                    + u[2] * JX[j, 2, v]) / L  # fmt: skip
                     r += 1
     return c, J
+
+
+@_jit
+def _polygon_closest(A: FloatArray, O: FloatArray, hull: FloatArray, c: FloatArray,
+                     out: FloatArray) -> None:  # fmt: skip
+    """Into ``out`` (base frame) the point of the convex polygon ``hull`` (M, 2; in the
+    plane ``z = 0`` of the frame ``A``, ``O``) nearest to ``c``: ``c``'s projection when it
+    falls inside, else the nearest point of the nearest edge."""
+    lx = A[0, 0] * (c[0] - O[0]) + A[1, 0] * (c[1] - O[1]) + A[2, 0] * (c[2] - O[2])
+    ly = A[0, 1] * (c[0] - O[0]) + A[1, 1] * (c[1] - O[1]) + A[2, 1] * (c[2] - O[2])
+    m = hull.shape[0]
+    inside = True
+    best = np.inf
+    bx, by = lx, ly
+    for e in range(m):
+        x0, y0 = hull[e, 0], hull[e, 1]
+        ex, ey = hull[(e + 1) % m, 0] - x0, hull[(e + 1) % m, 1] - y0
+        if ex * (ly - y0) - ey * (lx - x0) < 0.0:
+            inside = False
+        ee = ex * ex + ey * ey
+        t = 0.0 if ee <= 0.0 else min(max(((lx - x0) * ex + (ly - y0) * ey) / ee, 0.0), 1.0)
+        px, py = x0 + t * ex, y0 + t * ey
+        dd = (lx - px) * (lx - px) + (ly - py) * (ly - py)
+        if dd < best:
+            best, bx, by = dd, px, py
+    if inside:
+        bx, by = lx, ly
+    for x in range(3):
+        out[x] = O[x] + A[x, 0] * bx + A[x, 1] * by
 
 
 @_jit

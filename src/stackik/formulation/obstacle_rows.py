@@ -1,6 +1,6 @@
 """Obstacle rows of a problem, spatial or planar: every leg kept clear of every sphere, capsule,
-box and half-space, and every plate but the base of every half-space (docs/clearance.md), the
-one definition the solvers' problems use.
+box and half-space, and every plate but the base clear of every half-space and sphere
+(docs/clearance.md), the one definition the solvers' problems use.
 
 Leg k of platform i (0-based) is the segment from its base joint ``B = O_i + A_i b_k`` to
 its top joint ``T = O_{i+1} + A_{i+1} t_k`` (base frame [mm], :class:`SpatialChain`'s
@@ -33,8 +33,16 @@ plate frames), a capsule of radius ``r_i = leg_radius_i``. With the clearance ma
   its vertices' balls are, and every vertex is a joint: the rows are exact, and smooth,
   for legs and plates, at no extra row.
 
-The plates have no rows against spheres, capsules and boxes: the solvers do not steer them
-around those, the check (:mod:`stackik.clearance`) refuses a pose where one meets them.
+* sphere against plates: after its leg rows, per plate ``p = 1..n`` (the base excepted)
+  ``(d^2 - (R + tau_p + m)^2) / L^2 >= 0``, ``d`` the distance of the centre from the
+  plate's polygon (:func:`plate_polygons`: the check's polygon; its projection when inside,
+  else the nearest edge point), ``tau_p`` half the plate's thickness (plus its nodes'
+  height off its plane, 0 for the paper's nodes): the check's rounded-slab distance,
+  exact; first derivatives by the envelope rule at the polygon's nearest point (fixed on
+  the plate), continuous where that point is unique.
+
+The plates have no rows against capsules and boxes: the solvers do not steer them around
+those, the check (:mod:`stackik.clearance`) refuses a pose where one meets them.
 The rows are dense (a leg moves with every platform below it): both compiled interior
 points, spatial and planar, carry them after their per-platform blocks
 (:mod:`stackik._compiled.dense_rows`), so no pose is handed over for them alone
@@ -74,7 +82,8 @@ class ObstacleRows:
     Attributes
     ----------
     size : int
-        Number of rows: ``6 n`` per sphere, capsule or box, ``12 n`` per half-space.
+        Number of rows: ``6 n`` per capsule or box, ``7 n`` per sphere (legs, then plates),
+        ``12 n`` per half-space.
     """
 
     def __init__(
@@ -112,8 +121,9 @@ class ObstacleRows:
                 assert isinstance(ob, (Sphere, Capsule))
                 a, b = (ob.center, ob.center) if isinstance(ob, Sphere) else (ob.a, ob.b)
                 segs.append([*a, *b, ob.radius])
-                kinds.append(0)
-                specs.append(("seg", tuple(map(float, a)), tuple(map(float, b)), float(ob.radius)))
+                kinds.append(3 if isinstance(ob, Sphere) else 0)
+                name = "sphere" if isinstance(ob, Sphere) else "seg"
+                specs.append((name, tuple(map(float, a)), tuple(map(float, b)), float(ob.radius)))
         #: the rows as plain data, in their order: ``(margin, (("seg", a, b, R) | ("half",
         #: point, unit normal) | ("box", centre, half extents, rotation row-major), ...))``
         #: (IPOPT's symbolic rows and solver cache key)
@@ -126,14 +136,15 @@ class ObstacleRows:
             readonly(np.reshape(halfs, (-1, 6))),
             readonly(np.reshape(boxes, (-1, 15))),
             readonly(joint_radii(stack)),
+            *plate_polygons(stack),
             _readonly_int(kinds),
         )
-        self.size = sum(12 * self.n if isinstance(o, HalfSpace) else 6 * self.n for o in obstacles)
+        self.size = sum(_rows_of(o, self.n) for o in obstacles)
 
     @property
     def kernel_args(self) -> tuple[Any, ...]:
         """The kernel's array arguments after the pose (``base, top, radius, segs, halfs,
-        boxes, jrad, kinds``, read-only), as the compiled interior point carries them
+        boxes, jrad, hulls, hthick, kinds``, read-only), as the compiled interior point carries them
         (:attr:`stackik._compiled.spatial.SpatialData.obstacles`,
         :attr:`stackik._compiled.planar.PlanarData.obstacles`)."""
         return self._args
@@ -169,6 +180,37 @@ def joint_radii(stack: Stack) -> FloatArray:
         out[0, i] = r if i == 0 else max(r, thick[i] / 2 + zb)
         out[1, i] = max(r, thick[i + 1] / 2 + zt)
     return out
+
+
+def _rows_of(ob: Obstacle, n: int) -> int:
+    """Rows of one obstacle: 6 n (legs), 12 n for a half-space (both joints), 7 n for a
+    sphere (legs, then plates 1..n)."""
+    return 12 * n if isinstance(ob, HalfSpace) else (7 * n if isinstance(ob, Sphere) else 6 * n)
+
+
+def plate_polygons(stack: Stack) -> tuple[FloatArray, FloatArray]:
+    """Plates 1..n (the base excepted) as the sphere rows see them (cached per stack):
+    their convex polygons (n, 12, 2) in their frames' ``z = 0`` (counter-clockwise,
+    padded by repeating a vertex: :func:`stackik.distance.convex_hull_2d` of the nodes'
+    ``x, y``, as the check's) and their half thicknesses (n,) [mm], the larger of the two
+    platforms' ``plate_thickness`` for a shared plate, plus the nodes' largest height off
+    the plate's plane (0 for the paper's nodes: the rows are then the check's distance)."""
+
+    def build(st: Stack) -> tuple[FloatArray, FloatArray]:
+        from stackik.distance import convex_hull_2d
+
+        n = st.n
+        hulls = np.empty((n, 12, 2))
+        half = np.empty(n)
+        for p in range(1, n + 1):
+            pts = [st.top_nodes[p - 1]] + ([st.base_nodes[p]] if p < n else [])
+            nodes = np.concatenate(pts)
+            hulls[p - 1] = convex_hull_2d(nodes[:, :2], size=12)
+            thick = max(st[i].plate_thickness for i in (p - 1, p) if i < n)
+            half[p - 1] = thick / 2 + float(np.abs(nodes[:, 2]).max())
+        return readonly(hulls), readonly(half)
+
+    return stack.derived(("plate_polygons",), build)  # type: ignore[no-any-return]
 
 
 def _readonly_int(values: Any) -> Any:

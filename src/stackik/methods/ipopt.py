@@ -223,7 +223,7 @@ def _obstacle_rows(ca: Any, stack: Stack, Os: list[Any], As: list[Any], key: Any
     ``leg_radius``) against each obstacle of ``key`` (:func:`obstacle_key`), in its order:
     the legs' rows per sphere or capsule, then per half-space the base joints' and the top
     joints' rows."""
-    from stackik.formulation.obstacle_rows import joint_radii
+    from stackik.formulation.obstacle_rows import joint_radii, plate_polygons
 
     margin, obstacles = key
     n = stack.n
@@ -252,7 +252,31 @@ def _obstacle_rows(ca: Any, stack: Stack, Os: list[Any], As: list[Any], key: Any
             s, t = _closest_params(ca, B[j], T[j], a, b)
             g = B[j] + s * (T[j] - B[j]) - (a + t * (b - a))
             rows.append((ca.dot(g, g) - (R + r[j] + margin) ** 2) / L**2)
+        if ob[0] == "sphere":  # then plates 1..n
+            hulls, half = plate_polygons(stack)
+            for pl in range(1, n + 1):
+                d2 = _point_polygon_sq(ca, ca.mtimes(As[pl].T, a - Os[pl]), hulls[pl - 1])
+                rows.append((d2 - (R + half[pl - 1] + margin) ** 2) / L**2)
     return rows
+
+
+def _point_polygon_sq(ca: Any, x: Any, hull: FloatArray) -> Any:
+    """Squared distance of the point ``x`` (plate frame, symbolic) from the convex polygon
+    ``hull`` (M, 2, counter-clockwise) in ``z = 0``: the height squared when ``x``
+    projects inside, else the least over the edges (the kernel's
+    :func:`stackik._compiled.obstacle_rows._polygon_closest`)."""
+    m = hull.shape[0]
+    inside: Any = 1
+    outs = []
+    for e in range(m):
+        v, w = hull[e], hull[(e + 1) % m]
+        ed = w - v
+        inside = ca.logic_and(inside, ed[0] * (x[1] - v[1]) - ed[1] * (x[0] - v[0]) >= 0.0)
+        ee = float(ed @ ed)
+        t = 0.0 if ee <= 0.0 else _clamp01(ca, ((x[0] - v[0]) * ed[0] + (x[1] - v[1]) * ed[1]) / ee)
+        dx, dy = x[0] - v[0] - t * ed[0], x[1] - v[1] - t * ed[1]
+        outs.append(dx * dx + dy * dy)
+    return x[2] * x[2] + ca.if_else(inside, 0.0, ca.mmin(ca.vertcat(*outs)))
 
 
 def _segment_box_sx(ca: Any, p0: Any, p1: Any, h: FloatArray) -> Any:
