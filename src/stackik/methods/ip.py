@@ -295,7 +295,8 @@ def _unconstrained_shortfall(prob: Problem, chk: Any) -> float:
     without rows (adjacent and non-adjacent bodies, self legs when absent, obstacles
     without rows: out of reach) but not those the rows cover (a platform's own legs; the
     legs against every obstacle: their distances include the plates, which have rows
-    against half-spaces only, so a plate's shortfall counts as covered there). Only rows
+    against half-spaces and spheres only, so a plate's shortfall counts as covered
+    there). Only rows
     outside the interior point (:attr:`Problem.rows_outside_ip`) make such a run a
     hand-over start; the obstacle rows count as covered in both modes (the interior point
     has them, and the engine it hands over to too)."""
