@@ -1,9 +1,9 @@
-"""Obstacles: least-FN IK with a sphere or a truss member across a leg of the
+"""Obstacles: least-FN IK with a sphere, a truss member or a box beam across a leg of the
 obstacle-free optimum, against IPOPT with the same obstacle rows (docs/clearance.md,
 issue 29).
 
 Run: ``python benchmarks/bench_obstacles.py [--count 12] [--seed 2950] [--ref-starts 32]
-[--cases spatial4_sphere,spatial4_truss,planar4_sphere,planar4_truss]
+[--cases spatial4_sphere,spatial4_truss,spatial4_box,planar4_sphere,planar4_truss,planar4_box]
 [--out benchmarks/results]``;
 writes ``obstacle_bench.{csv,json,md}``.
 
@@ -19,7 +19,9 @@ axis:
 * ``*_sphere``: ``Sphere(m, 15)``;
 * ``*_truss``: ``Capsule(m - 300 d, m + 300 d, 10)``, ``d`` the unit vector
   ``u x e_z`` (``u`` the leg's direction: perpendicular to the leg and horizontal), or
-  ``u x e_x`` if the leg is within 1e-6 of vertical.
+  ``u x e_x`` if the leg is within 1e-6 of vertical;
+* ``*_box``: a 300 mm beam of 20 mm square section, ``Box(m, (150, 10, 10), [d, u, d x u])``
+  (its long axis ``d``, as the truss member's).
 
 So the obstacle-free optimum collides by construction (the table counts how often, by this
 file's re-check). Plates are not in the solvers' rows (the check refuses a pose whose plate
@@ -37,8 +39,10 @@ The best known FN is the least over every success of the row that passes the re-
 Re-check. Every pose called a success is re-checked in this file, not by stackik's
 clearance code: target and limits by ``check_pose`` on the stack without obstacles, and the
 obstacle by exact distances written here: each leg axis segment against the sphere's
-centre (point-segment) or the capsule's axis (segment-segment,
-:func:`bench_clearance.segment_distance`), and each plate except the base (the convex
+centre (point-segment), the capsule's axis (segment-segment,
+:func:`bench_clearance.segment_distance`) or the box (:func:`segment_box_gap`: slab
+clipping decides whether the axis meets it, else ends and edges; :func:`plate_box_gap`
+for a plate), and each plate except the base (the convex
 polygon of its nodes in its plane: the top nodes of platform j and the base nodes of
 platform j + 1) against the centre (exact point-polygon: the height when the centre
 projects inside, else the distance to the nearest edge) or the axis (exact
@@ -63,7 +67,7 @@ from typing import Any
 import numpy as np
 from _results import method_columns, write_results
 
-from stackik import Capsule, Sphere, Stack, check_pose, solve_ik
+from stackik import Box, Capsule, Sphere, Stack, check_pose, solve_ik
 from stackik.bench import machine_info
 from stackik.kinematics import lift_planar
 from stackik.obstacles import Obstacle
@@ -77,12 +81,15 @@ from bench_clearance import segment_distance  # noqa: E402
 CASES = {
     "spatial4_sphere": (False, "sphere"),
     "spatial4_truss": (False, "truss"),
+    "spatial4_box": (False, "box"),
     "planar4_sphere": (True, "sphere"),
     "planar4_truss": (True, "truss"),
+    "planar4_box": (True, "box"),
 }
 N = 4
 PLATFORM = 1  # 0-based: the obstacle sits on a leg of platform 2
 SPHERE_R, TRUSS_R, TRUSS_LEN = 15.0, 10.0, 600.0  # [mm]
+BOX_HALF = (150.0, 10.0, 10.0)  # [mm] a 300 mm beam of 20 mm square section
 WITHIN = 5e-3  # "best known" within 0.5 %
 TOL = 1e-6  # [mm] a success closer than radius - TOL is false
 LABELS = ("default", "slsqp", "ipopt1", "ipopt8", "ipopt_ref")
@@ -170,11 +177,82 @@ def plate_distance(nodes: np.ndarray, A: np.ndarray, O: np.ndarray, a: np.ndarra
     return best
 
 
+def _box_sdf(x: np.ndarray, box: Box) -> float:
+    """Signed distance [mm] of the point x from the box (negative inside)."""
+    assert box.rotation is not None
+    e = np.abs(box.rotation.T @ (x - box.center)) - box.half_extents
+    return float(np.linalg.norm(np.maximum(e, 0.0)) + min(float(e.max()), 0.0))
+
+
+def _clip(a: np.ndarray, b: np.ndarray, box: Box) -> tuple[float, float] | None:
+    """The parameter interval of the segment a-b inside the box (slab clipping), or None."""
+    assert box.rotation is not None
+    la, lb = box.rotation.T @ (a - box.center), box.rotation.T @ (b - box.center)
+    t0, t1 = 0.0, 1.0
+    for p, d, h in zip(la, lb - la, box.half_extents, strict=True):
+        if d == 0.0:
+            if abs(p) > h:
+                return None
+            continue
+        lo, hi = sorted(((-h - p) / d, (h - p) / d))
+        t0, t1 = max(t0, lo), min(t1, hi)
+        if t0 > t1:
+            return None
+    return t0, t1
+
+
+def segment_box_gap(a: np.ndarray, b: np.ndarray, box: Box) -> float:
+    """Signed distance [mm] of the segment a-b from the box. Disjoint (slab clipping finds
+    no point inside): exact, the least of the ends' distances and the distances from the
+    box's 12 edges (:func:`bench_clearance.segment_distance`), where the closest pair of a
+    segment and a disjoint box lies. Meeting: at most 0, the least over t of the box's
+    signed distance at a + t (b - a) (convex in t: bounded Brent, and the clipped
+    interval's middle) -- only its sign decides a false success."""
+    from scipy.optimize import minimize_scalar
+
+    def f(t: float) -> float:
+        return _box_sdf(a + t * (b - a), box)
+
+    inside = _clip(a, b, box)
+    if inside is None:
+        edges = min(segment_distance(a, b, e0, e1) for e0, e1 in _box_edges(box))
+        return min(f(0.0), f(1.0), edges)
+    r = minimize_scalar(f, bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-13})
+    return min(float(r.fun), f(0.5 * (inside[0] + inside[1])), 0.0)
+
+
+def _box_edges(box: Box) -> list[tuple[np.ndarray, np.ndarray]]:
+    assert box.rotation is not None
+    s = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    c = box.center + (s * box.half_extents) @ box.rotation.T
+    return [(c[i], c[j]) for i in range(8) for j in range(i + 1, 8) if np.sum(s[i] != s[j]) == 1]
+
+
+def plate_box_gap(nodes: np.ndarray, A: np.ndarray, O: np.ndarray, box: Box) -> float:
+    """Distance [mm] of a plate polygon from the box, 0 or less when they meet: two convex
+    bodies' least distance is attained at an edge (or vertex) of one of them, so the least
+    of the polygon's edges against the box (:func:`segment_box_gap`, signed) and of the
+    box's 12 edges against the polygon (:func:`plate_distance`, 0 when one pierces it)."""
+    h = _hull(nodes[:, :2])
+    H = np.column_stack([h, np.zeros(len(h))]) @ A.T + O
+    best = min(segment_box_gap(v, w, box) for v, w in zip(H, np.roll(H, -1, axis=0), strict=True))
+    return min(best, *(plate_distance(nodes, A, O, e0, e1) for e0, e1 in _box_edges(box)))
+
+
 def obstacle_gap(stack: Stack, q: np.ndarray, phi: float | None, ob: Obstacle) -> dict[str, float]:
     """Least distance [mm] of the leg axes and of the plates (base excluded) from the
-    obstacle's core (a sphere's centre, a capsule's axis)."""
+    obstacle's core (a sphere's centre, a capsule's axis; a box's signed distance)."""
     A, O = frames(stack, q, phi)
     B, T = legs(stack, A, O)
+    if isinstance(ob, Box):
+        leg = min(segment_box_gap(B[i, k], T[i, k], ob) for i in range(stack.n) for k in range(6))
+        plate = math.inf
+        for j in range(1, stack.n + 1):
+            nodes = stack.top_nodes[j - 1]
+            if j < stack.n:
+                nodes = np.vstack([nodes, stack.base_nodes[j]])
+            plate = min(plate, plate_box_gap(nodes, A[j], O[j], ob))
+        return {"leg": leg, "plate": plate}
     a, b = (ob.center, ob.center) if isinstance(ob, Sphere) else (ob.a, ob.b)  # type: ignore[attr-defined]
     a, b = np.asarray(a, float), np.asarray(b, float)
     leg = min(
@@ -212,6 +290,8 @@ def place(kind: str, stack: Stack, q: np.ndarray, phi: float | None, k: int) -> 
     if np.linalg.norm(d) < 1e-6:
         d = np.cross(u, [1.0, 0.0, 0.0])
     d /= np.linalg.norm(d)
+    if kind == "box":  # long axis d, second axis the leg's direction
+        return Box(m, BOX_HALF, np.column_stack([d, u, np.cross(d, u)]))
     return Capsule(m - 0.5 * TRUSS_LEN * d, m + 0.5 * TRUSS_LEN * d, TRUSS_R)
 
 
@@ -233,7 +313,7 @@ def _row(name: str, k: int, target: Any, stack: Stack, ob: Obstacle, r0: Any, t0
          args: Any) -> dict[str, Any]:  # fmt: skip
     phi = target.phi if isinstance(target, PlanarTarget) else None
     g0 = obstacle_gap(stack, r0.q, phi, ob)
-    radius = float(ob.radius)  # type: ignore[attr-defined]
+    radius = 0.0 if isinstance(ob, Box) else float(ob.radius)  # type: ignore[attr-defined]
     row: dict[str, Any] = {"case": name, "k": k, "leg": k % 6, "fn_free": r0.frobenius_norm}
     row["time_free"] = t0
     row["free_leg_gap"], row["free_plate_gap"] = g0["leg"], g0["plate"]
@@ -342,8 +422,9 @@ def markdown(lines: list[dict[str, Any]], meta: dict[str, Any]) -> str:
         f"`{meta['command']}` on {meta['machine']}. `Stack.reference(4)` (zero leg radius); "
         f"per target a sphere of radius {SPHERE_R:g} mm (`*_sphere`) or a capsule of radius "
         f"{TRUSS_R:g} mm and length {TRUSS_LEN:g} mm, horizontal and perpendicular to the leg "
-        "(`*_truss`), on the midpoint of leg k mod 6 of platform 2 of the obstacle-free "
-        "least-FN pose. Best known = least FN over IPOPT from "
+        f"(`*_truss`), or a box beam of half extents {BOX_HALF} mm along the same axis "
+        "(`*_box`, signed distances), on the midpoint of leg k mod 6 of platform 2 of the "
+        "obstacle-free least-FN pose. Best known = least FN over IPOPT from "
         f"{meta['ref_starts']} starts and every other success of the row; a success is "
         "re-checked with this file's exact distances (legs and plates against the "
         "obstacle; false: closer than its radius - 1e-6 mm or a failed target/limit "

@@ -165,14 +165,14 @@ def test_obstacle_rows_derivatives_and_values() -> None:
     base = np.tile([0.0, 0.0, 300.0, 0.0, 0.0, 0.0], (3, 1))
     q = base + rng.normal(0, [20, 20, 20, 0.2, 0.2, 0.2], (3, 6))
     c, J = rows(q)
-    assert c.shape == (rows.size,) == (18 + 18 + 36,) and J.shape == (rows.size, 18)
+    assert c.shape == (rows.size,) == (18 + 3 + 18 + 36,) and J.shape == (rows.size, 18)
     num = fd.central(lambda x: rows(x.reshape(3, 6))[0], q.ravel())
     fd.assert_derivative_close(J, num, f_scale=fd.term_scale(c, num), what="obstacle rows")
     # leg surface distances from the rows, against stackik.clearance's (legs and plates:
     # where a leg is the closest body they agree)
     L = rows.L
     legs_sphere = np.sqrt(c[:18] * L**2 + (30 + RADIUS + 1) ** 2) - RADIUS - 30
-    legs_half = (c[36:] * L + RADIUS + 1).min() - RADIUS
+    legs_half = (c[39:] * L + RADIUS + 1).min() - RADIUS
     cl = sk.clearances(stack, q, OBSTACLES3)
     assert legs_sphere.min() == pytest.approx(cl.obstacles[0], abs=1e-9)
     assert legs_half == pytest.approx(cl.obstacles[2], abs=1e-9)
@@ -277,7 +277,7 @@ def test_planar_obstacle_rows_derivatives_and_values() -> None:
     num = fd.central(lambda x: rows(x.reshape(4, 3))[0], q.ravel())
     fd.assert_derivative_close(J, num, f_scale=fd.term_scale(c, num), what="planar rows")
     L = rows.L
-    legs_half = (c[48:] * L + 0.5).min()
+    legs_half = (c[52:] * L + 0.5).min()
     assert legs_half == pytest.approx(sk.clearances(REF, q, OBSTACLES3, phi=phi).obstacles[2])
 
 
@@ -291,7 +291,7 @@ def test_planar_default_goes_around_a_sphere_on_a_leg() -> None:
     sphere = sk.Sphere((B + T) / 2, 15.0)
     assert sk.clearances(REF, plain.q, [sphere], phi=t.phi).obstacles[0] < 0
     prob = Problem(REF, t, "frobenius", None, obstacles=[sphere])
-    assert prob.dense_rows and prob.n_ineq == 96 + 24
+    assert prob.dense_rows and prob.n_ineq == 96 + 24 + 4  # legs, then plates
     r = sk.solve_ik(REF, t, obstacles=[sphere])
     assert r.success and r.clearances is not None and r.clearances.obstacles[0] >= -1e-6
     assert r.frobenius_norm <= plain.frobenius_norm * 1.02
@@ -309,7 +309,8 @@ def test_ipopt_keeps_legs_clear_of_a_sphere() -> None:
     sphere = sk.Sphere(
         (O[1] + A[1] @ REF.base_nodes[1][2] + O[2] + A[2] @ REF.top_nodes[1][2]) / 2, 15.0
     )
-    assert obstacle_key(Problem(REF, t, "frobenius", None, obstacles=[sphere]))[1][0][0] == "seg"
+    key = obstacle_key(Problem(REF, t, "frobenius", None, obstacles=[sphere]))
+    assert key[1][0][0] == "sphere"  # its leg rows, then its plate rows
     r = sk.solve_ik(REF, t, obstacles=[sphere], method="ipopt", starts=1)
     assert r.success and r.clearances is not None and r.clearances.obstacles[0] >= -1e-6
     tp = sk.PlanarTarget(150.0, 1200.0, 0.3, phi=0.2)

@@ -155,7 +155,7 @@ def test_planar_floor_and_sphere_together() -> None:
     plain = sk.solve_ik(REF, t)
     obs = [_obstacle("sphere", plain.q, t.phi, 4), _obstacle("wall", plain.q, t.phi, 0)]
     P = problem_arrays(Problem(REF, t, "frobenius", None, obstacles=obs))
-    assert P.n_dense == 6 * REF.n + 12 * REF.n
+    assert P.n_dense == 7 * REF.n + 12 * REF.n  # the sphere's legs and plates, the wall's
     r = sk.solve_ik(REF, t, obstacles=obs)
     assert r.success and r.method == "ip", r.message
     assert min(sk.clearances(REF, r.q, obs, phi=t.phi).obstacles) >= -1e-6

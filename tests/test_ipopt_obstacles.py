@@ -58,7 +58,9 @@ def test_ipopt_goes_around_a_sphere_on_a_leg(planar):
     else:
         target = random_spatial_targets(stack, 1, rng=5)[0]
         phi = None
-    r0 = solve_ik(stack, target, method="ipopt", starts=4, rng=0)
+    # the obstacle-free least FN (the default's: IPOPT from 4 starts ends 3 % higher on the
+    # spatial target, which the obstacle-constrained IPOPT run can beat)
+    r0 = solve_ik(stack, target)
     assert r0.success
     sphere = Sphere(_leg_midpoint(stack, r0.q, phi, 2), 15.0)
     assert not check_pose(stack, target, r0.q, obstacles=[sphere]).ok  # in the way

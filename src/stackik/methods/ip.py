@@ -381,9 +381,10 @@ def unconstrained_shortfall(prob: Problem, chk: Any) -> float:
     """The clearance shortfall [mm] of ``chk`` that no solver's rows of ``prob`` can
     remove: all of it without obstacle or planar self-leg rows; with them, the kinds
     without rows (adjacent and non-adjacent bodies, self legs when absent, obstacles
-    without rows such as boxes) but not those the rows cover (a platform's own legs; the
-    legs against spheres, capsules and half-spaces: their distances include the plates,
-    which have no rows, so a plate's shortfall counts as covered there). Only rows
+    without rows: out of reach) but not those the rows cover (a platform's own legs; the
+    legs against every obstacle: their distances include the plates, which have rows
+    against half-spaces and spheres only, so a plate's shortfall counts as covered
+    there). Only rows
     outside the interior point (:attr:`Problem.rows_outside_ip`) make such a run a
     hand-over start; the obstacle rows count as covered in both modes (the interior point
     has them, and the engine it hands over to too)."""

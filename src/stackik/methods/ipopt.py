@@ -223,25 +223,102 @@ def _obstacle_rows(ca: Any, stack: Stack, Os: list[Any], As: list[Any], key: Any
     ``leg_radius``) against each obstacle of ``key`` (:func:`obstacle_key`), in its order:
     the legs' rows per sphere or capsule, then per half-space the base joints' and the top
     joints' rows."""
+    from stackik.formulation.obstacle_rows import joint_radii, plate_polygons
+
     margin, obstacles = key
     n = stack.n
     L = float(stack.leg_max.max())
     B = [Os[i] + As[i] @ stack.base_nodes[i, k] for i in range(n) for k in range(6)]
     T = [Os[i + 1] + As[i + 1] @ stack.top_nodes[i, k] for i in range(n) for k in range(6)]
     r = [float(stack[i].leg_radius) for i in range(n) for _ in range(6)]
+    jr = joint_radii(stack)
     rows: list[Any] = []
     for ob in obstacles:
         if ob[0] == "half":
             p, u = np.asarray(ob[1]), np.asarray(ob[2])
-            for X in (B, T):
-                rows += [(ca.dot(u, X[j] - p) - r[j] - margin) / L for j in range(6 * n)]
+            for side, X in enumerate((B, T)):
+                rows += [(ca.dot(u, X[j] - p) - jr[side, j // 6] - margin) / L
+                         for j in range(6 * n)]  # fmt: skip
+            continue
+        if ob[0] == "box":
+            c, h, Rb = np.asarray(ob[1]), np.asarray(ob[2]), np.reshape(ob[3], (3, 3))
+            Rt = ca.DM(Rb.T)
+            for j in range(6 * n):
+                sd = _segment_box_sx(ca, ca.mtimes(Rt, B[j] - c), ca.mtimes(Rt, T[j] - c), h)
+                rows.append((sd - r[j] - margin) / L)
             continue
         a, b, R = np.asarray(ob[1]), np.asarray(ob[2]), ob[3]
         for j in range(6 * n):
             s, t = _closest_params(ca, B[j], T[j], a, b)
             g = B[j] + s * (T[j] - B[j]) - (a + t * (b - a))
             rows.append((ca.dot(g, g) - (R + r[j] + margin) ** 2) / L**2)
+        if ob[0] == "sphere":  # then plates 1..n
+            hulls, half = plate_polygons(stack)
+            for pl in range(1, n + 1):
+                d2 = _point_polygon_sq(ca, ca.mtimes(As[pl].T, a - Os[pl]), hulls[pl - 1])
+                rows.append((d2 - (R + half[pl - 1] + margin) ** 2) / L**2)
     return rows
+
+
+def _point_polygon_sq(ca: Any, x: Any, hull: FloatArray) -> Any:
+    """Squared distance of the point ``x`` (plate frame, symbolic) from the convex polygon
+    ``hull`` (M, 2, counter-clockwise) in ``z = 0``: the height squared when ``x``
+    projects inside, else the least over the edges (the kernel's
+    :func:`stackik._compiled.obstacle_rows._polygon_closest`)."""
+    m = hull.shape[0]
+    inside: Any = 1
+    outs = []
+    for e in range(m):
+        v, w = hull[e], hull[(e + 1) % m]
+        ed = w - v
+        inside = ca.logic_and(inside, ed[0] * (x[1] - v[1]) - ed[1] * (x[0] - v[0]) >= 0.0)
+        ee = float(ed @ ed)
+        t = 0.0 if ee <= 0.0 else _clamp01(ca, ((x[0] - v[0]) * ed[0] + (x[1] - v[1]) * ed[1]) / ee)
+        dx, dy = x[0] - v[0] - t * ed[0], x[1] - v[1] - t * ed[1]
+        outs.append(dx * dx + dy * dy)
+    return x[2] * x[2] + ca.if_else(inside, 0.0, ca.mmin(ca.vertcat(*outs)))
+
+
+def _segment_box_sx(ca: Any, p0: Any, p1: Any, h: FloatArray) -> Any:
+    """The signed distance of the segment ``[p0, p1]`` (box frame, symbolic) from the box
+    ``|x_i| <= h_i``, as :func:`stackik.distance.segment_box` computes it: inside (the
+    segment meets the box) the least over the vertices of the 1D linear program
+    ``min_t max_faces (s x_i(t) - h_i)`` (the ends and each two faces' crossing, clamped
+    to the segment: a clamped candidate is still a point of it); outside the least of the
+    ends' distances from the box and the distances from its 12 edges (where the closest
+    pair of a segment and a disjoint box lies). ``fmin`` differentiates through the
+    active candidate: the envelope rule at the kernel's closest (or deepest) point, and at
+    a crossing the exact derivative of the crossing's value
+    (:func:`stackik._compiled.obstacle_rows._segment_box`). Square roots are taken of at
+    least ``1e-24`` mm^2, so that no branch makes a NaN derivative."""
+    d = p1 - p0
+    pieces = [(i, sg) for i in range(3) for sg in (-1.0, 1.0)]
+
+    def deepest(t: Any) -> Any:
+        return ca.mmax(ca.vertcat(*[sg * (p0[i] + t * d[i]) - h[i] for i, sg in pieces]))
+
+    cands = [deepest(0.0), deepest(1.0)]
+    for a in range(6):
+        for b in range(a + 1, 6):
+            (ia, sa), (ib, sb) = pieces[a], pieces[b]
+            den = sa * d[ia] - sb * d[ib]
+            den_ = ca.if_else(den == 0.0, 1.0, den)
+            t = ((sb * p0[ib] - h[ib]) - (sa * p0[ia] - h[ia])) / den_
+            cands.append(deepest(_clamp01(ca, t)))
+    inner = ca.mmin(ca.vertcat(*cands))
+
+    def point_dist(x: Any) -> Any:
+        e = ca.fmax(ca.fabs(x) - h, 0.0)
+        return ca.sqrt(ca.fmax(ca.dot(e, e), 1e-24))
+
+    outs = [point_dist(p0), point_dist(p1)]
+    corners = [np.array([sx, sy, sz]) * h for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+    edges = [(a, a | 1 << k) for a in range(8) for k in range(3) if not a & 1 << k]  # 12
+    for a, b in edges:
+        s, t = _closest_params(ca, p0, p1, corners[a], corners[b])
+        g = p0 + s * d - (corners[a] + t * (corners[b] - corners[a]))
+        outs.append(ca.sqrt(ca.fmax(ca.dot(g, g), 1e-24)))
+    return ca.if_else(inner <= 0.0, inner, ca.mmin(ca.vertcat(*outs)))
 
 
 def _euler_sx(ca: Any, ang: Any) -> tuple[Any, Any]:
