@@ -193,8 +193,9 @@ def test_spatial_hops_turn_the_top_platforms_only() -> None:
     stack = Stack.reference(6)
     q = np.arange(36.0).reshape(6, 6)
     hops = spatial_hops(stack, q)
-    assert len(hops) == len(SPATIAL_HOPS) == spatial_hop_count(6)
-    assert spatial_hop_count(4) == 0
+    assert len(hops) == len(SPATIAL_HOPS)
+    # the default takes a prefix: none up to n = 4, 2 for n = 5-7, 4 from n = 8
+    assert [spatial_hop_count(n) for n in (1, 4, 5, 6, 7, 8, 16, 64)] == [0, 0, 2, 2, 2, 4, 4, 4]
     for h in hops:
         d = h - q
         assert np.all(d[:, [0, 1, 2, 4, 5]] == 0.0) and np.all(d[:3] == 0.0)
@@ -204,17 +205,19 @@ def test_spatial_hops_turn_the_top_platforms_only() -> None:
 
 def test_spatial_default_hops_from_its_best_pose() -> None:
     # n >= 5: the default's pose is at least as good as its starts' best, hops included,
-    # and on this target the hops find a lower minimum than all 18 starts
-    stack = Stack.reference(5)
-    targets = random_spatial_targets(stack, 2, 9605)
-    for k, target in enumerate(targets):
-        r = solve_ik(stack, target)
-        assert r.success and r.n_starts == spatial_start_count(5) + spatial_hop_count(5)
-        no_hops = solve_ik(stack, target, starts=spatial_start_count(5))
-        assert no_hops.n_starts == spatial_start_count(5)
-        assert r.frobenius_norm <= no_hops.frobenius_norm * (1 + 1e-9)
-        if k == 1:
-            assert r.frobenius_norm < no_hops.frobenius_norm * (1 - 1e-4)
+    # and on the first target the hops (4 from n = 8) find a lower minimum than all 18
+    # starts (at n = 5 the two hops rarely do: none by more than 1e-9 on 12 targets)
+    for n, seed in ((5, 9605), (8, 9608)):
+        stack = Stack.reference(n)
+        targets = random_spatial_targets(stack, 2, seed)
+        for k, target in enumerate(targets):
+            r = solve_ik(stack, target)
+            assert r.success and r.n_starts == spatial_start_count(n) + spatial_hop_count(n)
+            no_hops = solve_ik(stack, target, starts=spatial_start_count(n))
+            assert no_hops.n_starts == spatial_start_count(n)
+            assert r.frobenius_norm <= no_hops.frobenius_norm * (1 + 1e-9)
+            if n == 8 and k == 0:
+                assert r.frobenius_norm < no_hops.frobenius_norm * (1 - 1e-4)
 
 
 def test_spatial_hops_and_recentring_respect_max_time() -> None:

@@ -20,6 +20,7 @@ from stackik.targets import PlanarTarget, Target
 __all__ = [
     "SPATIAL_STARTS",
     "SPATIAL_HOPS",
+    "SPATIAL_HOP_COUNTS",
     "SPATIAL_START_ORDER",
     "StartSampler",
     "fold_depth",
@@ -265,12 +266,19 @@ def spatial_start_count(n: int) -> int:
 #: Hops from the best pose of the spatial default's starts (n >= 5): the yaw of the top
 #: platforms changed, ``(platforms from the top, yaw [rad])``: ``(1, 2)`` turns the top
 #: two in opposite directions, ``(2,)`` only the second from the top, ``(1,)`` only the
-#: top one, ``(2, 3)`` the second and third in opposite directions.
+#: top one, ``(2, 3)`` the second and third in opposite directions. Most useful first
+#: (:func:`spatial_hop_count` takes a prefix): a greedy cover of the targets on which a
+#: hop from the 18 starts' best pose reaches the least FN of the starts and all 12 hops
+#: (34 random reachable targets each at n = 6 and 8, seeds 60617 + n and 70000 + n; at
+#: n = 8 the first four reach it on all 14 where the starts alone do not, at n = 6 the
+#: starts alone reach it on 33), then by how often each reaches it.
 SPATIAL_HOPS: tuple[tuple[tuple[int, ...], float], ...] = (
-    ((1, 2), 1.2), ((1, 2), -1.2), ((1, 2), 2.5), ((1, 2), -2.5),
-    ((2,), 1.2), ((2,), -1.2), ((1,), 1.2), ((1,), -1.2),
-    ((2, 3), 2.5), ((2, 3), -2.5), ((2,), 0.6), ((2,), -0.6),
+    ((1, 2), -1.2), ((1,), 1.2), ((1, 2), 2.5), ((1, 2), 1.2),
+    ((2,), 0.6), ((1,), -1.2), ((2,), 1.2), ((2,), -1.2),
+    ((2,), -0.6), ((1, 2), -2.5), ((2, 3), -2.5), ((2, 3), 2.5),
 )  # fmt: skip
+#: :func:`spatial_hop_count` by stack size: ``(from n, hops)``, the last that applies.
+SPATIAL_HOP_COUNTS: tuple[tuple[int, int], ...] = ((5, 2), (8, 4))
 
 
 def spatial_hops(stack: Stack, q: FloatArray) -> list[FloatArray]:
@@ -296,11 +304,18 @@ def spatial_hops(stack: Stack, q: FloatArray) -> list[FloatArray]:
 
 
 def spatial_hop_count(n: int) -> int:
-    """Hops the spatial default runs from its best pose (:func:`spatial_hops`): none up to
-    n = 4, where the eight starts already reach the best known FN on about 90-95 % of
-    targets and the time goal (10x IPOPT from eight starts) leaves no room; all 12 from
-    n = 5."""
-    return 0 if n <= 4 else len(SPATIAL_HOPS)
+    """Hops the spatial default runs from its best pose (:func:`spatial_hops`, a prefix of
+    :data:`SPATIAL_HOPS`; :data:`SPATIAL_HOP_COUNTS`): none up to n = 4, where the eight
+    starts already reach the best known FN on about 90-95 % of targets and the time goal
+    (10x IPOPT from eight starts) leaves no room; 2 for n = 5-7, 4 from n = 8. A hop costs
+    about as many iterations as a start (45-60 at n = 8); all 12 were 35-40 % of the
+    default's iterations at n = 6 and 8 and, on the targets above, the first four found
+    every lower minimum the twelve found (docs/benchmarks.md, profile)."""
+    count = 0
+    for n_from, hops in SPATIAL_HOP_COUNTS:
+        if n >= n_from:
+            count = hops
+    return count
 
 
 class StartSampler:
