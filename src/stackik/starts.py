@@ -289,7 +289,8 @@ def spatial_hops(stack: Stack, q: FloatArray) -> list[FloatArray]:
     differs in how the top two or three are turned: on random reachable targets with the
     best known FN from IPOPT from 48 starts, these 12 hops from the default's pose raised
     the share within 0.1 % of the best from 75 / 65 % to 90 / 95 % (n = 8, two sets of 20
-    targets) and from 73 % to all 30 (n = 6).
+    targets) and from 73 % to all 30 (n = 6; where the default now runs the first two,
+    :func:`spatial_hop_count`).
     """
     n = stack.n
     out = []
