@@ -220,6 +220,29 @@ def test_spatial_default_hops_from_its_best_pose() -> None:
                 assert r.frobenius_norm < no_hops.frobenius_norm * (1 - 1e-4)
 
 
+def test_spatial_default_two_hops_below_eight_platforms_deterministic() -> None:
+    # n = 6: the 18 starts and the first two hops (n_starts 20); the same call twice gives
+    # the same pose bit for bit, and the pose is at least the starts' best
+    from stackik.starts import SPATIAL_HOPS, spatial_hops
+
+    stack = Stack.reference(6)
+    target = random_spatial_targets(stack, 1, 9606)[0]
+    r = solve_ik(stack, target)
+    again = solve_ik(stack, target)
+    assert r.success and r.n_starts == spatial_start_count(6) + 2
+    np.testing.assert_array_equal(r.q, again.q)
+    assert r.nit == again.nit
+    no_hops = solve_ik(stack, target, starts=spatial_start_count(6))
+    assert r.frobenius_norm <= no_hops.frobenius_norm * (1 + 1e-9)
+    # the two hops are the head of SPATIAL_HOPS: the top two turned by -1.2 rad in
+    # opposite directions, then the top one alone by +1.2 rad
+    q = np.zeros((6, 6))
+    h = spatial_hops(stack, q)[:2]
+    assert SPATIAL_HOPS[:2] == (((1, 2), -1.2), ((1,), 1.2))
+    np.testing.assert_array_equal(h[0][4:, 3], [1.2, -1.2])
+    np.testing.assert_array_equal(h[1][4:, 3], [0.0, 1.2])
+
+
 def test_spatial_hops_and_recentring_respect_max_time() -> None:
     # past the budget no hop batch and no re-centring run starts
     target5 = random_spatial_targets(Stack.reference(5), 1, 9605)[0]
