@@ -20,7 +20,6 @@ from stackik.targets import PlanarTarget, Target
 __all__ = [
     "SPATIAL_STARTS",
     "SPATIAL_HOPS",
-    "SPATIAL_HOP_COUNTS",
     "SPATIAL_START_ORDER",
     "StartSampler",
     "fold_depth",
@@ -266,19 +265,12 @@ def spatial_start_count(n: int) -> int:
 #: Hops from the best pose of the spatial default's starts (n >= 5): the yaw of the top
 #: platforms changed, ``(platforms from the top, yaw [rad])``: ``(1, 2)`` turns the top
 #: two in opposite directions, ``(2,)`` only the second from the top, ``(1,)`` only the
-#: top one, ``(2, 3)`` the second and third in opposite directions. Most useful first
-#: (:func:`spatial_hop_count` takes a prefix): a greedy cover of the targets on which a
-#: hop from the 18 starts' best pose reaches the least FN of the starts and all 12 hops
-#: (34 random reachable targets each at n = 6 and 8, seeds 60617 + n and 70000 + n; at
-#: n = 8 the first four reach it on all 14 where the starts alone do not, at n = 6 the
-#: starts alone reach it on 33), then by how often each reaches it at n = 8.
+#: top one, ``(2, 3)`` the second and third in opposite directions.
 SPATIAL_HOPS: tuple[tuple[tuple[int, ...], float], ...] = (
-    ((1, 2), -1.2), ((1,), 1.2), ((1, 2), 2.5), ((1, 2), 1.2),
-    ((2,), 0.6), ((1,), -1.2), ((2,), 1.2), ((2,), -1.2),
-    ((2,), -0.6), ((1, 2), -2.5), ((2, 3), -2.5), ((2, 3), 2.5),
+    ((1, 2), 1.2), ((1, 2), -1.2), ((1, 2), 2.5), ((1, 2), -2.5),
+    ((2,), 1.2), ((2,), -1.2), ((1,), 1.2), ((1,), -1.2),
+    ((2, 3), 2.5), ((2, 3), -2.5), ((2,), 0.6), ((2,), -0.6),
 )  # fmt: skip
-#: :func:`spatial_hop_count` by stack size: ``(from n, hops)``, the last that applies.
-SPATIAL_HOP_COUNTS: tuple[tuple[int, int], ...] = ((5, 2), (8, 12))
 
 
 def spatial_hops(stack: Stack, q: FloatArray) -> list[FloatArray]:
@@ -289,8 +281,7 @@ def spatial_hops(stack: Stack, q: FloatArray) -> list[FloatArray]:
     differs in how the top two or three are turned: on random reachable targets with the
     best known FN from IPOPT from 48 starts, these 12 hops from the default's pose raised
     the share within 0.1 % of the best from 75 / 65 % to 90 / 95 % (n = 8, two sets of 20
-    targets) and from 73 % to all 30 (n = 6; where the default now runs the first two,
-    :func:`spatial_hop_count`).
+    targets) and from 73 % to all 30 (n = 6).
     """
     n = stack.n
     out = []
@@ -305,21 +296,11 @@ def spatial_hops(stack: Stack, q: FloatArray) -> list[FloatArray]:
 
 
 def spatial_hop_count(n: int) -> int:
-    """Hops the spatial default runs from its best pose (:func:`spatial_hops`, a prefix of
-    :data:`SPATIAL_HOPS`; :data:`SPATIAL_HOP_COUNTS`): none up to n = 4, where the eight
-    starts already reach the best known FN on about 90-95 % of targets and the time goal
-    (10x IPOPT from eight starts) leaves no room; 2 for n = 5-7, all 12 from n = 8. A hop
-    costs about as many iterations as a start; all 12 were 35-40 % of the default's
-    iterations at n = 6 and 8 (docs/benchmarks.md, profile). At n = 6 the starts alone
-    reached the least FN of starts and hops on 33 of the 34 design targets, and two hops
-    kept the share within 0.1 % of the best known on the fresh seed 61000 (18/20, as
-    twelve) at 2/3 of the iterations; at n = 8 the first four found every lower minimum
-    of the twelve on the design targets but lost 2 of 20 on seed 61000: twelve there."""
-    count = 0
-    for n_from, hops in SPATIAL_HOP_COUNTS:
-        if n >= n_from:
-            count = hops
-    return count
+    """Hops the spatial default runs from its best pose (:func:`spatial_hops`): none up to
+    n = 4, where the eight starts already reach the best known FN on about 90-95 % of
+    targets and the time goal (10x IPOPT from eight starts) leaves no room; all 12 from
+    n = 5."""
+    return 0 if n <= 4 else len(SPATIAL_HOPS)
 
 
 class StartSampler:

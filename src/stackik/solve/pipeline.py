@@ -108,8 +108,8 @@ def solve_ik(
         pose of all (the adaptive plan, :func:`stackik.solve.stages.ip_stage`); in
         spatial mode
         the interior point's structured starts (:func:`stackik.starts.spatial_starts`: 8
-        up to n = 4, 18 from n = 5; twists, leans and folds; from n = 5 then 2 hops from
-        the best pose, 12 from n = 8, :func:`stackik.starts.spatial_hops`), the SQP engine's five
+        up to n = 4, 18 from n = 5; twists, leans and folds; from n = 5 then 12 hops from
+        the best pose, :func:`stackik.starts.spatial_hops`), the SQP engine's five
         structured and seven random ones; otherwise one. ``starts=K`` in spatial mode
         takes the first K of :func:`stackik.starts.spatial_starts`; spatial ``starts=1``
         without ``x0`` (and without ``options["mu0"]``) re-runs the interior point twice
