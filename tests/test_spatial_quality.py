@@ -217,6 +217,20 @@ def test_spatial_default_hops_from_its_best_pose() -> None:
             assert r.frobenius_norm < no_hops.frobenius_norm * (1 - 1e-4)
 
 
+def test_spatial_default_deterministic_from_five_platforms() -> None:
+    # n = 6: the 18 starts and the 12 hops (n_starts 30); the same call twice gives the
+    # same pose bit for bit, and the pose is at least the starts' best
+    stack = Stack.reference(6)
+    target = random_spatial_targets(stack, 1, 9606)[0]
+    r = solve_ik(stack, target)
+    again = solve_ik(stack, target)
+    assert r.success and r.n_starts == spatial_start_count(6) + spatial_hop_count(6) == 30
+    np.testing.assert_array_equal(r.q, again.q)
+    assert r.nit == again.nit
+    no_hops = solve_ik(stack, target, starts=spatial_start_count(6))
+    assert r.frobenius_norm <= no_hops.frobenius_norm * (1 + 1e-9)
+
+
 def test_spatial_hops_and_recentring_respect_max_time() -> None:
     # past the budget no hop batch and no re-centring run starts
     target5 = random_spatial_targets(Stack.reference(5), 1, 9605)[0]
