@@ -37,9 +37,15 @@ import numpy as np
 
 from stackik._compiled.core import _jit
 from stackik._compiled.self_legs import _closest
-from stackik.distance import _MEETS
 
 FloatArray = Any
+
+
+#: Relative rounding band within which a segment counts as meeting a box: the value the
+#: check's geometry uses (``stackik.distance``), written here because the solvers' kernels
+#: import nothing of the check (tests/test_architecture.py); tests/test_box_rows.py holds
+#: the two distances equal.
+_MEETS = 1e-12
 
 
 @_jit
