@@ -47,7 +47,7 @@ from stackik.starts import spatial_hop_count, spatial_hops
 
 if TYPE_CHECKING:
     from stackik.formulation import Problem
-    from stackik.methods.ip import IPBatch, IPMethod
+    from stackik.methods.ip import Basins, IPBatch, IPMethod
 
 __all__ = [
     "PLANAR_BLAS_N",
@@ -377,22 +377,35 @@ def _free_first(
     nit = basins.nit
     if first is not None and first.check.ok:  # the limits do not bind there
         return first, nit, tried, True
+    best, nit_rows, settled = _from_basins(req, method, free, basins, FORCE_MU0, FORCE_COST_RTOL)
+    return best, nit + nit_rows, tried, settled
+
+
+def _from_basins(
+    req: Request, method: IPMethod, free: Problem, basins: Basins, mu0: float, rtol: float
+) -> tuple[Run | None, int, bool]:
+    """Runs of the request's problem (with the rows ``free`` lacks) from the minima of
+    ``basins`` (of ``free``), lowest objective first, initial barrier ``mu0``, while a
+    basin's minimum is below the best passing objective so far and that is within
+    ``rtol`` (relative, on the square root) of the least minimum. Returns the best passing
+    run (None: none), the iterations and whether it settles the solve (within ``rtol``)."""
     best: Run | None = None
-    opts = {"mu0": FORCE_MU0, **req.options}
-    cap = basins.objs[0] * (1.0 + FORCE_COST_RTOL) ** 2
+    nit = 0
+    opts = {"mu0": mu0, **req.options}
+    cap = basins.objs[0] * (1.0 + rtol) ** 2
     for u, obj in zip(basins.points, basins.objs):
         if best is not None and (best.obj > cap or not _below(obj, best.obj)):
-            # costly limits (the caller's batch decides), or this basin's minimum without
-            # the limits is no lower than the best with them: nor is it with them
+            # costly rows (the caller's batch decides), or this basin's minimum without
+            # the rows is no lower than the best with them: nor is it with them
             break
         if req.out_of_time():
             break
         left = req.time_left(time.perf_counter())
-        batch = method.run_many(prob, [free.q_of(u)], opts, left)
+        batch = method.run_many(req.problem, [free.q_of(u)], opts, left)
         nit += batch.nit
         if batch.best is not None and (best is None or _lower(batch.best, best)):
             best = batch.best
-    return best, nit, tried, best is not None and best.obj <= cap
+    return best, nit, best is not None and best.obj <= cap
 
 
 def _clear_first_applies(req: Request, plan: StartPlan) -> bool:
@@ -446,20 +459,8 @@ def _clear_first(
     first = basins.run(free, 0, free.q_of(basins.points[0]))  # (planar: polished)
     if first.check.ok:  # the obstacles do not bind there
         return first, nit, tried, True
-    best: Run | None = None
-    opts = {"mu0": CLEAR_MU0, **req.options}
-    cap = basins.objs[0] * (1.0 + CLEAR_COST_RTOL) ** 2
-    for u, obj in zip(basins.points, basins.objs):
-        if best is not None and (best.obj > cap or not _below(obj, best.obj)):
-            break
-        if req.out_of_time():
-            break
-        left = req.time_left(time.perf_counter())
-        batch = method.run_many(prob, [free.q_of(u)], opts, left)
-        nit += batch.nit
-        if batch.best is not None and (best is None or _lower(batch.best, best)):
-            best = batch.best
-    return best, nit, tried, best is not None and best.obj <= cap
+    best, nit_rows, settled = _from_basins(req, method, free, basins, CLEAR_MU0, CLEAR_COST_RTOL)
+    return best, nit + nit_rows, tried, settled
 
 
 def _over_limits(prob: Problem, q: FloatArray) -> bool:
