@@ -3,11 +3,13 @@ obstacle-free optimum, against IPOPT with the same obstacle rows (docs/clearance
 issue 29).
 
 Run: ``python benchmarks/bench_obstacles.py [--count 12] [--seed 2950] [--ref-starts 32]
-[--cases spatial4_sphere,spatial4_truss,spatial4_box,planar4_sphere,planar4_truss,planar4_box]
+[--cases spatial4_sphere,spatial4_truss,spatial4_box,planar4_sphere,planar4_truss,planar4_box,
+planar8_sphere,planar8_truss]
 [--out benchmarks/results]``;
 writes ``obstacle_bench.{csv,json,md}``.
 
-Targets. On ``Stack.reference(4)`` (legs of zero radius, plates of zero thickness), target
+Targets. On ``Stack.reference(n)`` (n = 4, or 8 for the ``planar8_*`` cases; legs of
+zero radius, plates of zero thickness), target
 k (k = 0 .. count - 1) is drawn with ``rng = seed + k`` (spatial:
 :func:`stackik.sampling.random_spatial_targets`; planar:
 :func:`stackik.sampling.random_planar_targets` in the plane ``phi = 2 pi k / count``) and
@@ -78,15 +80,16 @@ from stackik.targets import PlanarTarget
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_clearance import segment_distance  # noqa: E402
 
-CASES = {
-    "spatial4_sphere": (False, "sphere"),
-    "spatial4_truss": (False, "truss"),
-    "spatial4_box": (False, "box"),
-    "planar4_sphere": (True, "sphere"),
-    "planar4_truss": (True, "truss"),
-    "planar4_box": (True, "box"),
+CASES = {  # name: (planar, obstacle kind, n)
+    "spatial4_sphere": (False, "sphere", 4),
+    "spatial4_truss": (False, "truss", 4),
+    "spatial4_box": (False, "box", 4),
+    "planar4_sphere": (True, "sphere", 4),
+    "planar4_truss": (True, "truss", 4),
+    "planar4_box": (True, "box", 4),
+    "planar8_sphere": (True, "sphere", 8),
+    "planar8_truss": (True, "truss", 8),
 }
-N = 4
 PLATFORM = 1  # 0-based: the obstacle sits on a leg of platform 2
 SPHERE_R, TRUSS_R, TRUSS_LEN = 15.0, 10.0, 600.0  # [mm]
 BOX_HALF = (150.0, 10.0, 10.0)  # [mm] a 300 mm beam of 20 mm square section
@@ -355,8 +358,8 @@ def _warm_up(planar: bool, kind: str, stack: Stack, args: Any) -> None:
 
 
 def run_case(name: str, args: Any) -> tuple[list[dict[str, Any]], int]:
-    planar, kind = CASES[name]
-    stack = Stack.reference(N)
+    planar, kind, n = CASES[name]
+    stack = Stack.reference(n)
     assert all(g.leg_radius == 0 and g.plate_thickness == 0 for g in stack)
     _warm_up(planar, kind, stack, args)
     rows: list[dict[str, Any]] = []
@@ -419,7 +422,8 @@ def markdown(lines: list[dict[str, Any]], meta: dict[str, Any]) -> str:
     skip = ", ".join(f"{s['case']} {s['skipped']}" for s in lines)
     return (
         "# Obstacles (benchmarks/bench_obstacles.py)\n\n"
-        f"`{meta['command']}` on {meta['machine']}. `Stack.reference(4)` (zero leg radius); "
+        f"`{meta['command']}` on {meta['machine']}. `Stack.reference(n)`, n the case "
+        "name's digit (zero leg radius); "
         f"per target a sphere of radius {SPHERE_R:g} mm (`*_sphere`) or a capsule of radius "
         f"{TRUSS_R:g} mm and length {TRUSS_LEN:g} mm, horizontal and perpendicular to the leg "
         f"(`*_truss`), or a box beam of half extents {BOX_HALF} mm along the same axis "

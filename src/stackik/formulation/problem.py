@@ -187,6 +187,15 @@ class Problem:
         out.forces = None
         return out
 
+    def without_obstacle_rows(self) -> Problem:
+        """This problem without its obstacle rows (a shallow copy, its own evaluation
+        caches): the solvers see the obstacle-free problem. Its :meth:`check` is still
+        this problem's (obstacles and margin): it serves starts, not answers
+        (:func:`stackik.solve.stages.ip_stage`, the planar default with obstacle rows)."""
+        out = self._variant()
+        out.clearance = dataclasses.replace(self.clearance, obstacle_rows=None)
+        return out
+
     def _variant(self) -> Problem:
         """A shallow copy with its own evaluation caches (for a copy with fewer rows)."""
         out = copy.copy(self)

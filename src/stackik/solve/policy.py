@@ -28,6 +28,8 @@ __all__ = [
     "ADAPTIVE_FIRST",
     "ADAPTIVE_N",
     "ADAPTIVE_RTOL",
+    "CLEAR_COST_RTOL",
+    "CLEAR_MU0",
     "FORCE_COST_RTOL",
     "FORCE_METHOD",
     "FORCE_MU0",
@@ -67,6 +69,17 @@ FORCE_MU0 = 1e-3
 #: unloaded search's least, the limits moved the optimum away from the unloaded basins:
 #: the batch with the force rows from the plan's starts runs too, and the better wins.
 FORCE_COST_RTOL = 1e-3
+
+#: Planar default with obstacle rows (:func:`stackik.solve.stages._clear_first`): the
+#: initial barrier of the interior point's runs with the obstacle rows from the minima of
+#: the obstacle-free search (small: a run from a pose through an obstacle stays beside it
+#: in its own basin) ...
+CLEAR_MU0 = 1e-3
+#: ... and when the best pose they find has an FN more than this (relative) above the
+#: obstacle-free search's least, the obstacle moved the optimum away from the
+#: obstacle-free basins: the batch with the obstacle rows from the plan's starts runs too,
+#: and the better wins.
+CLEAR_COST_RTOL = 1e-3
 
 #: Planar default from ``n = ADAPTIVE_N`` on: the interior point first runs
 #: ``ADAPTIVE_FIRST`` of the batch's random starts alone (:func:`tall_random_starts`), and
