@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from plan_spies import spy_batches, spy_settled
 
 import stackik.solve.stages as stages
 from stackik import Load, PlanarTarget, PlatformGeometry, Stack, check_pose, leg_forces, solve_ik
@@ -63,32 +64,13 @@ def _without_rule(monkeypatch: pytest.MonkeyPatch, stack: Stack, target: Any) ->
 @pytest.fixture
 def calls(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
     """``settled`` of every _free_first call of a solve."""
-    seen: list[bool] = []
-    original = stages._free_first
-
-    def spy(*args: Any) -> Any:
-        out = original(*args)
-        seen.append(out[3])
-        return out
-
-    monkeypatch.setattr(stages, "_free_first", spy)
-    return seen
+    return spy_settled(monkeypatch, "_free_first")
 
 
 @pytest.fixture
 def batches(monkeypatch: pytest.MonkeyPatch) -> list[tuple[int, bool]]:
     """(starts, with force rows) of every interior-point call with checks."""
-    from stackik.methods.ip import IPMethod
-
-    seen: list[tuple[int, bool]] = []
-    original = IPMethod.run_many
-
-    def run_many(self: IPMethod, prob: Any, starts: list[Any], *args: Any) -> Any:
-        seen.append((len(starts), prob.forces is not None))
-        return original(self, prob, starts, *args)
-
-    monkeypatch.setattr(IPMethod, "run_many", run_many)
-    return seen
+    return spy_batches(monkeypatch, lambda prob: prob.forces is not None)
 
 
 def test_only_the_spatial_default_with_a_finite_force_max(calls: list[bool]) -> None:

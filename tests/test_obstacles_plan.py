@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from plan_spies import spy_batches, spy_settled
 
 import stackik.solve.stages as stages
 from stackik import Capsule, Sphere, Stack, solve_ik
@@ -43,32 +44,13 @@ def _truss(n: int, seed: int, k: int) -> tuple[Stack, Any, Any, Capsule]:
 @pytest.fixture
 def calls(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
     """``settled`` of every _clear_first call of a solve."""
-    seen: list[bool] = []
-    original = stages._clear_first
-
-    def spy(*args: Any) -> Any:
-        out = original(*args)
-        seen.append(out[3])
-        return out
-
-    monkeypatch.setattr(stages, "_clear_first", spy)
-    return seen
+    return spy_settled(monkeypatch, "_clear_first")
 
 
 @pytest.fixture
 def batches(monkeypatch: pytest.MonkeyPatch) -> list[tuple[int, bool]]:
     """(starts, with obstacle rows) of every interior-point call with checks."""
-    from stackik.methods.ip import IPMethod
-
-    seen: list[tuple[int, bool]] = []
-    original = IPMethod.run_many
-
-    def run_many(self: IPMethod, prob: Any, starts: list[Any], *args: Any) -> Any:
-        seen.append((len(starts), prob.clearance.obstacle_rows is not None))
-        return original(self, prob, starts, *args)
-
-    monkeypatch.setattr(IPMethod, "run_many", run_many)
-    return seen
+    return spy_batches(monkeypatch, lambda prob: prob.clearance.obstacle_rows is not None)
 
 
 def _without_rule(monkeypatch: pytest.MonkeyPatch, stack: Stack, target: Any, ob: Any) -> Any:
