@@ -1,8 +1,8 @@
-"""The planar default's plan with obstacle rows (solve/stages._clear_first): it acts only on
-the planar structured default with obstacle rows; an obstacle that does not bind changes
-nothing (the obstacle-free default's pose, bit for bit); a binding one gets runs with the
-obstacle rows from the obstacle-free basins' minima; a costly one runs the batch with the
-rows from the plan's starts too."""
+"""The default's plan with obstacle rows (solve/stages._clear_first): it acts only on the
+planar and spatial structured defaults with obstacle rows; an obstacle that does not bind
+changes nothing (the obstacle-free default's pose, bit for bit); a binding one gets runs
+with the obstacle rows from the obstacle-free basins' minima; a costly one runs the batch
+with the rows from the plan's starts too."""
 
 from __future__ import annotations
 
@@ -63,7 +63,7 @@ def _without_rule(monkeypatch: pytest.MonkeyPatch, stack: Stack, target: Any, ob
     return old
 
 
-def test_only_the_planar_default_with_obstacle_rows(calls: list[bool]) -> None:
+def test_only_the_default_with_obstacle_rows(calls: list[bool]) -> None:
     stack, target, free, ob = _truss(4, 4290, 1)
     solve_ik(stack, target)  # no obstacle
     solve_ik(stack, target, obstacles=[Sphere((0.0, 0.0, 1e5), 10.0)])  # beyond reach: no rows
@@ -71,10 +71,14 @@ def test_only_the_planar_default_with_obstacle_rows(calls: list[bool]) -> None:
     solve_ik(stack, target, obstacles=[ob], x0=free.q)  # a given start
     solve_ik(stack, target, obstacles=[ob], method="sqp")
     spatial = random_spatial_targets(stack, 1, rng=4290)[0]
-    solve_ik(stack, spatial, obstacles=[Sphere((0.0, 0.0, 200.0), 10.0)])  # spatial
+    far = [Sphere((0.0, 0.0, 1e5), 10.0)]
+    solve_ik(stack, spatial, obstacles=far)  # spatial, beyond reach: no rows
+    solve_ik(stack, spatial, obstacles=[ob], starts=3)  # spatial, explicit starts
     assert calls == []
     solve_ik(stack, target, obstacles=[ob])
     assert len(calls) == 1
+    solve_ik(stack, spatial, obstacles=[Sphere((0.0, 0.0, 200.0), 10.0)])  # spatial default
+    assert len(calls) == 2
 
 
 def test_an_obstacle_that_does_not_bind_changes_nothing(calls: list[bool]) -> None:
@@ -140,3 +144,50 @@ def test_costly_obstacles_run_the_batch_too(
     assert r.success
     old = _without_rule(monkeypatch, stack, target, ob)
     assert r.frobenius_norm <= old.frobenius_norm * (1 + 1e-12)
+
+
+def _spatial_truss(n: int, seed: int, k: int) -> tuple[Stack, Any, Any, Capsule]:
+    """bench_obstacles' spatial truss case k of ``seed`` (as :func:`_truss`)."""
+    stack = Stack.reference(n)
+    target = random_spatial_targets(stack, 1, rng=seed + k)[0]
+    free = solve_ik(stack, target)
+    assert free.success
+    ob = place("truss", stack, free.q, None, k)
+    assert isinstance(ob, Capsule)
+    return stack, target, free, ob
+
+
+@pytest.mark.parametrize("n", [4, 5])
+def test_spatial_obstacle_that_does_not_bind_changes_nothing(n: int, calls: list[bool]) -> None:
+    # n = 5: the hops run without the obstacle rows too
+    stack, target, free, ob = _spatial_truss(n, 4400, 3)
+    # a sphere 80 mm above the middle of a leg of platform 2: rows, clear
+    center = 0.5 * (np.asarray(ob.a) + np.asarray(ob.b)) + np.array([0.0, 0.0, 80.0])
+    clear = Sphere(center, 5.0)
+    assert min(obstacle_gap(stack, free.q, None, clear).values()) > 5.0 + 1.0
+    r = solve_ik(stack, target, obstacles=[clear])
+    assert calls == [True]
+    assert r.success
+    assert np.array_equal(free.q, r.q)
+    assert (free.nit, free.n_starts, free.method) == (r.nit, r.n_starts, r.method)
+
+
+@pytest.mark.parametrize("k", [0, 1, 2])
+def test_binding_spatial_truss_takes_runs_from_the_obstacle_free_basins(
+    k: int, calls: list[bool], batches: list[tuple[int, bool]], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    stack, target, free, ob = _spatial_truss(4, 4400, k)
+    batches.clear()
+    r = solve_ik(stack, target, obstacles=[ob])
+    assert r.success and r.method == "ip"
+    assert len(calls) == 1
+    gap = min(obstacle_gap(stack, r.q, None, ob).values())
+    assert gap >= ob.radius - 1e-6
+    if calls[0]:  # settled: runs of one start each with the rows, no batch from the plan's
+        assert all(size == 1 and rows for size, rows in batches)
+        assert r.frobenius_norm <= free.frobenius_norm * (1 + CLEAR_COST_RTOL)
+    again = solve_ik(stack, target, obstacles=[ob])
+    assert np.array_equal(r.q, again.q)
+    old = _without_rule(monkeypatch, stack, target, ob)
+    if not calls[0]:  # not settled: the better of both
+        assert r.frobenius_norm <= old.frobenius_norm * (1 + 1e-12)

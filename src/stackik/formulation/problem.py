@@ -191,7 +191,7 @@ class Problem:
         """This problem without its obstacle rows (a shallow copy, its own evaluation
         caches): the solvers see the obstacle-free problem. Its :meth:`check` is still
         this problem's (obstacles and margin): it serves starts, not answers
-        (:func:`stackik.solve.stages.ip_stage`, the planar default with obstacle rows)."""
+        (:func:`stackik.solve.stages.ip_stage`, the default with obstacle rows)."""
         out = self._variant()
         out.clearance = dataclasses.replace(self.clearance, obstacle_rows=None)
         return out

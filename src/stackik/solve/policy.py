@@ -70,7 +70,7 @@ FORCE_MU0 = 1e-3
 #: the batch with the force rows from the plan's starts runs too, and the better wins.
 FORCE_COST_RTOL = 1e-3
 
-#: Planar default with obstacle rows (:func:`stackik.solve.stages._clear_first`): the
+#: Default (planar or spatial) with obstacle rows (:func:`stackik.solve.stages._clear_first`): the
 #: initial barrier of the interior point's runs with the obstacle rows from the minima of
 #: the obstacle-free search (small: a run from a pose through an obstacle stays beside it
 #: in its own basin) ...

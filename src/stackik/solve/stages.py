@@ -46,6 +46,8 @@ from stackik.solve.request import Request
 from stackik.starts import spatial_hop_count, spatial_hops
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from stackik.formulation import Problem
     from stackik.methods.ip import Basins, IPBatch, IPMethod
 
@@ -327,57 +329,80 @@ def _free_first_applies(req: Request, plan: StartPlan) -> bool:
 def _free_first(
     req: Request, method: IPMethod, starts: list[FloatArray]
 ) -> tuple[Run | None, int, int, bool]:
-    """Spatial default with leg-force limits: the batch (and, from n = 5, the hops from its
-    best pose) without the force rows, which is the unloaded default's search. When its
-    best pose carries the load within the limits, it is the answer (the limits do not
-    bind: the unloaded default's pose). Otherwise runs with the force rows start from
-    those basins' minima, lowest FN first, with the small initial barrier
-    :data:`FORCE_MU0`, for as long as a basin's unloaded minimum is below the best passing
-    FN so far (a limit only raises a basin's minimum) and that FN is within
-    :data:`FORCE_COST_RTOL` of the unloaded search's least. Beyond it the limits moved the
-    optimum away from the unloaded basins, which then say little: the pose is not
-    settled, and the caller runs the batch with the force rows from the plan's starts too.
+    """Spatial default with leg-force limits: :func:`_rows_first` without the force rows,
+    with the small initial barrier :data:`FORCE_MU0` and the cost cap
+    :data:`FORCE_COST_RTOL` (a pose far over a force limit is not checked,
+    :func:`_over_limits`).
 
     Why (docs/loads.md): with the force rows from the plan's starts, the runs' paths bend
     away from the force limits into other basins, and on 3 of 10 spatial n = 4 targets
     none of the eight ended within 0.1 % of the best known, while a run with the force rows
     from the unloaded optimum ended there on all of them; with the default barrier (0.1)
     such a run, which starts over a force limit, is pushed into a neighbouring basin
-    (1 of 10), with 1e-3 it stays in its own.
-
-    Returns the best passing run (None: none passed), the iterations, the starts that
-    ran (batch and hops; the force runs from the basins are not starts) and whether that
-    run settles the solve (it passed, within :data:`FORCE_COST_RTOL`)."""
-    from stackik.methods.ip import ip_basins
-
+    (1 of 10), with 1e-3 it stays in its own."""
     prob = req.problem
     free = prob.without_force_limits()
+    return _rows_first(
+        req, method, starts, free, FORCE_MU0, FORCE_COST_RTOL, lambda q: _over_limits(prob, q)
+    )
+
+
+def _rows_first(
+    req: Request,
+    method: IPMethod,
+    starts: list[FloatArray],
+    free: Problem,
+    mu0: float,
+    rtol: float,
+    unchecked: Callable[[FloatArray], bool] | None = None,
+) -> tuple[Run | None, int, int, bool]:
+    """The default's search without some of the request's rows (``free``: the batch and,
+    spatial from n = 5, the hops from its best pose, as the default without those rows
+    runs them). When its best pose passes the request's check, it is the answer (the rows
+    do not bind: the default's pose without them, bit for bit). Otherwise runs with the
+    rows start from those basins' minima (:func:`_from_basins`, initial barrier ``mu0``,
+    cost cap ``rtol``); a pose not settled there leaves the caller to run the batch with
+    the rows from the plan's starts too. ``unchecked(q)``: a pose the check would refuse
+    anyway (it is not checked: None).
+
+    Returns the best passing run (None: none passed), the iterations, the starts that
+    ran (batch and hops; the runs from the basins are not starts) and whether that run
+    settles the solve (it passed, within ``rtol``)."""
+    from stackik.methods.ip import ip_basins
+
     left = req.time_left(time.perf_counter())
     basins = ip_basins(free, starts, req.options, left)
     tried = len(starts)
     if not basins.points:
         return None, basins.nit, tried, False
-    # the unloaded default's pose, checked unless a leg is far over its limit there
-    q = basins.pose(free, 0)
-    first = None if _over_limits(prob, q) else basins.run(free, 0, q)
-    if spatial_hop_count(req.stack.n) and not req.out_of_time():
-        # the hops of the unloaded default (_hop), from the batch's best pose
-        hops = spatial_hops(req.stack, q)[: spatial_hop_count(req.stack.n)]
+    planar = req.mode.planar
+
+    def pose(found: Basins) -> FloatArray:  # its best point, polished (planar: already)
+        return free.q_of(found.points[0]) if planar else found.pose(free, 0)
+
+    def checked(found: Basins, q: FloatArray) -> Run | None:
+        return None if unchecked is not None and unchecked(q) else found.run(free, 0, q)
+
+    q = pose(basins)
+    first = checked(basins, q)
+    hops_n = 0 if planar else spatial_hop_count(req.stack.n)
+    if hops_n and not req.out_of_time():
+        # the hops of the default (_hop), from the batch's best pose
+        hops = spatial_hops(req.stack, q)[:hops_n]
         left = req.time_left(time.perf_counter())
         more = ip_basins(free, hops, req.options, left)
         tried += sum(st is not RunStatus.SKIPPED for st in more.statuses)
         if more.points:  # a lower hop replaces the batch's pose, as in _hop
-            qh = more.pose(free, 0)
-            hop = None if _over_limits(prob, qh) else more.run(free, 0, qh)
+            hop = checked(more, pose(more))
             if first is not None and hop is not None:
                 first = hop if _lower(hop, first) else first
             elif _below(more.objs[0], basins.objs[0]):
-                first = hop  # the lowest pose now, over a limit (None) or not
+                first = hop  # the lowest pose now, refused unchecked (None) or not
         basins.merge(more)
     nit = basins.nit
-    if first is not None and first.check.ok:  # the limits do not bind there
+    if first is not None and first.check.ok:  # the rows do not bind there
         return first, nit, tried, True
-    best, nit_rows, settled = _from_basins(req, method, free, basins, FORCE_MU0, FORCE_COST_RTOL)
+    best, nit_rows, settled = _from_basins(req, method, free, basins, mu0, rtol)
     return best, nit + nit_rows, tried, settled
 
 
@@ -409,17 +434,20 @@ def _from_basins(
 
 
 def _clear_first_applies(req: Request, plan: StartPlan) -> bool:
-    """The planar structured default (no ``starts``, no ``x0``, below
-    :data:`stackik.solve.policy.ADAPTIVE_N`) of a problem with obstacle rows and neither
-    leg-force nor planar self-leg rows, with the FN or weighted objective:
-    :func:`_clear_first`. Obstacle-free solves (and those whose obstacles are too far
-    for rows) never take it."""
+    """The structured default (no ``starts``, no ``x0``; planar below
+    :data:`stackik.solve.policy.ADAPTIVE_N`, spatial: :attr:`StartPlan.spatial_default`)
+    of a problem with obstacle rows and neither leg-force nor planar self-leg rows (the
+    spatial self-leg rows are the compiled kernel's and stay), with the FN or weighted
+    objective: :func:`_clear_first`. Obstacle-free solves (and those whose obstacles are
+    too far for rows) never take it."""
     prob = req.problem
+    default = (
+        plan.starts is None and req.structured and req.stack.n < ADAPTIVE_N
+        if req.mode.planar
+        else plan.spatial_default
+    )
     return (
-        req.mode.planar
-        and plan.starts is None
-        and req.structured
-        and req.stack.n < ADAPTIVE_N
+        default
         and prob.clearance.obstacle_rows is not None
         and prob.forces is None
         and not prob.rows_outside_ip
@@ -430,37 +458,16 @@ def _clear_first_applies(req: Request, plan: StartPlan) -> bool:
 def _clear_first(
     req: Request, method: IPMethod, starts: list[FloatArray]
 ) -> tuple[Run | None, int, int, bool]:
-    """Planar default with obstacle rows: the batch without the obstacle rows (the
-    obstacle-free default's search). When its best pose is clear of the obstacles, it is
-    the answer. Otherwise runs with the obstacle rows start from those basins' minima,
-    lowest FN first, with the small initial barrier :data:`CLEAR_MU0`, for as long as a
-    basin's obstacle-free minimum is below the best clear FN so far (an obstacle only
-    raises a basin's minimum) and that FN is within :data:`CLEAR_COST_RTOL` of the
-    obstacle-free least; beyond it the pose is not settled and the caller runs the batch
-    with the obstacle rows from the plan's starts too (the better wins).
+    """Default with obstacle rows (planar or spatial): :func:`_rows_first` without the
+    obstacle rows, with the small initial barrier :data:`CLEAR_MU0` and the cost cap
+    :data:`CLEAR_COST_RTOL` (an obstacle only raises a basin's minimum). The same rule as
+    :func:`_free_first` for leg-force limits.
 
     Why (docs/clearance.md): with the obstacle rows from the plan's starts, the runs'
     paths bend away from a truss member into other basins; on 4 of 12 planar n = 4 truss
-    targets (seed 4290) none ended within 0.5 % of the best known. The same rule as
-    :func:`_free_first` for leg-force limits.
-
-    Returns the best clear run (None: none), the iterations, the starts that ran and
-    whether that run settles the solve."""
-    from stackik.methods.ip import ip_basins
-
-    prob = req.problem
-    free = prob.without_obstacle_rows()
-    left = req.time_left(time.perf_counter())
-    basins = ip_basins(free, starts, req.options, left)
-    tried = len(starts)
-    nit = basins.nit
-    if not basins.points:
-        return None, nit, tried, False
-    first = basins.run(free, 0, free.q_of(basins.points[0]))  # (planar: polished)
-    if first.check.ok:  # the obstacles do not bind there
-        return first, nit, tried, True
-    best, nit_rows, settled = _from_basins(req, method, free, basins, CLEAR_MU0, CLEAR_COST_RTOL)
-    return best, nit + nit_rows, tried, settled
+    targets (seed 4290) none ended within 0.5 % of the best known."""
+    free = req.problem.without_obstacle_rows()
+    return _rows_first(req, method, starts, free, CLEAR_MU0, CLEAR_COST_RTOL)
 
 
 def _over_limits(prob: Problem, q: FloatArray) -> bool:
