@@ -228,8 +228,9 @@ class Problem:
         """Whether the local engines first run without the self-leg rows: planar problems
         with them (:meth:`without_self_legs`; planar poses rarely bring two legs of a
         platform close, so a run that does not need the rows is the run on the problem
-        without them)."""
-        return self.planar and self.self_legs is not None
+        without them). The same rows as :attr:`rows_outside_ip`: the interior point does
+        not carry them either."""
+        return self.rows_outside_ip
 
     def without_self_legs(self) -> Problem:
         """This problem without its self-leg rows (same stack, target, load, obstacles and

@@ -361,7 +361,7 @@ SAME_BASIN_RTOL = 1e-7
 def ip_basins(
     prob: Problem, starts: list[FloatArray], options: dict[str, Any], max_time: float
 ) -> Basins:
-    """Interior-point runs (spatial) from every start in one compiled call, as starts for
+    """Interior-point runs from every start in one compiled call, as starts for
     other runs rather than answers: the end points of the runs within
     :data:`RANK_VIOLATION` of feasibility, one per basin (:class:`Basins`: the lowest of
     those whose objectives agree within :data:`SAME_BASIN_RTOL`). No point is polished or

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from stackik.check import FEAS_TOL, FORCE_TOL
+from stackik.check import FEAS_TOL, FORCE_TOL, pose_ok
 from stackik.methods import Method, Run, RunStatus, get_method
 from stackik.result import IKStatus
 from stackik.solve.nearest import (
@@ -185,18 +185,18 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         req.blas.apply()
     nit0 = tried0 = 0
     found: Run | None = None
-    if _free_first_applies(req, plan):
-        found, nit0, tried0, settled = _free_first(req, method, starts)
+    rule = (
+        _free_first if _free_first_applies(req, plan)
+        else _clear_first if _clear_first_applies(req, plan)
+        else None
+    )  # fmt: skip
+    if rule is not None:
+        found, nit0, tried0, settled = rule(req, method, starts)
         if settled:
             return Verdict(found, IKStatus.SUCCESS, nit0, tried0, "ip")
-        # no pose from the basins carries the load, or the limits cost more FN than
-        # FORCE_COST_RTOL: the batch with the force rows from the plan's starts too
-    elif _clear_first_applies(req, plan):
-        found, nit0, tried0, settled = _clear_first(req, method, starts)
-        if settled:
-            return Verdict(found, IKStatus.SUCCESS, nit0, tried0, "ip")
-        # no clear pose from the obstacle-free basins, or the obstacle costs more FN than
-        # CLEAR_COST_RTOL: the batch with the obstacle rows from the plan's starts too
+        # no pose from the basins passes, or the rows cost more FN than the rule's cap
+        # (FORCE_COST_RTOL, CLEAR_COST_RTOL): the batch with the rows from the plan's
+        # starts too
     first = plan.adaptive_first(req.structured, req.mode.planar, req.stack.n, len(starts))
     if first and not req.problem.rows_outside_ip:
         batch, n_run = _adaptive_batch(req, method, starts, first)
@@ -535,7 +535,6 @@ def _local_run(
     chk = run.check
     if chk.ok or chk.clearances is None:
         return run
-    from stackik.check import pose_ok
     from stackik.methods.ip import unconstrained_shortfall
 
     others = max(chk.max_violation_mm, unconstrained_shortfall(prob, chk))
