@@ -22,9 +22,7 @@ CLASS_ATTRIBUTES = 25
 #: Functions over their limit, as "module/path.py:qualified_name".
 FUNCTION_ALLOW: frozenset[str] = frozenset(
     {
-        # compiled barrier loops: another helper is rewriting them
-        "_compiled/planar.py:_ip_loop",
-        "_compiled/spatial.py:ip_loop",
+        # compiled path kernels (the barrier loop of both modes is one, _compiled/barrier.py)
         "_compiled/planar_path.py:_pc_kkt",
         "_compiled/planar_path.py:_pc_step",
         "_compiled/planar_path.py:ip_path",

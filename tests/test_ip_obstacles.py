@@ -85,7 +85,8 @@ def test_compiled_polish_corrects_slightly_violated_obstacle_rows() -> None:
     at the target; the limits it was on stay within the polish's reach of them (the
     polish corrects only the rows violated at each of its steps, so a limit active at the
     start may end a rounding below, as without obstacles) and the pose passes the check."""
-    from stackik._compiled.spatial import _evaluate_ip, polish
+    from stackik._compiled.barrier import polish
+    from stackik._compiled.spatial import _evaluate_ip
     from stackik.formulation import POLISH_MARGIN, POLISH_REACH
 
     t = _targets()[1]

@@ -106,7 +106,7 @@ def test_no_obstacle_rows_leave_the_kernel_data_empty() -> None:
 def test_compiled_polish_corrects_slightly_violated_obstacle_rows() -> None:
     """A planar pose a hair inside the obstacle's row is moved out of it by the compiled
     polish, at the target, and the pose passes the check."""
-    from stackik._compiled.planar import _polish
+    from stackik._compiled.barrier import polish
     from stackik.formulation import POLISH_MARGIN, POLISH_REACH
 
     t = _targets()[1]
@@ -121,7 +121,7 @@ def test_compiled_polish_corrects_slightly_violated_obstacle_rows() -> None:
     u0 = prob.u_of(q)
     cI0 = _evaluate_ip(u0, P)[4]
     assert -POLISH_REACH < cI0[24 * REF.n :].min() < 0.0
-    u1 = _polish(u0, P, 3, POLISH_REACH, POLISH_MARGIN)
+    u1 = polish(u0, P, 3, POLISH_REACH, POLISH_MARGIN)
     _, _, cE1, _, cI1, _ = _evaluate_ip(u1, P)
     assert cI1[24 * REF.n :].min() >= 0.0
     assert cI1.min() > -1e-3 * POLISH_REACH and np.abs(cE1).max() < 1e-13

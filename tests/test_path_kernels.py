@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from stackik._arrays import readonly
+from stackik._compiled import barrier as _barrier
 from stackik._compiled import core as _ip_core
 from stackik._compiled import path as _ip_paths
 from stackik._compiled import planar as _ipm
@@ -135,8 +136,8 @@ def test_ip_box_stays_in_its_box_and_ip_path_repeats_the_one_start_solve():
     u = prob.u_of(q0)
     for j in range(reached):
         Pj = problem_arrays(Problem(stack, pts[j + 1], "frobenius", None))
-        Xj = _ipm._ip_multi(np.atleast_2d(u), Pj, 1e-7, 1e-9, np.array([1e-3]), 300, 1e300,
-                            POLISH_REACH, POLISH_MARGIN)[0]  # fmt: skip
+        Xj = _barrier.ip_multi(np.atleast_2d(u), Pj, 1e-7, 1e-9, np.array([1e-3]), 300, 1e300,
+                              3, POLISH_REACH, POLISH_MARGIN)[0]  # fmt: skip
         np.testing.assert_array_equal(X[j], Xj[0])
         u = Xj[0]
     # a box around q0 for the next target: the converged solve lies inside it (an
@@ -148,8 +149,8 @@ def test_ip_box_stays_in_its_box_and_ip_path_repeats_the_one_start_solve():
     for half in (0.1, 0.02):
         box = half * np.array([1.0, 1.0, 3.0] * 4) / prob1.xs * prob1.xs[0]
         lo, hi = readonly(u0 - box), readonly(u0 + box)
-        x, st, _ = _ipm.ip_box(u0, problem_arrays(prob1), lo, hi, none, 0.0, 1e-7, 1e-9,
-                               1e-3, 300, POLISH_REACH, POLISH_MARGIN)  # fmt: skip
+        x, st, _ = _barrier.ip_box(u0, problem_arrays(prob1), lo, hi, none, 0.0, 1e-7, 1e-9,
+                                   1e-3, 300, POLISH_REACH, POLISH_MARGIN)  # fmt: skip
         if st == _ip_core.IP_SUCCESS:
             assert np.all(x >= lo - 1e-9) and np.all(x <= hi + 1e-9)
             walls.append(float(np.min(np.minimum(x - lo, hi - x))))
@@ -203,8 +204,8 @@ def test_ip_path_continuation_steps_are_verified_kkt_points_near_the_barrier_sol
         prob_j = Problem(stack, pts[j + 1], "frobenius", None)
         Pj = problem_arrays(prob_j)
         if how[j]:
-            Xj = _ipm._ip_multi(np.atleast_2d(u), Pj, 1e-7, 1e-9, np.array([1e-3]), 300,
-                                1e300, POLISH_REACH, POLISH_MARGIN)  # fmt: skip
+            Xj = _barrier.ip_multi(np.atleast_2d(u), Pj, 1e-7, 1e-9, np.array([1e-3]), 300,
+                                  1e300, 3, POLISH_REACH, POLISH_MARGIN)  # fmt: skip
             # where the barrier solve finds a pose (it may not: at n = 4, seed 5, one
             # step's barrier point violates a limit by 9 mm, where the continuation step
             # reaches a vertex of its limits, positive multipliers), the same local
@@ -393,7 +394,7 @@ def test_spatial_continuation_step_keeps_a_platform_in_a_corner_of_dependent_lim
     P = spatial_problem_arrays(prob)
     none = np.empty(0)
     u = readonly(prob.u_of(solve_ik(stack, t).q))
-    x, st, _, s, z, yE = _spatial_ipm.ip_loop(u, P, 1e-7, 1e-9, 1e-3, 300, 1e300, none, none,
+    x, st, _, s, z, yE = _barrier.ip_loop(u, P, 1e-7, 1e-9, 1e-3, 300, 1e300, none, none,
                                               none, 0.0)  # fmt: skip
     assert st == _ip_core.IP_SUCCESS
     act = z > s
@@ -424,7 +425,7 @@ def test_spatial_continuation_step_budget_and_early_exit():
     prob = Problem(stack, pts[0], "frobenius", None)
     P = spatial_problem_arrays(prob)
     u = readonly(prob.u_of(solve_ik(stack, pts[0]).q))
-    x, st, _, s, z, yE = _spatial_ipm.ip_loop(u, P, 1e-7, 1e-9, 1e-3, 300, 1e300, none, none,
+    x, st, _, s, z, yE = _barrier.ip_loop(u, P, 1e-7, 1e-9, 1e-3, 300, 1e300, none, none,
                                               none, 0.0)  # fmt: skip
     assert st == _ip_core.IP_SUCCESS
     out = []
@@ -491,7 +492,7 @@ def test_spatial_ip_path_steps_are_checked_and_deterministic():
     for j in range(reached):
         Pj = spatial_problem_arrays(Problem(stack, pts[j + 1], "frobenius", None))
         if how[j]:
-            x = _spatial_ipm.ip_loop(readonly(u), Pj, 1e-7, 1e-9, 1e-3, 300, 1e300, none, none,
+            x = _barrier.ip_loop(readonly(u), Pj, 1e-7, 1e-9, 1e-3, 300, 1e300, none, none,
                                      none, 0.0)[0]  # fmt: skip
             f_ip = _spatial_ipm.evaluate(x, Pj)[0]
             f_pc = _spatial_ipm.evaluate(X[j], Pj)[0]

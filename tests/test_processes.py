@@ -27,14 +27,17 @@ def _spatial_target() -> sk.SpatialTarget:
 
 def _solve_in_worker(payload: bytes) -> dict:
     """Runs in a fresh (spawned) process: unpickle a used stack, solve, report."""
+    from stackik._compiled import barrier as _barrier
     from stackik._compiled import check as _check
-    from stackik._compiled import planar as _ipm
 
     stack, target = pickle.loads(payload)
     r = sk.solve_ik(stack, target)
     out = {"q": r.q, "status": r.status.value, "time": r.time}
     if isinstance(target, sk.PlanarTarget):
-        out["signatures"] = (len(_ipm._ip_multi.signatures), len(_check._planar_check.signatures))
+        out["signatures"] = (
+            len(_barrier.ip_multi.signatures),
+            len(_check._planar_check.signatures),
+        )
     else:
         from stackik._compiled import spatial_kinematics as _spatial
 
@@ -83,8 +86,8 @@ def _path_kernels_in_fresh_process() -> dict:
     """Runs in a fresh (spawned) process: load the kernels as a path's solve does before
     its clock, then run every compiled call of a path (boxed and transit steps, planar and
     spatial, both modes); report the kernels that got a new specialisation after that."""
+    from stackik._compiled import barrier, core, linalg, path, planar_path, spatial_path
     from stackik._compiled import check as _check
-    from stackik._compiled import core, linalg, path, planar_path, spatial_path
     from stackik._compiled import planar as _ipm
     from stackik._compiled import spatial as _spatial_ipm
     from stackik._compiled import spatial_kinematics as _spatial
@@ -92,7 +95,8 @@ def _path_kernels_in_fresh_process() -> dict:
     from stackik.solve.warmup import warm_up
 
     warm_up()
-    mods = (_ipm, _spatial_ipm, _check, _spatial, core, linalg, path, planar_path, spatial_path)
+    mods = (_ipm, _spatial_ipm, _check, _spatial, core, linalg, path, planar_path, spatial_path,
+            barrier)  # fmt: skip
 
     def count() -> dict[str, int]:
         return {f"{m.__name__}.{k}": len(v.signatures) for m in mods

@@ -28,7 +28,7 @@ warnings.filterwarnings(
     "ignore", message="Code running in object mode won't allow parallel execution"
 )
 
-#: The multi-start kernels (planar ``_ip_multi``, spatial ``ip_multi``) stop when their
+#: The multi-start kernel (:func:`stackik._compiled.barrier.ip_multi`) stops when its
 #: first GIVE_UP_AFTER starts all end farther than GIVE_UP_VIOLATION (scaled) from
 #: feasibility: an unreachable target is then reported by the SQP fallback in a fraction
 #: of the time the remaining starts would take.

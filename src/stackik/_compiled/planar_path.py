@@ -1,6 +1,7 @@
 """Compiled path kernels for planar targets: the continuation (predictor-corrector) step
 and many warm steps along a run of targets in one call (:func:`ip_path`), on the planar
-evaluation and barrier method of :mod:`stackik._compiled.planar`.
+evaluation of :mod:`stackik._compiled.planar` and the barrier method of
+:mod:`stackik._compiled.barrier`.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from stackik._compiled.barrier import ip_loop, polish, polished
 from stackik._compiled.core import IP_NONFINITE, IP_SUCCESS, OBJ_MAX_GRAD, _finite, _jit
 from stackik._compiled.linalg import _AIT_dot, _lu_solve, min_norm_solve
 from stackik._compiled.path import (
@@ -27,10 +29,7 @@ from stackik._compiled.planar import (
     _AET_dot,
     _evaluate,
     _evaluate_ip,
-    _ip_loop,
     _lagrangian_hessian,
-    _polish,
-    _polished,
     _with_fscale,
     _with_target,
 )
@@ -312,9 +311,9 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     change, times the change); the next ones correct.
 
     Converged when the stationarity error and the complementarity ``c_A zA`` (scaled as
-    :func:`_ip_loop` scales them, objective scaling included) are within ``tol`` and
+    :func:`ip_loop` scales them, objective scaling included) are within ``tol`` and
     the equality and active-limit residuals within ``min(constr_tol, PC_PRIMAL_TOL)``
-    (:func:`_ip_loop`'s termination test, the residuals tighter so that the polish has
+    (:func:`ip_loop`'s termination test, the residuals tighter so that the polish has
     nothing left to move). A converged point releases the limit with the most negative
     multiplier, or else adds the other limits that it violates or nearly meets (closer
     than ``PC_OFFSET / 2``), and Newton goes on: at most ``max_changes`` changes and
@@ -489,7 +488,7 @@ def _ls_state(x: FloatArray, P: Any) -> tuple[FloatArray, FloatArray, FloatArray
     """A continuation step's start state at a point that has none: the limits within
     PC_ACTIVE_GUESS of their bound as the active set and the least-squares multipliers of
     the equalities and those limits (``min |g - AE^T yE - AA^T zA|``; multipliers of
-    ``P``'s problem, as :func:`_ip_loop` returns them). The target enters only ``c_E``:
+    ``P``'s problem, as :func:`ip_loop` returns them). The target enters only ``c_E``:
     any target's ``P`` gives the same state. :func:`_pc_step` verifies its result."""
     f, g, cE, AE, cI, D = _evaluate(x, P)
     m = cI.size
@@ -530,11 +529,12 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
     """Warm-started steps along targets ``(m, 3)`` (raw rho, z, theta), each from the
     previous point (the first from ``u0``).
 
-    With ``pc`` False every step is :func:`_ip_loop` with initial barrier ``mu0`` and
-    :func:`_polish`, exactly as :func:`_ip_multi` with that one start. With ``pc`` True a
-    step is first the predictor-corrector step (:func:`_pc_step`: the previous
-    solution's multipliers and active set carried, Newton correctors, verified as a KKT
-    point), polished and tested as below; when it is not verified or fails the test, the
+    With ``pc`` False every step is :func:`ip_loop` with initial barrier ``mu0`` and
+    :func:`polish`, exactly as :func:`stackik._compiled.barrier.ip_multi` with that one
+    start. With ``pc`` True a step is first the predictor-corrector step
+    (:func:`_pc_step`: the previous solution's multipliers and active set carried, Newton
+    correctors, verified as a KKT point), polished and tested as below; when it is not
+    verified or fails the test, the
     step is the barrier solve as without ``pc`` (whose final multipliers and active set,
     ``z > s``, the next step carries). A point without multipliers (``u0`` without a
     carried state, or a barrier solve that did not converge) gets them from
@@ -635,10 +635,10 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
                 # the polish and test of a barrier step; the step's own constraint
                 # values at xn when the polish would not move it (they have the block
                 # rows only: with dense rows, the polish and test see them too)
-                if P.n_dense == 0 and _polished(cEn, cIn, reach):
+                if P.n_dense == 0 and polished(cEn, cIn, reach):
                     good = _reaches_at(xn, x, cEn, cIn, es, jump, pos_tol, ang_tol)
                 else:
-                    xn = _polish(xn, P, 3, reach, margin)
+                    xn = polish(xn, P, 3, reach, margin)
                     good = _reaches(xn, x, P, jump, pos_tol, ang_tol)
                 if good:
                     X[k] = xn
@@ -649,14 +649,14 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
                     x, yE, z, active, have = xn, yE1, z1, act1, True
                     pcrun += 1
                     continue
-        xn, st, _, s1, z1, yE1 = _ip_loop(
+        xn, st, _, s1, z1, yE1 = ip_loop(
             x, P, tol, constr_tol, mu0, max_iter, 1e300, none, none, none, 0.0
         )
         if st == IP_NONFINITE or not _finite(xn):
             hist = _hist(known, cur_ok, xprev, yprev, ycur, known2, x2, y2, pcrun, yEp, zp,
                          actp, yE2, z2, act2)  # fmt: skip
             return X, k, how, yE, z, active, have, hist
-        xn = _polish(xn, P, 3, reach, margin)
+        xn = polish(xn, P, 3, reach, margin)
         f, g, cE, AE, cI, _ = _evaluate_ip(xn, P, none, none, none, 0.0)
         if not _reaches_at(xn, x, cE, cI, es, jump, pos_tol, ang_tol):
             if _reaches_at(xn, x, cE, cI, es, far, pos_tol, ang_tol):

@@ -1,5 +1,5 @@
-"""Compiled primal-dual interior point for the spatial IK problem, with exact second
-derivatives.
+"""The spatial IK problem for the compiled interior point: evaluation with exact second
+derivatives, the KKT step, and their registration with the barrier method.
 
 The spatial problem of :class:`stackik.formulation.Problem` (scaled variables
 ``u = q / xs``, pose rows ``[x, y, z, yaw, pitch, roll]``, ``R = Rz Ry Rx``):
@@ -8,10 +8,11 @@ The spatial problem of :class:`stackik.formulation.Problem` (scaled variables
     s.t. c_E(u) = 0   (end-effector position / L, and the orientation, 6 rows)
          c_I(u) >= 0  (24 n limits, scaled by ``cs``)
 
-is solved by the barrier method of :mod:`stackik._compiled.planar` (IPOPT-like: slacks,
-Fiacco-McCormick ``mu``, Newton steps on the perturbed KKT conditions with inertia correction,
-fraction to the boundary, filter line search), here with a null-space KKT solve through the SVD of
-the 6 x 6n equality Jacobian. The orientation rows are the skew part
+is solved by the barrier method of :mod:`stackik._compiled.barrier` (IPOPT-like: slacks,
+Fiacco-McCormick ``mu``, Newton steps on the perturbed KKT conditions with inertia
+correction, fraction to the boundary, filter line search) through the functions this module
+registers (:mod:`stackik._compiled.kernel`), here with a null-space KKT solve through the
+SVD of the 6 x 6n equality Jacobian. The orientation rows are the skew part
 ``vee(E - E^T) / 2 = sin(angle) axis`` of ``E = R_target^T R_ee``: smooth everywhere and
 equal to the rotation vector to third order at ``E = I``, so the KKT points with ``E = I``
 are those of the rotation-vector form :class:`Problem` uses (the caller polishes with that
@@ -39,27 +40,12 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from stackik._compiled import kernel
 from stackik._compiled.core import (
-    GIVE_UP_AFTER,
-    GIVE_UP_VIOLATION,
-    IP_MAX_ITER,
-    IP_MAX_TIME,
-    IP_NONFINITE,
-    IP_SKIPPED,
-    IP_STALLED,
-    IP_SUCCESS,
-    OBJ_MAX_GRAD,
     _jit,
     _limit_rows,
-    _now,
 )
 from stackik._compiled.dense_rows import (
-    AI_dot,
-    AIT_dot,
-    add_normal,
-    block_part,
-    force_sr1,
-    ineq_row,
     with_dense_rows,
 )
 from stackik._compiled.linalg import (
@@ -67,7 +53,6 @@ from stackik._compiled.linalg import (
     _cholesky,
     _mm3,
     _solve6,
-    min_norm_solve,
 )
 from stackik._compiled.self_legs import self_leg_hessians, self_leg_rows
 from stackik._compiled.spatial_kinematics import spatial_parts
@@ -612,7 +597,7 @@ def _ls_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArr
 
 
 # =========================================================================================
-# The barrier method (as stackik._compiled.planar._ip_loop, 6 equalities, 6 x 6 limit blocks)
+# The problem data with another objective scale or target
 # =========================================================================================
 @_jit
 def _with_fscale(P0: Any, fscale: float) -> Any:
@@ -632,262 +617,49 @@ def _with_target(P0: Any, position: Any, rotation: Any) -> Any:
                        P0.ob_margin, P0.ob_L, P0.forces, P0.n_dense)  # fmt: skip
 
 
+# =========================================================================================
+# The barrier method's kernel interface (stackik._compiled.kernel; the loop: barrier.py)
+# =========================================================================================
 @_jit
-def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
-            max_iter: int, deadline: float, lo: FloatArray, hi: FloatArray, ug: FloatArray,
-            wq: float) -> tuple[Any, ...]:  # fmt: skip
-    """The barrier method from ``u0``; ``lo``/``hi`` (empty: none) add a box and ``wq``
-    a distance term (:func:`_evaluate_ext`). Returns the point, the status, the
-    iteration count and the final slacks ``s`` and multipliers ``z``, ``yE`` (of the
-    problem as ``P0`` states it, without the loop's objective scaling; a continuation
-    step starts from them, :func:`stackik._compiled.spatial_path._pc_step`)."""
-    x = u0.copy()
-    f, g, cE, AE, cI, AI, parts = _evaluate_ip(x, P0, lo, hi, ug, wq)
-    m = cI.size  # rows a platform (24 limits, the self-leg rows, a box's 12), dense rows
-    if not (np.all(np.isfinite(cI)) and np.all(np.isfinite(cE)) and math.isfinite(f)):
-        return x, IP_NONFINITE, 0, cI, np.ones(m), np.zeros(6)
-    gmax = np.abs(g).max()
-    fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
-    P = _with_fscale(P0, P0.fscale / fs)
-    f, g = f * fs, g * fs
-    wq = wq * fs
-    mu = mu0
-    mu_min = min(tol, constr_tol) / 10.0
-    s = np.maximum(cI, 1e-2)
-    z = np.ones(m)
-    yE = _ls_multipliers(AE, g, AIT_dot(AI, z))
-    last_shift = 0.0
-    logsum = np.log(s).sum()
-    logsum_t = logsum
-    theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
-    theta_max = 1e4 * max(1.0, theta0)
-    theta_min = 1e-4 * max(1.0, theta0)
-    filt = np.empty((max_iter + 1, 2))
-    nfilt = 0
-    status = IP_MAX_ITER
-    fails = 0
-    it = 0
-    # the leg-force rows' curvature (the last n_force dense rows): an SR1 estimate
-    n_force = 12 * P0.forces[9].size
-    N = x.size
-    B = np.zeros((N, N)) if n_force > 0 else np.zeros((0, 0))
-    for it in range(max_iter):
-        if it % 8 == 7 and _now() > deadline:
-            status = IP_MAX_TIME
-            break
-        AEty = AE.T @ yE
-        AItz = AIT_dot(AI, z)
-        sd_acc = np.abs(yE).sum() + np.abs(z).sum()
-        sd = max(100.0, sd_acc / (m + 6)) / 100.0
-        e_du = np.abs(g - AEty - AItz).max() / sd
-        e_pr = np.abs(cE).max()
-        comp = 0.0
-        for r in range(m):
-            e_pr = max(e_pr, abs(cI[r] - s[r]))
-            comp = max(comp, abs(s[r] * z[r]))
-        if max(e_du, comp / sd) <= tol and e_pr <= constr_tol:
-            status = IP_SUCCESS
-            break
-        while mu > mu_min:
-            comp_mu = 0.0
-            for r in range(m):
-                comp_mu = max(comp_mu, abs(s[r] * z[r] - mu))
-            e_mu = max(e_du, max(comp_mu / sd, e_pr))
-            if e_mu > 10.0 * mu:
-                break
-            mu = max(mu_min, min(0.2 * mu, mu**1.5))
-            nfilt = 0
-        W = _hessian_ext(parts, yE, block_part(z, AI), P, wq)
-        if not (np.all(np.isfinite(W)) and np.all(np.isfinite(g)) and np.all(np.isfinite(AE))):
-            status = IP_NONFINITE
-            break
-        if n_force > 0:
-            for a in range(N):
-                for b in range(N):
-                    W[a, b] += B[a, b]
-        Sig = z / s
-        add_normal(W, AI, Sig)
-        v = np.empty(m)
-        for r in range(m):
-            v[r] = mu / s[r] - Sig[r] * (cI[r] - s[r])
-        rhs = -g + AEty + AIT_dot(AI, v)
-        dx, shift = _kkt_step(W, AE, cE, rhs, last_shift)
-        if not np.all(np.isfinite(dx)):
-            status = IP_NONFINITE
-            break
-        if shift > 0.0:
-            last_shift = shift
-        AIdx = AI_dot(AI, dx)
-        ds = np.empty(m)
-        dz = np.empty(m)
-        for r in range(m):
-            ds[r] = AIdx[r] + cI[r] - s[r]
-            dz[r] = -z[r] + mu / s[r] - Sig[r] * ds[r]
-        tau = max(0.99, 1.0 - mu)
-        a_s = 1.0
-        a_z = 1.0
-        for r in range(m):
-            if ds[r] < 0.0:
-                a_s = min(a_s, -tau * s[r] / ds[r])
-            if dz[r] < 0.0:
-                a_z = min(a_z, -tau * z[r] / dz[r])
-        theta = np.abs(cE).sum()
-        dsum = 0.0
-        for r in range(m):
-            theta += abs(cI[r] - s[r])
-            dsum += ds[r] / s[r]
-        gdx = g @ dx
-        phi = f - mu * logsum
-        gphi = gdx - mu * dsum
-        alpha = a_s
-        accepted = False
-        ftype = False
-        st = s.copy()
-        ft, gt, cEt, AEt, cIt, AI_t, parts_t = f, g, cE, AE, cI, AI, parts
-        xt = x
-        for _ in range(40):
-            xt = x + alpha * dx
-            st = s + alpha * ds
-            ft, gt, cEt, AEt, cIt, AI_t, parts_t = _evaluate_ip(xt, P, lo, hi, ug, wq)
-            theta_t = np.abs(cEt).sum()
-            logsum_t = 0.0
-            for r in range(m):
-                theta_t += abs(cIt[r] - st[r])
-                logsum_t += math.log(st[r])
-            if math.isfinite(ft) and math.isfinite(theta_t):
-                phi_t = ft - mu * logsum_t
-                ok = theta_t <= theta_max
-                for j in range(nfilt):
-                    if theta_t >= filt[j, 0] and phi_t >= filt[j, 1]:
-                        ok = False
-                        break
-                if ok:
-                    switching = gphi < 0.0 and alpha * (-gphi) ** 2.3 > theta**1.1
-                    if switching and theta <= theta_min:
-                        if phi_t <= phi + 1e-4 * alpha * gphi + 1e-14 * abs(phi):
-                            accepted = True
-                            ftype = True
-                    elif theta_t <= (1.0 - 1e-5) * theta or phi_t <= phi - 1e-8 * theta:
-                        accepted = True
-                    elif switching and phi_t <= phi + 1e-4 * alpha * gphi + 1e-14 * abs(phi):
-                        accepted = True
-                        ftype = True
-                if accepted:
-                    break
-            alpha *= 0.5
-            if alpha < 1e-12:
-                break
-        if accepted and not ftype and nfilt < filt.shape[0]:
-            filt[nfilt, 0] = (1.0 - 1e-5) * theta
-            filt[nfilt, 1] = phi - 1e-8 * theta
-            nfilt += 1
-        if not accepted:
-            fails += 1
-            if fails >= 3:
-                status = IP_STALLED
-                break
-            nfilt = 0
-            alpha = min(alpha, 1e-8)
-            xt = x + alpha * dx
-            st = s + alpha * ds
-            ft, gt, cEt, AEt, cIt, AI_t, parts_t = _evaluate_ip(xt, P, lo, hi, ug, wq)
-            if not (math.isfinite(ft) and np.all(np.isfinite(cIt))):
-                status = IP_NONFINITE
-                break
-        else:
-            fails = 0
-        x = xt
-        s = st
-        logsum = logsum_t if accepted else np.log(s).sum()
-        for r in range(m):
-            if cIt[r] > s[r]:
-                logsum += math.log(cIt[r]) - math.log(s[r])
-                s[r] = cIt[r]
-            zr = z[r] + a_z * dz[r]
-            z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
-        if n_force > 0:
-            force_sr1(B, alpha * dx, AI[1], AI_t[1], z, n_force)
-        f, g, cE, AE, cI, AI, parts = ft, gt, cEt, AEt, cIt, AI_t, parts_t
-        yE = _ls_multipliers(AE, g, AIT_dot(AI, z))
-    return x, status, it + 1 if status != IP_SUCCESS else it, s, z / fs, yE / fs
+def _kernel_evaluate(P: Any, u: FloatArray, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+                     wq: float) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`_evaluate_ip`, its kinematic parts for the Hessian last."""
+    return _evaluate_ip(u, P, lo, hi, ug, wq)
 
 
 @_jit
-def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatArray,
-             max_iter: int, deadline: float) -> tuple[Any, ...]:  # fmt: skip
-    """:func:`ip_loop` from each row of ``U0``: points, statuses, iterations, scaled
-    objective values and worst scaled violations (for ranking; the caller polishes and
-    re-checks)."""
-    k, N = U0.shape
-    X = np.empty((k, N))
-    status = np.full(k, IP_SKIPPED)
-    nit = np.zeros(k, dtype=np.int64)
-    obj = np.full(k, np.inf)
-    viol = np.full(k, np.inf)
-    none = np.empty(0)
-    for j in range(k):
-        X[j] = U0[j]
-        if j > 0 and _now() > deadline:
-            break
-        x, st, it, _, _, _ = ip_loop(
-            U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline, none, none, none, 0.0
-        )
-        if st == IP_NONFINITE or not np.all(np.isfinite(x)):
-            x = U0[j].copy()
-        X[j] = x
-        status[j] = st
-        nit[j] = it
-        f, g, cE, AE, cI, _, _ = _evaluate_ip(x, P, none, none, none, 0.0)
-        obj[j] = f
-        viol[j] = max(np.abs(cE).max(), max(0.0, -cI.min()))
-        if j + 1 == GIVE_UP_AFTER and viol[: j + 1].min() > GIVE_UP_VIOLATION:
-            break
-    return X, status, nit, obj, viol
+def _kernel_hessian(P: Any, parts: Any, yE: FloatArray, z: FloatArray,
+                    wq: float) -> FloatArray:  # fmt: skip
+    """:func:`_hessian_ext` from the kinematic parts."""
+    return _hessian_ext(parts, yE, z, P, wq)
 
 
 @_jit
-def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray, wq: float,
-           tol: float, constr_tol: float, mu0: float,
-           max_iter: int) -> tuple[FloatArray, int, int]:  # fmt: skip
-    """One barrier solve of a path step inside the box ``lo <= u <= hi`` (scaled) with
-    ``wq |u - ug|^2`` added to the objective (``wq = 0``: none). Returns the point, the
-    status and the iteration count; the caller polishes and checks the pose."""
-    # copies: the barrier loop sees writable arrays whatever the caller passes, as from
-    # ip_multi (one compiled specialisation of the loop, not one per array flag)
-    x, st, it, _, _, _ = ip_loop(u0.copy(), P, tol, constr_tol, mu0, max_iter, 1e300,
-                                 lo.copy(), hi.copy(), ug.copy(), wq)  # fmt: skip
-    if st == IP_NONFINITE or not np.all(np.isfinite(x)):
-        return u0.copy(), IP_NONFINITE, it
-    return x, st, it
+def _kernel_kkt_step(P: Any, W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
+                     last_shift: float) -> tuple[FloatArray, float]:  # fmt: skip
+    """:func:`_kkt_step`."""
+    return _kkt_step(W, AE, cE, rhs, last_shift)
 
 
 @_jit
-def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> FloatArray:
-    """:func:`stackik.formulation.polish` compiled: min-norm Newton corrections of the
-    end-effector equalities and of the limits violated by less than ``reach`` (scaled),
-    put at ``margin``; the dense rows too (:mod:`stackik._compiled.dense_rows`)."""
-    n = P.top.shape[0]
-    N = 6 * n
-    none = np.empty(0)
-    for _ in range(iters):
-        f, g, cE, AE, cI, AI, _ = _evaluate_ip(u, P, none, none, none, 0.0)
-        nv = 0
-        for r in range(cI.size):
-            if -reach < cI[r] < 0.0:
-                nv += 1
-        if np.abs(cE).max() < 1e-13 and nv == 0:
-            break
-        A = np.zeros((6 + nv, N))
-        rr = np.empty(6 + nv)
-        A[:6] = AE
-        rr[:6] = cE
-        k = 6
-        for r in range(cI.size):
-            if -reach < cI[r] < 0.0:
-                ineq_row(AI, r, A[k])
-                rr[k] = cI[r] - margin
-                k += 1
-        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(rr))):
-            break
-        u = u - min_norm_solve(A, rr)
-    return u
+def _kernel_eq_multipliers(P: Any, AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArray:
+    """:func:`_ls_multipliers`."""
+    return _ls_multipliers(AE, g, AItz)
+
+
+@_jit
+def _kernel_eq_transpose_dot(P: Any, AE: FloatArray, y: FloatArray) -> FloatArray:
+    """``AE^T y`` by BLAS (the (6, N) equality Jacobian)."""
+    return AE.T @ y
+
+
+kernel.register(
+    SpatialData,
+    evaluate=_kernel_evaluate,
+    hessian=_kernel_hessian,
+    kkt_step=_kernel_kkt_step,
+    eq_multipliers=_kernel_eq_multipliers,
+    eq_transpose_dot=_kernel_eq_transpose_dot,
+    with_fscale=_with_fscale,
+    clock_period=8,  # an iteration costs ~0.1-0.6 ms at n = 4-16
+)

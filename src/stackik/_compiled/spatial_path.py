@@ -1,6 +1,7 @@
 """Compiled path kernels for spatial targets: :mod:`stackik._compiled.planar_path`'s
 continuation step and run of warm steps (:func:`ip_path`) on the spatial evaluation and
-barrier method of :mod:`stackik._compiled.spatial` (6 variables a platform).
+barrier method of :mod:`stackik._compiled.barrier` on the spatial evaluation of
+:mod:`stackik._compiled.spatial` (6 variables a platform).
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from stackik._compiled.barrier import ip_loop, polish
 from stackik._compiled.core import IP_NONFINITE, IP_SUCCESS, OBJ_MAX_GRAD, _jit
 from stackik._compiled.linalg import _AIT_dot
 from stackik._compiled.path import (
@@ -28,9 +30,7 @@ from stackik._compiled.spatial import (
     _with_fscale,
     _with_target,
     evaluate,
-    ip_loop,
     lagrangian_hessian,
-    polish,
 )
 
 FloatArray = Any

@@ -40,7 +40,7 @@ __all__ = [
 
 
 def spatial_problem_arrays(prob: Any) -> SpatialData:
-    """The arrays :func:`stackik._compiled.spatial.ip_loop` needs, named, from a spatial
+    """The arrays :func:`stackik._compiled.barrier.ip_loop` needs, named, from a spatial
     :class:`~stackik.formulation.Problem` (every array read-only)."""
     from stackik._compiled.spatial import SpatialData
     from stackik.formulation.clearance import NO_PAIRS
@@ -79,7 +79,7 @@ def spatial_problem_arrays(prob: Any) -> SpatialData:
 
 
 def problem_arrays(prob: Any) -> PlanarData:
-    """The arrays :func:`stackik._compiled.planar._ip_loop` needs, named, from a planar
+    """The arrays :func:`stackik._compiled.barrier.ip_loop` needs, named, from a planar
     :class:`~stackik.formulation.Problem`; every array read-only
     (:func:`stackik._arrays.readonly`: one compiled specialisation, whatever the source)."""
     fast = prob.fast
@@ -176,43 +176,31 @@ def ip_multi(
 
     ``mu0``: initial barrier parameter per start (default ``options["mu0"]`` for all).
 
-    Returns ``(X, statuses, nits, objective values, violations)`` (see :func:`_ip_multi`);
-    statuses as strings.
+    Returns ``(X, statuses, nits, objective values, violations)`` (see
+    :func:`stackik._compiled.barrier.ip_multi`); statuses as strings.
     """
     opts = _ip_options(options)
     deadline = time.perf_counter() + float(opts["max_time"])
     U = np.ascontiguousarray(np.atleast_2d(U0), dtype=float)
     mus = np.full(U.shape[0], float(opts["mu0"])) if mu0 is None else np.asarray(mu0, float)
-    if not prob.planar:  # the spatial kernels; the polish is the caller's (Problem's form)
-        from stackik._compiled import core as _ip_core
-        from stackik._compiled import spatial as _spatial_ipm
+    from stackik._compiled import barrier  # numba: imported when first needed
+    from stackik._compiled.core import IP_STATUS
 
-        X, st, nit, obj, viol = _spatial_ipm.ip_multi(
-            U,
-            spatial_problem_arrays(prob),
-            float(opts["tol"]),
-            float(opts["constr_tol"]),
-            np.ascontiguousarray(mus),
-            int(opts["max_iter"]),
-            deadline if math.isfinite(deadline) else 1e300,
-        )
-        return X, [_ip_core.IP_STATUS[int(s)] for s in st], nit, obj, viol
-    P = problem_arrays(prob)
-    from stackik._compiled import core as _ip_core
-    from stackik._compiled import planar as _ipm  # numba: imported when first needed
-
-    X, st, nit, obj, viol = _ipm._ip_multi(
+    # the planar runs are polished in the kernel; the spatial ones by the caller
+    # (Problem's form of the polish)
+    X, st, nit, obj, viol = barrier.ip_multi(
         U,
-        P,
+        problem_arrays(prob) if prob.planar else spatial_problem_arrays(prob),
         float(opts["tol"]),
         float(opts["constr_tol"]),
         np.ascontiguousarray(mus),
         int(opts["max_iter"]),
         deadline if math.isfinite(deadline) else 1e300,
+        3 if prob.planar else 0,
         POLISH_REACH,
         POLISH_MARGIN,
     )
-    return X, [_ip_core.IP_STATUS[int(s)] for s in st], nit, obj, viol
+    return X, [IP_STATUS[int(s)] for s in st], nit, obj, viol
 
 
 @dataclass

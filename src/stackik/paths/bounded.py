@@ -101,8 +101,8 @@ def bounded_ip(
     load: Any = None,
 ) -> FloatArray | None:
     """:func:`bounded_step`'s problem (the same objective, box and transit objective) on
-    the compiled interior point (:func:`stackik._compiled.planar.ip_box`,
-    :func:`stackik._compiled.spatial.ip_box`, exact Hessians) instead of the SQP engine: a few
+    the compiled interior point (:func:`stackik._compiled.barrier.ip_box`, exact Hessians,
+    then the compiled polish) instead of the SQP engine: a few
     hundred microseconds instead of tens of milliseconds. Starts at ``q_prev``, the
     centre of the box. Returns the pose (polished) or None when the solver failed; the
     caller checks it."""
@@ -123,20 +123,11 @@ def bounded_ip(
     tol, ctol = float(IP_DEFAULTS["tol"]), float(IP_DEFAULTS["constr_tol"])
     max_iter = int(IP_DEFAULTS["max_iter"])
     try:
-        if prob.planar:
-            from stackik._compiled import planar as _ipm
+        from stackik._compiled import barrier
 
-            P = P._replace(fscale=P.fscale * f0)
-            u, st, _ = _ipm.ip_box(u0, P, lo, hi, ug, wq, tol, ctol, IP_BOX_MU0, max_iter,
-                                   POLISH_REACH, POLISH_MARGIN)  # fmt: skip
-        else:
-            from stackik._compiled import spatial as _spatial_ipm
-
-            P = P._replace(fscale=P.fscale * f0)
-            u, st, _ = _spatial_ipm.ip_box(u0, P, lo, hi, ug, wq, tol, ctol, IP_BOX_MU0,
-                                           max_iter)  # fmt: skip
-            # the compiled polish (the continuation's; ~20 us, the Problem's ~0.5 ms)
-            u = _spatial_ipm.polish(u, P, 3, POLISH_REACH, POLISH_MARGIN)
+        P = P._replace(fscale=P.fscale * f0)
+        u, st, _ = barrier.ip_box(u0, P, lo, hi, ug, wq, tol, ctol, IP_BOX_MU0, max_iter,
+                                  POLISH_REACH, POLISH_MARGIN)  # fmt: skip
     except (ValueError, np.linalg.LinAlgError):
         return None
     if st == _IP_NONFINITE or not np.all(np.isfinite(u)):

@@ -14,7 +14,7 @@ the cache (the interior point's object-mode clock) and creates the BLAS controll
 that a first solve after it pays nothing a later one does not.
 
 A compilation shows its progress on stderr, per kernel family: on a terminal a bar that
-ticks per entry point compiled (``stackik: planar kernels 3/8 [00:41, _ip_loop]``: the
+ticks per entry point compiled (``stackik: planar kernels 3/8 [00:41, ip_loop]``: the
 elapsed time and the function numba compiles now); otherwise (a log, a pipe) one line
 when it starts and one when it ends, with the seconds it took.
 """
@@ -41,15 +41,18 @@ _LOCK = threading.Lock()
 
 def _dispatchers(kind: str) -> list[Any]:
     if kind == "planar":
+        from stackik._compiled import barrier as _barrier
         from stackik._compiled import check as _check
         from stackik._compiled import planar as _ipm
         from stackik._compiled import planar_path as _ipm_path
 
-        return [_ipm._ip_multi, _ipm.ip_box, _ipm_path.ip_path, _ipm._evaluate,
+        return [_barrier.ip_multi, _barrier.ip_box, _ipm_path.ip_path, _ipm._evaluate,
                 _ipm._lagrangian_hessian, _check._planar_check,
                 _check._planar_check_many, _check._planar_path_arrays]  # fmt: skip
     # (the obstacle and force rows and the check's body distances, shared by both modes,
-    # are spatial entry points; the planar warm-up runs them too)
+    # are spatial entry points; the planar warm-up runs them too; the barrier method's
+    # entry points are both modes', compiled once for each)
+    from stackik._compiled import barrier as _barrier
     from stackik._compiled import body_distances as _body
     from stackik._compiled import check as _check
     from stackik._compiled import force_rows as _force_rows
@@ -59,9 +62,9 @@ def _dispatchers(kind: str) -> list[Any]:
     from stackik._compiled import spatial_kinematics as _spatial
     from stackik._compiled import spatial_path as _spatial_ipm_path
 
-    return [_spatial.spatial_parts, _spatial.block_jacobian, _spatial_ipm.ip_multi,
-            _spatial_ipm.ip_box, _spatial_ipm_path.ip_path, _spatial_ipm.evaluate,
-            _spatial_ipm.polish, _spatial_ipm.lagrangian_hessian, _check._spatial_check,
+    return [_spatial.spatial_parts, _spatial.block_jacobian, _barrier.ip_multi,
+            _barrier.ip_box, _spatial_ipm_path.ip_path, _spatial_ipm.evaluate,
+            _barrier.polish, _spatial_ipm.lagrangian_hessian, _check._spatial_check,
             _check._spatial_check_many, _self_legs.self_leg_block,
             _obstacle_rows.obstacle_rows, _force_rows.force_rows, _body.body_clearances,
             _force_rows.leg_force_jacobian]  # fmt: skip
@@ -111,9 +114,8 @@ def _warm_path_kernels(planar: bool) -> None:
     import numpy as np
 
     from stackik._arrays import readonly
-    from stackik._compiled import planar as _ipm
+    from stackik._compiled import barrier
     from stackik._compiled import planar_path as _ipm_path
-    from stackik._compiled import spatial as _spatial_ipm
     from stackik._compiled import spatial_path as _spatial_ipm_path
     from stackik._compiled.check import planar_check_many, planar_path_arrays, spatial_check_many
     from stackik.formulation import POLISH_MARGIN, POLISH_REACH
@@ -122,14 +124,10 @@ def _warm_path_kernels(planar: bool) -> None:
     stack, pt, _, prob, q0 = _small_problem(planar)
     u0 = readonly(prob.u_of(q0))
     lo, hi = readonly(u0 - 0.1), readonly(u0 + 0.1)
+    P = problem_arrays(prob) if planar else spatial_problem_arrays(prob)
     for ug, wq in ((readonly(np.zeros(0)), 0.0), (u0, 1.0)):
-        if planar:
-            _ipm.ip_box(u0, problem_arrays(prob), lo, hi, ug, wq, 1e-7, 1e-9, 1e-3, 3,
-                        POLISH_REACH, POLISH_MARGIN)  # fmt: skip
-        else:
-            P = spatial_problem_arrays(prob)
-            u, _, _ = _spatial_ipm.ip_box(u0, P, lo, hi, ug, wq, 1e-7, 1e-9, 1e-3, 3)
-            _spatial_ipm.polish(u, P, 3, POLISH_REACH, POLISH_MARGIN)  # as bounded_ip
+        barrier.ip_box(u0, P, lo, hi, ug, wq, 1e-7, 1e-9, 1e-3, 3, POLISH_REACH,
+                       POLISH_MARGIN)  # fmt: skip
     if planar:
         Y = readonly([[pt.rho, pt.z, pt.theta]])
         _ipm_path.ip_path(u0, Y, problem_arrays(prob), readonly(np.ones(u0.size)), 1e-7,

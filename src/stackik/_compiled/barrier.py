@@ -1,0 +1,417 @@
+"""The primal-dual barrier method, once for both modes (numba), and what runs it.
+
+Solves the scaled problem of :class:`stackik.formulation.Problem` (``u = q / xs``)
+
+    min f(u)  s.t.  c_E(u) = 0 (the end-effector equalities),  c_I(u) >= 0 (the limits,
+    the self-leg rows, a path step's box, then the dense rows: obstacles, leg forces)
+
+in the spirit of IPOPT (Waechter & Biegler 2006; Nocedal & Wright 2006, ch. 19): slacks
+``s > 0`` with ``c_I(u) - s = 0``, the barrier parameter ``mu`` decreased Fiacco-McCormick
+style, Newton steps on the perturbed KKT conditions with the exact Hessian of the
+Lagrangian (an SR1 estimate for the leg-force rows' curvature), a null-space KKT solve
+with inertia correction, the fraction-to-the-boundary rule and a filter line search. The
+interior path is what makes the method find good local minima from few starts: it keeps
+away from the limits until the objective has shaped the pose.
+
+Everything mode-specific (the evaluation, the Hessian, the KKT solve, the equality
+multipliers) comes through :mod:`stackik._compiled.kernel`, resolved at compile time by
+the type of the problem data ``P``: :class:`stackik._compiled.planar.PlanarData` or
+:class:`stackik._compiled.spatial.SpatialData`. The path kernels
+(:mod:`stackik._compiled.planar_path`, :mod:`stackik._compiled.spatial_path`) call the same
+loop for their barrier solves. The caller re-checks every returned pose
+(:func:`stackik.check.check_pose`); this module makes no claim of its own.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from stackik._compiled import kernel
+from stackik._compiled.core import (
+    GIVE_UP_AFTER,
+    GIVE_UP_VIOLATION,
+    IP_MAX_ITER,
+    IP_MAX_TIME,
+    IP_NONFINITE,
+    IP_SKIPPED,
+    IP_STALLED,
+    IP_SUCCESS,
+    OBJ_MAX_GRAD,
+    _finite,
+    _jit,
+    _now,
+)
+from stackik._compiled.dense_rows import (
+    AI_dot,
+    AIT_dot,
+    add_normal,
+    block_part,
+    force_sr1,
+    ineq_row,
+)
+from stackik._compiled.linalg import min_norm_solve
+
+FloatArray = Any
+
+#: Line-search halvings before a step counts as rejected.
+_LS_TRIES = 40
+
+
+@_jit
+def _errors(g: FloatArray, AEty: FloatArray, AItz: FloatArray, cE: FloatArray,
+            cI: FloatArray, s: FloatArray, z: FloatArray,
+            yE: FloatArray) -> tuple[Any, ...]:  # fmt: skip
+    """IPOPT's optimality errors (fused loops: these vectors are short): the dual
+    infeasibility and the complementarity scaled by ``sd`` (large multipliers), the primal
+    infeasibility. Returns ``e_du, e_pr, comp, sd``."""
+    m = cI.size
+    sd_acc = 0.0
+    for k in range(yE.size):
+        sd_acc += abs(yE[k])
+    for r in range(m):
+        sd_acc += abs(z[r])
+    sd = max(100.0, sd_acc / (m + yE.size)) / 100.0
+    e_du = 0.0
+    for a in range(g.size):
+        e_du = max(e_du, abs(g[a] - AEty[a] - AItz[a]))
+    e_du /= sd
+    e_pr = 0.0
+    for k in range(cE.size):
+        e_pr = max(e_pr, abs(cE[k]))
+    comp = 0.0
+    for r in range(m):
+        e_pr = max(e_pr, abs(cI[r] - s[r]))
+        comp = max(comp, abs(s[r] * z[r]))
+    return e_du, e_pr, comp, sd
+
+
+@_jit
+def _next_mu(mu: float, mu_min: float, e_du: float, e_pr: float, sd: float, s: FloatArray,
+             z: FloatArray) -> float:  # fmt: skip
+    """The barrier parameter after the monotone (Fiacco-McCormick) test: decreased while
+    the barrier problem of the current ``mu`` is solved to ``10 mu``."""
+    while mu > mu_min:
+        comp_mu = 0.0
+        for r in range(s.size):
+            comp_mu = max(comp_mu, abs(s[r] * z[r] - mu))
+        e_mu = max(e_du, max(comp_mu / sd, e_pr))
+        if e_mu > 10.0 * mu:
+            break
+        mu = max(mu_min, min(0.2 * mu, mu**1.5))
+    return mu
+
+
+@_jit
+def _to_boundary(s: FloatArray, z: FloatArray, ds: FloatArray, dz: FloatArray,
+                 mu: float) -> tuple[float, float]:  # fmt: skip
+    """Fraction-to-the-boundary step lengths of the slacks and the multipliers."""
+    tau = max(0.99, 1.0 - mu)
+    a_s = 1.0
+    a_z = 1.0
+    for r in range(s.size):
+        if ds[r] < 0.0:
+            a_s = min(a_s, -tau * s[r] / ds[r])
+        if dz[r] < 0.0:
+            a_z = min(a_z, -tau * z[r] / dz[r])
+    return a_s, a_z
+
+
+@_jit
+def _filter_accepts(theta: float, phi: float, gphi: float, alpha: float, theta_t: float,
+                    phi_t: float, theta_max: float, theta_min: float, filt: FloatArray,
+                    nfilt: int) -> tuple[bool, bool]:  # fmt: skip
+    """Whether the filter line search (Waechter & Biegler 2006, sec. 2.3) accepts a trial
+    point, and whether by the objective's (Armijo) test, which adds no filter entry."""
+    if not theta_t <= theta_max:
+        return False, False
+    for j in range(nfilt):
+        if theta_t >= filt[j, 0] and phi_t >= filt[j, 1]:
+            return False, False
+    switching = gphi < 0.0 and alpha * (-gphi) ** 2.3 > theta**1.1
+    armijo = phi_t <= phi + 1e-4 * alpha * gphi + 1e-14 * abs(phi)
+    if switching and theta <= theta_min:
+        return armijo, armijo
+    if theta_t <= (1.0 - 1e-5) * theta or phi_t <= phi - 1e-8 * theta:
+        return True, False
+    if switching and armijo:
+        return True, True
+    return False, False
+
+
+@_jit
+def _line_search(P: Any, x: FloatArray, s: FloatArray, dx: FloatArray, ds: FloatArray,
+                 alpha: float, mu: float, phi: float, gphi: float, theta: float,
+                 theta_max: float, theta_min: float, filt: FloatArray, nfilt: int,
+                 lo: FloatArray, hi: FloatArray, ug: FloatArray,
+                 wq: float) -> tuple[Any, ...]:  # fmt: skip
+    """Backtracking from ``alpha`` along ``(dx, ds)`` until the filter accepts. Returns
+    ``accepted, by_objective, alpha, log-barrier sum, xt, st`` and :func:`kernel.evaluate`
+    at ``xt`` (the last trial when none was accepted)."""
+    m = s.size
+    xt = x + alpha * dx
+    st = s + alpha * ds
+    trial = kernel.evaluate(P, xt, lo, hi, ug, wq)
+    logsum_t = 0.0
+    for t in range(_LS_TRIES):
+        if t > 0:
+            xt = x + alpha * dx
+            st = s + alpha * ds
+            trial = kernel.evaluate(P, xt, lo, hi, ug, wq)
+        ft, cEt, cIt = trial[0], trial[2], trial[4]
+        theta_t = 0.0
+        for k in range(cEt.size):
+            theta_t += abs(cEt[k])
+        logsum_t = 0.0
+        for r in range(m):
+            theta_t += abs(cIt[r] - st[r])
+            logsum_t += math.log(st[r])
+        if math.isfinite(ft) and math.isfinite(theta_t):  # NaN/inf anywhere shows here
+            ok, by_f = _filter_accepts(theta, phi, gphi, alpha, theta_t, ft - mu * logsum_t,
+                                       theta_max, theta_min, filt, nfilt)  # fmt: skip
+            if ok:
+                return True, by_f, alpha, logsum_t, xt, st, trial
+        alpha *= 0.5
+        if alpha < 1e-12:
+            break
+    return False, False, alpha, logsum_t, xt, st, trial
+
+
+@_jit
+def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
+            max_iter: int, deadline: float, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+            wq: float) -> tuple[Any, ...]:  # fmt: skip
+    """The barrier method from ``u0``; ``lo``/``hi`` (empty: none) add the box
+    ``lo <= u <= hi`` as block rows and ``wq |u - ug|^2`` is added to the objective (a path
+    step's extensions, :func:`kernel.evaluate`). Returns the point, the status, the
+    iteration count and the final slacks ``s`` and multipliers ``z``, ``yE`` (multipliers
+    of the problem as ``P0`` states it, i.e. without the objective scaling the loop
+    applies: a continuation step starts from them, the path kernels' ``_pc_step``)."""
+    x = u0.copy()
+    f, g, cE, AE, cI, AI, parts = kernel.evaluate(P0, x, lo, hi, ug, wq)
+    m = cI.size
+    if not (_finite(cI) and _finite(cE) and math.isfinite(f)):
+        return x, IP_NONFINITE, 0, cI, np.ones(m), np.zeros(cE.size)
+    # objective scaling as IPOPT's gradient-based rule: max |grad f(x0)| <= OBJ_MAX_GRAD
+    gmax = np.abs(g).max()
+    fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
+    P = kernel.with_fscale(P0, P0.fscale / fs)
+    f, g = f * fs, g * fs
+    wq = wq * fs
+    mu = mu0
+    mu_min = min(tol, constr_tol) / 10.0
+    s = np.maximum(cI, 1e-2)
+    z = np.ones(m)  # bound multipliers start at 1, as IPOPT's
+    yE = kernel.eq_multipliers(P, AE, g, AIT_dot(AI, z))
+    last_shift = 0.0
+    logsum = np.log(s).sum()
+    theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
+    theta_max = 1e4 * max(1.0, theta0)
+    theta_min = 1e-4 * max(1.0, theta0)
+    filt = np.empty((max_iter + 1, 2))
+    nfilt = 0
+    status = IP_MAX_ITER
+    fails = 0
+    it = 0
+    period = kernel.clock_period(P)
+    # the leg-force rows' curvature (the last n_force dense rows): an SR1 estimate
+    n_force = 12 * P0.forces[9].size
+    N = x.size
+    B = np.zeros((N, N)) if n_force > 0 else np.zeros((0, 0))
+    for it in range(max_iter):
+        if it % period == period - 1 and _now() > deadline:
+            status = IP_MAX_TIME
+            break
+        AEty = kernel.eq_transpose_dot(P, AE, yE)
+        AItz = AIT_dot(AI, z)
+        e_du, e_pr, comp, sd = _errors(g, AEty, AItz, cE, cI, s, z, yE)
+        if max(e_du, comp / sd) <= tol and e_pr <= constr_tol:
+            status = IP_SUCCESS
+            break
+        mu_next = _next_mu(mu, mu_min, e_du, e_pr, sd, s, z)
+        if mu_next != mu:
+            mu = mu_next
+            nfilt = 0
+        # --- Newton step -----------------------------------------------------------
+        W = kernel.hessian(P, parts, yE, block_part(z, AI), wq)
+        if not (_finite(W) and _finite(g) and _finite(AE)):
+            status = IP_NONFINITE
+            break
+        if n_force > 0:
+            W += B
+        Sig = z / s
+        add_normal(W, AI, Sig)  # the blocks' J^T Sigma J (and the dense rows', everywhere)
+        v = np.empty(m)
+        for r in range(m):
+            v[r] = mu / s[r] - Sig[r] * (cI[r] - s[r])
+        AIv = AIT_dot(AI, v)
+        rhs = np.empty(N)
+        for a in range(N):
+            rhs[a] = -g[a] + AEty[a] + AIv[a]
+        dx, shift = kernel.kkt_step(P, W, AE, cE, rhs, last_shift)
+        if not _finite(dx):
+            status = IP_NONFINITE
+            break
+        if shift > 0.0:
+            last_shift = shift
+        AIdx = AI_dot(AI, dx)
+        ds = np.empty(m)
+        dz = np.empty(m)
+        for r in range(m):
+            ds[r] = AIdx[r] + cI[r] - s[r]
+            dz[r] = -z[r] + mu / s[r] - Sig[r] * ds[r]
+        a_s, a_z = _to_boundary(s, z, ds, dz, mu)
+        # --- filter line search -----------------------------------------------------
+        theta = 0.0
+        for k in range(cE.size):
+            theta += abs(cE[k])
+        dsum = 0.0
+        for r in range(m):
+            theta += abs(cI[r] - s[r])
+            dsum += ds[r] / s[r]
+        gdx = 0.0
+        for a in range(N):
+            gdx += g[a] * dx[a]
+        phi = f - mu * logsum
+        gphi = gdx - mu * dsum
+        accepted, by_f, alpha, logsum_t, xt, st, trial = _line_search(
+            P, x, s, dx, ds, a_s, mu, phi, gphi, theta, theta_max, theta_min, filt, nfilt,
+            lo, hi, ug, wq,
+        )  # fmt: skip
+        if accepted and not by_f and nfilt < filt.shape[0]:
+            filt[nfilt, 0] = (1.0 - 1e-5) * theta
+            filt[nfilt, 1] = phi - 1e-8 * theta
+            nfilt += 1
+        if not accepted:
+            fails += 1
+            if fails >= 3:
+                status = IP_STALLED
+                break
+            # a tiny step keeps the iteration going; the barrier will be re-centred
+            nfilt = 0
+            alpha = min(alpha, 1e-8)
+            xt = x + alpha * dx
+            st = s + alpha * ds
+            trial = kernel.evaluate(P, xt, lo, hi, ug, wq)
+            if not (math.isfinite(trial[0]) and _finite(trial[4])):
+                status = IP_NONFINITE
+                break
+        else:
+            fails = 0
+        ft, gt, cEt, AEt, cIt, AIt, parts_t = trial
+        x = xt
+        # slack reset: a slack below its constraint value only adds violation
+        s = st
+        logsum = logsum_t if accepted else np.log(s).sum()
+        for r in range(m):
+            if cIt[r] > s[r]:
+                logsum += math.log(cIt[r]) - math.log(s[r])
+                s[r] = cIt[r]
+            zr = z[r] + a_z * dz[r]
+            z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
+        if n_force > 0:
+            force_sr1(B, alpha * dx, AI[1], AIt[1], z, n_force)
+        f, g, cE, AE, cI, AI, parts = ft, gt, cEt, AEt, cIt, AIt, parts_t
+        yE = kernel.eq_multipliers(P, AE, g, AIT_dot(AI, z))
+    return x, status, it + 1 if status != IP_SUCCESS else it, s, z / fs, yE / fs
+
+
+@_jit
+def polished(cE: FloatArray, cI: FloatArray, reach: float) -> bool:
+    """Whether :func:`polish` leaves a point with these constraint values as it is."""
+    if not np.abs(cE).max() < 1e-13:
+        return False
+    for r in range(cI.size):
+        if -reach < cI[r] < 0.0:
+            return False
+    return True
+
+
+@_jit
+def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> FloatArray:
+    """:func:`stackik.formulation.polish` compiled: up to ``iters`` min-norm Newton
+    corrections of the end-effector equalities and of the rows violated by less than
+    ``reach`` (scaled), put at ``margin``; the dense rows too
+    (:mod:`stackik._compiled.dense_rows`). Tiny moves only."""
+    none = np.empty(0)
+    for _ in range(iters):
+        f, g, cE, AE, cI, AI, _ = kernel.evaluate(P, u, none, none, none, 0.0)
+        if polished(cE, cI, reach):
+            break
+        nv = 0
+        for r in range(cI.size):
+            if -reach < cI[r] < 0.0:
+                nv += 1
+        E = cE.size
+        A = np.zeros((E + nv, u.size))
+        rr = np.empty(E + nv)
+        A[:E] = AE
+        rr[:E] = cE
+        k = E
+        for r in range(cI.size):
+            if -reach < cI[r] < 0.0:
+                ineq_row(AI, r, A[k])
+                rr[k] = cI[r] - margin
+                k += 1
+        if not (_finite(A) and _finite(rr)):
+            break
+        u = u - min_norm_solve(A, rr)
+    return u
+
+
+@_jit
+def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatArray,
+             max_iter: int, deadline: float, polish_iters: int, reach: float,
+             margin: float) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`ip_loop` from each row of ``U0``, each followed by ``polish_iters`` steps of
+    :func:`polish` (0: none, the caller polishes).
+
+    ``mu0[j]`` is the initial barrier parameter of start j. Returns the points (k, N),
+    statuses, iteration counts, scaled objective values and the worst scaled violation of
+    each (equalities and rows), for ranking; the caller re-checks the pose it returns.
+    """
+    k, N = U0.shape
+    X = np.empty((k, N))
+    status = np.full(k, IP_SKIPPED)
+    nit = np.zeros(k, dtype=np.int64)
+    obj = np.full(k, np.inf)
+    viol = np.full(k, np.inf)
+    none = np.empty(0)
+    for j in range(k):
+        X[j] = U0[j]
+        if j > 0 and _now() > deadline:
+            break
+        x, st, it, _, _, _ = ip_loop(
+            U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline, none, none, none, 0.0
+        )
+        if st == IP_NONFINITE or not _finite(x):
+            x = U0[j].copy()
+        x = polish(x, P, polish_iters, reach, margin)
+        X[j] = x
+        status[j] = st
+        nit[j] = it
+        f, g, cE, AE, cI, _, _ = kernel.evaluate(P, x, none, none, none, 0.0)
+        obj[j] = f
+        viol[j] = max(np.abs(cE).max(), max(0.0, -cI.min()))
+        if j + 1 == GIVE_UP_AFTER and viol[: j + 1].min() > GIVE_UP_VIOLATION:
+            break  # likely unreachable: the caller's SQP fallback decides, quickly
+    return X, status, nit, obj, viol
+
+
+@_jit
+def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray, wq: float,
+           tol: float, constr_tol: float, mu0: float, max_iter: int, reach: float,
+           margin: float) -> tuple[FloatArray, int, int]:  # fmt: skip
+    """One barrier solve of a path step inside the box ``lo <= u <= hi`` (scaled) with
+    ``wq |u - ug|^2`` added to the objective (``wq = 0``: none), then :func:`polish`.
+    Returns the point, the status and the iteration count; the caller checks the pose and
+    the box."""
+    # copies: the barrier loop sees writable arrays whatever the caller passes, as from
+    # ip_multi (one compiled specialisation of the loop, not one per array flag)
+    x, st, it, _, _, _ = ip_loop(u0.copy(), P, tol, constr_tol, mu0, max_iter, 1e300,
+                                 lo.copy(), hi.copy(), ug.copy(), wq)  # fmt: skip
+    if st == IP_NONFINITE or not _finite(x):
+        return u0.copy(), IP_NONFINITE, it
+    return polish(x, P, 3, reach, margin), st, it

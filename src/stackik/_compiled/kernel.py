@@ -1,0 +1,139 @@
+"""The kernel interface: what the one barrier method (:mod:`stackik._compiled.barrier`)
+asks of a mode's evaluation, and the registry that answers it.
+
+The barrier method is written once; numba compiles it once per problem-data type (the
+planar :class:`stackik._compiled.planar.PlanarData`, the spatial
+:class:`stackik._compiled.spatial.SpatialData`). Each function below is a stub whose first
+argument is that problem data ``P``; at compile time numba resolves the call to the
+implementation the mode registered for ``type(P)`` (:func:`register`, called by the mode's
+module right after its data type), so the mode-specific code is inlined where the loop
+calls it and nothing is dispatched at run time. The compiled kernels are cached like every
+other (the package stamp, :mod:`stackik._compiled`), so an edited implementation
+recompiles the loop that inlined it.
+
+Every implementation takes the stub's arguments in the stub's order, ``P`` first, and
+works in the scaled variables ``u = q / xs`` of ``P`` (:class:`stackik.formulation.Problem`'s
+scaling). ``N`` below is the number of variables (3 n planar, 6 n spatial), ``E`` the number
+of end-effector equalities (3, 6), ``m`` the inequality rows (the per-platform blocks, a
+path step's box rows, then the dense rows: :mod:`stackik._compiled.dense_rows`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from numba.core.errors import TypingError
+from numba.extending import overload
+
+__all__ = [
+    "clock_period",
+    "eq_multipliers",
+    "eq_transpose_dot",
+    "evaluate",
+    "hessian",
+    "kkt_step",
+    "register",
+    "with_fscale",
+]
+
+#: The implementations by problem-data class, then by stub name.
+_REGISTRY: dict[type, dict[str, Any]] = {}
+#: The stubs' names; :func:`register` wants exactly these.
+_HOOKS: list[str] = []
+_OPTIONS: Any = {"cache": True, "error_model": "numpy", "nogil": True}
+
+
+def register(data_class: type, **implementations: Any) -> None:
+    """Register a mode: ``implementations`` maps every stub's name to the mode's jitted
+    function of the stub's signature (or, for :func:`clock_period`, an int). Raises
+    ``ValueError`` when a stub is missing or a name is not a stub."""
+    missing = sorted(set(_HOOKS) - set(implementations))
+    unknown = sorted(set(implementations) - set(_HOOKS))
+    if missing or unknown:
+        raise ValueError(
+            f"kernel.register({data_class.__name__}): missing {missing}, unknown {unknown}"
+        )
+    _REGISTRY[data_class] = dict(implementations)
+
+
+def _hook(stub: Callable[..., Any]) -> Callable[..., Any]:
+    """Make ``stub`` resolve, in compiled code, to the implementation registered for the
+    class of its first argument."""
+    name = stub.__name__
+    _HOOKS.append(name)
+
+    @overload(stub, jit_options=_OPTIONS)
+    def _resolved(P: Any, *args: Any) -> Any:
+        cls = getattr(P, "instance_class", None)
+        if cls not in _REGISTRY:
+            raise TypingError(f"stackik._compiled.kernel.{name}: no mode registered for {P}")
+        impl = _REGISTRY[cls][name]
+        if isinstance(impl, int):
+
+            def constant(P: Any, *args: Any) -> Any:
+                return impl
+
+            return constant
+
+        def call(P: Any, *args: Any) -> Any:
+            return impl(P, *args)
+
+        return call
+
+    return stub
+
+
+def _stub() -> Any:
+    raise NotImplementedError("resolved by numba in compiled code (stackik._compiled.kernel)")
+
+
+@_hook
+def evaluate(P: Any, u: Any, lo: Any, hi: Any, ug: Any, wq: float) -> Any:
+    """``f, g, cE, AE, cI, AI, parts`` at ``u`` (N,): the scaled objective and gradient
+    (N,), equalities (E,) and their Jacobian (E, N), inequality rows (m,) and their
+    Jacobian as the pair ``AI = (blocks, dense rows)``, and whatever :func:`hessian` reuses
+    (``parts``). ``lo``/``hi`` (N,; empty: none) add the box ``lo <= u <= hi`` as block rows
+    and ``wq |u - ug|^2`` is added to the objective (a path step's extensions)."""
+    return _stub()
+
+
+@_hook
+def hessian(P: Any, parts: Any, yE: Any, z: Any, wq: float) -> Any:
+    """Hessian (N, N) of ``f - yE.cE - z.cI`` at the point :func:`evaluate` returned
+    ``parts`` for, ``z`` the block rows' multipliers (the dense rows have no exact
+    curvature); ``2 wq I`` for the distance term."""
+    return _stub()
+
+
+@_hook
+def kkt_step(P: Any, W: Any, AE: Any, cE: Any, rhs: Any, last_shift: float) -> Any:
+    """``dx, shift``: the Newton step of ``[W AE^T; AE 0] [dx; -y] = [rhs; -cE]`` with the
+    reduced Hessian made positive definite by the smallest shift ``delta I`` that does it
+    (inertia correction; ``last_shift`` the last step's, 0: none yet)."""
+    return _stub()
+
+
+@_hook
+def eq_multipliers(P: Any, AE: Any, g: Any, AItz: Any) -> Any:
+    """Least-squares equality multipliers (E,): ``argmin |g - AI^T z - AE^T y|``."""
+    return _stub()
+
+
+@_hook
+def eq_transpose_dot(P: Any, AE: Any, y: Any) -> Any:
+    """``AE^T y`` (N,)."""
+    return _stub()
+
+
+@_hook
+def with_fscale(P: Any, fscale: float) -> Any:
+    """``P`` with the objective scale ``fscale``."""
+    return _stub()
+
+
+@_hook
+def clock_period(P: Any) -> Any:
+    """Iterations between two reads of the clock (a read takes the GIL): more where an
+    iteration is cheap."""
+    return _stub()
