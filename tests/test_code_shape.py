@@ -2,7 +2,12 @@
 
 Limits: a function at most 100 lines (150 inside ``stackik._compiled``, whose numba kernels
 cannot call Python helpers freely), a module at most 900 lines, a class at most 25 distinct
-mutable ``self.<name>`` attributes. What is over today is listed in the allow-lists below, each
+mutable ``self.<name>`` attributes.
+
+A function's length counts its decorators, signature and body but not its docstring: the
+limit is on the logic a reader holds at once, and a public function's docstring grows with
+its parameters (``solve_ik``: 17 lines of code under 130 of documented options), which is
+documentation to keep, not code to split. Comments and blank lines inside the body count. What is over today is listed in the allow-lists below, each
 with why; the lists only shrink (a listed item that is back under its limit fails the test, so
 it gets removed from the list).
 """
@@ -26,20 +31,6 @@ FUNCTION_ALLOW: frozenset[str] = frozenset(
         "_compiled/planar.py:_ip_loop",
         "_compiled/spatial.py:ip_loop",
         "_compiled/planar_path.py:_pc_kkt",
-        "_compiled/planar_path.py:_pc_step",
-        "_compiled/planar_path.py:ip_path",
-        # not split yet in this session (each to be split into parts of one idea)
-        "analysis/reproduce.py:reproduce",
-        "analysis/reproduce.py:_report",
-        "analysis/montecarlo.py:monte_carlo",
-        "analysis/workspace.py:workspace_study",
-        "bench.py:run_benchmark",
-        "convex.py:convex_start",
-        "paths/animate.py:animate_path",
-        "viz.py:path_figure",
-        # over only counting the docstring (the brief's scan did not list them)
-        "solve/pipeline.py:solve_ik",  # 106 lines, most of them its docstring
-        "clearance.py:clearances",  # 138; clearance.py is another helper's this session
     }
 )
 
@@ -67,13 +58,26 @@ def _functions(tree: ast.AST, prefix: str = "") -> list[tuple[str, int]]:
             name = prefix + node.name
             assert node.end_lineno is not None
             start = min([node.lineno] + [d.lineno for d in node.decorator_list])
-            out.append((name, node.end_lineno - start + 1))
+            out.append((name, node.end_lineno - start + 1 - _docstring_lines(node)))
             out.extend(_functions(node, name + "."))
         elif isinstance(node, ast.ClassDef):
             out.extend(_functions(node, prefix + node.name + "."))
         else:
             out.extend(_functions(node, prefix))
     return out
+
+
+def _docstring_lines(node: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    """Lines of the function's docstring (0 if it has none): not counted in its length."""
+    first = node.body[0]
+    if (
+        isinstance(first, ast.Expr)
+        and isinstance(first.value, ast.Constant)
+        and isinstance(first.value.value, str)
+    ):
+        assert first.end_lineno is not None
+        return first.end_lineno - first.lineno + 1
+    return 0
 
 
 def _self_attributes(cls: ast.ClassDef) -> set[str]:
