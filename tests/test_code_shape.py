@@ -7,9 +7,10 @@ mutable ``self.<name>`` attributes.
 A function's length counts its decorators, signature and body but not its docstring: the
 limit is on the logic a reader holds at once, and a public function's docstring grows with
 its parameters (``solve_ik``: 17 lines of code under 130 of documented options), which is
-documentation to keep, not code to split. Comments and blank lines inside the body count. What is over today is listed in the allow-lists below, each
-with why; the lists only shrink (a listed item that is back under its limit fails the test, so
-it gets removed from the list).
+documentation to keep, not code to split. Comments and blank lines inside the body count.
+
+What is over today is listed in the allow-lists below, each with why; the lists only shrink
+(a listed item that is back under its limit fails the test, so it gets removed from the list).
 """
 
 from __future__ import annotations

@@ -35,8 +35,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from stackik.analysis._nodes import stack_nodes
+from stackik.formulation.modes import mode_of
 from stackik.geometry import Stack
-from stackik.targets import PlanarTarget, SpatialTarget, Target
+from stackik.targets import Target
 
 if TYPE_CHECKING:
     from stackik.paths.result import PathResult
@@ -342,9 +343,12 @@ def _obstacle_mesh(ob: ObstacleRecord, extent: float) -> tuple[FloatArray, NDArr
 def _target_frame(target: Target | None) -> tuple[FloatArray, FloatArray] | None:
     if target is None:
         return None
-    t = target.to_spatial() if isinstance(target, PlanarTarget) else target
-    if not isinstance(t, SpatialTarget):
-        raise ValueError(f"target: expected a PlanarTarget or SpatialTarget, got {target!r}")
+    try:
+        t = mode_of(target).spatial_target(target)
+    except ValueError:
+        raise ValueError(
+            f"target: expected a PlanarTarget or SpatialTarget, got {target!r}"
+        ) from None
     return np.asarray(t.position, float), np.asarray(t.rotation, float)
 
 
@@ -808,8 +812,8 @@ def _path_defaults(
     if c == 0:
         raise ValueError("poses: the path has no reached waypoint to draw")
     t0 = res.targets[0]
-    if isinstance(t0, PlanarTarget) and phi is None:  # a planar path's plane
-        phi = t0.phi
+    if phi is None:  # a planar path's plane (None for a spatial path)
+        phi = mode_of(t0).phi(t0)
     if targets is None:
         targets = list(res.targets[:c])
     if labels is None:
@@ -819,7 +823,7 @@ def _path_defaults(
             for k in range(c)
         ]
     if title is None:
-        kind = "planar" if res.planar else "spatial"
+        kind = mode_of(t0).name
         title = (
             f"{res.n}-platform stack, {kind} path: {c}/{res.m} waypoints, "
             f"{res.status.value} (mean FN {res.mean_frobenius_norm:.0f})"

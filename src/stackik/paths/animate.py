@@ -22,9 +22,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from stackik.formulation.modes import mode_of
 from stackik.geometry import Stack
 from stackik.paths.result import PathResult
-from stackik.targets import PlanarTarget
 
 if TYPE_CHECKING:
     from stackik.obstacles import Obstacle
@@ -47,8 +47,7 @@ def stack_nodes(stack: Stack, result: PathResult, k: int) -> dict[str, FloatArra
     from stackik.analysis.figures import stack_nodes as nodes_of
 
     t0 = result.targets[0]
-    phi = t0.phi if isinstance(t0, PlanarTarget) else None
-    return nodes_of(stack, result.q[k], phi)
+    return nodes_of(stack, result.q[k], mode_of(t0).phi(t0))
 
 
 def _plate_outlines(stack: Stack, nd: dict[str, FloatArray]) -> list[FloatArray]:
@@ -72,14 +71,12 @@ def _plate_outlines(stack: Stack, nd: dict[str, FloatArray]) -> list[FloatArray]
 
 def _target_points(result: PathResult) -> FloatArray:
     """End-effector target positions (m, 3) [mm]."""
-    return np.array(
-        [(t.to_spatial() if isinstance(t, PlanarTarget) else t).position for t in result.targets]
-    )
+    return np.array([mode_of(t).spatial_target(t).position for t in result.targets])
 
 
 def default_caption(result: PathResult) -> str:
     """What the animation shows, in words (its caption)."""
-    kind = "planar" if result.planar else "spatial"
+    kind = mode_of(result.targets[0]).name
     end = (
         "every waypoint reached"
         if result.success
@@ -153,9 +150,86 @@ def _frames(result: PathResult, max_frames: int) -> list[int]:
 
 
 @dataclass(frozen=True)
+class _PlaneView:
+    """A planar path drawn in its vertical plane ``phi``: axes ``rho`` and ``z``."""
+
+    plane: float
+    projection: str | None = None
+
+    def proj(self, p: FloatArray) -> FloatArray:
+        """World points [mm] as ``(rho, z)`` in the plane."""
+        from stackik.analysis.figures import _project
+
+        return _project(p, self.plane)
+
+    def figure_size(self, lo: FloatArray, hi: FloatArray, pad: float) -> tuple[float, float]:
+        """A figure shaped like the drawing, so that the stack fills it."""
+        aspect = float((hi[0] - lo[0] + 2 * pad) / (hi[1] - min(lo[1], 0.0) + 2 * pad))
+        return (float(np.clip(1.5 + 7.0 * aspect, 6.0, 11.0)), 9.0)
+
+    def set_limits(self, ax: Any, lo: FloatArray, hi: FloatArray, pad: float) -> float:
+        """Axis limits, equal aspect and labels; returns 0 (no 3D span)."""
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(min(lo[1], 0.0) - pad, hi[1] + pad)
+        ax.set_aspect("equal")
+        ax.set_xlabel("rho [mm]")
+        ax.set_ylabel("z [mm]")
+        return 0.0
+
+    def draw_obstacles(self, ax: Any, obs: list[Obstacle], span: float) -> None:
+        from stackik.analysis import clearance_art as art
+
+        art.draw_obstacles_plane(ax, obs, float(self.plane))
+
+    def draw_contact(self, ax: Any, contact: Any, clearance: float) -> None:
+        from stackik.analysis import clearance_art as art
+
+        art.draw_contact_plane(ax, contact, float(self.plane), clearance)
+
+
+@dataclass(frozen=True)
+class _SpaceView:
+    """A spatial path drawn in 3D with equal scales on all axes."""
+
+    plane: None = None
+    projection: str | None = "3d"
+
+    def proj(self, p: FloatArray) -> FloatArray:
+        """World points [mm], unchanged."""
+        return p
+
+    def figure_size(self, lo: FloatArray, hi: FloatArray, pad: float) -> tuple[float, float]:
+        return (8.0, 8.5)
+
+    def set_limits(self, ax: Any, lo: FloatArray, hi: FloatArray, pad: float) -> float:
+        """Axis limits, box aspect and labels; returns the half-span [mm] of x and y."""
+        span = float(np.max(hi[:2] - lo[:2])) / 2 + pad  # equal scales on all axes
+        mid = (hi + lo) / 2
+        z0, z1 = min(lo[2], 0.0) - pad, hi[2] + pad
+        ax.set_xlim(mid[0] - span, mid[0] + span)
+        ax.set_ylim(mid[1] - span, mid[1] + span)
+        ax.set_zlim(z0, z1)
+        ax.set_box_aspect((2 * span, 2 * span, z1 - z0))
+        ax.set_xlabel("x [mm]")
+        ax.set_ylabel("y [mm]")
+        ax.set_zlabel("z [mm]")
+        return span
+
+    def draw_obstacles(self, ax: Any, obs: list[Obstacle], span: float) -> None:
+        from stackik.analysis import clearance_art as art
+
+        art.draw_obstacles_3d(ax, obs, span)
+
+    def draw_contact(self, ax: Any, contact: Any, clearance: float) -> None:
+        from stackik.analysis import clearance_art as art
+
+        art.draw_contact_3d(ax, contact, clearance)
+
+
+@dataclass(frozen=True)
 class _Scene:
     """What every frame of an animation draws from: the stack at each reached waypoint,
-    the targets and the end-effector trail in drawing coordinates, and the bounds."""
+    the targets and the end-effector trail in drawing coordinates, the bounds, the view."""
 
     nodes: list[dict[str, FloatArray]]
     targets: FloatArray  # (m, 2) or (m, 3), projected
@@ -163,41 +237,18 @@ class _Scene:
     lo: FloatArray
     hi: FloatArray
     pad: float
-    plane: float | None  # phi of a planar path (drawn in its plane), None: spatial (3D)
-
-    @property
-    def planar(self) -> bool:
-        return self.plane is not None
-
-    def proj(self, p: FloatArray) -> FloatArray:
-        return _drawing_coordinates(p, self.plane)
-
-
-def _drawing_coordinates(p: FloatArray, plane: float | None) -> FloatArray:
-    """World points [mm] in drawing coordinates: ``(rho, z)`` in the plane ``phi = plane``,
-    or unchanged (3D) when ``plane`` is None."""
-    if plane is None:
-        return p
-    from stackik.analysis.figures import _project
-
-    return _project(p, plane)
+    view: _PlaneView | _SpaceView
 
 
 def _scene(result: PathResult, stack: Stack) -> _Scene:
     """The :class:`_Scene` of a path with at least one reached waypoint."""
     t0 = result.targets[0]
-    if result.planar:
-        assert isinstance(t0, PlanarTarget)
-        plane: float | None = t0.phi
-    else:
-        plane = None
+    plane = mode_of(t0).phi(t0)
+    view: _PlaneView | _SpaceView = _SpaceView() if plane is None else _PlaneView(plane)
+    proj = view.proj
     nodes = [stack_nodes(stack, result, k) for k in range(result.completed)]
-    dim = 3 if plane is None else 2
-
-    def proj(p: FloatArray) -> FloatArray:
-        return _drawing_coordinates(p, plane)
-
     tp = proj(_target_points(result))
+    dim = tp.shape[1]
     allpts = np.concatenate(
         [proj(nd["base"]).reshape(-1, dim) for nd in nodes]
         + [proj(nd["top"]).reshape(-1, dim) for nd in nodes]
@@ -206,39 +257,7 @@ def _scene(result: PathResult, stack: Stack) -> _Scene:
     lo, hi = allpts.min(axis=0), allpts.max(axis=0)
     pad = 0.05 * float(np.max(hi - lo)) + 50.0
     ee = np.array([proj(nd["O"][-1]) for nd in nodes])
-    return _Scene(nodes, tp, ee, lo, hi, pad, plane)
-
-
-def _figure_size(scene: _Scene) -> tuple[float, float]:
-    """Planar: a figure shaped like the drawing, so that the stack fills it; 3D: fixed."""
-    if not scene.planar:
-        return (8.0, 8.5)
-    lo, hi, pad = scene.lo, scene.hi, scene.pad
-    aspect = float((hi[0] - lo[0] + 2 * pad) / (hi[1] - min(lo[1], 0.0) + 2 * pad))
-    return (float(np.clip(1.5 + 7.0 * aspect, 6.0, 11.0)), 9.0)
-
-
-def _set_limits(ax: Any, scene: _Scene) -> float:
-    """Axis limits, aspect and labels of a frame; returns the 3D half-span [mm] (planar: 0)."""
-    lo, hi, pad = scene.lo, scene.hi, scene.pad
-    if scene.planar:
-        ax.set_xlim(lo[0] - pad, hi[0] + pad)
-        ax.set_ylim(min(lo[1], 0.0) - pad, hi[1] + pad)
-        ax.set_aspect("equal")
-        ax.set_xlabel("rho [mm]")
-        ax.set_ylabel("z [mm]")
-        return 0.0
-    span = float(np.max(hi[:2] - lo[:2])) / 2 + pad  # equal scales on all axes
-    mid = (hi + lo) / 2
-    z0, z1 = min(lo[2], 0.0) - pad, hi[2] + pad
-    ax.set_xlim(mid[0] - span, mid[0] + span)
-    ax.set_ylim(mid[1] - span, mid[1] + span)
-    ax.set_zlim(z0, z1)
-    ax.set_box_aspect((2 * span, 2 * span, z1 - z0))
-    ax.set_xlabel("x [mm]")
-    ax.set_ylabel("y [mm]")
-    ax.set_zlabel("z [mm]")
-    return span
+    return _Scene(nodes, tp, ee, lo, hi, pad, view)
 
 
 def _draw_stack(ax: Any, scene: _Scene, result: PathResult, stack: Stack, k: int) -> None:
@@ -247,7 +266,7 @@ def _draw_stack(ax: Any, scene: _Scene, result: PathResult, stack: Stack, k: int
 
     cmap = plt.get_cmap("coolwarm")
     lmin, lmax = float(stack.leg_min.min()), float(stack.leg_max.max())
-    nd, tpp, ee, proj = scene.nodes[k], scene.targets, scene.trail, scene.proj
+    nd, tpp, ee, proj = scene.nodes[k], scene.targets, scene.trail, scene.view.proj
     ax.plot(*tpp.T, "k--", lw=1, label="target path")
     trail = ee[: k + 1]
     ax.plot(*trail.T, "b-", lw=2, label="end-effector trail")
@@ -271,23 +290,6 @@ def _draw_stack(ax: Any, scene: _Scene, result: PathResult, stack: Stack, k: int
         ),
         fontsize=10,
     )
-
-
-def _draw_obstacles(
-    ax: Any, scene: _Scene, obs: list[Obstacle], span: float, contact: Any, clearance: float
-) -> None:
-    """The obstacles of a frame and, if given, its closest pair of bodies."""
-    from stackik.analysis import clearance_art as art
-
-    if scene.planar:
-        art.draw_obstacles_plane(ax, obs, float(scene.plane or 0.0))
-    else:
-        art.draw_obstacles_3d(ax, obs, span)
-    if contact is not None:
-        if scene.planar:
-            art.draw_contact_plane(ax, contact, float(scene.plane or 0.0), clearance)
-        else:
-            art.draw_contact_3d(ax, contact, clearance)
 
 
 def animate_path(
@@ -347,23 +349,26 @@ def animate_path(
         raise ValueError("animate_path: the path has no reached waypoint to draw")
     frames = _frames(result, max_frames)
     scene = _scene(result, stack)
-    size = _figure_size(scene)
+    view = scene.view
+    size = view.figure_size(scene.lo, scene.hi, scene.pad)
     fig = plt.figure(figsize=size)
-    ax: Any = fig.add_axes((0.1, 0.2, 0.85, 0.73), projection=None if scene.planar else "3d")
+    ax: Any = fig.add_axes((0.1, 0.2, 0.85, 0.73), projection=view.projection)
     cap = default_caption(result) if caption is None else caption
     fig.text(0.03, 0.015, textwrap.fill(cap, int(14 * size[0])), fontsize=8, va="bottom")
     obs = list(obstacles or ())
     mark = _marks_closest(stack, obs, clearance, closest)
     contacts = {
-        k: art.closest_contact(stack, result.q[k], obs, scene.plane) if mark else None
+        k: art.closest_contact(stack, result.q[k], obs, view.plane) if mark else None
         for k in frames
     }
 
     def draw(k: int) -> None:
         ax.cla()
-        span = _set_limits(ax, scene)
+        span = view.set_limits(ax, scene.lo, scene.hi, scene.pad)
         _draw_stack(ax, scene, result, stack, k)
-        _draw_obstacles(ax, scene, obs, span, contacts[k], clearance)
+        view.draw_obstacles(ax, obs, span)
+        if contacts[k] is not None:
+            view.draw_contact(ax, contacts[k], clearance)
         ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=4, fontsize=7)
 
     anim = FuncAnimation(fig, lambda i: draw(frames[i]), frames=len(frames), blit=False)
