@@ -51,7 +51,7 @@ def as_waypoints(targets: Any) -> list[Target]:
         Empty sequence, an element that is not a target, mixed planar and spatial
         targets, or planar targets in different planes.
     """
-    if isinstance(targets, PlanarTarget | SpatialTarget):
+    if isinstance(targets, PlanarTarget | SpatialTarget):  # one target where a path is due
         raise ValueError("targets: expected a sequence of targets, got a single target")
     try:
         out = list(targets)
