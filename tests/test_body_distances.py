@@ -41,18 +41,24 @@ def _polygon(rng: np.random.Generator) -> tuple[np.ndarray, ...]:
     return O, A, uv
 
 
+def _world_vertices(O: np.ndarray, A: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """The polygon's vertices in the world frame, the kernels' ``V`` argument, from the
+    public geometry (:meth:`stackik.distance.Polygon.vertices`), not a kernel helper."""
+    return np.ascontiguousarray(dist.Polygon(O, A, uv).vertices())
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_segment_and_polygon_distances_match_numpy(seed: int) -> None:
     rng = np.random.default_rng(100 + seed)
     for _ in range(60):
         O, A, uv = _polygon(rng)
-        V = bd._vertices(O, A, uv)
+        V = _world_vertices(O, A, uv)
         a, b = rng.uniform(-120, 120, (2, 3))
         poly = dist.Polygon(O, A, uv)
         ref = float(dist.segment_polygon(a, b, poly))
         assert bd.segment_polygon(a, b, O, A, uv, V) == pytest.approx(ref, abs=TOL)
         O2, A2, uv2 = _polygon(rng)
-        V2 = bd._vertices(O2, A2, uv2)
+        V2 = _world_vertices(O2, A2, uv2)
         ref = float(dist.polygon_polygon(poly, dist.Polygon(O2, A2, uv2)))
         got = bd.polygon_polygon(O, A, uv, V, O2, A2, uv2, V2)
         assert got == pytest.approx(ref, abs=TOL)
@@ -60,4 +66,4 @@ def test_segment_and_polygon_distances_match_numpy(seed: int) -> None:
     O, A, uv = _polygon(rng)
     c = O + A[:, :2] @ uv.mean(axis=0)
     a, b = c - 30 * A[:, 2], c + 30 * A[:, 2]
-    assert bd.segment_polygon(a, b, O, A, uv, bd._vertices(O, A, uv)) == 0.0
+    assert bd.segment_polygon(a, b, O, A, uv, _world_vertices(O, A, uv)) == 0.0

@@ -2,9 +2,15 @@
 
 Limits: a function at most 100 lines (150 inside ``stackik._compiled``, whose numba kernels
 cannot call Python helpers freely), a module at most 900 lines, a class at most 25 distinct
-mutable ``self.<name>`` attributes. What is over today is listed in the allow-lists below, each
-with why; the lists only shrink (a listed item that is back under its limit fails the test, so
-it gets removed from the list).
+mutable ``self.<name>`` attributes.
+
+A function's length counts its decorators, signature and body but not its docstring: the
+limit is on the logic a reader holds at once, and a public function's docstring grows with
+its parameters (``solve_ik``: 17 lines of code under 130 of documented options), which is
+documentation to keep, not code to split. Comments and blank lines inside the body count.
+
+What is over today is listed in the allow-lists below, each with why; the lists only shrink
+(a listed item that is back under its limit fails the test, so it gets removed from the list).
 """
 
 from __future__ import annotations
@@ -24,20 +30,6 @@ FUNCTION_ALLOW: frozenset[str] = frozenset(
     {
         # compiled path kernels (the barrier loop of both modes is one, _compiled/barrier.py)
         "_compiled/planar_path.py:_pc_kkt",
-        "_compiled/planar_path.py:_pc_step",
-        "_compiled/planar_path.py:ip_path",
-        # not split yet in this session (each to be split into parts of one idea)
-        "analysis/reproduce.py:reproduce",
-        "analysis/reproduce.py:_report",
-        "analysis/montecarlo.py:monte_carlo",
-        "analysis/workspace.py:workspace_study",
-        "bench.py:run_benchmark",
-        "convex.py:convex_start",
-        "paths/animate.py:animate_path",
-        "viz.py:path_figure",
-        # over only counting the docstring (the brief's scan did not list them)
-        "solve/pipeline.py:solve_ik",  # 106 lines, most of them its docstring
-        "clearance.py:clearances",  # 138; clearance.py is another helper's this session
     }
 )
 
@@ -45,9 +37,7 @@ FUNCTION_ALLOW: frozenset[str] = frozenset(
 MODULE_ALLOW: frozenset[str] = frozenset()
 
 #: Classes over the attribute limit, as "module/path.py:ClassName".
-CLASS_ALLOW: frozenset[str] = frozenset(
-    {"formulation/lifted.py:LiftedPlanarNLP"}  # 27 attributes; not regrouped yet
-)
+CLASS_ALLOW: frozenset[str] = frozenset()
 
 
 def _sources() -> dict[str, ast.Module]:
@@ -65,13 +55,26 @@ def _functions(tree: ast.AST, prefix: str = "") -> list[tuple[str, int]]:
             name = prefix + node.name
             assert node.end_lineno is not None
             start = min([node.lineno] + [d.lineno for d in node.decorator_list])
-            out.append((name, node.end_lineno - start + 1))
+            out.append((name, node.end_lineno - start + 1 - _docstring_lines(node)))
             out.extend(_functions(node, name + "."))
         elif isinstance(node, ast.ClassDef):
             out.extend(_functions(node, prefix + node.name + "."))
         else:
             out.extend(_functions(node, prefix))
     return out
+
+
+def _docstring_lines(node: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    """Lines of the function's docstring (0 if it has none): not counted in its length."""
+    first = node.body[0]
+    if (
+        isinstance(first, ast.Expr)
+        and isinstance(first.value, ast.Constant)
+        and isinstance(first.value.value, str)
+    ):
+        assert first.end_lineno is not None
+        return first.end_lineno - first.lineno + 1
+    return 0
 
 
 def _self_attributes(cls: ast.ClassDef) -> set[str]:
@@ -121,3 +124,84 @@ def test_class_attributes() -> None:
                 over.add(f"{mod}:{node.name}")
     assert over - CLASS_ALLOW == set(), "classes over the mutable-attribute limit"
     assert CLASS_ALLOW - over == set(), "allow-listed classes now within limit: unlist them"
+
+
+# =========================================================================================
+# Branches on the target kind outside formulation/modes.py (issue 25: "Mode polymorphic")
+# =========================================================================================
+#: What counts: ``isinstance(x, PlanarTarget / SpatialTarget / a union of them)`` and every
+#: read of an attribute named ``planar``, ``spatial``, ``is_planar`` or ``is_spatial``.
+_KIND_CLASSES = {"PlanarTarget", "SpatialTarget"}
+_KIND_ATTRIBUTES = {"planar", "spatial", "is_planar", "is_spatial"}
+
+#: Most such branches a module may hold (104 in all before session 17's hygiene pass, 80
+#: after it), and why they stay. Caps only go down; a new branch belongs in a Mode method.
+MODE_BRANCH_CAPS: dict[str, tuple[int, str]] = {
+    "formulation/problem.py": (11, "picks the mode's compiled evaluator, scalings and rows"),
+    "paths/continuation.py": (9, "planar and spatial path kernels take different arrays"),
+    "solve/stages.py": (6, "stage plan per mode (another helper's file this session)"),
+    "methods/ip.py": (4, "planar and spatial compiled kernels (another helper's file)"),
+    "methods/sqp.py": (4, "exact compiled spatial Hessian, planar structured forms"),
+    "paths/result.py": (4, "PathResult.planar and the CSV's per-kind target columns"),
+    "cli/path.py": (3, "the --spatial flag of the command line"),
+    "methods/_sqp_compiled.py": (3, "compiled SQP evaluation exists per mode"),
+    "methods/ipopt.py": (3, "the CasADi graph of each mode's kinematics"),
+    "paths/bounded.py": (3, "compiled bounded steps take per-mode problem arrays"),
+    "paths/fast.py": (3, "spatial resets the transit on arrival only (measured policy)"),
+    "check.py": (2, "the independent check: below formulation on purpose"),
+    "convex.py": (2, "the SOCP's fixed-rotation kinematics differ in kind"),
+    "paths/report.py": (2, "compiled planar path arrays, FN per mode"),
+    "paths/solve.py": (2, "which kernels to load before the clock"),
+    "solve/many.py": (2, "kernel sets a worker loads (before the targets are validated)"),
+    "solve/nearest.py": (2, "a spatial target is reached through its vertical plane"),
+    "solve/pipeline.py": (2, "kernels to load before the clock (before validation)"),
+    "solve/policy.py": (2, "the automatic method and starts per mode"),
+    "solve/request.py": (2, "the automatic method per mode"),
+    "analysis/capacity.py": (1, "a planar-only study validates its targets"),
+    "cli/solve.py": (1, "the --spatial flag of the command line"),
+    "formulation/lifted.py": (1, "a planar-only formulation validates its problem"),
+    "formulation/structured.py": (1, "a planar-only formulation validates its problem"),
+    "paths/interpolate.py": (1, "a single target given where a sequence is expected"),
+    "paths/reanchor.py": (1, "planar re-anchoring screens compiled candidates"),
+    "paths/request.py": (1, "the path request's planar flag, once"),
+    "starts.py": (1, "the paper's initial guess per mode"),
+    "targets.py": (1, "a target's plain-data form (below formulation)"),
+}
+
+
+def _mode_branches(tree: ast.AST) -> int:
+    def names(node: ast.AST) -> set[str]:
+        return {
+            n.id if isinstance(n, ast.Name) else n.attr
+            for n in ast.walk(node)
+            if isinstance(n, (ast.Name, ast.Attribute))
+        }
+
+    count = 0
+    for node in ast.walk(tree):
+        if (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Name)
+            and node.func.id == "isinstance"
+            and len(node.args) == 2
+            and names(node.args[1]) & _KIND_CLASSES
+        ):
+            count += 1
+        elif (
+            isinstance(node, ast.Attribute)
+            and node.attr in _KIND_ATTRIBUTES
+            and isinstance(node.ctx, ast.Load)
+        ):
+            count += 1
+    return count
+
+
+def test_mode_branches_are_capped() -> None:
+    counts = {
+        mod: n
+        for mod, tree in _sources().items()
+        if mod != "formulation/modes.py" and (n := _mode_branches(tree)) > 0
+    }
+    over = {mod: n for mod, n in counts.items() if n > MODE_BRANCH_CAPS.get(mod, (0, ""))[0]}
+    assert over == {}, "branches on the target kind: ask the target's Mode instead"
+    assert sum(counts.values()) <= 80

@@ -246,6 +246,10 @@ def _md_table(summary: list[dict], cols: Sequence[str]) -> str:
     return "\n".join(lines)
 
 
+#: One benchmarked (stack, targets, method, section, index of the first target) set.
+_Job = tuple[Stack, Sequence[Any], Method, str, int]
+
+
 def run_benchmark(
     cfg: BenchConfig, out: Path, progress: bool = True, fresh: bool = False
 ) -> dict[str, Any]:
@@ -259,10 +263,37 @@ def run_benchmark(
     stack = Stack.reference(4)
     targets = [PlanarTarget(*t, phi=0.0) for t in PAPER_TARGETS]
     targets += random_planar_targets(stack, cfg.n_random, cfg.rng, phis=cfg.phis)
-    methods = _planar_methods(cfg)
-    jobs: list[tuple[Stack, Sequence[Any], Method, str, int]] = [
-        (stack, targets, m, "planar", 0) for m in methods
-    ]
+    jobs: list[_Job] = [(stack, targets, m, "planar", 0) for m in _planar_methods(cfg)]
+    jobs += _scaling_jobs(cfg)
+    jobs += _geometry_jobs(cfg)
+    sp_targets = random_spatial_targets(stack, cfg.n_spatial, cfg.rng + 7)
+    jobs += _spatial_jobs(cfg, stack, sp_targets)
+    # warm up imports and caches (and compile or load the numba kernels, planar and
+    # spatial) so the first timed solve is not penalised
+    solve_ik(stack, targets[0])
+    if sp_targets:
+        solve_ik(stack, sp_targets[0])
+    rows = _run_jobs(jobs, out / "ik_bench.jsonl", progress, fresh)
+    summary = _summarise(rows)
+    fits = _time_exponents(summary)
+    machine = machine_info()
+    ratios = _ratios(summary)
+    result = {
+        "machine": machine,
+        "config": cfg.__dict__,
+        "summary": summary,
+        "exponents": fits,
+        "speedups": ratios,
+    }
+    write_csv(out / "ik_bench.csv", rows)
+    (out / "ik_bench.json").write_text(json.dumps(result, indent=2, default=str))
+    md = _markdown(cfg, machine, summary, ratios, fits, len(targets), len(sp_targets))
+    (out / "ik_bench.md").write_text("\n".join(md))
+    return result
+
+
+def _scaling_jobs(cfg: BenchConfig) -> list[_Job]:
+    """Section 2: a few methods on random reachable targets of each stack size."""
     scale_methods = [
         Method(DEFAULT, {}),
         Method("ip, 1 start", {"method": "ip", "starts": 1}),
@@ -270,6 +301,7 @@ def run_benchmark(
     ]
     if cfg.ipopt and _ipopt_ok():
         scale_methods.append(Method(IPOPT1, {"method": "ipopt", "starts": 1}))
+    jobs: list[_Job] = []
     for n in cfg.sizes:
         st = Stack.reference(n)
         tg = random_planar_targets(st, cfg.per_size, cfg.rng + 100 * n, phis=cfg.phis)
@@ -279,13 +311,18 @@ def run_benchmark(
             for m in scale_methods
             if not (m.kwargs.get("method") == "slsqp" and n > 32)
         ]
-    # other geometries: random asymmetric stacks, several n and phi, against IPOPT
+    return jobs
+
+
+def _geometry_jobs(cfg: BenchConfig) -> list[_Job]:
+    """Section 3: random asymmetric stacks, several n and phi, against IPOPT."""
     geo_methods = [Method(DEFAULT, {})]
     if cfg.ipopt and _ipopt_ok():
         geo_methods += [
             Method(IPOPT1, {"method": "ipopt", "starts": 1}),
             Method(IPOPT8, {"method": "ipopt", "starts": 8, "rng": 0}),
         ]
+    jobs: list[_Job] = []
     for n in cfg.geo_sizes:
         offset = 0
         for g in range(cfg.geo_stacks):
@@ -295,42 +332,28 @@ def run_benchmark(
             )
             jobs += [(st, tg, m, "geometries", offset) for m in geo_methods]
             offset += len(tg)
-    sp_targets = random_spatial_targets(stack, cfg.n_spatial, cfg.rng + 7)
-    jobs += [
-        (stack, sp_targets, Method(DEFAULT, {}), "spatial", 0),
-        (stack, sp_targets, Method(SLSQP, {"method": "slsqp", "starts": 1}), "spatial", 0),
-        (stack, sp_targets, Method("sqp, 1 start", {"method": "sqp", "starts": 1}), "spatial", 0),
-        (
-            stack,
-            sp_targets,
-            Method("sqp, 5 structured starts", {"method": "sqp", "starts": 5}),
-            "spatial",
-            0,
-        ),
-        (
-            stack,
-            sp_targets,
-            Method("sqp, 12 starts (the former spatial default)", {"method": "sqp"}),
-            "spatial",
-            0,
-        ),
+    return jobs
+
+
+def _spatial_jobs(cfg: BenchConfig, stack: Stack, sp_targets: Sequence[Any]) -> list[_Job]:
+    """Section 4: the spatial methods (IPOPT as the independent reference when present)."""
+    methods = [
+        Method(DEFAULT, {}),
+        Method(SLSQP, {"method": "slsqp", "starts": 1}),
+        Method("sqp, 1 start", {"method": "sqp", "starts": 1}),
+        Method("sqp, 5 structured starts", {"method": "sqp", "starts": 5}),
+        Method("sqp, 12 starts (the former spatial default)", {"method": "sqp"}),
     ]
     if cfg.ipopt and _ipopt_ok():  # the independent reference for "within 0.1 %"
-        jobs += [
-            (stack, sp_targets, Method(IPOPT1, {"method": "ipopt", "starts": 1}), "spatial", 0),
-            (
-                stack,
-                sp_targets,
-                Method(IPOPT8, {"method": "ipopt", "starts": 8, "rng": 0}),
-                "spatial",
-                0,
-            ),
+        methods += [
+            Method(IPOPT1, {"method": "ipopt", "starts": 1}),
+            Method(IPOPT8, {"method": "ipopt", "starts": 8, "rng": 0}),
         ]
-    # warm up imports and caches (and compile or load the numba kernels, planar and
-    # spatial) so the first timed solve is not penalised
-    solve_ik(stack, targets[0])
-    if sp_targets:
-        solve_ik(stack, sp_targets[0])
+    return [(stack, sp_targets, m, "spatial", 0) for m in methods]
+
+
+def _run_jobs(jobs: list[_Job], ckpt: Path, progress: bool, fresh: bool) -> list[dict]:
+    """One row per (job, target) solve, checkpointed to ``ckpt`` (started over if ``fresh``)."""
     tasks: list[tuple[int, int]] = []
     for j, job in enumerate(jobs):
         n_t, limit = len(job[1]), job[2].max_targets
@@ -355,10 +378,9 @@ def run_benchmark(
             "at": target_to_dict(tg[task[1]]),
         }
 
-    ckpt = out / "ik_bench.jsonl"
     if fresh and ckpt.exists():
         ckpt.unlink()
-    rows = checkpointed_map(
+    return checkpointed_map(
         one,
         tasks,
         key=key,
@@ -368,8 +390,10 @@ def run_benchmark(
         progress=progress,
         desc="bench",
     )
-    summary = _summarise(rows)
-    # fitted exponent of median time vs n (scaling section)
+
+
+def _time_exponents(summary: list[dict]) -> dict[str, float]:
+    """Fitted exponent of median time vs n per method of the scaling section."""
     fits = {}
     for label in {s["method"] for s in summary if s["section"] == "scaling"}:
         pts = sorted(
@@ -380,17 +404,19 @@ def run_benchmark(
         if len(pts) >= 2:
             x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
             fits[label] = float(np.polyfit(x, y, 1)[0])
-    machine = machine_info()
-    ratios = _ratios(summary)
-    result = {
-        "machine": machine,
-        "config": cfg.__dict__,
-        "summary": summary,
-        "exponents": fits,
-        "speedups": ratios,
-    }
-    write_csv(out / "ik_bench.csv", rows)
-    (out / "ik_bench.json").write_text(json.dumps(result, indent=2, default=str))
+    return fits
+
+
+def _markdown(
+    cfg: BenchConfig,
+    machine: dict[str, Any],
+    summary: list[dict],
+    ratios: list[dict],
+    fits: dict[str, float],
+    n_planar: int,
+    n_spatial: int,
+) -> list[str]:
+    """Lines of ``ik_bench.md``: machine, then one table per section."""
     cols = [
         "method",
         "targets",
@@ -402,7 +428,7 @@ def run_benchmark(
         "p90_ms",
         "median_nit",
     ]
-    md = [
+    return [
         "# stackik solver benchmark",
         "",
         f"Machine: {machine.get('cpu', machine['processor'])}, {machine['cpus']} CPUs, "
@@ -413,7 +439,7 @@ def run_benchmark(
         "FN gap relative to the best FN any method found for that target. Times are wall "
         "time per solve_ik call, including starts and the final check.",
         "",
-        f"## Planar, n = 4 ({len(targets)} targets: the paper's 3 + random reachable, "
+        f"## Planar, n = 4 ({n_planar} targets: the paper's 3 + random reachable, "
         f"phi in {list(cfg.phis)})",
         "",
         _md_table([s for s in summary if s["section"] == "planar"], cols),
@@ -434,15 +460,13 @@ def run_benchmark(
         "",
         _md_table([s for s in summary if s["section"] == "geometries"], ["n", *cols]),
         "",
-        f"## Spatial, n = 4 ({len(sp_targets)} random reachable 6-DOF targets)",
+        f"## Spatial, n = 4 ({n_spatial} random reachable 6-DOF targets)",
         "",
         _md_table([s for s in summary if s["section"] == "spatial"], cols),
         "",
         "Re-run: `stackik bench --out benchmarks/results` (or `python benchmarks/bench_ik.py`).",
         "",
     ]
-    (out / "ik_bench.md").write_text("\n".join(md))
-    return result
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -418,20 +418,38 @@ def clearances(
     B = O[:-1, None, :] + np.einsum("nij,nkj->nki", A[:-1], stack.base_nodes)  # (n, 6, 3)
     T = O[1:, None, :] + np.einsum("nij,nkj->nki", A[1:], stack.top_nodes)
     r = lay.radius
-    contacts: list[Contact] = []
-
     # the bodies of the stack against each other: one compiled call (exact, screened)
     d_self, adj_min, adj_at, non_adj, kind, at = body_clearances(
         B, T, r, A, O, lay.uv, lay.centre, lay.reach, lay.half_t,
         lay.self_k, lay.self_m, lay.adj, lay.ll, lay.lp, lay.pp,
     )  # fmt: skip
-    k, m = lay.self_k, lay.self_m
     by_plat = d_self.min(axis=1)
+    contacts = _stack_contacts(lay, d_self, adj_min, adj_at, non_adj, kind, at)
+    ob_min, ob_contacts = _obstacle_contacts(obs, lay, A, O, B, T)
+    by_plat.setflags(write=False)
+    return Clearances(
+        contacts[0].distance, by_plat, float(adj_min), float(non_adj), tuple(ob_min),
+        tuple(contacts + ob_contacts),
+    )  # fmt: skip
+
+
+def _stack_contacts(
+    lay: _Layout,
+    d_self: FloatArray,
+    adj_min: float,
+    adj_at: int,
+    non_adj: float,
+    kind: int,
+    at: int,
+) -> list[Contact]:
+    """The closest pairs of the stack's own bodies from :func:`body_clearances`' answer:
+    the legs of one platform (always), adjacent platforms' legs and the rest (if any)."""
+    k, m = lay.self_k, lay.self_m
     i, p = np.unravel_index(int(np.argmin(d_self)), d_self.shape)
     self_min = float(d_self[i, p])
-    contacts.append(
+    contacts = [
         Contact(self_min, Body("leg", int(i) + 1, int(k[p])), Body("leg", int(i) + 1, int(m[p])))
-    )
+    ]
     if adj_at >= 0:
         ia, ka, ib, kb = lay.adj[adj_at]
         contacts.append(
@@ -448,43 +466,54 @@ def clearances(
         bodies = (Body("plate", int(j1)), Body("plate", int(j2)))
     if kind >= 0:
         contacts.append(Contact(non_adj, *bodies))
+    return contacts
 
-    # obstacles: every leg, every plate but the base (signed distances are 1-Lipschitz,
-    # so a sphere's centre bounds its body's distance from below)
+
+def _obstacle_contacts(
+    obs: Sequence[Obstacle],
+    lay: _Layout,
+    A: FloatArray,
+    O: FloatArray,
+    B: FloatArray,
+    T: FloatArray,
+) -> tuple[list[float], list[Contact]]:
+    """Each obstacle's least distance to every leg and every plate but the base, and its
+    closest body (signed distances are 1-Lipschitz, so a sphere's centre bounds its body's
+    distance from below: pairs are screened by bounding spheres, exactly)."""
     ob_min: list[float] = []
-    if obs:
-        # bounding spheres of the bodies: a pair's distance is at least that of its spheres
-        leg_c = 0.5 * (B + T)  # (n, 6, 3)
-        leg_R = 0.5 * np.linalg.norm(T - B, axis=-1) + r[:, None]
-        plate_c = O + np.einsum("nij,nj->ni", A[:, :, :2], lay.centre)  # (n+1, 3)
-        plate_R = lay.reach + lay.half_t
-        a, b = B.reshape(-1, 3), T.reshape(-1, 3)
-        r_leg = np.repeat(r, 6)
-        c_leg, R_leg = leg_c.reshape(-1, 3), leg_R.reshape(-1)
-        ht = lay.half_t[1:]
-        for o_i, ob in enumerate(obs):
-            best = _Best()
+    contacts: list[Contact] = []
+    if not obs:
+        return ob_min, contacts
+    r = lay.radius
+    # bounding spheres of the bodies: a pair's distance is at least that of its spheres
+    leg_c = 0.5 * (B + T)  # (n, 6, 3)
+    leg_R = 0.5 * np.linalg.norm(T - B, axis=-1) + r[:, None]
+    plate_c = O + np.einsum("nij,nj->ni", A[:, :, :2], lay.centre)  # (n+1, 3)
+    plate_R = lay.reach + lay.half_t
+    a, b = B.reshape(-1, 3), T.reshape(-1, 3)
+    r_leg = np.repeat(r, 6)
+    c_leg, R_leg = leg_c.reshape(-1, 3), leg_R.reshape(-1)
+    ht = lay.half_t[1:]
+    for o_i, ob in enumerate(obs):
+        best = _Best()
 
-            def d_leg(x: IntArray, ob: Obstacle = ob) -> FloatArray:
-                return ob.segment_distance(a[x], b[x]) - r_leg[x]  # type: ignore[no-any-return]
+        def d_leg(x: IntArray, ob: Obstacle = ob) -> FloatArray:
+            return ob.segment_distance(a[x], b[x]) - r_leg[x]  # type: ignore[no-any-return]
 
-            def d_plate(x: IntArray, ob: Obstacle = ob) -> FloatArray:
-                j = x + 1
-                return ob.polygon_distance(dist.Polygon(O[j], A[j], lay.uv[j])) - ht[x]  # type: ignore[no-any-return]
+        def d_plate(x: IntArray, ob: Obstacle = ob) -> FloatArray:
+            j = x + 1
+            return ob.polygon_distance(dist.Polygon(O[j], A[j], lay.uv[j])) - ht[x]  # type: ignore[no-any-return]
 
-            x = best.screen(ob.point_distance(c_leg) - R_leg, d_leg)
-            if x is not None:
-                best.bodies = (Body("leg", x // 6 + 1, x % 6), None)
-            x = best.screen(ob.point_distance(plate_c[1:]) - plate_R[1:], d_plate)
-            if x is not None:
-                best.bodies = (Body("plate", x + 1), None)
-            assert best.bodies is not None  # a stack has legs
-            ob_min.append(best.value)
-            contacts.append(Contact(best.value, best.bodies[0], obstacle=o_i))
-    by_plat.setflags(write=False)
-    return Clearances(
-        self_min, by_plat, float(adj_min), float(non_adj), tuple(ob_min), tuple(contacts)
-    )
+        x = best.screen(ob.point_distance(c_leg) - R_leg, d_leg)
+        if x is not None:
+            best.bodies = (Body("leg", x // 6 + 1, x % 6), None)
+        x = best.screen(ob.point_distance(plate_c[1:]) - plate_R[1:], d_plate)
+        if x is not None:
+            best.bodies = (Body("plate", x + 1), None)
+        assert best.bodies is not None  # a stack has legs
+        ob_min.append(best.value)
+        contacts.append(Contact(best.value, best.bodies[0], obstacle=o_i))
+    return ob_min, contacts
 
 
 def needs_clearances(

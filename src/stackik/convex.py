@@ -10,6 +10,8 @@ Solved with cvxpy + Clarabel.
 
 from __future__ import annotations
 
+from typing import Any, NamedTuple
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -25,6 +27,17 @@ FloatArray = NDArray[np.float64]
 
 class ConvexStartError(RuntimeError):
     """The convex restriction has no solution for the chosen rotations."""
+
+
+class _Fixed(NamedTuple):
+    """The IK problem with every rotation fixed: the end effector is ``sum_i W[i] p[i]``."""
+
+    R: FloatArray  # (n, 3, 3) platform rotations
+    M: FloatArray  # (3, dim): a platform's translation in its base frame is M p
+    W: FloatArray  # (n, dim, dim): world contribution of platform i is W[i] p[i]
+    goal: FloatArray  # (dim,) target position
+    p0: FloatArray  # (n, dim) the guess's translations
+    rotations: FloatArray  # the pose's rotation columns: (n, 1) planar, (n, 3) spatial
 
 
 def convex_start(
@@ -58,54 +71,87 @@ def convex_start(
     """
     import cvxpy as cp
 
-    n = stack.n
     guess = paper_initial_guess(stack, target)
-    planar = isinstance(target, PlanarTarget)
+    # the two modes' kinematics differ in kind (a plane's 2D chain, 3D frames); a Mode
+    # method would drag cvxpy's problem set-up into formulation/modes.py
     if isinstance(target, PlanarTarget):
-        th = guess[:, 2] if rotations is None else np.asarray(rotations, dtype=float)
-        if th.shape != (n,):
-            raise ValueError(f"rotations: expected shape ({n},), got {th.shape}")
-        s = plane_axis(target.phi)
-        R = rodrigues(s, th)  # (n, 3, 3)
-        e_phi = np.array([np.cos(target.phi), np.sin(target.phi), 0.0])
-        M = np.column_stack([e_phi, [0.0, 0.0, 1.0]])  # P_i = M p_i, p_i = (rho_i, z_i)
-        Theta = np.cumsum(th) - th
-        # world (rho, z) contribution of platform i: Rot2(Theta_i) p_i
-        W = np.array([[[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]] for a in Theta])
-        P_goal = np.array([target.rho, target.z])
-        p0 = guess[:, :2]
-        dim = 2
+        fixed = _planar_fixed(stack.n, target, guess, rotations)
     else:
         assert isinstance(target, SpatialTarget)
-        eul = guess[:, 3:] if rotations is None else np.asarray(rotations, dtype=float)
-        if eul.shape != (n, 3):
-            raise ValueError(f"rotations: expected shape ({n}, 3), got {eul.shape}")
-        R = euler_zyx(eul)
-        M = np.eye(3)
-        A = [np.eye(3)]
-        for i in range(n - 1):
-            A.append(A[-1] @ R[i])
-        W = np.array(A)
-        P_goal = target.position
-        p0 = guess[:, :3]
-        dim = 3
+        fixed = _spatial_fixed(stack.n, target, guess, rotations)
+    n, dim = fixed.p0.shape
     p = cp.Variable((n, dim))
-    world = [W[i] @ p[i] for i in range(n)]
-    cons = [sum(world) == P_goal]
-    # FN^2 - const = sum_{j<n} |sum_{k>j} world_k|^2
+    world = [fixed.W[i] @ p[i] for i in range(n)]
+    cons = [sum(world) == fixed.goal] + _leg_cones(stack, fixed, p, margin)
+    prob = cp.Problem(_fn2_objective(world), cons)
+    try:
+        prob.solve(solver=solver)
+    except cp.error.SolverError as exc:
+        raise ConvexStartError(f"convex start: solver failed ({exc})") from None
+    if prob.status not in ("optimal", "optimal_inaccurate") or p.value is None:
+        raise ConvexStartError(f"convex start: SOCP is {prob.status} for these rotations")
+    q = guess.copy()
+    q[:, :dim] = p.value
+    q[:, dim:] = fixed.rotations
+    return q
+
+
+def _planar_fixed(
+    n: int, target: PlanarTarget, guess: FloatArray, rotations: ArrayLike | None
+) -> _Fixed:
+    """Planar: translations ``(rho_i, z_i)`` in the plane ``phi``, angles ``theta_i`` fixed."""
+    th = guess[:, 2] if rotations is None else np.asarray(rotations, dtype=float)
+    if th.shape != (n,):
+        raise ValueError(f"rotations: expected shape ({n},), got {th.shape}")
+    s = plane_axis(target.phi)
+    R = rodrigues(s, th)  # (n, 3, 3)
+    e_phi = np.array([np.cos(target.phi), np.sin(target.phi), 0.0])
+    M = np.column_stack([e_phi, [0.0, 0.0, 1.0]])  # P_i = M p_i, p_i = (rho_i, z_i)
+    Theta = np.cumsum(th) - th
+    # world (rho, z) contribution of platform i: Rot2(Theta_i) p_i
+    W = np.array([[[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]] for a in Theta])
+    return _Fixed(R, M, W, np.array([target.rho, target.z]), guess[:, :2], th[:, None])
+
+
+def _spatial_fixed(
+    n: int, target: SpatialTarget, guess: FloatArray, rotations: ArrayLike | None
+) -> _Fixed:
+    """Spatial: translations (x, y, z), Euler angles fixed."""
+    eul = guess[:, 3:] if rotations is None else np.asarray(rotations, dtype=float)
+    if eul.shape != (n, 3):
+        raise ValueError(f"rotations: expected shape ({n}, 3), got {eul.shape}")
+    R = euler_zyx(eul)
+    A = [np.eye(3)]
+    for i in range(n - 1):
+        A.append(A[-1] @ R[i])
+    return _Fixed(R, np.eye(3), np.array(A), target.position, guess[:, :3], eul)
+
+
+def _fn2_objective(world: list[Any]) -> Any:
+    """``FN^2 - const = sum_{j<n} |sum_{k>j} world_k|^2`` as a cvxpy objective."""
+    import cvxpy as cp
+
     tails = []
     acc = None
-    for k in range(n - 1, 0, -1):
+    for k in range(len(world) - 1, 0, -1):
         acc = world[k] if acc is None else acc + world[k]
         tails.append(acc)
-    obj = cp.Minimize(sum(cp.sum_squares(t) for t in tails)) if tails else cp.Minimize(0)
+    return cp.Minimize(sum(cp.sum_squares(t) for t in tails)) if tails else cp.Minimize(0)
+
+
+def _leg_cones(stack: Stack, fixed: _Fixed, p: Any, margin: float) -> list[Any]:
+    """Leg length and joint-angle limits as cones (``|l| >= leg_min`` made linear)."""
+    import cvxpy as cp
+
+    cons = []
     ez = np.array([0.0, 0.0, 1.0])
-    for i in range(n):
+    M = fixed.M
+    for i in range(stack.n):
         b, t = stack.base_nodes[i], stack.top_nodes[i]
-        Rt = t @ R[i].T  # (6, 3)
-        Rn = R[i] @ ez
+        Rt = t @ fixed.R[i].T  # (6, 3)
+        Rn = fixed.R[i] @ ez
         s_j = stack.sin_joint_min[i]
-        l0 = Rt + M @ p0[i] - b
+        l0 = Rt + M @ fixed.p0[i] - b
         u = l0 / np.linalg.norm(l0, axis=1, keepdims=True)
         for k in range(6):
             lk = Rt[k] - b[k] + M @ p[i]
@@ -115,17 +161,4 @@ def convex_start(
                 s_j * cp.norm(lk) + margin <= ez @ lk,
                 s_j * cp.norm(lk) + margin <= Rn @ lk,
             ]
-    prob = cp.Problem(obj, cons)
-    try:
-        prob.solve(solver=solver)
-    except cp.error.SolverError as exc:
-        raise ConvexStartError(f"convex start: solver failed ({exc})") from None
-    if prob.status not in ("optimal", "optimal_inaccurate") or p.value is None:
-        raise ConvexStartError(f"convex start: SOCP is {prob.status} for these rotations")
-    q = guess.copy()
-    q[:, :dim] = p.value
-    if planar:
-        q[:, 2] = th
-    else:
-        q[:, 3:] = eul
-    return q
+    return cons

@@ -14,6 +14,8 @@ in the shape, ``(..., 3, 3)``. Angles are in radians.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
@@ -27,6 +29,8 @@ __all__ = [
     "rodrigues",
     "rodrigues_derivative",
     "rotation_2d",
+    "rotation_angle",
+    "slerp",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -157,3 +161,36 @@ def euler_zyx_from_matrix(R: ArrayLike) -> FloatArray:
     flat = R.reshape(-1, 3, 3)
     angles = Rotation.from_matrix(flat).as_euler("ZYX")
     return angles.reshape(R.shape[:-2] + (3,))
+
+
+def rotation_angle(Ra: FloatArray, Rb: FloatArray) -> float:
+    """Angle of the relative rotation ``Ra^T Rb`` [rad], in ``[0, pi]``."""
+    c = (float(np.trace(np.asarray(Ra).T @ np.asarray(Rb))) - 1.0) / 2.0
+    return math.acos(min(1.0, max(-1.0, c)))
+
+
+def slerp(Ra: FloatArray, Rb: FloatArray, s: float) -> FloatArray:
+    """Spherical linear interpolation of rotations: ``Ra exp(s log(Ra^T Rb))``.
+
+    Parameters
+    ----------
+    Ra, Rb : array_like, shape (3, 3)
+        Rotation matrices.
+    s : float
+        Fraction in ``[0, 1]``: 0 gives ``Ra``, 1 gives ``Rb``; the rotation angle from
+        ``Ra`` grows linearly with ``s`` along the shortest arc.
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+    """
+    Ra = np.asarray(Ra, dtype=float)
+    if s == 0.0:
+        return Ra.copy()
+    if s == 1.0:
+        return np.array(Rb, dtype=float)
+    rv = Rotation.from_matrix(Ra.T @ np.asarray(Rb, dtype=float)).as_rotvec()
+    R = Ra @ Rotation.from_rotvec(s * rv).as_matrix()
+    # re-orthonormalise (SVD) so that the target constructor's 1e-6 test always passes
+    U, _, Vt = np.linalg.svd(R)
+    return U @ Vt  # type: ignore[no-any-return]

@@ -35,8 +35,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from stackik.analysis._nodes import stack_nodes
+from stackik.formulation.modes import mode_of
 from stackik.geometry import Stack
-from stackik.targets import PlanarTarget, SpatialTarget, Target
+from stackik.targets import Target
 
 if TYPE_CHECKING:
     from stackik.paths.result import PathResult
@@ -342,9 +343,12 @@ def _obstacle_mesh(ob: ObstacleRecord, extent: float) -> tuple[FloatArray, NDArr
 def _target_frame(target: Target | None) -> tuple[FloatArray, FloatArray] | None:
     if target is None:
         return None
-    t = target.to_spatial() if isinstance(target, PlanarTarget) else target
-    if not isinstance(t, SpatialTarget):
-        raise ValueError(f"target: expected a PlanarTarget or SpatialTarget, got {target!r}")
+    try:
+        t = mode_of(target).spatial_target(target)
+    except ValueError:
+        raise ValueError(
+            f"target: expected a PlanarTarget or SpatialTarget, got {target!r}"
+        ) from None
     return np.asarray(t.position, float), np.asarray(t.rotation, float)
 
 
@@ -734,52 +738,18 @@ def path_figure(
     """
     go = require_plotly()
     if hasattr(poses, "q") and hasattr(poses, "targets"):  # a PathResult
-        res: Any = poses
-        c = int(res.completed)
-        if c == 0:
-            raise ValueError("poses: the path has no reached waypoint to draw")
-        poses = np.asarray(res.q[:c])
-        t0 = res.targets[0]
-        if isinstance(t0, PlanarTarget) and phi is None:
-            phi = t0.phi
-        if targets is None:
-            targets = list(res.targets[:c])
-        if labels is None:
-            fn = res.frobenius_norm
-            labels = [
-                f"{k}: FN {fn[k]:.0f}"
-                + (f", t {res.times[k]:.2f} s" if res.times is not None else "")
-                for k in range(c)
-            ]
-        if title is None:
-            kind = "planar" if res.planar else "spatial"
-            title = (
-                f"{res.n}-platform stack, {kind} path: {c}/{res.m} waypoints, "
-                f"{res.status.value} (mean FN {res.mean_frobenius_norm:.0f})"
-            )
+        poses, phi, targets, labels, title = _path_defaults(poses, phi, targets, labels, title)
     qa = _poses_array(stack, poses)
     m = len(qa)
     if qa.shape[2] == 3 and phi is None:
         raise ValueError("phi: required for planar poses (n, 3)")
-    tg: list[Target | None]
-    if targets is None:
-        tg = [None] * m
-    else:
-        tg = list(targets)
-        if len(tg) == 1:
-            tg = tg * m
-        if len(tg) != m:
-            raise ValueError(f"targets: expected {m} targets (one per pose) or 1, got {len(tg)}")
+    tg = _one_target_per_pose(targets, m)
     if labels is not None and len(labels) != m:
         raise ValueError(f"labels: expected {m} labels, got {len(labels)}")
     colouring = _colouring(stack, qa, phi, leg_values, leg_values_title, value_range, colorscale)
     radius = float(np.linalg.norm(stack.top_nodes[..., :2], axis=-1).max())
     axis_length = 0.9 * radius
-    nodes = [stack_nodes(stack, q, phi) for q in qa]
-    pts = [np.concatenate([nd["base"].reshape(-1, 3), nd["top"].reshape(-1, 3)]) for nd in nodes]
-    frames_xyz = [_target_frame(t) for t in tg]
-    tpos = np.array([f[0] for f in frames_xyz if f is not None]).reshape(-1, 3)
-    all_pts = np.concatenate(pts + [tpos])
+    tpos, all_pts = _drawn_points(stack, qa, phi, tg)
     scene = _scene(all_pts, pad=axis_length + 30.0)
     extent = 0.5 * float(np.nanmax(all_pts.max(0) - all_pts.min(0))) + axis_length
 
@@ -812,12 +782,73 @@ def path_figure(
         f"{stack.n}-platform stack" + (f", {m} poses" if m > 1 else "") + " (mm)"
     )
     fig.update_layout(**_layout(base_title, scene))
-    if m == 1:
-        return fig
-    names = [str(k) for k in range(m)] if labels is None else [str(s) for s in labels]
+    if m > 1:
+        names = [str(k) for k in range(m)] if labels is None else [str(s) for s in labels]
+        _add_player(go, fig, traces, names, frame_ms)
+    return fig
+
+
+def _drawn_points(
+    stack: Stack, qa: FloatArray, phi: float | None, tg: list[Target | None]
+) -> tuple[FloatArray, FloatArray]:
+    """The targets' positions (k, 3) and every leg end and target position drawn [mm]."""
+    nodes = [stack_nodes(stack, q, phi) for q in qa]
+    pts = [np.concatenate([nd["base"].reshape(-1, 3), nd["top"].reshape(-1, 3)]) for nd in nodes]
+    frames_xyz = [_target_frame(t) for t in tg]
+    tpos = np.array([f[0] for f in frames_xyz if f is not None]).reshape(-1, 3)
+    return tpos, np.concatenate(pts + [tpos])
+
+
+def _path_defaults(
+    res: Any,
+    phi: float | None,
+    targets: Sequence[Target] | None,
+    labels: Sequence[str] | None,
+    title: str | None,
+) -> tuple[FloatArray, float | None, Sequence[Target], Sequence[str], str]:
+    """``(poses, phi, targets, labels, title)`` of :func:`path_figure` for a PathResult:
+    its reached poses, and what is not given taken from it."""
+    c = int(res.completed)
+    if c == 0:
+        raise ValueError("poses: the path has no reached waypoint to draw")
+    t0 = res.targets[0]
+    if phi is None:  # a planar path's plane (None for a spatial path)
+        phi = mode_of(t0).phi(t0)
+    if targets is None:
+        targets = list(res.targets[:c])
+    if labels is None:
+        fn = res.frobenius_norm
+        labels = [
+            f"{k}: FN {fn[k]:.0f}" + (f", t {res.times[k]:.2f} s" if res.times is not None else "")
+            for k in range(c)
+        ]
+    if title is None:
+        kind = mode_of(t0).name
+        title = (
+            f"{res.n}-platform stack, {kind} path: {c}/{res.m} waypoints, "
+            f"{res.status.value} (mean FN {res.mean_frobenius_norm:.0f})"
+        )
+    return np.asarray(res.q[:c]), phi, targets, labels, title
+
+
+def _one_target_per_pose(targets: Sequence[Target] | None, m: int) -> list[Target | None]:
+    """``targets`` as one entry per pose (None: no target; a single one: the same for all)."""
+    if targets is None:
+        return [None] * m
+    tg: list[Target | None] = list(targets)
+    if len(tg) == 1:
+        tg = tg * m
+    if len(tg) != m:
+        raise ValueError(f"targets: expected {m} targets (one per pose) or 1, got {len(tg)}")
+    return tg
+
+
+def _add_player(go: Any, fig: Any, traces: list[list[Any]], names: list[str], ms: int) -> None:
+    """One frame per pose, a play/pause button and a slider (``ms`` per frame)."""
+    m = len(traces)
     idx = list(range(len(traces[0])))
     fig.frames = [go.Frame(data=traces[k], traces=idx, name=names[k]) for k in range(m)]
-    play = {"frame": {"duration": frame_ms, "redraw": True}, "fromcurrent": True,
+    play = {"frame": {"duration": ms, "redraw": True}, "fromcurrent": True,
             "transition": {"duration": 0}, "mode": "immediate"}  # fmt: skip
     pause = {"frame": {"duration": 0, "redraw": False}, "mode": "immediate",
              "transition": {"duration": 0}}  # fmt: skip
@@ -836,7 +867,6 @@ def path_figure(
                        "args": [[names[k]], {**play, "mode": "immediate"}]} for k in range(m)],
         }],
     )  # fmt: skip
-    return fig
 
 
 def write_html(fig: Any, path: str | Path) -> Path:

@@ -491,87 +491,32 @@ def monte_carlo(
         and k > 1
         and isinstance(rng, int | np.integer | np.random.SeedSequence)
     ):
-        _sigmas(ncols, sigma_t, sigma_theta)  # bad input is reported here, not remotely
-        from stackik.batch import checkpointed_map
-
-        seq = rng if isinstance(rng, np.random.SeedSequence) else int(rng)
-        one = _OnePose(N, float(sigma_t), float(sigma_theta), seq, chunk, keep_samples, level)
-        parts = checkpointed_map(
-            one,
-            list(Q),
-            key=lambda q: None,
-            encode=lambda r: r,
-            decode=lambda r: r,
-            executor=executor,
-            chunksize=1,
-        )
-        return replace(parts[0], poses=tuple(p.poses[0] for p in parts))
+        return _spread_poses(
+            Q, N, sigma_t, sigma_theta, rng, chunk, keep_samples, level, executor
+        )  # fmt: skip
     chunk = max(1, int(chunk))
     sig = _sigmas(ncols, sigma_t, sigma_theta)
     seed = int(rng) if isinstance(rng, int | np.integer) else None
     gen = np.random.default_rng(rng)
-    d = 2 if mode == "planar" else 3
-
-    disp = np.empty((k, d, N))  # component-major for fast writes
-    ang = np.empty((k, N))
-    m_max = min(chunk, N)
-    raw = np.empty(m_max * n * ncols)
+    draws = _noise_chunks(gen, N, chunk, n, ncols)
     if mode == "planar":
-        work = _PlanarChunk(n, m_max)
-        Y0 = planar_forward(Q)  # (k, 3)
+        disp, ang = _planar_displacements(Q, N, min(chunk, N), sig, draws)
+        Y0 = [planar_forward(Q[j]) for j in range(k)]
+        nominals = [(y0[:2], np.asarray(y0[2])) for y0 in Y0]
     else:
         P0, R0 = spatial_forward(Q)  # (k, 3), (k, 3, 3)
-    for a in range(0, N, chunk):
-        m = min(chunk, N - a)
-        xi = raw[: m * n * ncols]
-        gen.standard_normal(out=xi)
-        xi = xi.reshape(m, n, ncols)
-        if mode == "planar":
-            work.load(xi, sig)
-            angle = work.angle(m)
-            for j in range(k):
-                work.position(Q[j], Y0[j], m, disp[j, 0, a : a + m], disp[j, 1, a : a + m])
-                ang[j, a : a + m] = angle
-        else:
-            dx = xi * sig
-            for j in range(k):
-                P, R = spatial_forward(Q[j] + dx)
-                disp[j, :, a : a + m] = (P - P0[j]).T
-                ang[j, a : a + m] = _rotation_angle(R0[j], R)
-
+        disp, ang = _spatial_displacements(Q, N, P0, R0, sig, draws)
+        nominals = [(P0[j], R0[j]) for j in range(k)]
     results = []
     angle_stats: tuple[float, float, float] | None = None
     for j in range(k):
-        D = disp[j]
-        dist = np.sqrt(np.einsum("dn,dn->n", D, D))
-        lo, med, hi = _quantiles(dist)
         if angle_stats is None or mode == "spatial":
             # planar: theta_ee changes by sum(dtheta_i) for every pose, computed once
             angle_stats = tuple(_quantiles(np.abs(ang[j])).tolist())
-        alo, amed, ahi = angle_stats
-        mean = D.mean(axis=1)
-        cov = (D @ D.T - N * np.outer(mean, mean)) / (N - 1)
-        if mode == "planar":
-            y0 = planar_forward(Q[j])
-            nominal, nominal_rot = y0[:2], np.asarray(y0[2])
-        else:
-            nominal, nominal_rot = P0[j], R0[j]
         results.append(
-            PoseMonteCarlo(
-                pose=Q[j].copy(),
-                nominal=nominal,
-                nominal_rotation=nominal_rot,
-                distance=dist,
-                displacement=D.T.copy() if keep_samples else None,
-                angle=ang[j].copy() if keep_samples else None,
-                median=float(med),
-                interval=(float(lo), float(hi)),
-                mean=mean,
-                covariance=cov,
-                ellipse=ConfidenceEllipse.from_covariance(mean, cov, level),
-                angle_median=float(amed),
-                angle_interval=(float(alo), float(ahi)),
-            )
+            _pose_statistics(
+                Q[j], disp[j], ang[j], angle_stats, nominals[j], keep_samples, level
+            )  # fmt: skip
         )
     return MonteCarloResult(
         poses=tuple(results),
@@ -580,4 +525,127 @@ def monte_carlo(
         sigma_theta=float(sigma_theta),
         mode=mode,  # type: ignore[arg-type]
         seed=seed,
+    )
+
+
+def _spread_poses(
+    Q: FloatArray,
+    N: int,
+    sigma_t: float,
+    sigma_theta: float,
+    rng: int | np.integer | np.random.SeedSequence,
+    chunk: int,
+    keep_samples: bool,
+    level: float,
+    executor: Any,
+) -> MonteCarloResult:
+    """:func:`monte_carlo` with one task per pose, each drawing the same noise from ``rng``."""
+    _sigmas(Q.shape[-1], sigma_t, sigma_theta)  # bad input is reported here, not remotely
+    from stackik.batch import checkpointed_map
+
+    seq = rng if isinstance(rng, np.random.SeedSequence) else int(rng)
+    one = _OnePose(N, float(sigma_t), float(sigma_theta), seq, chunk, keep_samples, level)
+    parts = checkpointed_map(
+        one,
+        list(Q),
+        key=lambda q: None,
+        encode=lambda r: r,
+        decode=lambda r: r,
+        executor=executor,
+        chunksize=1,
+    )
+    return replace(parts[0], poses=tuple(p.poses[0] for p in parts))
+
+
+def _noise_chunks(
+    gen: np.random.Generator, N: int, chunk: int, n: int, ncols: int
+) -> Iterator[tuple[int, FloatArray]]:
+    """``(a, xi)`` per block of samples ``a .. a + m``: standard normals xi (m, n, ncols).
+
+    One buffer is reused, so each ``xi`` is valid until the next one is drawn; the draws do
+    not depend on ``chunk``.
+    """
+    raw = np.empty(min(chunk, N) * n * ncols)
+    for a in range(0, N, chunk):
+        m = min(chunk, N - a)
+        xi = raw[: m * n * ncols]
+        gen.standard_normal(out=xi)
+        yield a, xi.reshape(m, n, ncols)
+
+
+def _planar_displacements(
+    Q: FloatArray,
+    N: int,
+    m_max: int,
+    sig: FloatArray,
+    draws: Iterator[tuple[int, FloatArray]],
+) -> tuple[FloatArray, FloatArray]:
+    """End-effector displacements (k, 2, N) and angle changes (k, N) of planar poses."""
+    k, n, _ = Q.shape
+    disp = np.empty((k, 2, N))  # component-major for fast writes
+    ang = np.empty((k, N))
+    work = _PlanarChunk(n, m_max)
+    Y0 = planar_forward(Q)  # (k, 3)
+    for a, xi in draws:
+        m = xi.shape[0]
+        work.load(xi, sig)
+        angle = work.angle(m)
+        for j in range(k):
+            work.position(Q[j], Y0[j], m, disp[j, 0, a : a + m], disp[j, 1, a : a + m])
+            ang[j, a : a + m] = angle
+    return disp, ang
+
+
+def _spatial_displacements(
+    Q: FloatArray,
+    N: int,
+    P0: FloatArray,
+    R0: FloatArray,
+    sig: FloatArray,
+    draws: Iterator[tuple[int, FloatArray]],
+) -> tuple[FloatArray, FloatArray]:
+    """End-effector displacements (k, 3, N) and rotation angles (k, N) of spatial poses."""
+    k = Q.shape[0]
+    disp = np.empty((k, 3, N))  # component-major for fast writes
+    ang = np.empty((k, N))
+    for a, xi in draws:
+        m = xi.shape[0]
+        dx = xi * sig
+        for j in range(k):
+            P, R = spatial_forward(Q[j] + dx)
+            disp[j, :, a : a + m] = (P - P0[j]).T
+            ang[j, a : a + m] = _rotation_angle(R0[j], R)
+    return disp, ang
+
+
+def _pose_statistics(
+    pose: FloatArray,
+    D: FloatArray,
+    ang: FloatArray,
+    angle_stats: tuple[float, float, float],
+    nominal: tuple[FloatArray, FloatArray],
+    keep_samples: bool,
+    level: float,
+) -> PoseMonteCarlo:
+    """Distance quantiles, covariance and ellipse of one pose's displacements D (d, N)."""
+    N = D.shape[1]
+    dist = np.sqrt(np.einsum("dn,dn->n", D, D))
+    lo, med, hi = _quantiles(dist)
+    alo, amed, ahi = angle_stats
+    mean = D.mean(axis=1)
+    cov = (D @ D.T - N * np.outer(mean, mean)) / (N - 1)
+    return PoseMonteCarlo(
+        pose=pose.copy(),
+        nominal=nominal[0],
+        nominal_rotation=nominal[1],
+        distance=dist,
+        displacement=D.T.copy() if keep_samples else None,
+        angle=ang.copy() if keep_samples else None,
+        median=float(med),
+        interval=(float(lo), float(hi)),
+        mean=mean,
+        covariance=cov,
+        ellipse=ConfidenceEllipse.from_covariance(mean, cov, level),
+        angle_median=float(amed),
+        angle_interval=(float(alo), float(ahi)),
     )

@@ -277,7 +277,6 @@ def reproduce(
     -------
     ReproduceResult
     """
-    from stackik.analysis import figures
     from stackik.targets import PlanarTarget
 
     t_start = time.perf_counter()
@@ -292,70 +291,104 @@ def reproduce(
     out.mkdir(parents=True, exist_ok=True)
     stack = Stack.reference(s.n)
     targets = [PlanarTarget(rho=a, z=b, theta=c, phi=s.phi) for a, b, c in PAPER_TARGETS]
-
-    def bar(it: Any, **kw: Any) -> Any:
-        if not progress:
-            return it
-        from tqdm.auto import tqdm
-
-        return tqdm(it, **kw)
-
     with ExitStack() as cleanup:
         if executor is None and s.workers > 1:
             from stackik.distributed import connect
 
             executor = cleanup.enter_context(connect(workers=s.workers, kinds=("planar",)))
-        # 1. poses --------------------------------------------------------------------
-        tp = tuple(
-            _spread(
-                _PosesOf(stack, 2, s.seed + 1, s.perturbation, s.max_attempts),
-                targets,
-                executor,
-                progress,
-                "paper targets: poses",
-            )
+        tp, table1, table2 = _paper_tables(stack, targets, s, executor, progress)
+        study = _workspace(stack, s, executor, progress)
+    checks = _checks(s, table1, table2, study)
+    files = _write_figures(out, stack, s, tp, table1, study, progress)
+    files.append(write_csv(out / "table1.csv", _table1_rows(tp, table1)))
+    files.append(write_csv(out / "table2.csv", _table2_rows(table2)))
+    files.append(write_csv(out / "workspace.csv", study.rows()))
+    result = ReproduceResult(
+        settings=s,
+        out_dir=out,
+        targets=tp,
+        table1=table1,
+        table2=table2,
+        study=study,
+        checks=checks,
+        files=tuple(files),
+        elapsed=time.perf_counter() - t_start,
+    )
+    payload = _results_payload(result, stack)
+    (out / "results.json").write_text(json.dumps(payload, indent=2, default=json_default_lenient))
+    files.append(out / "results.json")
+    (out / "report.md").write_text(_report(result))
+    files.append(out / "report.md")
+    return replace(result, files=tuple(files))
+
+
+def _paper_tables(
+    stack: Stack,
+    targets: list[PlanarTarget],
+    s: ReproduceSettings,
+    executor: Any,
+    progress: bool,
+) -> tuple[tuple[TargetPoses, ...], tuple[MonteCarloResult, ...], tuple[tuple[float, ...], ...]]:
+    """Steps 1-3: the poses of the paper's targets, Table 1 (Monte Carlo) and Table 2 (F)."""
+    tp = tuple(
+        _spread(
+            _PosesOf(stack, 2, s.seed + 1, s.perturbation, s.max_attempts),
+            targets,
+            executor,
+            progress,
+            "paper targets: poses",
         )
-        # 2-3. Tables 1 and 2 -----------------------------------------------------------
-        table1 = tuple(
-            _spread(
-                _MonteCarloOf(s.t1_samples, s.t1_sigma_t, s.t1_sigma_theta, s.seed + 10),
-                [p.poses for p in tp],
-                executor,
-                progress,
-                "Table 1 Monte Carlo",
-            )
-        )
-        table2_mc = _spread(
-            _MonteCarloOf(s.t2_samples, s.t2_sigma_t, s.t2_sigma_theta, s.seed + 20, False),
+    )
+    table1 = tuple(
+        _spread(
+            _MonteCarloOf(s.t1_samples, s.t1_sigma_t, s.t1_sigma_theta, s.seed + 10),
             [p.poses for p in tp],
             executor,
             progress,
-            "Table 2 Monte Carlo",
+            "Table 1 Monte Carlo",
         )
-        table2 = tuple(tuple(c.F for c in linearity_check(mc)) for mc in table2_mc)
+    )
+    table2_mc = _spread(
+        _MonteCarloOf(s.t2_samples, s.t2_sigma_t, s.t2_sigma_theta, s.seed + 20, False),
+        [p.poses for p in tp],
+        executor,
+        progress,
+        "Table 2 Monte Carlo",
+    )
+    table2 = tuple(tuple(c.F for c in linearity_check(mc)) for mc in table2_mc)
+    return tp, table1, table2
 
-        # 4. workspace study --------------------------------------------------------------
-        study = workspace_study(
-            stack,
-            s.n_targets,
-            n_samples=s.map_samples,
-            sigma_t=s.t1_sigma_t,
-            sigma_theta=s.t1_sigma_theta,
-            seed=s.seed,
-            phi=s.phi,
-            perturbation=s.perturbation,
-            max_attempts=10,
-            progress=progress,
-            executor=executor,
-            sampling=s.target_sampling,
-        )
 
-    # checks ----------------------------------------------------------------------------
+def _workspace(stack: Stack, s: ReproduceSettings, executor: Any, progress: bool) -> WorkspaceStudy:
+    """Step 4: the workspace study with the run's settings (Table 1 noise, seed ``s.seed``)."""
+    return workspace_study(
+        stack,
+        s.n_targets,
+        n_samples=s.map_samples,
+        sigma_t=s.t1_sigma_t,
+        sigma_theta=s.t1_sigma_theta,
+        seed=s.seed,
+        phi=s.phi,
+        perturbation=s.perturbation,
+        max_attempts=10,
+        progress=progress,
+        executor=executor,
+        sampling=s.target_sampling,
+    )
+
+
+def _checks(
+    s: ReproduceSettings,
+    table1: tuple[MonteCarloResult, ...],
+    table2: tuple[tuple[float, ...], ...],
+    study: WorkspaceStudy,
+) -> dict[str, bool]:
+    """The done-when checks of a reproduction, by name."""
     med = np.array([mc.medians for mc in table1])  # (3, 3)
     paper_med = np.array([[c[0] for c in row] for row in PAPER_TABLE1])
     rel = np.abs(med / paper_med - 1.0)
     F = np.array(table2)
-    checks = {
+    return {
         "optimal median below both non-optimal on every target": bool(
             np.all(med[:, 0] < med[:, 1:].min(axis=1))
         ),
@@ -370,10 +403,21 @@ def reproduce(
         ),
     }
 
-    # 5. figures and files --------------------------------------------------------------
+
+def _write_figures(
+    out: Path,
+    stack: Stack,
+    s: ReproduceSettings,
+    tp: tuple[TargetPoses, ...],
+    table1: tuple[MonteCarloResult, ...],
+    study: WorkspaceStudy,
+    progress: bool,
+) -> list[Path]:
+    """Step 5a: the PNG figures (poses and clouds per target, map, regression, 3D pose)."""
+    from stackik.analysis import figures
+
     files: list[Path] = []
-    fig_bar = bar(range(len(tp)), desc="figures", unit="target")
-    for i in fig_bar:
+    for i in _bar(range(len(tp)), progress, desc="figures", unit="target"):
         p = tp[i]
         labels = list(_POSE_NAMES[: len(p.poses)])  # the figures append FN / median
         f1 = out / f"poses_target{i + 1}.png"
@@ -393,7 +437,7 @@ def reproduce(
         )
         files += [f1, f2]
     figures.plot_fn_ratio_map(
-        study, highlight=[(t.rho, t.z) for t in targets], path=out / "fn_ratio_map.png"
+        study, highlight=[(p.target.rho, p.target.z) for p in tp], path=out / "fn_ratio_map.png"
     )
     files.append(out / "fn_ratio_map.png")
     figures.plot_regression(study, path=out / "regression.png")
@@ -406,12 +450,27 @@ def reproduce(
         path=out / "pose3d_target1.png",
     )
     files.append(out / "pose3d_target1.png")
+    return files
 
-    t1_rows = []
+
+def _bar(it: Any, progress: bool, **kw: Any) -> Any:
+    """``it`` wrapped in a tqdm progress bar when ``progress``."""
+    if not progress:
+        return it
+    from tqdm.auto import tqdm
+
+    return tqdm(it, **kw)
+
+
+def _table1_rows(
+    tp: tuple[TargetPoses, ...], table1: tuple[MonteCarloResult, ...]
+) -> list[dict[str, Any]]:
+    """Rows of ``table1.csv``: one per target and pose, stackik's and the paper's numbers."""
+    rows = []
     for i, (p, mc) in enumerate(zip(tp, table1, strict=True)):
         for j, pm in enumerate(mc.poses):
             pm_paper = PAPER_TABLE1[i][j]
-            t1_rows.append(
+            rows.append(
                 {
                     "target": i + 1,
                     "rho": p.target.rho,
@@ -429,62 +488,62 @@ def reproduce(
                     "F_small_sigma": linearity_check(mc)[j].F,
                 }
             )
-    files.append(write_csv(out / "table1.csv", t1_rows))
-    t2_rows = [
+    return rows
+
+
+def _table2_rows(table2: tuple[tuple[float, ...], ...]) -> list[dict[str, Any]]:
+    """Rows of ``table2.csv``: one per target and pose, stackik's F and the paper's."""
+    return [
         {
             "target": i + 1,
             "pose": _POSE_NAMES[j],
             "F": table2[i][j],
             "paper_F": PAPER_TABLE2[i][j],
         }
-        for i in range(len(tp))
+        for i in range(len(table2))
         for j in range(len(table2[i]))
     ]
-    files.append(write_csv(out / "table2.csv", t2_rows))
-    files.append(write_csv(out / "workspace.csv", study.rows()))
 
-    elapsed = time.perf_counter() - t_start
-    result = ReproduceResult(
-        settings=s,
-        out_dir=out,
-        targets=tp,
-        table1=table1,
-        table2=table2,
-        study=study,
-        checks=checks,
-        files=tuple(files),
-        elapsed=elapsed,
-    )
-    payload = {
-        "settings": asdict(s),
+
+def _results_payload(r: ReproduceResult, stack: Stack) -> dict[str, Any]:
+    """The content of ``results.json``."""
+    study = r.study
+    return {
+        "settings": asdict(r.settings),
         "geometry": stack.to_dict(),
         "targets": [
             {
                 "target": asdict(p.target),
                 "optimal": p.optimal.to_dict(),
-                "nonoptimal": [r.to_dict() for r in p.nonoptimal],
+                "nonoptimal": [x.to_dict() for x in p.nonoptimal],
                 "table1": mc.summary(),
-                "table2_F": list(table2[i]),
+                "table2_F": list(r.table2[i]),
                 "paper_table1": PAPER_TABLE1[i],
                 "paper_table2": PAPER_TABLE2[i],
             }
-            for i, (p, mc) in enumerate(zip(tp, table1, strict=True))
+            for i, (p, mc) in enumerate(zip(r.targets, r.table1, strict=True))
         ],
         "regression": None if study.regression is None else study.regression.to_dict(),
         "paper_regression": PAPER_REGRESSION,
         "workspace": {"n_targets": len(study.targets), "n_valid": int(study.valid.sum())},
-        "checks": checks,
-        "elapsed_s": elapsed,
+        "checks": r.checks,
+        "elapsed_s": r.elapsed,
     }
-    (out / "results.json").write_text(json.dumps(payload, indent=2, default=json_default_lenient))
-    files.append(out / "results.json")
-    report = _report(result)
-    (out / "report.md").write_text(report)
-    files.append(out / "report.md")
-    return replace(result, files=tuple(files))
 
 
 def _report(r: ReproduceResult) -> str:
+    """``report.md``: settings, checks, both tables, the regression and the figures."""
+    return "\n".join(
+        _report_intro(r)
+        + _report_table1(r)
+        + _report_table2(r)
+        + _report_regression(r)
+        + _report_figures(r)
+    )
+
+
+def _report_intro(r: ReproduceResult) -> list[str]:
+    """Report lines: title, setup, the checks and which medians are off the paper."""
     s = r.settings
     L: list[str] = []
     L.append("# stackik: reproduction of the paper's numerical results\n")
@@ -522,7 +581,13 @@ def _report(r: ReproduceResult) -> str:
             f"optimal poses, which do not depend on that rule, differ by {opt_rel} from the "
             "paper's (the geometry is not the paper's).\n"
         )
-    # Table 1
+    return L
+
+
+def _report_table1(r: ReproduceResult) -> list[str]:
+    """Report lines: Table 1 against the paper and the poses' Frobenius norms."""
+    s = r.settings
+    L: list[str] = []
     L.append(
         f"## Table 1: median end-effector displacement [mm] and 95 % interval\n\n"
         f"{s.t1_samples} samples, sigma_t = {s.t1_sigma_t:g} mm, "
@@ -546,7 +611,13 @@ def _report(r: ReproduceResult) -> str:
     for i, p in enumerate(r.targets):
         fns = [p.optimal.frobenius_norm] + [x.frobenius_norm for x in p.nonoptimal]
         L.append(f"| {i + 1} | " + " | ".join(f"{v:.1f}" for v in fns) + " |")
-    # Table 2
+    return L
+
+
+def _report_table2(r: ReproduceResult) -> list[str]:
+    """Report lines: Table 2 (F factor) against the paper."""
+    s = r.settings
+    L: list[str] = []
     L.append(
         f"\n## Table 2: F factor at high noise\n\n{s.t2_samples} samples, "
         f"sigma_t = {s.t2_sigma_t:g} mm, sigma_theta = {s.t2_sigma_theta:g} rad; "
@@ -561,9 +632,15 @@ def _report(r: ReproduceResult) -> str:
             + " | ".join(f"{v:.0%} / {PAPER_TABLE2[i][j]:.0%}" for j, v in enumerate(row))
             + " |"
         )
-    # Regression
+    return L
+
+
+def _report_regression(r: ReproduceResult) -> list[str]:
+    """Report lines: the workspace study, its regression and the linear-theory comparison."""
+    s = r.settings
     st = r.study
     reg = st.regression
+    L: list[str] = []
     L.append("\n## Workspace study and regression\n")
     L.append(
         f"{len(st.targets)} reachable targets (seed {s.seed}), "
@@ -579,41 +656,46 @@ def _report(r: ReproduceResult) -> str:
         f"Monte Carlo: {st.n_samples} samples, sigma_t = {st.sigma_t:g} mm, "
         f"sigma_theta = {st.sigma_theta:g} rad.\n"
     )
-    if reg is not None:
-        L.append(
-            f"Median-displacement ratio = {reg.slope:.3f} x FN ratio + {reg.intercept:.3f}, "
-            f"r^2 = {reg.r2:.3f} (n = {reg.n}); paper: slope {PAPER_REGRESSION['slope']}, "
-            f"r^2 {PAPER_REGRESSION['r2']}.\n"
-        )
-        # to first order trace(C_y) = 2n sigma_t^2 + sigma_theta^2 (FN^2 - 3n) exactly
-        from stackik.analysis.linear import linear_covariance
-        from stackik.analysis.workspace import regress
+    if reg is None:
+        return L
+    L.append(
+        f"Median-displacement ratio = {reg.slope:.3f} x FN ratio + {reg.intercept:.3f}, "
+        f"r^2 = {reg.r2:.3f} (n = {reg.n}); paper: slope {PAPER_REGRESSION['slope']}, "
+        f"r^2 {PAPER_REGRESSION['r2']}.\n"
+    )
+    # to first order trace(C_y) = 2n sigma_t^2 + sigma_theta^2 (FN^2 - 3n) exactly
+    from stackik.analysis.linear import linear_covariance
+    from stackik.analysis.workspace import regress
 
-        valid = st.valid
-        rms = np.array(
-            [
-                np.sqrt(
-                    np.trace(linear_covariance(a, st.sigma_t, st.sigma_theta))
-                    / np.trace(linear_covariance(b, st.sigma_t, st.sigma_theta))
-                )
-                for a, b in zip(st.q_opt[valid], st.q_non[valid], strict=True)
-            ]
-        )
-        r_rms = regress(rms, st.median_ratio[valid])
-        L.append(
-            "For comparison, regressing the median ratio on the linear-theory RMS ratio "
-            "sqrt(trace C_opt / trace C_non) (C = J C_x J^T) gives "
-            f"slope {r_rms.slope:.3f}, r^2 = {r_rms.r2:.3f}: the scatter left is the median "
-            "of an anisotropic 2D Gaussian not being a function of its trace alone.\n"
-        )
-        fr = st.fn_ratio[st.valid]
-        mr = st.median_ratio[st.valid]
-        L.append(
-            f"FN ratio range {fr.min():.3f}-{fr.max():.3f} (median {np.median(fr):.3f}); "
-            f"median-displacement ratio range {mr.min():.3f}-{mr.max():.3f}.\n"
-        )
-    # Figures
-    L.append("## Figures\n")
+    valid = st.valid
+    rms = np.array(
+        [
+            np.sqrt(
+                np.trace(linear_covariance(a, st.sigma_t, st.sigma_theta))
+                / np.trace(linear_covariance(b, st.sigma_t, st.sigma_theta))
+            )
+            for a, b in zip(st.q_opt[valid], st.q_non[valid], strict=True)
+        ]
+    )
+    r_rms = regress(rms, st.median_ratio[valid])
+    L.append(
+        "For comparison, regressing the median ratio on the linear-theory RMS ratio "
+        "sqrt(trace C_opt / trace C_non) (C = J C_x J^T) gives "
+        f"slope {r_rms.slope:.3f}, r^2 = {r_rms.r2:.3f}: the scatter left is the median "
+        "of an anisotropic 2D Gaussian not being a function of its trace alone.\n"
+    )
+    fr = st.fn_ratio[st.valid]
+    mr = st.median_ratio[st.valid]
+    L.append(
+        f"FN ratio range {fr.min():.3f}-{fr.max():.3f} (median {np.median(fr):.3f}); "
+        f"median-displacement ratio range {mr.min():.3f}-{mr.max():.3f}.\n"
+    )
+    return L
+
+
+def _report_figures(r: ReproduceResult) -> list[str]:
+    """Report lines: every figure with its caption, and the data files."""
+    L: list[str] = ["## Figures\n"]
     for i, p in enumerate(r.targets):
         L.append(
             f"![poses target {i + 1}](poses_target{i + 1}.png)\n\n"
@@ -648,7 +730,7 @@ def _report(r: ReproduceResult) -> str:
         "Files: `table1.csv`, `table2.csv`, `workspace.csv` (one row per target), "
         "`results.json` (poses, statistics, checks).\n"
     )
-    return "\n".join(L)
+    return L
 
 
 # =========================================================================================

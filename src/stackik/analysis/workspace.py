@@ -423,10 +423,6 @@ def workspace_study(
     cell : float
         Grid size of the uniform sampling [mm].
     """
-    from stackik.result import IKResult
-    from stackik.solve import solve_many
-    from stackik.targets import target_to_dict
-
     if sampling not in ("uniform", "poses"):
         raise ValueError(f"sampling must be 'uniform' or 'poses', got {sampling!r}")
     kw = dict(solve_kwargs or {})
@@ -434,60 +430,15 @@ def workspace_study(
         tlist = study_targets(stack, int(targets), seed=seed, phi=phi, sampling=sampling, cell=cell)
     else:
         tlist = list(targets)
-    m, n = len(tlist), stack.n
     ckpt = None if checkpoint_dir is None else Path(checkpoint_dir)
     if ckpt is not None:
         ckpt.mkdir(parents=True, exist_ok=True)
-    # only (success, pose, FN) of every result stays in memory (the checkpoints hold it all)
-    opt = solve_many(
-        stack,
-        tlist,
-        objective="frobenius",
-        progress=progress,
-        executor=executor,
-        checkpoint=None if ckpt is None else ckpt / "optimal.jsonl",
-        reduce=_essentials,
-        **kw,
-    )
     search = NonOptimalSearch(stack, 1, seed + 1, _triple(perturbation), max_attempts, kw)
-    non = checkpointed_map(
-        search,
-        tlist,
-        key=target_to_dict,
-        encode=lambda rs: [r.to_record() for r in rs],
-        decode=lambda data: [IKResult.from_record(d) for d in data],
-        checkpoint=None if ckpt is None else ckpt / "nonoptimal.jsonl",
-        executor=executor,
-        progress=progress,
-        desc="non-optimal",
-        reduce=lambda rs: _essentials(rs[0]) if rs else (False, None, np.nan),
+    valid, q_opt, q_non, fn_opt, fn_non = _pose_pairs(
+        stack, tlist, search, kw, progress, executor, ckpt
     )
-
-    valid = np.zeros(m, dtype=bool)
-    q_opt = np.full((m, n, 3), np.nan)
-    q_non = np.full((m, n, 3), np.nan)
-    fn_opt, fn_non = np.full(m, np.nan), np.full(m, np.nan)
-    med_opt, med_non = np.full(m, np.nan), np.full(m, np.nan)
-    for i in range(m):
-        (ok_a, qa, fa), (ok_b, qb, fb) = opt[i], non[i]
-        if ok_a and ok_b:
-            valid[i] = True
-            q_opt[i], q_non[i] = qa, qb
-            fn_opt[i], fn_non[i] = fa, fb
-    del opt, non
-    rows = np.flatnonzero(valid)
-    medians = checkpointed_map(
-        MedianPair(int(n_samples), float(sigma_t), float(sigma_theta), seed + 2),
-        [(q_opt[i], q_non[i]) for i in rows],
-        key=lambda pair: None,
-        encode=list,
-        decode=tuple,
-        executor=executor,
-        progress=progress,
-        desc="monte carlo",
-    )
-    for i, (mo, mn) in zip(rows.tolist(), medians, strict=True):
-        med_opt[i], med_non[i] = mo, mn
+    median = MedianPair(int(n_samples), float(sigma_t), float(sigma_theta), seed + 2)
+    med_opt, med_non = _pair_medians(median, valid, q_opt, q_non, progress, executor)
     reg = None
     if valid.sum() >= 3:
         reg = regress(fn_opt[valid] / fn_non[valid], med_opt[valid] / med_non[valid])
@@ -505,3 +456,86 @@ def workspace_study(
         sigma_t=float(sigma_t),
         sigma_theta=float(sigma_theta),
     )
+
+
+def _pose_pairs(
+    stack: Stack,
+    tlist: list[PlanarTarget],
+    search: NonOptimalSearch,
+    kw: dict[str, Any],
+    progress: bool,
+    executor: Any,
+    ckpt: Path | None,
+) -> tuple[NDArray[np.bool_], FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The optimal and the first non-optimal pose of every target, and their FN.
+
+    Returns ``(valid, q_opt, q_non, fn_opt, fn_non)``; ``valid[i]``: both poses were found
+    (the arrays hold NaN elsewhere). Only (success, pose, FN) of every result stays in
+    memory; the checkpoints under ``ckpt`` hold it all.
+    """
+    from stackik.result import IKResult
+    from stackik.solve import solve_many
+    from stackik.targets import target_to_dict
+
+    opt = solve_many(
+        stack,
+        tlist,
+        objective="frobenius",
+        progress=progress,
+        executor=executor,
+        checkpoint=None if ckpt is None else ckpt / "optimal.jsonl",
+        reduce=_essentials,
+        **kw,
+    )
+    non = checkpointed_map(
+        search,
+        tlist,
+        key=target_to_dict,
+        encode=lambda rs: [r.to_record() for r in rs],
+        decode=lambda data: [IKResult.from_record(d) for d in data],
+        checkpoint=None if ckpt is None else ckpt / "nonoptimal.jsonl",
+        executor=executor,
+        progress=progress,
+        desc="non-optimal",
+        reduce=lambda rs: _essentials(rs[0]) if rs else (False, None, np.nan),
+    )
+    m, n = len(tlist), stack.n
+    valid = np.zeros(m, dtype=bool)
+    q_opt = np.full((m, n, 3), np.nan)
+    q_non = np.full((m, n, 3), np.nan)
+    fn_opt, fn_non = np.full(m, np.nan), np.full(m, np.nan)
+    for i in range(m):
+        (ok_a, qa, fa), (ok_b, qb, fb) = opt[i], non[i]
+        if ok_a and ok_b:
+            valid[i] = True
+            q_opt[i], q_non[i] = qa, qb
+            fn_opt[i], fn_non[i] = fa, fb
+    return valid, q_opt, q_non, fn_opt, fn_non
+
+
+def _pair_medians(
+    median: MedianPair,
+    valid: NDArray[np.bool_],
+    q_opt: FloatArray,
+    q_non: FloatArray,
+    progress: bool,
+    executor: Any,
+) -> tuple[FloatArray, FloatArray]:
+    """Monte Carlo median displacement of the optimal and non-optimal pose of each valid
+    target (NaN where not valid)."""
+    m = valid.shape[0]
+    med_opt, med_non = np.full(m, np.nan), np.full(m, np.nan)
+    rows = np.flatnonzero(valid)
+    medians = checkpointed_map(
+        median,
+        [(q_opt[i], q_non[i]) for i in rows],
+        key=lambda pair: None,
+        encode=list,
+        decode=tuple,
+        executor=executor,
+        progress=progress,
+        desc="monte carlo",
+    )
+    for i, (mo, mn) in zip(rows.tolist(), medians, strict=True):
+        med_opt[i], med_non[i] = mo, mn
+    return med_opt, med_non

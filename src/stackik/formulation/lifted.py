@@ -26,6 +26,7 @@ scaled like the reduced problem's (lengths / L). Inequalities: the reduced probl
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -63,6 +64,95 @@ class _Pattern:
         return _csc(data, self.indices, self.indptr, self.shape)
 
 
+@dataclass(frozen=True)
+class _Index:
+    """Positions of the lifted variables: block i (i < n-1) is
+    ``[rho, z, theta, D_x, D_z, Theta]`` of platform i+1, the last block ``[rho, z, theta]``."""
+
+    rho: NDArray[np.int64]  # (n,)
+    z: NDArray[np.int64]
+    th: NDArray[np.int64]
+    dx: NDArray[np.int64]  # (n-1,)
+    dz: NDArray[np.int64]
+    Th: NDArray[np.int64]
+    p: NDArray[np.int64]  # (n, 2): rho, z
+    D: NDArray[np.int64]  # (n-1, 2): D_x, D_z
+
+    @classmethod
+    def of(cls, n: int) -> _Index:
+        i = np.arange(n)
+        j = np.arange(n - 1)
+        rho, z, th = 6 * i, 6 * i + 1, 6 * i + 2
+        dx, dz, Th = 6 * j + 3, 6 * j + 4, 6 * j + 5
+        return cls(
+            rho, z, th, dx, dz, Th, np.stack([rho, z], axis=1), np.stack([dx, dz], axis=1)
+        )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class _Patterns:
+    """The fixed sparsity patterns of the lifted problem's matrices."""
+
+    eq: _Pattern  # equality Jacobian (3n, nv)
+    in_indptr: NDArray[np.int32]  # limit Jacobian (24n, nv), CSC: its indptr and indices
+    in_indices: NDArray[np.int32]
+    hessian: _Pattern  # Lagrangian Hessian (nv, nv)
+
+    @classmethod
+    def build(cls, ix: _Index, n: int, nv: int) -> _Patterns:
+        """The patterns; values are scattered in the order of the entry lists built here
+        (:meth:`LiftedPlanarNLP.evaluate`, :meth:`LiftedPlanarNLP.hessian`)."""
+        rows: list[Any] = []
+        cols: list[Any] = []
+        # equality rows: block j (0-based) = [b_j (2 rows), a_j (1 row)] at 3j .. 3j+2
+        jb = np.arange(n)
+        for k in range(2):
+            r = 3 * jb + k
+            # -Rot(Theta_{j-1}) p_j: both p columns
+            for c in range(2):
+                rows.append(r)
+                cols.append(ix.p[:, c])
+            # +D_{j-1} (j >= 1)
+            rows.append(r[1:])
+            cols.append(ix.D[:, k])
+            # -D_j (j <= n-2)
+            rows.append(r[:-1])
+            cols.append(ix.D[:, k])
+            # -Rot'(Theta_{j-1}) p_j (j >= 1)
+            rows.append(r[1:])
+            cols.append(ix.Th)
+        ra = 3 * jb + 2
+        rows += [ra[:-1], ra[1:], ra]
+        cols += [ix.Th, ix.Th, ix.th]
+        eq = _Pattern(np.concatenate(rows), np.concatenate(cols), (3 * n, nv))
+        # limits: rows 24 i .. 24 i + 23, columns (rho_i, z_i, theta_i), CSC order
+        blk = np.stack([ix.rho, ix.z, ix.th], axis=1)  # (n, 3)
+        in_indptr = np.zeros(nv + 1, dtype=np.int32)
+        counts = np.zeros(nv, dtype=np.int64)
+        counts[blk.ravel()] = 24
+        np.cumsum(counts, out=in_indptr[1:])
+        in_indices = (
+            (24 * np.arange(n)[:, None, None] + np.arange(24)[None, None, :])
+            .repeat(3, axis=1)
+            .ravel()
+            .astype(np.int32)
+        )
+        # Hessian: limits' 3x3 per platform, chain's 3x3 on (Theta_{j-1}, rho_j, z_j),
+        # the objective's diagonal on D, and the whole diagonal
+        hr: list[Any] = []
+        hc: list[Any] = []
+        cb = np.concatenate([ix.Th[:, None], ix.p[1:]], axis=1)  # (n-1, 3)
+        for block in (blk, cb):
+            for a in range(3):
+                for b in range(3):
+                    hr.append(block[:, a])
+                    hc.append(block[:, b])
+        hr.append(np.arange(nv))
+        hc.append(np.arange(nv))
+        hessian = _Pattern(np.concatenate(hr), np.concatenate(hc), (nv, nv))
+        return cls(eq, in_indptr, in_indices, hessian)
+
+
 class LiftedPlanarNLP:
     """``(f, g, c_E, J_E, c_I, J_I)`` and the exact Lagrangian Hessian of the lifted
     problem (all sparse, fixed patterns), for :class:`stackik.sqp.NonlinearProgram`."""
@@ -83,79 +173,21 @@ class LiftedPlanarNLP:
         t = prob.target
         self.y_t = np.array([t.rho, t.z]) / L  # D_0, scaled
         self.theta_t = float(t.theta)
-        i = np.arange(n)
-        self.i_rho, self.i_z, self.i_th = 6 * i, 6 * i + 1, 6 * i + 2
-        j = np.arange(n - 1)
-        self.i_dx, self.i_dz, self.i_Th = 6 * j + 3, 6 * j + 4, 6 * j + 5
-        self.i_p = np.stack([self.i_rho, self.i_z], axis=1)  # (n, 2)
-        self.i_D = np.stack([self.i_dx, self.i_dz], axis=1)  # (n-1, 2)
+        self.ix = _Index.of(n)
         # objective f = c0/fscale + sum_j wD_j |D_j|^2 (D scaled by L)
         if prob.objective == "feasible":
             self.wD = np.zeros(n - 1)
         else:
             self.wD = (L * L / prob.fscale) * prob.rw[0::2] ** 2  # rw repeats per (x, z)
         self.c_rows = prob.cs.size  # 24 n
-        self._build_patterns()
+        self.patterns = _Patterns.build(self.ix, n, self.nv)
         self._u: FloatArray | None = None
         self._out: tuple[Any, ...] = ()
 
-    # --- patterns ---------------------------------------------------------------------
-    def _build_patterns(self) -> None:
-        n, nv = self.n, self.nv
-        rows: list[Any] = []
-        cols: list[Any] = []
-        # equality rows: block j (0-based) = [b_j (2 rows), a_j (1 row)] at 3j .. 3j+2
-        jb = np.arange(n)
-        for k in range(2):
-            r = 3 * jb + k
-            # -Rot(Theta_{j-1}) p_j: both p columns
-            for c in range(2):
-                rows.append(r)
-                cols.append(self.i_p[:, c])
-            # +D_{j-1} (j >= 1)
-            rows.append(r[1:])
-            cols.append(self.i_D[:, k])
-            # -D_j (j <= n-2)
-            rows.append(r[:-1])
-            cols.append(self.i_D[:, k])
-            # -Rot'(Theta_{j-1}) p_j (j >= 1)
-            rows.append(r[1:])
-            cols.append(self.i_Th)
-        ra = 3 * jb + 2
-        rows += [ra[:-1], ra[1:], ra]
-        cols += [self.i_Th, self.i_Th, self.i_th]
-        self._eq_entries = [len(x) for x in rows]
-        self.eq_pat = _Pattern(np.concatenate(rows), np.concatenate(cols), (3 * n, nv))
-        # limits: rows 24 i .. 24 i + 23, columns (rho_i, z_i, theta_i), CSC order
-        cols_l = np.stack([self.i_rho, self.i_z, self.i_th], axis=1)  # (n, 3)
-        self.in_indptr = np.zeros(nv + 1, dtype=np.int32)
-        counts = np.zeros(nv, dtype=np.int64)
-        counts[cols_l.ravel()] = 24
-        np.cumsum(counts, out=self.in_indptr[1:])
-        self.in_indices = (
-            (24 * np.arange(n)[:, None, None] + np.arange(24)[None, None, :])
-            .repeat(3, axis=1)
-            .ravel()
-            .astype(np.int32)
-        )
-        # Hessian: limits' 3x3 per platform, chain's 3x3 on (Theta_{j-1}, rho_j, z_j),
-        # the objective's diagonal on D, and the whole diagonal
-        hr: list[Any] = []
-        hc: list[Any] = []
-        blk = np.stack([self.i_rho, self.i_z, self.i_th], axis=1)
-        for a in range(3):
-            for b in range(3):
-                hr.append(blk[:, a])
-                hc.append(blk[:, b])
-        cb = np.concatenate([self.i_Th[:, None], self.i_p[1:]], axis=1)  # (n-1, 3)
-        for a in range(3):
-            for b in range(3):
-                hr.append(cb[:, a])
-                hc.append(cb[:, b])
-        hr.append(np.arange(nv))
-        hc.append(np.arange(nv))
-        self._blk, self._cb = blk, cb
-        self.h_pat = _Pattern(np.concatenate(hr), np.concatenate(hc), (nv, nv))
+    @property
+    def h_pat(self) -> _Pattern:
+        """The Lagrangian Hessian's fixed pattern."""
+        return self.patterns.hessian
 
     # --- maps between the formulations --------------------------------------------------
     def lift(self, u: FloatArray) -> FloatArray:
@@ -166,34 +198,34 @@ class LiftedPlanarNLP:
         n = self.n
         Theta, _, O = _planar_parts(q)
         x = np.zeros(self.nv)
-        x[self.i_rho] = u[0::3]
-        x[self.i_z] = u[1::3]
-        x[self.i_th] = u[2::3]
+        x[self.ix.rho] = u[0::3]
+        x[self.ix.z] = u[1::3]
+        x[self.ix.th] = u[2::3]
         D = (O[-1] - O[1:n]) / self.L  # D_1 .. D_{n-1}
-        x[self.i_dx] = D[:, 0]
-        x[self.i_dz] = D[:, 1]
-        x[self.i_Th] = Theta[1:]  # Theta_j = theta_1 + ... + theta_j
+        x[self.ix.dx] = D[:, 0]
+        x[self.ix.dz] = D[:, 1]
+        x[self.ix.Th] = Theta[1:]  # Theta_j = theta_1 + ... + theta_j
         return x
 
     def reduce(self, x: FloatArray) -> FloatArray:
         """The reduced scaled point (``rho, z, theta`` of every platform)."""
         u = np.empty(3 * self.n)
-        u[0::3] = x[self.i_rho]
-        u[1::3] = x[self.i_z]
-        u[2::3] = x[self.i_th]
+        u[0::3] = x[self.ix.rho]
+        u[1::3] = x[self.ix.z]
+        u[2::3] = x[self.ix.th]
         return u
 
     # --- evaluation -----------------------------------------------------------------------
     def _chain(self, x: FloatArray) -> tuple[FloatArray, ...]:
         n = self.n
-        Th_prev = np.concatenate(([0.0], x[self.i_Th]))  # Theta_{j-1}, j = 1..n
+        Th_prev = np.concatenate(([0.0], x[self.ix.Th]))  # Theta_{j-1}, j = 1..n
         c, s = np.cos(Th_prev), np.sin(Th_prev)
-        p = x[self.i_p]  # (n, 2)
+        p = x[self.ix.p]  # (n, 2)
         Rp = np.stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1]], axis=1)
         D = np.zeros((n + 1, 2))
         D[0] = self.y_t
-        D[1:n, 0] = x[self.i_dx]
-        D[1:n, 1] = x[self.i_dz]
+        D[1:n, 0] = x[self.ix.dx]
+        D[1:n, 1] = x[self.ix.dz]
         return Th_prev, c, s, p, Rp, D
 
     def evaluate(self, x: FloatArray) -> tuple[Any, ...]:
@@ -201,13 +233,13 @@ class LiftedPlanarNLP:
             return self._out
         n = self.n
         Th_prev, c, s, p, Rp, D = self._chain(x)
-        Theta = np.concatenate((x[self.i_Th], [self.theta_t]))  # Theta_j, j = 1..n
+        Theta = np.concatenate((x[self.ix.Th], [self.theta_t]))  # Theta_j, j = 1..n
         ceq = np.empty(3 * n)
         b = D[:-1] - D[1:] - Rp  # (n, 2)
         ceq[0::3] = b[:, 0]
         ceq[1::3] = b[:, 1]
-        ceq[2::3] = Theta - Th_prev - x[self.i_th]
-        # Jacobian values in the order of the entry lists of _build_patterns
+        ceq[2::3] = Theta - Th_prev - x[self.ix.th]
+        # Jacobian values in the order of the entry lists of _Patterns.build
         # d(-Rot p)/dp = -Rot = [[-c, s], [-s, -c]]; d(-Rot p)/dTheta = -Rot' p
         dRp = np.stack([-s * p[:, 0] - c * p[:, 1], c * p[:, 0] - s * p[:, 1]], axis=1)
         vals = []
@@ -221,16 +253,17 @@ class LiftedPlanarNLP:
             vals.append(-dRp[1:, k])
         vals += [np.full(n - 1, 1.0), np.full(n - 1, -1.0), np.full(n, -1.0)]
         # a_j: +Theta_j (j <= n-1), -Theta_{j-1} (j >= 2), -theta_j
-        Jeq = self.eq_pat.matrix(np.concatenate(vals))
+        Jeq = self.patterns.eq.matrix(np.concatenate(vals))
         q = self.prob.q_of(self.reduce(x))
         cin, Jin_red = self.fast.sparse(q)
-        Jin = _csc(Jin_red.data, self.in_indices, self.in_indptr, (self.c_rows, self.nv))
+        pat = self.patterns
+        Jin = _csc(Jin_red.data, pat.in_indices, pat.in_indptr, (self.c_rows, self.nv))
         g = np.zeros(self.nv)
         Dj = D[1:n]
         f = self.prob.c0 / self.prob.fscale if self.prob.objective != "feasible" else 0.0
         f += float(np.sum(self.wD[:, None] * Dj * Dj))
-        g[self.i_dx] = 2.0 * self.wD * Dj[:, 0]
-        g[self.i_dz] = 2.0 * self.wD * Dj[:, 1]
+        g[self.ix.dx] = 2.0 * self.wD * Dj[:, 0]
+        g[self.ix.dz] = 2.0 * self.wD * Dj[:, 1]
         self._u = x.copy()
         self._out = (f, g, ceq, Jeq, cin, Jin)
         return self._out
@@ -258,14 +291,14 @@ class LiftedPlanarNLP:
         if self.psd_blocks:
             Hl, Hc = _psd(Hl), _psd(Hc)
         diag = np.zeros(self.nv)
-        diag[self.i_dx] = 2.0 * self.wD
-        diag[self.i_dz] = 2.0 * self.wD
+        diag[self.ix.dx] = 2.0 * self.wD
+        diag[self.ix.dz] = 2.0 * self.wD
         vals = np.concatenate(
             [Hl[:, a, b] for a in range(3) for b in range(3)]
             + [Hc[:, a, b] for a in range(3) for b in range(3)]
             + [diag]
         )
-        return self.h_pat.matrix(vals)
+        return self.patterns.hessian.matrix(vals)
 
 
 def _psd(blocks: FloatArray) -> FloatArray:

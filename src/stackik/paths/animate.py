@@ -15,15 +15,16 @@ from __future__ import annotations
 import shutil
 import textwrap
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from stackik.formulation.modes import mode_of
 from stackik.geometry import Stack
 from stackik.paths.result import PathResult
-from stackik.targets import PlanarTarget
 
 if TYPE_CHECKING:
     from stackik.obstacles import Obstacle
@@ -46,8 +47,7 @@ def stack_nodes(stack: Stack, result: PathResult, k: int) -> dict[str, FloatArra
     from stackik.analysis.figures import stack_nodes as nodes_of
 
     t0 = result.targets[0]
-    phi = t0.phi if isinstance(t0, PlanarTarget) else None
-    return nodes_of(stack, result.q[k], phi)
+    return nodes_of(stack, result.q[k], mode_of(t0).phi(t0))
 
 
 def _plate_outlines(stack: Stack, nd: dict[str, FloatArray]) -> list[FloatArray]:
@@ -71,14 +71,12 @@ def _plate_outlines(stack: Stack, nd: dict[str, FloatArray]) -> list[FloatArray]
 
 def _target_points(result: PathResult) -> FloatArray:
     """End-effector target positions (m, 3) [mm]."""
-    return np.array(
-        [(t.to_spatial() if isinstance(t, PlanarTarget) else t).position for t in result.targets]
-    )
+    return np.array([mode_of(t).spatial_target(t).position for t in result.targets])
 
 
 def default_caption(result: PathResult) -> str:
     """What the animation shows, in words (its caption)."""
-    kind = "planar" if result.planar else "spatial"
+    kind = mode_of(result.targets[0]).name
     end = (
         "every waypoint reached"
         if result.success
@@ -151,6 +149,149 @@ def _frames(result: PathResult, max_frames: int) -> list[int]:
     return ks if ks else [0]
 
 
+@dataclass(frozen=True)
+class _PlaneView:
+    """A planar path drawn in its vertical plane ``phi``: axes ``rho`` and ``z``."""
+
+    plane: float
+    projection: str | None = None
+
+    def proj(self, p: FloatArray) -> FloatArray:
+        """World points [mm] as ``(rho, z)`` in the plane."""
+        from stackik.analysis.figures import _project
+
+        return _project(p, self.plane)
+
+    def figure_size(self, lo: FloatArray, hi: FloatArray, pad: float) -> tuple[float, float]:
+        """A figure shaped like the drawing, so that the stack fills it."""
+        aspect = float((hi[0] - lo[0] + 2 * pad) / (hi[1] - min(lo[1], 0.0) + 2 * pad))
+        return (float(np.clip(1.5 + 7.0 * aspect, 6.0, 11.0)), 9.0)
+
+    def set_limits(self, ax: Any, lo: FloatArray, hi: FloatArray, pad: float) -> float:
+        """Axis limits, equal aspect and labels; returns 0 (no 3D span)."""
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(min(lo[1], 0.0) - pad, hi[1] + pad)
+        ax.set_aspect("equal")
+        ax.set_xlabel("rho [mm]")
+        ax.set_ylabel("z [mm]")
+        return 0.0
+
+    def draw_obstacles(self, ax: Any, obs: list[Obstacle], span: float) -> None:
+        from stackik.analysis import clearance_art as art
+
+        art.draw_obstacles_plane(ax, obs, float(self.plane))
+
+    def draw_contact(self, ax: Any, contact: Any, clearance: float) -> None:
+        from stackik.analysis import clearance_art as art
+
+        art.draw_contact_plane(ax, contact, float(self.plane), clearance)
+
+
+@dataclass(frozen=True)
+class _SpaceView:
+    """A spatial path drawn in 3D with equal scales on all axes."""
+
+    plane: None = None
+    projection: str | None = "3d"
+
+    def proj(self, p: FloatArray) -> FloatArray:
+        """World points [mm], unchanged."""
+        return p
+
+    def figure_size(self, lo: FloatArray, hi: FloatArray, pad: float) -> tuple[float, float]:
+        return (8.0, 8.5)
+
+    def set_limits(self, ax: Any, lo: FloatArray, hi: FloatArray, pad: float) -> float:
+        """Axis limits, box aspect and labels; returns the half-span [mm] of x and y."""
+        span = float(np.max(hi[:2] - lo[:2])) / 2 + pad  # equal scales on all axes
+        mid = (hi + lo) / 2
+        z0, z1 = min(lo[2], 0.0) - pad, hi[2] + pad
+        ax.set_xlim(mid[0] - span, mid[0] + span)
+        ax.set_ylim(mid[1] - span, mid[1] + span)
+        ax.set_zlim(z0, z1)
+        ax.set_box_aspect((2 * span, 2 * span, z1 - z0))
+        ax.set_xlabel("x [mm]")
+        ax.set_ylabel("y [mm]")
+        ax.set_zlabel("z [mm]")
+        return span
+
+    def draw_obstacles(self, ax: Any, obs: list[Obstacle], span: float) -> None:
+        from stackik.analysis import clearance_art as art
+
+        art.draw_obstacles_3d(ax, obs, span)
+
+    def draw_contact(self, ax: Any, contact: Any, clearance: float) -> None:
+        from stackik.analysis import clearance_art as art
+
+        art.draw_contact_3d(ax, contact, clearance)
+
+
+@dataclass(frozen=True)
+class _Scene:
+    """What every frame of an animation draws from: the stack at each reached waypoint,
+    the targets and the end-effector trail in drawing coordinates, the bounds, the view."""
+
+    nodes: list[dict[str, FloatArray]]
+    targets: FloatArray  # (m, 2) or (m, 3), projected
+    trail: FloatArray  # (completed, 2) or (completed, 3), projected
+    lo: FloatArray
+    hi: FloatArray
+    pad: float
+    view: _PlaneView | _SpaceView
+
+
+def _scene(result: PathResult, stack: Stack) -> _Scene:
+    """The :class:`_Scene` of a path with at least one reached waypoint."""
+    t0 = result.targets[0]
+    plane = mode_of(t0).phi(t0)
+    view: _PlaneView | _SpaceView = _SpaceView() if plane is None else _PlaneView(plane)
+    proj = view.proj
+    nodes = [stack_nodes(stack, result, k) for k in range(result.completed)]
+    tp = proj(_target_points(result))
+    dim = tp.shape[1]
+    allpts = np.concatenate(
+        [proj(nd["base"]).reshape(-1, dim) for nd in nodes]
+        + [proj(nd["top"]).reshape(-1, dim) for nd in nodes]
+        + [tp]
+    )
+    lo, hi = allpts.min(axis=0), allpts.max(axis=0)
+    pad = 0.05 * float(np.max(hi - lo)) + 50.0
+    ee = np.array([proj(nd["O"][-1]) for nd in nodes])
+    return _Scene(nodes, tp, ee, lo, hi, pad, view)
+
+
+def _draw_stack(ax: Any, scene: _Scene, result: PathResult, stack: Stack, k: int) -> None:
+    """Frame ``k``: target path, trail, current target, plates, legs by length, title."""
+    import matplotlib.pyplot as plt
+
+    cmap = plt.get_cmap("coolwarm")
+    lmin, lmax = float(stack.leg_min.min()), float(stack.leg_max.max())
+    nd, tpp, ee, proj = scene.nodes[k], scene.targets, scene.trail, scene.view.proj
+    ax.plot(*tpp.T, "k--", lw=1, label="target path")
+    trail = ee[: k + 1]
+    ax.plot(*trail.T, "b-", lw=2, label="end-effector trail")
+    ax.plot(*tpp[k], "rx", ms=14, mew=1.5, label="target (waypoint)", zorder=5)
+    ax.plot(*ee[k], "o", color="b", ms=4, label="end effector", zorder=6)
+    for poly in _plate_outlines(stack, nd):
+        ax.plot(*proj(poly).T, color="0.3", lw=1.5)
+    lengths = result.leg_lengths[k]
+    for i in range(stack.n):
+        for j in range(6):
+            seg = proj(np.stack([nd["base"][i, j], nd["top"][i, j]]))
+            c = cmap((lengths[i, j] - lmin) / (lmax - lmin))
+            ax.plot(*seg.T, color=c, lw=1.2)
+    ax.set_title(
+        f"waypoint {k}/{result.m - 1}   FN = {result.frobenius_norm[k]:.0f}"
+        + (f"   t = {result.times[k]:.2f} s" if result.times is not None else "")
+        + (
+            f"\nbreak at waypoint {result.completed}: {result.status.value}"
+            if (not result.success and k == result.completed - 1)
+            else ""
+        ),
+        fontsize=10,
+    )
+
+
 def animate_path(
     result: PathResult,
     stack: Stack,
@@ -199,115 +340,47 @@ def animate_path(
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
-    from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter
+    from matplotlib.animation import FuncAnimation
 
-    if result.completed == 0:
-        raise ValueError("animate_path: the path has no reached waypoint to draw")
-    planar = result.planar
-    frames = _frames(result, max_frames)
-    nodes = [stack_nodes(stack, result, k) for k in range(result.completed)]
-    tp = _target_points(result)
-    if planar:
-        t0 = result.targets[0]
-        assert isinstance(t0, PlanarTarget)
-        from stackik.analysis.figures import _project
-
-        phi = t0.phi
-
-        def proj(p: FloatArray) -> FloatArray:
-            return _project(p, phi)
-
-    else:
-
-        def proj(p: FloatArray) -> FloatArray:
-            return p
-
-    allpts = np.concatenate(
-        [proj(nd["base"]).reshape(-1, 2 if planar else 3) for nd in nodes]
-        + [proj(nd["top"]).reshape(-1, 2 if planar else 3) for nd in nodes]
-        + [proj(tp)]
-    )
-    lo, hi = allpts.min(axis=0), allpts.max(axis=0)
-    pad = 0.05 * float(np.max(hi - lo)) + 50.0
-    if planar:  # a figure shaped like the drawing, so that the stack fills it
-        aspect = float((hi[0] - lo[0] + 2 * pad) / (hi[1] - min(lo[1], 0.0) + 2 * pad))
-        size = (float(np.clip(1.5 + 7.0 * aspect, 6.0, 11.0)), 9.0)
-    else:
-        size = (8.0, 8.5)
-    fig = plt.figure(figsize=size)
-    ax: Any = fig.add_axes((0.1, 0.2, 0.85, 0.73), projection=None if planar else "3d")
-    cap = default_caption(result) if caption is None else caption
-    fig.text(0.03, 0.015, textwrap.fill(cap, int(14 * size[0])), fontsize=8, va="bottom")
-    cmap = plt.get_cmap("coolwarm")
-    lmin, lmax = float(stack.leg_min.min()), float(stack.leg_max.max())
-    ee = np.array([proj(nd["O"][-1]) for nd in nodes])
     from stackik.analysis import clearance_art as art
     from stackik.analysis.figures import _marks_closest
 
+    if result.completed == 0:
+        raise ValueError("animate_path: the path has no reached waypoint to draw")
+    frames = _frames(result, max_frames)
+    scene = _scene(result, stack)
+    view = scene.view
+    size = view.figure_size(scene.lo, scene.hi, scene.pad)
+    fig = plt.figure(figsize=size)
+    ax: Any = fig.add_axes((0.1, 0.2, 0.85, 0.73), projection=view.projection)
+    cap = default_caption(result) if caption is None else caption
+    fig.text(0.03, 0.015, textwrap.fill(cap, int(14 * size[0])), fontsize=8, va="bottom")
     obs = list(obstacles or ())
     mark = _marks_closest(stack, obs, clearance, closest)
-    plane = result.targets[0].phi if planar else None  # type: ignore[union-attr]
     contacts = {
-        k: art.closest_contact(stack, result.q[k], obs, plane) if mark else None for k in frames
+        k: art.closest_contact(stack, result.q[k], obs, view.plane) if mark else None
+        for k in frames
     }
 
     def draw(k: int) -> None:
         ax.cla()
-        nd = nodes[k]
-        if planar:
-            ax.set_xlim(lo[0] - pad, hi[0] + pad)
-            ax.set_ylim(min(lo[1], 0.0) - pad, hi[1] + pad)
-            ax.set_aspect("equal")
-            ax.set_xlabel("rho [mm]")
-            ax.set_ylabel("z [mm]")
-        else:
-            span = float(np.max(hi[:2] - lo[:2])) / 2 + pad  # equal scales on all axes
-            mid = (hi + lo) / 2
-            z0, z1 = min(lo[2], 0.0) - pad, hi[2] + pad
-            ax.set_xlim(mid[0] - span, mid[0] + span)
-            ax.set_ylim(mid[1] - span, mid[1] + span)
-            ax.set_zlim(z0, z1)
-            ax.set_box_aspect((2 * span, 2 * span, z1 - z0))
-            ax.set_xlabel("x [mm]")
-            ax.set_ylabel("y [mm]")
-            ax.set_zlabel("z [mm]")
-        tpp = proj(tp)
-        ax.plot(*tpp.T, "k--", lw=1, label="target path")
-        trail = ee[: k + 1]
-        ax.plot(*trail.T, "b-", lw=2, label="end-effector trail")
-        ax.plot(*tpp[k], "rx", ms=14, mew=1.5, label="target (waypoint)", zorder=5)
-        ax.plot(*ee[k], "o", color="b", ms=4, label="end effector", zorder=6)
-        for poly in _plate_outlines(stack, nd):
-            ax.plot(*proj(poly).T, color="0.3", lw=1.5)
-        lengths = result.leg_lengths[k]
-        for i in range(stack.n):
-            for j in range(6):
-                seg = proj(np.stack([nd["base"][i, j], nd["top"][i, j]]))
-                c = cmap((lengths[i, j] - lmin) / (lmax - lmin))
-                ax.plot(*seg.T, color=c, lw=1.2)
-        ax.set_title(
-            f"waypoint {k}/{result.m - 1}   FN = {result.frobenius_norm[k]:.0f}"
-            + (f"   t = {result.times[k]:.2f} s" if result.times is not None else "")
-            + (
-                f"\nbreak at waypoint {result.completed}: {result.status.value}"
-                if (not result.success and k == result.completed - 1)
-                else ""
-            ),
-            fontsize=10,
-        )
-        if planar:
-            art.draw_obstacles_plane(ax, obs, float(plane or 0.0))
-        else:
-            art.draw_obstacles_3d(ax, obs, span)
+        span = view.set_limits(ax, scene.lo, scene.hi, scene.pad)
+        _draw_stack(ax, scene, result, stack, k)
+        view.draw_obstacles(ax, obs, span)
         if contacts[k] is not None:
-            if planar:
-                art.draw_contact_plane(ax, contacts[k], float(plane or 0.0), clearance)
-            else:
-                art.draw_contact_3d(ax, contacts[k], clearance)
+            view.draw_contact(ax, contacts[k], clearance)
         ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=4, fontsize=7)
 
     anim = FuncAnimation(fig, lambda i: draw(frames[i]), frames=len(frames), blit=False)
-    out = Path(path)
+    written = _save(anim, Path(path), fps, dpi, mp4)
+    plt.close(fig)
+    return written
+
+
+def _save(anim: Any, out: Path, fps: int, dpi: int, mp4: bool) -> list[Path]:
+    """Write the GIF (and the MP4 when asked and ffmpeg is installed); the files written."""
+    from matplotlib.animation import FFMpegWriter, PillowWriter
+
     written = []
     gif = out.with_suffix(".gif")
     anim.save(str(gif), writer=PillowWriter(fps=int(round(fps))), dpi=dpi)
@@ -316,5 +389,4 @@ def animate_path(
         mp4_path = out.with_suffix(".mp4")
         anim.save(str(mp4_path), writer=FFMpegWriter(fps=int(round(fps))), dpi=dpi)
         written.append(mp4_path)
-    plt.close(fig)
     return written

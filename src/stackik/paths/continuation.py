@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from stackik import check
 from stackik._arrays import readonly
+from stackik.formulation.modes import mode_of
 from stackik.geometry import Stack
 from stackik.paths.bounded import bounded_ip, bounded_step
 from stackik.paths.interpolate import lerp_target
@@ -150,7 +151,7 @@ class Tracker:
         from stackik.clearance import clearances_can_fail
         from stackik.formulation.forces import force_limited
 
-        phi = getattr(target, "phi", None) if self.planar else None
+        phi = mode_of(target).phi(target)
         can_fail = force_limited(self.stack) or clearances_can_fail(
             self.stack, self.obstacles, self.clearance, q, phi
         )

@@ -21,6 +21,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from stackik.formulation.modes import Mode, mode_of
+from stackik.rotations import rotation_angle, slerp  # re-exported: the path's rotation rules
 from stackik.targets import PlanarTarget, SpatialTarget, Target
 
 __all__ = [
@@ -49,7 +51,7 @@ def as_waypoints(targets: Any) -> list[Target]:
         Empty sequence, an element that is not a target, mixed planar and spatial
         targets, or planar targets in different planes.
     """
-    if isinstance(targets, PlanarTarget | SpatialTarget):
+    if isinstance(targets, PlanarTarget | SpatialTarget):  # one target where a path is due
         raise ValueError("targets: expected a sequence of targets, got a single target")
     try:
         out = list(targets)
@@ -59,59 +61,25 @@ def as_waypoints(targets: Any) -> list[Target]:
         ) from None
     if not out:
         raise ValueError("targets: the path is empty (give at least one target)")
+    modes = []
     for k, t in enumerate(out):
-        if not isinstance(t, PlanarTarget | SpatialTarget):
+        try:
+            modes.append(mode_of(t))
+        except ValueError:
             raise ValueError(
                 f"targets[{k}]: expected a PlanarTarget or SpatialTarget, got {type(t).__name__}"
-            )
-    kinds = {isinstance(t, PlanarTarget) for t in out}
-    if len(kinds) > 1:
+            ) from None
+    if len(set(modes)) > 1:
         raise ValueError("targets: mixed planar and spatial targets; a path has one kind")
-    if isinstance(out[0], PlanarTarget):
-        phi0 = out[0].phi
-        for k, t in enumerate(out):
-            assert isinstance(t, PlanarTarget)
-            if t.phi != phi0:
-                raise ValueError(
-                    f"targets[{k}]: phi = {t.phi!r} differs from targets[0].phi = {phi0!r}; "
-                    "a planar path stays in one plane"
-                )
+    mode = modes[0]
+    phi0 = mode.phi(out[0])  # None for every spatial target
+    for k, t in enumerate(out):
+        if mode.phi(t) != phi0:
+            raise ValueError(
+                f"targets[{k}]: phi = {mode.phi(t)!r} differs from targets[0].phi = {phi0!r}; "
+                "a planar path stays in one plane"
+            )
     return out
-
-
-def rotation_angle(Ra: FloatArray, Rb: FloatArray) -> float:
-    """Angle of the relative rotation ``Ra^T Rb`` [rad], in ``[0, pi]``."""
-    c = (float(np.trace(np.asarray(Ra).T @ np.asarray(Rb))) - 1.0) / 2.0
-    return math.acos(min(1.0, max(-1.0, c)))
-
-
-def slerp(Ra: FloatArray, Rb: FloatArray, s: float) -> FloatArray:
-    """Spherical linear interpolation of rotations: ``Ra exp(s log(Ra^T Rb))``.
-
-    Parameters
-    ----------
-    Ra, Rb : array_like, shape (3, 3)
-        Rotation matrices.
-    s : float
-        Fraction in ``[0, 1]``: 0 gives ``Ra``, 1 gives ``Rb``; the rotation angle from
-        ``Ra`` grows linearly with ``s`` along the shortest arc.
-
-    Returns
-    -------
-    ndarray, shape (3, 3)
-    """
-    from scipy.spatial.transform import Rotation
-
-    Ra = np.asarray(Ra, dtype=float)
-    if s == 0.0:
-        return Ra.copy()
-    if s == 1.0:
-        return np.array(Rb, dtype=float)
-    rv = Rotation.from_matrix(Ra.T @ np.asarray(Rb, dtype=float)).as_rotvec()
-    R = Ra @ Rotation.from_rotvec(s * rv).as_matrix()
-    # re-orthonormalise (SVD) so that the target constructor's 1e-6 test always passes
-    U, _, Vt = np.linalg.svd(R)
-    return U @ Vt  # type: ignore[no-any-return]
 
 
 def lerp_target(a: Target, b: Target, s: float) -> Target:
@@ -124,13 +92,7 @@ def lerp_target(a: Target, b: Target, s: float) -> Target:
         return a
     if s == 1.0:
         return b
-    if isinstance(a, PlanarTarget) and isinstance(b, PlanarTarget):
-        y = a.y + s * (b.y - a.y)
-        return PlanarTarget(float(y[0]), float(y[1]), float(y[2]), a.phi)
-    if isinstance(a, SpatialTarget) and isinstance(b, SpatialTarget):
-        P = a.position + s * (b.position - a.position)
-        return SpatialTarget(P, slerp(a.rotation, b.rotation, s))
-    raise ValueError("lerp_target: both targets must be of the same kind")
+    return _mode_of_both(a, b, "lerp_target").interpolate(a, b, s)
 
 
 def target_step(a: Target, b: Target) -> tuple[float, float]:
@@ -139,14 +101,18 @@ def target_step(a: Target, b: Target) -> tuple[float, float]:
     Planar: ``|(rho, z)_b - (rho, z)_a|`` and ``|theta_b - theta_a|``; spatial:
     ``|P_b - P_a|`` and the angle of ``R_a^T R_b``.
     """
-    if isinstance(a, PlanarTarget) and isinstance(b, PlanarTarget):
-        return float(math.hypot(b.rho - a.rho, b.z - a.z)), float(abs(b.theta - a.theta))
-    if isinstance(a, SpatialTarget) and isinstance(b, SpatialTarget):
-        return (
-            float(np.linalg.norm(b.position - a.position)),
-            rotation_angle(a.rotation, b.rotation),
-        )
-    raise ValueError("target_step: both targets must be of the same kind")
+    return _mode_of_both(a, b, "target_step").step(a, b)
+
+
+def _mode_of_both(a: Any, b: Any, what: str) -> Mode:
+    """The mode of two targets of one kind; a ValueError naming ``what`` otherwise."""
+    try:
+        mode = mode_of(a)
+        if mode_of(b) is mode:
+            return mode
+    except ValueError:
+        pass
+    raise ValueError(f"{what}: both targets must be of the same kind")
 
 
 def _pair(value: Any, name: str) -> tuple[float, float]:

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from stackik.check import FEAS_TOL
+from stackik.formulation.modes import mode_of
 from stackik.geometry import Stack
 from stackik.kinematics import planar_fn2, spatial_chain
 from stackik.paths.continuation import Tracker
@@ -141,7 +142,7 @@ def _leg_forces(req: _Request, targets: Sequence[Target], Q: FloatArray, c: int)
     if req.load is None and not force_limited(req.stack):
         return None
     out = np.full(Q.shape[:2] + (6,), np.nan)
-    phi = getattr(targets[0], "phi", None) if req.planar else None
+    phi = mode_of(targets[0]).phi(targets[0])
     for j in range(c):
         out[j] = leg_forces(req.stack, Q[j], req.load, phi=phi)
     return out
