@@ -4,9 +4,11 @@ fresh processes of each tree, alternating, so that load on a shared machine hits
 Run: ``python benchmarks/compare_trees.py OLD_SRC NEW_SRC [--rounds 3] [--out FILE]``,
 each ``*_SRC`` a ``src`` directory holding a ``stackik`` package (e.g. a git worktree of
 the old commit: ``git worktree add /tmp/old <rev>`` then ``/tmp/old/src``). Cases: the
-reference stack at n = 4, 15 spatial targets and 30 planar targets (rng 77), one untimed
-solve of each kind first. Prints, and writes with ``--out`` (JSON), the per-round medians
-and the ratio new / old of the medians over rounds.
+reference stack at n = 4, 15 spatial targets and 30 planar targets (rng 77); the SQP
+method with Clarabel on 4 planar targets at n = 16 (rng 78); fast-mode paths at n = 4,
+planar and spatial, of 40 waypoints between consecutive targets of the sets above (5
+each). One untimed solve of each kind first. Prints, and writes with ``--out`` (JSON),
+the per-round medians and the ratio new / old of the medians over rounds.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ CHILD = r"""
 import json, time
 import numpy as np
 import stackik as sk
+from stackik.paths import interpolate_targets, solve_path
 from stackik.sampling import random_planar_targets, random_spatial_targets
 
 ref = sk.Stack.reference(4)
@@ -32,15 +35,30 @@ cases = {
     "spatial4": random_spatial_targets(ref, 15, rng=np.random.default_rng(77)),
     "planar4": random_planar_targets(ref, 30, rng=np.random.default_rng(77)),
 }
+ref16 = sk.Stack.reference(16)
+sqp = dict(method="sqp", qp_solver="clarabel", starts=1)
+solves = {name: (ref, targets, {}) for name, targets in cases.items()}
+t16 = random_planar_targets(ref16, 4, rng=np.random.default_rng(78))
+solves["sqp16_clarabel"] = (ref16, t16, sqp)
 out = {}
-for name, targets in cases.items():
-    sk.solve_ik(ref, targets[0])
+for name, (stack, targets, kw) in solves.items():
+    sk.solve_ik(stack, targets[0], **kw)
     times = []
     for t in targets:
         t0 = time.perf_counter()
-        sk.solve_ik(ref, t)
+        sk.solve_ik(stack, t, **kw)
         times.append(time.perf_counter() - t0)
     out[name] = float(np.median(times))
+for name in ("planar4", "spatial4"):
+    ends = zip(cases[name][:5], cases[name][1:6])
+    legs = [interpolate_targets([a, b], steps=39) for a, b in ends]
+    solve_path(ref, legs[0])
+    times = []
+    for targets in legs:
+        t0 = time.perf_counter()
+        solve_path(ref, targets, mode="fast")
+        times.append(time.perf_counter() - t0)
+    out["path_fast_" + name] = float(np.median(times))
 print(json.dumps(out))
 """
 

@@ -1,5 +1,5 @@
-"""``method="ip"``: the compiled primal-dual interior point, planar
-(:mod:`stackik._compiled.planar`) and spatial (:mod:`stackik._compiled.spatial`, exact second
+"""``method="ip"``: the compiled primal-dual interior point (:mod:`stackik._compiled.barrier`),
+planar (:mod:`stackik._compiled.planar`) and spatial (:mod:`stackik._compiled.spatial`, exact second
 derivatives in closed form).
 
 This module turns a :class:`~stackik.formulation.Problem` into the arrays the compiled
@@ -186,17 +186,20 @@ def ip_multi(
     from stackik._compiled import barrier  # numba: imported when first needed
     from stackik._compiled.core import IP_STATUS
 
-    # the planar runs are polished in the kernel; the spatial ones by the caller
+    # the planar runs are polished in the kernel (3 steps); the spatial ones by the caller
     # (Problem's form of the polish)
+    P, polish_iters = (
+        (problem_arrays(prob), 3) if prob.planar else (spatial_problem_arrays(prob), 0)
+    )
     X, st, nit, obj, viol = barrier.ip_multi(
         U,
-        problem_arrays(prob) if prob.planar else spatial_problem_arrays(prob),
+        P,
         float(opts["tol"]),
         float(opts["constr_tol"]),
         np.ascontiguousarray(mus),
         int(opts["max_iter"]),
         deadline if math.isfinite(deadline) else 1e300,
-        3 if prob.planar else 0,
+        polish_iters,
         POLISH_REACH,
         POLISH_MARGIN,
     )
