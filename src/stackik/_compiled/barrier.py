@@ -142,41 +142,17 @@ def _filter_accepts(theta: float, phi: float, gphi: float, alpha: float, theta_t
 
 
 @_jit
-def _line_search(P: Any, x: FloatArray, s: FloatArray, dx: FloatArray, ds: FloatArray,
-                 alpha: float, mu: float, phi: float, gphi: float, theta: float,
-                 theta_max: float, theta_min: float, filt: FloatArray, nfilt: int,
-                 lo: FloatArray, hi: FloatArray, ug: FloatArray,
-                 wq: float) -> tuple[Any, ...]:  # fmt: skip
-    """Backtracking from ``alpha`` along ``(dx, ds)`` until the filter accepts. Returns
-    ``accepted, by_objective, alpha, log-barrier sum, xt, st`` and :func:`kernel.evaluate`
-    at ``xt`` (the last trial when none was accepted)."""
-    m = s.size
-    xt = x + alpha * dx
-    st = s + alpha * ds
-    trial = kernel.evaluate(P, xt, lo, hi, ug, wq)
+def _trial_measures(cEt: FloatArray, cIt: FloatArray, st: FloatArray) -> tuple[float, float]:
+    """The infeasibility ``|c_E|_1 + |c_I - s|_1`` and the log-barrier sum of a trial
+    point (slacks ``st``)."""
+    theta_t = 0.0
+    for k in range(cEt.size):
+        theta_t += abs(cEt[k])
     logsum_t = 0.0
-    for t in range(_LS_TRIES):
-        if t > 0:
-            xt = x + alpha * dx
-            st = s + alpha * ds
-            trial = kernel.evaluate(P, xt, lo, hi, ug, wq)
-        ft, cEt, cIt = trial[0], trial[2], trial[4]
-        theta_t = 0.0
-        for k in range(cEt.size):
-            theta_t += abs(cEt[k])
-        logsum_t = 0.0
-        for r in range(m):
-            theta_t += abs(cIt[r] - st[r])
-            logsum_t += math.log(st[r])
-        if math.isfinite(ft) and math.isfinite(theta_t):  # NaN/inf anywhere shows here
-            ok, by_f = _filter_accepts(theta, phi, gphi, alpha, theta_t, ft - mu * logsum_t,
-                                       theta_max, theta_min, filt, nfilt)  # fmt: skip
-            if ok:
-                return True, by_f, alpha, logsum_t, xt, st, trial
-        alpha *= 0.5
-        if alpha < 1e-12:
-            break
-    return False, False, alpha, logsum_t, xt, st, trial
+    for r in range(st.size):
+        theta_t += abs(cIt[r] - st[r])
+        logsum_t += math.log(st[r])
+    return theta_t, logsum_t
 
 
 @_jit
@@ -190,7 +166,7 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     of the problem as ``P0`` states it, i.e. without the objective scaling the loop
     applies: a continuation step starts from them, the path kernels' ``_pc_step``)."""
     x = u0.copy()
-    f, g, cE, AE, cI, AI, parts = kernel.evaluate(P0, x, lo, hi, ug, wq)
+    f, g, cE, AE, cI, AI, parts = kernel.evaluate(x, P0, lo, hi, ug, wq)
     m = cI.size
     if not (_finite(cI) and _finite(cE) and math.isfinite(f)):
         return x, IP_NONFINITE, 0, cI, np.ones(m), np.zeros(cE.size)
@@ -235,7 +211,7 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             mu = mu_next
             nfilt = 0
         # --- Newton step -----------------------------------------------------------
-        W = kernel.hessian(P, parts, yE, block_part(z, AI), wq)
+        W = kernel.hessian(parts, yE, block_part(z, AI), P, wq)
         if not (_finite(W) and _finite(g) and _finite(AE)):
             status = IP_NONFINITE
             break
@@ -276,10 +252,25 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             gdx += g[a] * dx[a]
         phi = f - mu * logsum
         gphi = gdx - mu * dsum
-        accepted, by_f, alpha, logsum_t, xt, st, trial = _line_search(
-            P, x, s, dx, ds, a_s, mu, phi, gphi, theta, theta_max, theta_min, filt, nfilt,
-            lo, hi, ug, wq,
-        )  # fmt: skip
+        # backtracking from the fraction to the boundary until the filter accepts
+        alpha = a_s
+        accepted = by_f = False
+        xt, st, logsum_t = x, s, logsum
+        ft, gt, cEt, AEt, cIt, AIt, parts_t = f, g, cE, AE, cI, AI, parts
+        for _ in range(_LS_TRIES):
+            xt = x + alpha * dx
+            st = s + alpha * ds
+            ft, gt, cEt, AEt, cIt, AIt, parts_t = kernel.evaluate(xt, P, lo, hi, ug, wq)
+            theta_t, logsum_t = _trial_measures(cEt, cIt, st)
+            if math.isfinite(ft) and math.isfinite(theta_t):  # NaN/inf anywhere shows here
+                accepted, by_f = _filter_accepts(theta, phi, gphi, alpha, theta_t,
+                                                 ft - mu * logsum_t, theta_max, theta_min,
+                                                 filt, nfilt)  # fmt: skip
+                if accepted:
+                    break
+            alpha *= 0.5
+            if alpha < 1e-12:
+                break
         if accepted and not by_f and nfilt < filt.shape[0]:
             filt[nfilt, 0] = (1.0 - 1e-5) * theta
             filt[nfilt, 1] = phi - 1e-8 * theta
@@ -294,13 +285,12 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             alpha = min(alpha, 1e-8)
             xt = x + alpha * dx
             st = s + alpha * ds
-            trial = kernel.evaluate(P, xt, lo, hi, ug, wq)
-            if not (math.isfinite(trial[0]) and _finite(trial[4])):
+            ft, gt, cEt, AEt, cIt, AIt, parts_t = kernel.evaluate(xt, P, lo, hi, ug, wq)
+            if not (math.isfinite(ft) and _finite(cIt)):
                 status = IP_NONFINITE
                 break
         else:
             fails = 0
-        ft, gt, cEt, AEt, cIt, AIt, parts_t = trial
         x = xt
         # slack reset: a slack below its constraint value only adds violation
         s = st
@@ -337,7 +327,7 @@ def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> Fl
     (:mod:`stackik._compiled.dense_rows`). Tiny moves only."""
     none = np.empty(0)
     for _ in range(iters):
-        f, g, cE, AE, cI, AI, _ = kernel.evaluate(P, u, none, none, none, 0.0)
+        f, g, cE, AE, cI, AI, _ = kernel.evaluate(u, P, none, none, none, 0.0)
         if polished(cE, cI, reach):
             break
         nv = 0
@@ -392,7 +382,7 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
         X[j] = x
         status[j] = st
         nit[j] = it
-        f, g, cE, AE, cI, _, _ = kernel.evaluate(P, x, none, none, none, 0.0)
+        f, g, cE, AE, cI, _, _ = kernel.evaluate(x, P, none, none, none, 0.0)
         obj[j] = f
         viol[j] = max(np.abs(cE).max(), max(0.0, -cI.min()))
         if j + 1 == GIVE_UP_AFTER and viol[: j + 1].min() > GIVE_UP_VIOLATION:

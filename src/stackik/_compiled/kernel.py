@@ -20,7 +20,6 @@ path step's box rows, then the dense rows: :mod:`stackik._compiled.dense_rows`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 from numba.core.errors import TypingError
@@ -41,13 +40,14 @@ __all__ = [
 _REGISTRY: dict[type, dict[str, Any]] = {}
 #: The stubs' names; :func:`register` wants exactly these.
 _HOOKS: list[str] = []
-_OPTIONS: Any = {"cache": True, "error_model": "numpy", "nogil": True}
+_OPTIONS: Any = {"cache": True, "error_model": "numpy", "nogil": True, "forceinline": True}
 
 
 def register(data_class: type, **implementations: Any) -> None:
     """Register a mode: ``implementations`` maps every stub's name to the mode's jitted
-    function of the stub's signature (or, for :func:`clock_period`, an int). Raises
-    ``ValueError`` when a stub is missing or a name is not a stub."""
+    function with the stub's parameters (same names, same order; numba checks) or, for
+    :func:`clock_period`, an int. Raises ``ValueError`` when a stub is missing or a name is
+    not a stub."""
     missing = sorted(set(_HOOKS) - set(implementations))
     unknown = sorted(set(implementations) - set(_HOOKS))
     if missing or unknown:
@@ -57,83 +57,111 @@ def register(data_class: type, **implementations: Any) -> None:
     _REGISTRY[data_class] = dict(implementations)
 
 
-def _hook(stub: Callable[..., Any]) -> Callable[..., Any]:
-    """Make ``stub`` resolve, in compiled code, to the implementation registered for the
-    class of its first argument."""
-    name = stub.__name__
-    _HOOKS.append(name)
+def _implementation(name: str, P: Any) -> Any:
+    """The Python function numba compiles in place of the stub ``name`` for the problem
+    data type ``P``: the registered function's own source, so that the call costs what a
+    direct call of it costs (a forwarding layer would pass ``P``, a tuple of some thirty
+    arrays, once more)."""
+    cls = getattr(P, "instance_class", None)
+    if cls not in _REGISTRY:
+        raise TypingError(f"stackik._compiled.kernel.{name}: no mode registered for {P}")
+    impl = _REGISTRY[cls][name]
+    if isinstance(impl, int):
+        value = impl
 
-    @overload(stub, jit_options=_OPTIONS)
-    def _resolved(P: Any, *args: Any) -> Any:
-        cls = getattr(P, "instance_class", None)
-        if cls not in _REGISTRY:
-            raise TypingError(f"stackik._compiled.kernel.{name}: no mode registered for {P}")
-        impl = _REGISTRY[cls][name]
-        if isinstance(impl, int):
+        def constant(P: Any) -> int:
+            return value
 
-            def constant(P: Any, *args: Any) -> Any:
-                return impl
-
-            return constant
-
-        def call(P: Any, *args: Any) -> Any:
-            return impl(P, *args)
-
-        return call
-
-    return stub
+        return constant
+    return impl.py_func
 
 
-def _stub() -> Any:
+def _unresolved() -> Any:
     raise NotImplementedError("resolved by numba in compiled code (stackik._compiled.kernel)")
 
 
-@_hook
-def evaluate(P: Any, u: Any, lo: Any, hi: Any, ug: Any, wq: float) -> Any:
+def evaluate(u: Any, P: Any, lo: Any, hi: Any, ug: Any, wq: float) -> Any:
     """``f, g, cE, AE, cI, AI, parts`` at ``u`` (N,): the scaled objective and gradient
     (N,), equalities (E,) and their Jacobian (E, N), inequality rows (m,) and their
     Jacobian as the pair ``AI = (blocks, dense rows)``, and whatever :func:`hessian` reuses
     (``parts``). ``lo``/``hi`` (N,; empty: none) add the box ``lo <= u <= hi`` as block rows
     and ``wq |u - ug|^2`` is added to the objective (a path step's extensions)."""
-    return _stub()
+    return _unresolved()
 
 
-@_hook
-def hessian(P: Any, parts: Any, yE: Any, z: Any, wq: float) -> Any:
+def hessian(parts: Any, yE: Any, z: Any, P: Any, wq: float) -> Any:
     """Hessian (N, N) of ``f - yE.cE - z.cI`` at the point :func:`evaluate` returned
     ``parts`` for, ``z`` the block rows' multipliers (the dense rows have no exact
     curvature); ``2 wq I`` for the distance term."""
-    return _stub()
+    return _unresolved()
 
 
-@_hook
 def kkt_step(P: Any, W: Any, AE: Any, cE: Any, rhs: Any, last_shift: float) -> Any:
     """``dx, shift``: the Newton step of ``[W AE^T; AE 0] [dx; -y] = [rhs; -cE]`` with the
     reduced Hessian made positive definite by the smallest shift ``delta I`` that does it
     (inertia correction; ``last_shift`` the last step's, 0: none yet)."""
-    return _stub()
+    return _unresolved()
 
 
-@_hook
 def eq_multipliers(P: Any, AE: Any, g: Any, AItz: Any) -> Any:
     """Least-squares equality multipliers (E,): ``argmin |g - AI^T z - AE^T y|``."""
-    return _stub()
+    return _unresolved()
 
 
-@_hook
 def eq_transpose_dot(P: Any, AE: Any, y: Any) -> Any:
     """``AE^T y`` (N,)."""
-    return _stub()
+    return _unresolved()
 
 
-@_hook
-def with_fscale(P: Any, fscale: float) -> Any:
-    """``P`` with the objective scale ``fscale``."""
-    return _stub()
+def with_fscale(P0: Any, fscale: float) -> Any:
+    """``P0`` with the objective scale ``fscale``."""
+    return _unresolved()
 
 
-@_hook
 def clock_period(P: Any) -> Any:
     """Iterations between two reads of the clock (a read takes the GIL): more where an
     iteration is cheap."""
-    return _stub()
+    return _unresolved()
+
+
+# the typing functions: the parameters of their stubs (numba compares the names), each the
+# registered implementation for the problem data's type
+_HOOKS.extend(
+    ["evaluate", "hessian", "kkt_step", "eq_multipliers", "eq_transpose_dot", "with_fscale",
+     "clock_period"]
+)  # fmt: skip
+
+
+@overload(evaluate, jit_options=_OPTIONS)
+def _evaluate(u: Any, P: Any, lo: Any, hi: Any, ug: Any, wq: Any) -> Any:
+    return _implementation("evaluate", P)
+
+
+@overload(hessian, jit_options=_OPTIONS)
+def _hessian(parts: Any, yE: Any, z: Any, P: Any, wq: Any) -> Any:
+    return _implementation("hessian", P)
+
+
+@overload(kkt_step, jit_options=_OPTIONS)
+def _kkt_step(P: Any, W: Any, AE: Any, cE: Any, rhs: Any, last_shift: Any) -> Any:
+    return _implementation("kkt_step", P)
+
+
+@overload(eq_multipliers, jit_options=_OPTIONS)
+def _eq_multipliers(P: Any, AE: Any, g: Any, AItz: Any) -> Any:
+    return _implementation("eq_multipliers", P)
+
+
+@overload(eq_transpose_dot, jit_options=_OPTIONS)
+def _eq_transpose_dot(P: Any, AE: Any, y: Any) -> Any:
+    return _implementation("eq_transpose_dot", P)
+
+
+@overload(with_fscale, jit_options=_OPTIONS)
+def _with_fscale(P0: Any, fscale: Any) -> Any:
+    return _implementation("with_fscale", P0)
+
+
+@overload(clock_period, jit_options=_OPTIONS)
+def _clock_period(P: Any) -> Any:
+    return _implementation("clock_period", P)

@@ -200,3 +200,34 @@ def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
             for j in range(k):
                 out[k * i + j] += D[i, r, j] * vr
     return out
+
+
+@_jit
+def subtract_blocks_scaled(H: FloatArray, Hb: FloatArray, xs: FloatArray) -> FloatArray:
+    """``H - blockdiag(Hb)`` in the variables scaled by ``xs``: ``H[a, b] * xs[a] *
+    xs[b]``, in place (``H`` (N, N), ``Hb`` (n, k, k) a platform's block, ``N = k n``);
+    returns ``H``."""
+    n, k = Hb.shape[0], Hb.shape[1]
+    for i in range(n):
+        for a in range(k):
+            for b in range(k):
+                H[k * i + a, k * i + b] -= Hb[i, a, b]
+    for a in range(H.shape[0]):
+        for b in range(H.shape[1]):
+            H[a, b] *= xs[a] * xs[b]
+    return H
+
+
+@_jit
+def add_distance_term(f: float, g: FloatArray, u: FloatArray, ug: FloatArray,
+                      wq: float) -> float:  # fmt: skip
+    """``f + wq |u - ug|^2``, its gradient added to ``g`` in place (a path step's pull
+    toward ``ug``; nothing when ``wq <= 0``)."""
+    if wq > 0.0:
+        acc = 0.0
+        for a in range(u.size):
+            d = u[a] - ug[a]
+            acc += d * d
+            g[a] += 2.0 * wq * d
+        f += wq * acc
+    return f

@@ -1,6 +1,7 @@
 """What the planar and spatial path kernels (:mod:`stackik._compiled.planar_path`,
 :mod:`stackik._compiled.spatial_path`) share: the continuation step's budgets and
-tolerances, and its handling of mirror limits (rows that copy another row of the set).
+tolerances, its handling of mirror limits (rows that copy another row of the set), its
+optimality errors and its active-set change.
 """
 
 from __future__ import annotations
@@ -73,3 +74,100 @@ def _release(act: FloatArray, zf: FloatArray, parent: FloatArray, rj: int) -> No
     for r in range(act.size):
         if parent[r] == rj:
             act[r] = False
+
+
+@_jit
+def _merge_twins(act: FloatArray, cI: FloatArray, D: FloatArray, zf: FloatArray,
+                 m: int) -> FloatArray:  # fmt: skip
+    """:func:`_twins` of the set ``act`` (``m`` rows); each copy's multiplier summed onto
+    the row it copies and zeroed, and those of the rows off the set zeroed. Returns the
+    parents."""
+    parent = _twins(act, cI, D)
+    for r in range(m):
+        if act[r] and parent[r] >= 0:
+            zf[parent[r]] += zf[r]
+            zf[r] = 0.0
+        elif not act[r]:
+            zf[r] = 0.0
+    return parent
+
+
+@_jit
+def _pc_errors(rd: FloatArray, yE: FloatArray, zA: FloatArray, cE: FloatArray,
+               cI: FloatArray, held: FloatArray, idx: FloatArray,
+               m: int) -> tuple[float, float, float, float]:  # fmt: skip
+    """The continuation step's optimality errors, scaled as the barrier method's
+    (:func:`stackik._compiled.barrier._errors`): the stationarity error ``rd`` (N,), the
+    residuals of the equalities and of the held rows ``held`` (at PC_OFFSET), the
+    complementarity of the Newton system's rows ``idx`` with multipliers ``zA``; ``m``
+    rows in all. Returns ``e_du, e_pr, comp, sd``."""
+    sd_acc = 0.0
+    for k in range(yE.size):
+        sd_acc += abs(yE[k])
+    for j in range(zA.size):
+        sd_acc += abs(zA[j])
+    sd = max(100.0, sd_acc / (m + yE.size)) / 100.0
+    e_du = np.abs(rd).max() / sd
+    e_pr = 0.0
+    for k in range(cE.size):
+        e_pr = max(e_pr, abs(cE[k]))
+    for j in range(held.size):
+        e_pr = max(e_pr, abs(cI[held[j]] - PC_OFFSET))
+    comp = 0.0
+    for j in range(idx.size):
+        comp = max(comp, abs(cI[idx[j]] * zA[j]))
+    return e_du, e_pr, comp, sd
+
+
+@_jit
+def _pc_change(act: FloatArray, new: FloatArray, zf: FloatArray, parent: FloatArray,
+               idx: FloatArray, zA: FloatArray, cI: FloatArray, m: int, changes: int,
+               max_changes: int) -> tuple[bool, bool]:  # fmt: skip
+    """The active-set change after a converged Newton solve: release the row with the
+    most negative multiplier (and its copies), or else add the rows off the set that the
+    point violates or nearly meets (closer than half the offset: within rounding of it);
+    ``new`` marks the rows added. Returns ``(verified, changed)``: verified when there is
+    nothing to change (a KKT point), changed when a change was made (``changes`` made
+    before, at most ``max_changes``)."""
+    jmin = -1
+    for j in range(zA.size):
+        if zA[j] < 0.0 and (jmin < 0 or zA[j] < zA[jmin]):
+            jmin = j
+    nadd = 0
+    for r in range(m):
+        if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
+            nadd += 1
+    if jmin < 0 and nadd == 0:
+        return True, False
+    if changes >= max_changes:
+        return False, False
+    new[:] = False
+    if jmin >= 0:
+        _release(act, zf, parent, idx[jmin])
+    else:
+        for r in range(m):
+            if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
+                act[r] = True
+                new[r] = True
+    return False, True
+
+
+@_jit
+def _pc_verdict(e_du: float, e_pr: float, comp: float, sd: float, tol: float,
+                constr_tol: float, it: int, max_newton: int, inner: int,
+                err_prev: float) -> tuple[int, float]:  # fmt: skip
+    """One Newton iteration's errors judged: 1 converged (the barrier method's test, the
+    residuals within ``min(constr_tol, PC_PRIMAL_TOL)``), 2 give up (``max_newton``
+    iterations spent, or, after PC_FREE iterations in this active set (``inner``), an
+    error that did not shrink by PC_CONTRACT: Newton's method converges quadratically near
+    a solution, so the barrier solve takes the step at once), 0 go on; and the error in
+    units of the tolerances."""
+    ptol = min(constr_tol, PC_PRIMAL_TOL)
+    if e_du <= tol and comp / sd <= tol and e_pr <= ptol:
+        return 1, 0.0
+    if it >= max_newton:
+        return 2, 0.0
+    err = max(e_du / tol, max(comp / sd / tol, e_pr / ptol))
+    if inner >= PC_FREE and not err <= PC_CONTRACT * err_prev:
+        return 2, err
+    return 0, err

@@ -34,7 +34,13 @@ from stackik._compiled.core import (
 from stackik._compiled.dense_rows import (
     with_dense_rows,
 )
-from stackik._compiled.linalg import _cho_solve, _cholesky, _inv3
+from stackik._compiled.linalg import (
+    _cho_solve,
+    _cholesky,
+    _inv3,
+    add_distance_term,
+    subtract_blocks_scaled,
+)
 
 
 class PlanarData(NamedTuple):
@@ -359,13 +365,7 @@ def _evaluate_ext(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Flo
     27-29: ``hi - u``), so that ``c_I`` has ``30 n`` rows and ``D`` is (n, 30, 3). Without
     extensions it returns :func:`_evaluate`'s values unchanged."""
     f, g, cE, AE, cI, D = _evaluate(u, P)
-    if wq > 0.0:
-        acc = 0.0
-        for a in range(u.size):
-            d = u[a] - ug[a]
-            acc += d * d
-            g[a] += 2.0 * wq * d
-        f += wq * acc
+    f = add_distance_term(f, g, u, ug, wq)
     if lo.size == 0:
         return f, g, cE, AE, cI, D
     n = D.shape[0]
@@ -397,11 +397,12 @@ def _evaluate_ip(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Floa
 
 
 @_jit
-def _lagrangian_hessian_ext(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
+def _lagrangian_hessian_ext(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
                             wq: float) -> FloatArray:  # fmt: skip
-    """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem (``z``: 24 n or, with
-    a box, 30 n multipliers): the box rows are linear, the distance term adds ``2 wq I``."""
-    H = _lagrangian_hessian(u, yE, _limit_rows(z, P.tf.shape[0]), P)
+    """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem at ``parts``, the
+    scaled point ``u`` (``z``: 24 n or, with a box, 30 n multipliers): the box rows are
+    linear, the distance term adds ``2 wq I``."""
+    H = _lagrangian_hessian(parts, yE, _limit_rows(z, P.tf.shape[0]), P)
     if wq > 0.0:
         for a in range(H.shape[0]):
             H[a, a] += 2.0 * wq
@@ -431,14 +432,7 @@ def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) ->
             H[a, b] -= v[b]
             H[b, a] -= v[b]
     Hb = _constraint_hessian(q, z * cs, tf, tz, bf, bz, ls, sj)
-    for i in range(n):
-        for a in range(3):
-            for b in range(3):
-                H[3 * i + a, 3 * i + b] -= Hb[i, a, b]
-    for a in range(N):
-        for b in range(N):
-            H[a, b] *= xs[a] * xs[b]
-    return H
+    return subtract_blocks_scaled(H, Hb, xs)
 
 
 @_jit
@@ -572,18 +566,12 @@ def _ls_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArr
 # The barrier method's kernel interface (stackik._compiled.kernel; the loop: barrier.py)
 # =========================================================================================
 @_jit
-def _kernel_evaluate(P: Any, u: FloatArray, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+def _kernel_evaluate(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
                      wq: float) -> tuple[Any, ...]:  # fmt: skip
-    """:func:`_evaluate_ip`; the point itself is what the Hessian needs."""
-    f, g, cE, AE, cI, AI = _evaluate_ip(u, P, lo, hi, ug, wq)
-    return f, g, cE, AE, cI, AI, u
-
-
-@_jit
-def _kernel_hessian(P: Any, u: FloatArray, yE: FloatArray, z: FloatArray,
-                    wq: float) -> FloatArray:  # fmt: skip
-    """:func:`_lagrangian_hessian_ext` at ``u``."""
-    return _lagrangian_hessian_ext(u, yE, z, P, wq)
+    """:func:`_evaluate_ip`'s values and the point itself (what the Hessian needs)."""
+    f, g, cE, AE, cI, D = _evaluate_ext(u, P, lo, hi, ug, wq)
+    cA, AI = with_dense_rows(u, P, cI, D, True, P.ob_phi)
+    return f, g, cE, AE, cA, AI, u
 
 
 @_jit
@@ -609,7 +597,7 @@ def _kernel_eq_transpose_dot(P: Any, AE: FloatArray, y: FloatArray) -> FloatArra
 kernel.register(
     PlanarData,
     evaluate=_kernel_evaluate,
-    hessian=_kernel_hessian,
+    hessian=_lagrangian_hessian_ext,
     kkt_step=_kernel_kkt_step,
     eq_multipliers=_kernel_eq_multipliers,
     eq_transpose_dot=_kernel_eq_transpose_dot,

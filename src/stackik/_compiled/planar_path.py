@@ -16,14 +16,14 @@ from stackik._compiled.core import IP_NONFINITE, IP_SUCCESS, OBJ_MAX_GRAD, _fini
 from stackik._compiled.linalg import _AIT_dot, _lu_solve, min_norm_solve
 from stackik._compiled.path import (
     PC_CHANGES,
-    PC_CONTRACT,
     PC_DEPENDENT,
-    PC_FREE,
     PC_NEWTON,
     PC_OFFSET,
-    PC_PRIMAL_TOL,
+    _merge_twins,
+    _pc_change,
+    _pc_errors,
+    _pc_verdict,
     _release,
-    _twins,
 )
 from stackik._compiled.planar import (
     _AET_dot,
@@ -349,13 +349,7 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     it = 0
     changes = 0
     while True:
-        parent = _twins(act, cI, D)
-        for r in range(m):
-            if act[r] and parent[r] >= 0:
-                zf[parent[r]] += zf[r]
-                zf[r] = 0.0
-            elif not act[r]:
-                zf[r] = 0.0
+        parent = _merge_twins(act, cI, D, zf, m)
         idx = np.nonzero(act & (parent < 0))[0]
         # more limits than freedom (degenerate): the weakest go. A platform has 3
         # variables: its limits beyond 3 depend on the others (where base and top joint
@@ -379,28 +373,11 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             for j in range(na):
                 zf[idx[j]] = zA[j]
             rd = g - _AET_dot(AE, yE) - _AIT_dot(D, zf)
-            sd_acc = abs(yE[0]) + abs(yE[1]) + abs(yE[2])
-            for j in range(na):
-                sd_acc += abs(zA[j])
-            sd = max(100.0, sd_acc / (m + 3)) / 100.0
-            e_du = np.abs(rd).max() / sd
-            e_pr = max(abs(cE[0]), max(abs(cE[1]), abs(cE[2])))
-            comp = 0.0
-            for j in range(na):
-                e_pr = max(e_pr, abs(cI[idx[j]] - PC_OFFSET))
-                comp = max(comp, abs(cI[idx[j]] * zA[j]))
-            ptol = min(constr_tol, PC_PRIMAL_TOL)
-            if e_du <= tol and comp / sd <= tol and e_pr <= ptol:
-                conv = True
-                break
-            if it >= max_newton:
-                break
-            # Newton's method converges quadratically near a solution: an iteration that
-            # does not at least halve the error (in units of the tolerances) after the
-            # first two of this active set does not converge, and the barrier solve takes
-            # the step at once (instead of after the whole budget)
-            err = max(e_du / tol, max(comp / sd / tol, e_pr / ptol))
-            if inner >= PC_FREE and not err <= PC_CONTRACT * err_prev:
+            e_du, e_pr, comp, sd = _pc_errors(rd, yE, zA, cE, cI, idx, idx, m)
+            verdict, err = _pc_verdict(e_du, e_pr, comp, sd, tol, constr_tol, it, max_newton,
+                                       inner, err_prev)  # fmt: skip
+            conv = verdict == 1
+            if verdict != 0:
                 break
             err_prev = err
             inner += 1
@@ -422,31 +399,10 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             f, g, cE, AE, cI, D = _evaluate(x, P)
         if not conv:
             break
-        # release the limit with the most negative multiplier (and its copies) ...
-        jmin = -1
-        for j in range(na):
-            if zA[j] < 0.0 and (jmin < 0 or zA[j] < zA[jmin]):
-                jmin = j
-        # ... or add the other limits that the point violates or nearly meets (closer
-        # than half the offset: within rounding of it)
-        nadd = 0
-        for r in range(m):
-            if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
-                nadd += 1
-        if jmin < 0 and nadd == 0:
-            ok = True
-            break
-        if changes >= max_changes:
+        ok, changed = _pc_change(act, new, zf, parent, idx, zA, cI, m, changes, max_changes)
+        if not changed:
             break
         changes += 1
-        new[:] = False
-        if jmin >= 0:
-            _release(act, zf, parent, idx[jmin])
-        else:
-            for r in range(m):
-                if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
-                    act[r] = True
-                    new[r] = True
     return x, ok, yE / fs, zf / fs, act, it, cE, cI
 
 

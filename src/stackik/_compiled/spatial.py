@@ -53,6 +53,8 @@ from stackik._compiled.linalg import (
     _cholesky,
     _mm3,
     _solve6,
+    add_distance_term,
+    subtract_blocks_scaled,
 )
 from stackik._compiled.self_legs import self_leg_hessians, self_leg_rows
 from stackik._compiled.spatial_kinematics import spatial_parts
@@ -358,13 +360,7 @@ def _evaluate_ext(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Flo
     as 12 more limit rows per platform (rows 24-29: ``u - lo``, 30-35: ``hi - u``):
     ``c_I`` (36 n,), ``D`` (n, 36, 6). Without extensions, :func:`_evaluate`'s values."""
     f, g, cE, AE, cI, D, parts = _evaluate(u, P)
-    if wq > 0.0:
-        acc = 0.0
-        for a in range(u.size):
-            d = u[a] - ug[a]
-            acc += d * d
-            g[a] += 2.0 * wq * d
-        f += wq * acc
+    f = add_distance_term(f, g, u, ug, wq)
     if lo.size == 0:
         return f, g, cE, AE, cI, D, parts
     n = D.shape[0]
@@ -480,14 +476,7 @@ def _hessian(parts: Any, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
         zz = z.reshape(n, 24 + mp)
         Hb = limit_hessians(q, zz[:, :24] * cs.reshape(n, 24), top, base, sj)
         Hb += self_leg_hessians(q, base, top, P.pairs, P.pair_scale, zz[:, 24:].copy())
-    for i in range(n):
-        for a in range(6):
-            for b in range(6):
-                H[6 * i + a, 6 * i + b] -= Hb[i, a, b]
-    for a in range(N):
-        for b in range(N):
-            H[a, b] *= xs[a] * xs[b]
-    return H
+    return subtract_blocks_scaled(H, Hb, xs)
 
 
 # =========================================================================================
@@ -621,20 +610,6 @@ def _with_target(P0: Any, position: Any, rotation: Any) -> Any:
 # The barrier method's kernel interface (stackik._compiled.kernel; the loop: barrier.py)
 # =========================================================================================
 @_jit
-def _kernel_evaluate(P: Any, u: FloatArray, lo: FloatArray, hi: FloatArray, ug: FloatArray,
-                     wq: float) -> tuple[Any, ...]:  # fmt: skip
-    """:func:`_evaluate_ip`, its kinematic parts for the Hessian last."""
-    return _evaluate_ip(u, P, lo, hi, ug, wq)
-
-
-@_jit
-def _kernel_hessian(P: Any, parts: Any, yE: FloatArray, z: FloatArray,
-                    wq: float) -> FloatArray:  # fmt: skip
-    """:func:`_hessian_ext` from the kinematic parts."""
-    return _hessian_ext(parts, yE, z, P, wq)
-
-
-@_jit
 def _kernel_kkt_step(P: Any, W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
                      last_shift: float) -> tuple[FloatArray, float]:  # fmt: skip
     """:func:`_kkt_step`."""
@@ -655,8 +630,8 @@ def _kernel_eq_transpose_dot(P: Any, AE: FloatArray, y: FloatArray) -> FloatArra
 
 kernel.register(
     SpatialData,
-    evaluate=_kernel_evaluate,
-    hessian=_kernel_hessian,
+    evaluate=_evaluate_ip,
+    hessian=_hessian_ext,
     kkt_step=_kernel_kkt_step,
     eq_multipliers=_kernel_eq_multipliers,
     eq_transpose_dot=_kernel_eq_transpose_dot,

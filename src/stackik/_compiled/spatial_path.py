@@ -16,14 +16,14 @@ from stackik._compiled.core import IP_NONFINITE, IP_SUCCESS, OBJ_MAX_GRAD, _jit
 from stackik._compiled.linalg import _AIT_dot
 from stackik._compiled.path import (
     PC_CHANGES,
-    PC_CONTRACT,
     PC_DEPENDENT,
-    PC_FREE,
     PC_NEWTON,
     PC_OFFSET,
-    PC_PRIMAL_TOL,
+    _merge_twins,
+    _pc_change,
+    _pc_errors,
+    _pc_verdict,
     _release,
-    _twins,
 )
 from stackik._compiled.spatial import (
     _evaluate_ip,
@@ -132,13 +132,7 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     it = 0
     changes = 0
     while True:
-        parent = _twins(act, cI, D)
-        for r in range(m):
-            if act[r] and parent[r] >= 0:
-                zf[parent[r]] += zf[r]
-                zf[r] = 0.0
-            elif not act[r]:
-                zf[r] = 0.0
+        parent = _merge_twins(act, cI, D, zf, m)
         # rows that depend on others of their platform stay active, out of the Newton
         # system; the independent ones beyond the freedom N - 6 (degenerate): the weakest go
         allidx = np.nonzero(act & (parent < 0))[0]
@@ -167,28 +161,12 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             for j in range(na):
                 zf[idx[j]] = zA[j]
             rd = g - AE.T @ yE - _AIT_dot(D, zf)
-            sd_acc = np.abs(yE).sum()
-            for j in range(na):
-                sd_acc += abs(zA[j])
-            sd = max(100.0, sd_acc / (m + 6)) / 100.0
-            e_du = np.abs(rd).max() / sd
-            e_pr = np.abs(cE).max()
-            comp = 0.0
-            for j in range(allidx.size):  # the dependent rows' residuals too
-                e_pr = max(e_pr, abs(cI[allidx[j]] - PC_OFFSET))
-            for j in range(na):
-                comp = max(comp, abs(cI[idx[j]] * zA[j]))
-            ptol = min(constr_tol, PC_PRIMAL_TOL)
-            if e_du <= tol and comp / sd <= tol and e_pr <= ptol:
-                conv = True
-                break
-            if it >= max_newton:
-                break
-            # as the planar step: an iteration that does not at least halve the error (in
-            # units of the tolerances) after the first two of this active set does not
-            # converge, and the barrier solve takes the step at once
-            err = max(e_du / tol, max(comp / sd / tol, e_pr / ptol))
-            if inner >= PC_FREE and not err <= PC_CONTRACT * err_prev:
+            # the dependent rows' residuals count too
+            e_du, e_pr, comp, sd = _pc_errors(rd, yE, zA, cE, cI, allidx, idx, m)
+            verdict, err = _pc_verdict(e_du, e_pr, comp, sd, tol, constr_tol, it, max_newton,
+                                       inner, err_prev)  # fmt: skip
+            conv = verdict == 1
+            if verdict != 0:
                 break
             err_prev = err
             inner += 1
@@ -225,28 +203,10 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             f, g, cE, AE, cI, D = evaluate(x, P)
         if not conv:
             break
-        jmin = -1
-        for j in range(na):
-            if zA[j] < 0.0 and (jmin < 0 or zA[j] < zA[jmin]):
-                jmin = j
-        nadd = 0
-        for r in range(m):
-            if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
-                nadd += 1
-        if jmin < 0 and nadd == 0:
-            ok = True
-            break
-        if changes >= max_changes:
+        ok, changed = _pc_change(act, new, zf, parent, idx, zA, cI, m, changes, max_changes)
+        if not changed:
             break
         changes += 1
-        new[:] = False
-        if jmin >= 0:
-            _release(act, zf, parent, idx[jmin])
-        else:
-            for r in range(m):
-                if not act[r] and not cI[r] >= 0.5 * PC_OFFSET:
-                    act[r] = True
-                    new[r] = True
     return x, ok, yE / fs, zf / fs, act, it
 
 
