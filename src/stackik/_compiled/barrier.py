@@ -42,6 +42,7 @@ from stackik._compiled.core import (
     OBJ_MAX_GRAD,
     _finite,
     _jit,
+    _jit_inline,
     _now,
 )
 from stackik._compiled.dense_rows import (
@@ -60,7 +61,7 @@ FloatArray = Any
 _LS_TRIES = 40
 
 
-@_jit
+@_jit_inline
 def _errors(g: FloatArray, AEty: FloatArray, AItz: FloatArray, cE: FloatArray,
             cI: FloatArray, s: FloatArray, z: FloatArray,
             yE: FloatArray) -> tuple[Any, ...]:  # fmt: skip
@@ -88,7 +89,7 @@ def _errors(g: FloatArray, AEty: FloatArray, AItz: FloatArray, cE: FloatArray,
     return e_du, e_pr, comp, sd
 
 
-@_jit
+@_jit_inline
 def _next_mu(mu: float, mu_min: float, e_du: float, e_pr: float, sd: float, s: FloatArray,
              z: FloatArray) -> float:  # fmt: skip
     """The barrier parameter after the monotone (Fiacco-McCormick) test: decreased while
@@ -104,7 +105,7 @@ def _next_mu(mu: float, mu_min: float, e_du: float, e_pr: float, sd: float, s: F
     return mu
 
 
-@_jit
+@_jit_inline
 def _to_boundary(s: FloatArray, z: FloatArray, ds: FloatArray, dz: FloatArray,
                  mu: float) -> tuple[float, float]:  # fmt: skip
     """Fraction-to-the-boundary step lengths of the slacks and the multipliers."""
@@ -119,7 +120,7 @@ def _to_boundary(s: FloatArray, z: FloatArray, ds: FloatArray, dz: FloatArray,
     return a_s, a_z
 
 
-@_jit
+@_jit_inline
 def _filter_accepts(theta: float, phi: float, gphi: float, alpha: float, theta_t: float,
                     phi_t: float, theta_max: float, theta_min: float, filt: FloatArray,
                     nfilt: int) -> tuple[bool, bool]:  # fmt: skip
@@ -141,7 +142,7 @@ def _filter_accepts(theta: float, phi: float, gphi: float, alpha: float, theta_t
     return False, False
 
 
-@_jit
+@_jit_inline
 def _trial_measures(cEt: FloatArray, cIt: FloatArray, st: FloatArray) -> tuple[float, float]:
     """The infeasibility ``|c_E|_1 + |c_I - s|_1`` and the log-barrier sum of a trial
     point (slacks ``st``)."""

@@ -24,6 +24,11 @@ FloatArray = Any
 #: parallel; only the occasional clock read (:func:`_now`, object mode) takes the GIL,
 #: which numba warns about at compile time.
 _jit = njit(cache=True, error_model="numpy", nogil=True)
+#: The same, inlined where called (numba IR): for the small parts of one iteration that
+#: the kernels' hot loops call (the barrier method's errors, barrier update, step lengths
+#: and filter test; the Hessian's block subtraction), so that splitting a loop into named
+#: parts costs no call.
+_jit_inline = njit(cache=True, error_model="numpy", nogil=True, inline="always")
 warnings.filterwarnings(
     "ignore", message="Code running in object mode won't allow parallel execution"
 )

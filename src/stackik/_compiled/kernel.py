@@ -20,6 +20,7 @@ path step's box rows, then the dense rows: :mod:`stackik._compiled.dense_rows`).
 
 from __future__ import annotations
 
+import types
 from typing import Any
 
 from numba.core.errors import TypingError
@@ -40,7 +41,9 @@ __all__ = [
 _REGISTRY: dict[type, dict[str, Any]] = {}
 #: The stubs' names; :func:`register` wants exactly these.
 _HOOKS: list[str] = []
-_OPTIONS: Any = {"cache": True, "error_model": "numpy", "nogil": True, "forceinline": True}
+#: The jit options of an implementation compiled in place of its stub (the kernels'; not
+#: cached by itself: it is part of the cached kernel that calls it).
+_OPTIONS: Any = {"error_model": "numpy", "nogil": True}
 
 
 def register(data_class: type, **implementations: Any) -> None:
@@ -69,11 +72,17 @@ def _implementation(name: str, P: Any) -> Any:
     if isinstance(impl, int):
         value = impl
 
-        def constant(P: Any) -> int:
+        def constant(P):  # type: ignore[no-untyped-def]
             return value
 
         return constant
-    return impl.py_func
+    # the function's own code, without its annotations: numba requires the parameters of
+    # the typing function (below: names only) and of the implementation to be equal
+    fn = impl.py_func
+    bare = types.FunctionType(fn.__code__, fn.__globals__, fn.__name__, fn.__defaults__,
+                              fn.__closure__)  # fmt: skip
+    bare.__annotations__ = {}
+    return bare
 
 
 def _unresolved() -> Any:
@@ -133,35 +142,35 @@ _HOOKS.extend(
 
 
 @overload(evaluate, jit_options=_OPTIONS)
-def _evaluate(u: Any, P: Any, lo: Any, hi: Any, ug: Any, wq: Any) -> Any:
+def _evaluate(u, P, lo, hi, ug, wq):  # type: ignore[no-untyped-def]
     return _implementation("evaluate", P)
 
 
 @overload(hessian, jit_options=_OPTIONS)
-def _hessian(parts: Any, yE: Any, z: Any, P: Any, wq: Any) -> Any:
+def _hessian(parts, yE, z, P, wq):  # type: ignore[no-untyped-def]
     return _implementation("hessian", P)
 
 
 @overload(kkt_step, jit_options=_OPTIONS)
-def _kkt_step(P: Any, W: Any, AE: Any, cE: Any, rhs: Any, last_shift: Any) -> Any:
+def _kkt_step(P, W, AE, cE, rhs, last_shift):  # type: ignore[no-untyped-def]
     return _implementation("kkt_step", P)
 
 
 @overload(eq_multipliers, jit_options=_OPTIONS)
-def _eq_multipliers(P: Any, AE: Any, g: Any, AItz: Any) -> Any:
+def _eq_multipliers(P, AE, g, AItz):  # type: ignore[no-untyped-def]
     return _implementation("eq_multipliers", P)
 
 
 @overload(eq_transpose_dot, jit_options=_OPTIONS)
-def _eq_transpose_dot(P: Any, AE: Any, y: Any) -> Any:
+def _eq_transpose_dot(P, AE, y):  # type: ignore[no-untyped-def]
     return _implementation("eq_transpose_dot", P)
 
 
 @overload(with_fscale, jit_options=_OPTIONS)
-def _with_fscale(P0: Any, fscale: Any) -> Any:
+def _with_fscale(P0, fscale):  # type: ignore[no-untyped-def]
     return _implementation("with_fscale", P0)
 
 
 @overload(clock_period, jit_options=_OPTIONS)
-def _clock_period(P: Any) -> Any:
+def _clock_period(P):  # type: ignore[no-untyped-def]
     return _implementation("clock_period", P)

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from stackik._compiled.core import _jit
+from stackik._compiled.core import _jit, _jit_inline
 
 FloatArray = Any
 
@@ -202,7 +202,7 @@ def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
     return out
 
 
-@_jit
+@_jit_inline
 def subtract_blocks_scaled(H: FloatArray, Hb: FloatArray, xs: FloatArray) -> FloatArray:
     """``H - blockdiag(Hb)`` in the variables scaled by ``xs``: ``H[a, b] * xs[a] *
     xs[b]``, in place (``H`` (N, N), ``Hb`` (n, k, k) a platform's block, ``N = k n``);
@@ -218,7 +218,7 @@ def subtract_blocks_scaled(H: FloatArray, Hb: FloatArray, xs: FloatArray) -> Flo
     return H
 
 
-@_jit
+@_jit_inline
 def add_distance_term(f: float, g: FloatArray, u: FloatArray, ug: FloatArray,
                       wq: float) -> float:  # fmt: skip
     """``f + wq |u - ug|^2``, its gradient added to ``g`` in place (a path step's pull

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from stackik._compiled.core import _jit
+from stackik._compiled.core import _jit, _jit_inline
 
 FloatArray = Any
 
@@ -76,7 +76,7 @@ def _release(act: FloatArray, zf: FloatArray, parent: FloatArray, rj: int) -> No
             act[r] = False
 
 
-@_jit
+@_jit_inline
 def _merge_twins(act: FloatArray, cI: FloatArray, D: FloatArray, zf: FloatArray,
                  m: int) -> FloatArray:  # fmt: skip
     """:func:`_twins` of the set ``act`` (``m`` rows); each copy's multiplier summed onto
@@ -92,7 +92,7 @@ def _merge_twins(act: FloatArray, cI: FloatArray, D: FloatArray, zf: FloatArray,
     return parent
 
 
-@_jit
+@_jit_inline
 def _pc_errors(rd: FloatArray, yE: FloatArray, zA: FloatArray, cE: FloatArray,
                cI: FloatArray, held: FloatArray, idx: FloatArray,
                m: int) -> tuple[float, float, float, float]:  # fmt: skip
@@ -119,7 +119,7 @@ def _pc_errors(rd: FloatArray, yE: FloatArray, zA: FloatArray, cE: FloatArray,
     return e_du, e_pr, comp, sd
 
 
-@_jit
+@_jit_inline
 def _pc_change(act: FloatArray, new: FloatArray, zf: FloatArray, parent: FloatArray,
                idx: FloatArray, zA: FloatArray, cI: FloatArray, m: int, changes: int,
                max_changes: int) -> tuple[bool, bool]:  # fmt: skip
@@ -152,7 +152,7 @@ def _pc_change(act: FloatArray, new: FloatArray, zf: FloatArray, parent: FloatAr
     return False, True
 
 
-@_jit
+@_jit_inline
 def _pc_verdict(e_du: float, e_pr: float, comp: float, sd: float, tol: float,
                 constr_tol: float, it: int, max_newton: int, inner: int,
                 err_prev: float) -> tuple[int, float]:  # fmt: skip
