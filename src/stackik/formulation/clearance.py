@@ -99,12 +99,17 @@ class Clearance:
         The rows that keep the legs clear of the spheres, capsules and half-spaces
         (:mod:`stackik.formulation.obstacle_rows`; planar ones in the target's plane), or
         None.
+    leg_pairs : LegPairRows or None
+        Rows for some pairs of legs of non-adjacent platforms
+        (:mod:`stackik.formulation.leg_pairs`), or None: a problem has none until a solve
+        finds such a pair close (:meth:`stackik.formulation.Problem.with_leg_pairs`).
     """
 
     margin: float = 0.0
     obstacles: tuple[Obstacle, ...] = ()
     self_legs: SelfLegs | None = None
     obstacle_rows: Any = None
+    leg_pairs: Any = None
 
 
 def clearance_of(

@@ -610,6 +610,8 @@ class IpoptMethod(Method):
 
     name: ClassVar[str] = "ipopt"
     modes: ClassVar[frozenset[str]] = frozenset({"planar", "spatial"})
+    #: no symbolic form of the non-adjacent leg-pair rows yet: its poses are checked only
+    leg_pair_rows: ClassVar[bool] = False
 
     def supports(self, prob: Problem) -> str | None:
         if prob.objective == "force":

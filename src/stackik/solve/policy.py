@@ -40,6 +40,10 @@ __all__ = [
     "SHARED_OPTIONS",
     "SPATIAL_GIVE_UP",
     "SPATIAL_GIVE_UP_MM",
+    "UNFOLD_MU0",
+    "UNFOLD_ROUNDS",
+    "UNFOLD_SCREEN_MM",
+    "UNFOLD_STARTS",
     "StartPlan",
     "auto_method",
     "plan_starts",
@@ -80,6 +84,20 @@ CLEAR_MU0 = 1e-3
 #: obstacle-free basins: the batch with the obstacle rows from the plan's starts runs too,
 #: and the better wins.
 CLEAR_COST_RTOL = 1e-3
+
+#: A pose that fails the check on non-adjacent bodies alone (folded into itself:
+#: :func:`stackik.methods.ip.folds_only`) is solved again from where it stopped, with rows
+#: for the pairs of bodies of non-adjacent platforms (legs, plates) that come within this
+#: [mm] of their least distance there or at the run's start
+#: (:func:`stackik.formulation.leg_pairs.close_pairs`; the other pairs cost nothing) ...
+UNFOLD_SCREEN_MM = 80.0
+#: ... again with the pairs found close at that run's pose, up to this many runs ...
+UNFOLD_ROUNDS = 4
+#: ... from at most this many of the interior point's folded poses (lowest FN first) ...
+UNFOLD_STARTS = 2
+#: ... with this initial barrier for the interior point (small: the run stays in the
+#: folded pose's basin, as :data:`CLEAR_MU0`).
+UNFOLD_MU0 = 0.1
 
 #: Planar default from ``n = ADAPTIVE_N`` on: the interior point first runs
 #: ``ADAPTIVE_FIRST`` of the batch's random starts alone (:func:`tall_random_starts`), and
