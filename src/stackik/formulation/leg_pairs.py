@@ -3,14 +3,12 @@
 it does not connect, the one definition the solvers' problems use (its kernel:
 :mod:`stackik._compiled.leg_pairs`).
 
-Every body is a set of segments with their ends fixed on plates (:func:`segments`): a leg
-is its axis, from plate ``i`` to plate ``i + 1``; plate ``p`` (its polygon: the convex hull
-of its nodes projected onto its plane, as the check's) is *covered* by its edges and the
-spokes from the polygon's vertex mean ``c`` to every vertex and to every edge's midpoint:
-those cut the polygon into triangles, every point of a triangle lies within the
-triangle's inradius of one of its sides, so every point of the polygon lies within
-``kappa_p`` (the largest inradius, :func:`segments`) of a covering segment. For a pair of
-segments ``a``, ``b`` the row is
+Every body is a set of segments with their ends fixed on plates (:func:`pair_table`): a
+leg is its axis, from plate ``i`` to plate ``i + 1``; plate ``p`` (its polygon: the convex
+hull of its nodes projected onto its plane, as the check's) is *covered* by its edges and
+parallel chords at most :data:`CHORD_MM` apart, so that every point of the polygon lies
+within ``kappa_p`` (half the chords' spacing, :func:`_covering`) of a covering segment.
+For a pair of segments ``a``, ``b`` the row is
 
     c = (d^2 - rho^2) / L^2 >= 0,   L = max leg_max [mm],
 
@@ -21,9 +19,9 @@ segments ``a``, ``b`` the row is
 * a leg of platform ``i`` and a covering segment of plate ``p`` (``p`` not ``i`` or
   ``i + 1``): ``rho = r_i + tau_p + kappa_p + m`` (``tau_p`` the plate's half thickness
   plus its nodes' height off its plane, as the sphere-plate rows): conservative by at
-  most ``kappa_p`` (on the reference geometry 16.9 mm for a plate of 12 nodes, 31.1 mm for
-  the base and the end plate, of 6), and it also keeps a leg from passing through the
-  plate's inside, where no edge is near;
+  most ``kappa_p`` (on the reference geometry 5.8-6.0 mm: 25 or 26 chords and 6 or 12
+  edges a plate), and it also keeps a leg from passing through the plate's inside, where
+  no edge is near;
 
 ``r`` the platforms' ``leg_radius`` and ``m`` the clearance margin. First derivatives by the
 envelope rule at the closest points (as the self-leg and obstacle rows), smooth where those
@@ -41,6 +39,7 @@ without the rows, bit for bit.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -91,27 +90,35 @@ class PairTable:
     rho: Any
 
 
+#: Largest spacing [mm] of the chords that cover a plate (:func:`_covering`): the
+#: leg-plate rows are conservative by at most half of it.
+CHORD_MM = 12.0
+
+
 def _covering(hull: FloatArray) -> tuple[list[tuple[Any, Any]], float]:
-    """The covering segments of the convex polygon ``hull`` (M, 2) in ``z = 0``: edges,
-    spokes from the vertex mean to each vertex and each edge's midpoint, as 3D end pairs;
-    and the largest inradius of the triangles they cut."""
+    """The covering segments of the convex polygon ``hull`` (M, 2, counter-clockwise) in
+    ``z = 0``, as 3D end pairs, and their covering radius ``kappa``: the polygon's edges
+    and its chords ``x = x_k`` at the spacing ``w <= CHORD_MM`` (the first ``w / 2`` from
+    its leftmost vertex). Every point ``p`` of the polygon lies within ``kappa = w / 2`` of
+    one: the nearest chord's line is within ``w / 2``, and the horizontal segment from
+    ``p`` to it either ends on the chord or leaves the polygon through an edge."""
     M = hull.shape[0]
-    c = hull.mean(axis=0)
     segs: list[tuple[Any, Any]] = []
-    kappa = 0.0
-
-    def p3(v: Any) -> Any:
-        return np.array([v[0], v[1], 0.0])
-
     for k in range(M):
         v, w = hull[k], hull[(k + 1) % M]
-        mid = 0.5 * (v + w)
-        segs += [(p3(v), p3(w)), (p3(c), p3(v)), (p3(c), p3(mid))]
-        for a, b in ((v, mid), (mid, w)):  # the triangles (c, a, b)
-            la, lb, lc = np.linalg.norm(a - c), np.linalg.norm(b - c), np.linalg.norm(b - a)
-            area = 0.5 * abs((a - c)[0] * (b - c)[1] - (a - c)[1] * (b - c)[0])
-            kappa = max(kappa, 2.0 * area / (la + lb + lc))
-    return segs, kappa
+        segs.append((np.array([v[0], v[1], 0.0]), np.array([w[0], w[1], 0.0])))
+    lo, hi = float(hull[:, 0].min()), float(hull[:, 0].max())
+    count = max(1, math.ceil((hi - lo) / CHORD_MM))
+    width = (hi - lo) / count
+    for c in range(count):
+        x = lo + (c + 0.5) * width
+        ys = []
+        for k in range(M):  # the edges' crossings of the line x
+            (x0, y0), (x1, y1) = hull[k], hull[(k + 1) % M]
+            if (x0 - x) * (x1 - x) <= 0.0 and x0 != x1:
+                ys.append(y0 + (x - x0) / (x1 - x0) * (y1 - y0))
+        segs.append((np.array([x, min(ys), 0.0]), np.array([x, max(ys), 0.0])))
+    return segs, width / 2
 
 
 def pair_table(stack: Stack) -> PairTable:

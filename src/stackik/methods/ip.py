@@ -253,9 +253,10 @@ class IPBatch:
     statuses: list[RunStatus]
     bound: list[Run] = field(default_factory=list)
     #: the runs that ranked before ``best`` and failed the check on non-adjacent bodies
-    #: alone (:func:`folds_only`), lowest objective first: starts for the rows of those
-    #: pairs (:func:`stackik.solve.stages.ip_stage`)
-    folded: list[Run] = field(default_factory=list)
+    #: alone (:func:`folds_only`), lowest objective first, each with its start (raw): the
+    #: starts of runs with the rows of the pairs close there
+    #: (:func:`stackik.solve.stages.ip_stage`)
+    folded: list[tuple[Run, FloatArray]] = field(default_factory=list)
 
 
 def _run_batch(
@@ -292,7 +293,7 @@ def ip_starts(
     order = sorted(range(len(starts)), key=lambda j: (not viols[j] <= RANK_VIOLATION, objs[j]))
     least: Run | None = None
     bound: list[Run] = []
-    folded: list[Run] = []
+    folded: list[tuple[Run, FloatArray]] = []
     total = int(np.sum(nits))
     for j in order:
         q = prob.q_of(X[j])
@@ -320,7 +321,7 @@ def ip_starts(
         if chk.ok:
             return IPBatch(run, least, total, statuses, bound, folded)
         if folds_only(chk, prob.clearance.margin):
-            folded.append(run)
+            folded.append((run, starts[j]))
         # a pose that fails only on rows outside the interior point is a start for the
         # engine that has them; a shortfall no engine constrains is not
         clear = unconstrained_shortfall(prob, chk)

@@ -40,7 +40,6 @@ __all__ = [
     "SHARED_OPTIONS",
     "SPATIAL_GIVE_UP",
     "SPATIAL_GIVE_UP_MM",
-    "UNFOLD_MU0",
     "UNFOLD_ROUNDS",
     "UNFOLD_SCREEN_MM",
     "UNFOLD_STARTS",
@@ -85,19 +84,17 @@ CLEAR_MU0 = 1e-3
 #: and the better wins.
 CLEAR_COST_RTOL = 1e-3
 
-#: A pose that fails the check on non-adjacent bodies alone (folded into itself:
-#: :func:`stackik.methods.ip.folds_only`) is solved again from where it stopped, with rows
-#: for the pairs of bodies of non-adjacent platforms (legs, plates) that come within this
-#: [mm] of their least distance there or at the run's start
+#: A run whose pose fails the check on non-adjacent bodies alone (folded into itself:
+#: :func:`stackik.methods.ip.folds_only`) is made again from its start, with rows for the
+#: pairs of bodies of non-adjacent platforms (legs, plates) that come within this [mm] of
+#: their least distance there or at its pose
 #: (:func:`stackik.formulation.leg_pairs.close_pairs`; the other pairs cost nothing) ...
-UNFOLD_SCREEN_MM = 80.0
-#: ... again with the pairs found close at that run's pose, up to this many runs ...
+UNFOLD_SCREEN_MM = 40.0
+#: ... again with the pairs found close at that run's pose added, up to this many runs ...
 UNFOLD_ROUNDS = 4
-#: ... from at most this many of the interior point's folded poses (lowest FN first) ...
+#: ... for at most this many of the interior point's folded poses (lowest FN first, one
+#: per basin: :func:`stackik.solve.stages._unfold_batch`).
 UNFOLD_STARTS = 2
-#: ... with this initial barrier for the interior point (small: the run stays in the
-#: folded pose's basin, as :data:`CLEAR_MU0`).
-UNFOLD_MU0 = 0.1
 
 #: Planar default from ``n = ADAPTIVE_N`` on: the interior point first runs
 #: ``ADAPTIVE_FIRST`` of the batch's random starts alone (:func:`tall_random_starts`), and

@@ -40,7 +40,6 @@ from stackik.solve.policy import (
     SHARED_OPTIONS,
     SPATIAL_GIVE_UP,
     SPATIAL_GIVE_UP_MM,
-    UNFOLD_MU0,
     UNFOLD_ROUNDS,
     UNFOLD_SCREEN_MM,
     UNFOLD_STARTS,
@@ -301,7 +300,7 @@ def _merge(parts: list[IPBatch]) -> IPBatch:
         out.statuses += part.statuses
         out.bound += part.bound
         out.folded += part.folded
-    out.folded.sort(key=lambda r: r.obj)
+    out.folded.sort(key=lambda f: f[0].obj)
     return out
 
 
@@ -530,21 +529,19 @@ def _recentre(req: Request, method: IPMethod, best: Run, nit: int) -> tuple[Run,
 def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
     """The interior point's runs that folded into themselves (``batch.folded``: they failed
     the check on non-adjacent bodies alone, at a lower objective than ``batch.best``),
-    solved again by :func:`_unfold` (at most :data:`UNFOLD_STARTS`, lowest first, initial
-    barrier :data:`UNFOLD_MU0`); a passing run of lower objective replaces ``batch.best``
-    (in place; the iterations counted). A batch without such runs is left as it is."""
-    opts = {"mu0": UNFOLD_MU0, **req.options}
+    made again from their starts by :func:`_unfold` (at most :data:`UNFOLD_STARTS`, lowest
+    first, one per basin); a passing run of lower objective replaces ``batch.best`` (in
+    place; the iterations counted). A batch without such runs is left as it is."""
+    from stackik.methods.ip import SAME_BASIN_RTOL
 
     def solve(prob: Problem, q: FloatArray) -> Run | None:
         left = req.time_left(time.perf_counter())
-        got = method.run_many(prob, [q], opts, left)
+        got = method.run_many(prob, [q], req.options, left)
         batch.nit += got.nit
         return got.best if got.best is not None else got.least
 
-    from stackik.methods.ip import SAME_BASIN_RTOL
-
     tried: list[float] = []
-    for run in batch.folded:
+    for run, start in batch.folded:
         if len(tried) == UNFOLD_STARTS or req.out_of_time():
             break
         if batch.best is not None and not _lower(run, batch.best):
@@ -552,7 +549,7 @@ def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
         if any(abs(run.obj - o) <= SAME_BASIN_RTOL * abs(o) for o in tried):
             continue  # the same basin's minimum as one tried
         tried.append(run.obj)
-        got = _unfold(req, run, [run.q], solve)
+        got = _unfold(req, run, start, solve)
         if got is not None and got.check.ok and (batch.best is None or _lower(got, batch.best)):
             batch.best = got
 
@@ -560,18 +557,20 @@ def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
 def _unfold(
     req: Request,
     run: Run,
-    poses: list[FloatArray],
+    start: FloatArray,
     solve: Callable[[Problem, FloatArray], Run | None],
 ) -> Run | None:
-    """``run`` folded into itself (:func:`stackik.methods.ip.folds_only`): solve again
-    from its pose with rows for the pairs of bodies of non-adjacent platforms (legs and
-    legs, legs and plates) that come within
-    :data:`UNFOLD_SCREEN_MM` of their least distance at any of ``poses``
-    (:func:`stackik.formulation.leg_pairs.close_pairs`), and while the result folds
-    again, with the pairs close at its pose added, up to :data:`UNFOLD_ROUNDS` runs, each
-    from the last pose. Returns the last run (``solve``'s: the request's problem with
-    those rows, from a raw pose; it counts its iterations), or None when no run was made
-    (no close pair: a plate-plate contact, which has no rows)."""
+    """``run`` (from the raw pose ``start``) folded into itself
+    (:func:`stackik.methods.ip.folds_only`): made again from ``start`` with rows for the
+    pairs of bodies of non-adjacent platforms (legs and legs, legs and plates) that come
+    within :data:`UNFOLD_SCREEN_MM` of their least distance at ``start`` or at its pose
+    (:func:`stackik.formulation.leg_pairs.close_pairs`), and while the result folds again,
+    with the pairs close at its pose added, up to :data:`UNFOLD_ROUNDS` runs. From the
+    start, not from the folded pose: there the bodies pass through each other, and a
+    squared distance has no gradient that pulls them apart. Returns the last run
+    (``solve``'s: the request's problem with those rows, from a raw pose; it counts its
+    iterations), or None when no run was made (no close pair: a plate-plate contact,
+    which has no rows)."""
     from stackik.formulation.leg_pairs import close_pairs
     from stackik.methods.ip import folds_only
 
@@ -581,13 +580,12 @@ def _unfold(
     def close(qs: list[FloatArray]) -> set[int]:
         return {int(p) for p in close_pairs(prob.stack, qs, margin, phi, UNFOLD_SCREEN_MM)}
 
-    pairs = close(poses)
+    pairs = close([start, run.q])
     out: Run | None = None
-    q = run.q
     for _ in range(UNFOLD_ROUNDS):
         if not pairs or req.out_of_time():
             break
-        got = solve(prob.with_leg_pairs(sorted(pairs)), q)
+        got = solve(prob.with_leg_pairs(sorted(pairs)), start)
         if got is None:
             break
         out = got
@@ -596,7 +594,7 @@ def _unfold(
         more = pairs | close([got.q])
         if more == pairs:
             break
-        pairs, q = more, got.q
+        pairs = more
     return out
 
 
@@ -610,8 +608,9 @@ def _local_run(
     counted. A run whose legs stay clear is thus the run of the problem without the rows,
     and a solve on legs with a radius that never come close is the zero-radius solve.
     A run that then fails on non-adjacent bodies alone (folded into itself) is solved again
-    with rows for the leg pairs close at its start or its pose (:func:`_unfold`); the
-    passing one of the two is the run (else the first), the iterations of all counted."""
+    from the same start with rows for the pairs close at its start or its pose
+    (:func:`_unfold`); the passing one of the two is the run (else the first), the
+    iterations of all counted."""
     run = _lazy_self_legs(req, method, qs, options, left)
     from stackik.methods.ip import folds_only
 
@@ -625,7 +624,7 @@ def _local_run(
         nit += got.nit
         return got
 
-    got = _unfold(req, run, [qs, run.q], solve)
+    got = _unfold(req, run, qs, solve)
     best = got if got is not None and got.check.ok else run
     return dataclasses.replace(best, nit=nit)
 
