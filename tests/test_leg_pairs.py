@@ -17,7 +17,7 @@ from stackik.formulation import Problem
 from stackik.formulation.leg_pairs import LegPairRows, close_pairs, pair_table
 from stackik.kinematics import planar_forward, spatial_forward
 from stackik.methods.ip import n_dense, problem_arrays, spatial_problem_arrays
-from stackik.sampling import random_feasible_poses
+from stackik.sampling import random_feasible_poses, random_reachable_targets
 from tests import fd
 
 NONE = np.empty(0)
@@ -145,3 +145,50 @@ def test_no_pair_is_no_row_and_bad_index_is_refused() -> None:
     size = pair_table(FAT).pairs.shape[0]
     with pytest.raises(ValueError, match="index"):
         LegPairRows(FAT, [size], 0.0)
+
+
+REF16 = sk.Stack.reference(16)
+FAT16 = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 16)
+
+
+def _n16_targets() -> list[sk.PlanarTarget]:
+    """The fingerprint's planar n = 16 targets (benchmarks/fingerprint.py)."""
+    return random_reachable_targets(REF16, 3, rng=36, phi=0.3)
+
+
+@pytest.mark.parametrize(("k", "method"), [(1, "ip"), (0, "sqp")])
+def test_a_folded_tall_stack_is_solved_clear(k: int, method: str) -> None:
+    """A planar n = 16 target whose least-FN pose on legs of zero radius folds into itself
+    with 12 mm legs (the check refuses it on non-adjacent bodies alone) is solved with the
+    rows, and the independent check (``stackik.clearances``, exact distances) confirms
+    every clearance >= 0 and the target reached."""
+    t = _n16_targets()[k]
+    thin = sk.solve_ik(REF16, t, method=method)
+    assert thin.success
+    folded = sk.check_pose(FAT16, t, thin.q)
+    assert not folded.ok and folded.clearances is not None
+    assert folded.clearances.non_adjacent < 0.0 and folded.clearances.self_legs > 0.0
+    fat = sk.solve_ik(FAT16, t, method=method)
+    assert fat.success, fat.message
+    c = sk.clearances(FAT16, fat.q, phi=t.phi)
+    assert c.minimum >= 0.0 and c.non_adjacent >= 0.0
+    assert sk.check_pose(FAT16, t, fat.q).ok
+
+
+def test_nothing_close_is_the_solve_without_rows(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Planar n = 4 with 12 mm legs: no non-adjacent pair comes close, so no problem gets
+    rows (``with_leg_pairs`` is never called) and every pose is the zero-radius solve's,
+    bit for bit (default, ``ip`` and ``sqp``)."""
+
+    def refuse(self: Problem, pairs: Any) -> Problem:
+        raise AssertionError("rows for non-adjacent pairs where none is close")
+
+    monkeypatch.setattr(Problem, "with_leg_pairs", refuse)
+    ref = sk.Stack.reference(4)
+    fat = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 4)
+    targets = random_reachable_targets(ref, 4, rng=np.random.default_rng(2929), phi=0.3)
+    for t in targets:
+        for kw in ({}, {"method": "ip"}, {"method": "sqp"}):
+            a, b = sk.solve_ik(ref, t, **kw), sk.solve_ik(fat, t, **kw)
+            assert a.success and b.success
+            np.testing.assert_array_equal(a.q, b.q)
