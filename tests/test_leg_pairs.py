@@ -192,3 +192,25 @@ def test_nothing_close_is_the_solve_without_rows(monkeypatch: pytest.MonkeyPatch
             a, b = sk.solve_ik(ref, t, **kw), sk.solve_ik(fat, t, **kw)
             assert a.success and b.success
             np.testing.assert_array_equal(a.q, b.q)
+
+
+def test_ipopt_pair_rows_are_the_kernels() -> None:
+    """IPOPT's symbolic rows for bodies of non-adjacent platforms equal the kernel's in
+    value and Jacobian (spatial poses, legs and plates' covering segments)."""
+    ca = pytest.importorskip("casadi")
+    from stackik.methods.ipopt import pair_function
+
+    rng = np.random.default_rng(11)
+    qs = ca.SX.sym("q", 6 * FAT.n)
+    for _ in range(3):
+        q = _pose(FAT, None, rng)
+        every = LegPairRows(FAT, np.arange(pair_table(FAT).pairs.shape[0]), 0.0, None)
+        pairs = close_pairs(FAT, [q], 1.0, None, float(np.quantile(every.distances(q), 0.2)))
+        prob = Problem(FAT, sk.SpatialTarget(*spatial_forward(q)), "frobenius", None, clearance=1.0)
+        prob = prob.with_leg_pairs(pairs)
+        rows = prob.clearance.leg_pairs
+        f = pair_function(prob)
+        Jf = ca.Function("J", [qs], [ca.jacobian(f(qs), qs)])
+        c, J = rows(q)
+        np.testing.assert_allclose(np.asarray(f(q.ravel())).ravel(), c, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(np.asarray(Jf(q.ravel())), J, rtol=0, atol=1e-10)
