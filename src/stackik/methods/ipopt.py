@@ -226,7 +226,13 @@ def pair_function(prob: Problem) -> Any:
     ``prob`` for bodies of non-adjacent platforms, as the IPOPT solver carries them (for
     the tests)."""
     ca = _casadi()
-    n = prob.n
+    q, Os, As = _spatial_frames_sx(ca, prob.n)
+    return ca.Function("pair_rows", [q], [ca.vertcat(*_pair_rows(ca, Os, As, pair_key(prob)))])
+
+
+def _spatial_frames_sx(ca: Any, n: int) -> tuple[Any, list[Any], list[Any]]:
+    """A symbolic raw spatial pose ``q`` (6 n,) and its plate origins ``O_0..O_n`` and
+    rotations ``A_0..A_n`` (for the tests' CasADi functions of single row families)."""
     q = ca.SX.sym("q", 6 * n)
     Os: list[Any] = [ca.SX.zeros(3, 1)]
     As: list[Any] = [ca.SX.eye(3)]
@@ -234,7 +240,7 @@ def pair_function(prob: Problem) -> Any:
         _, R = _euler_sx(ca, q[6 * i + 3 : 6 * i + 6])
         Os.append(Os[-1] + As[-1] @ q[6 * i : 6 * i + 3])
         As.append(As[-1] @ R)
-    return ca.Function("pair_rows", [q], [ca.vertcat(*_pair_rows(ca, Os, As, pair_key(prob)))])
+    return q, Os, As
 
 
 def obstacle_key(prob: Problem) -> Any:
@@ -251,14 +257,7 @@ def obstacle_function(stack: Stack, obstacles: Any, margin: float) -> Any:
     in the order of :class:`stackik.formulation.obstacle_rows.ObstacleRows` (for the
     tests)."""
     ca = _casadi()
-    n = stack.n
-    q = ca.SX.sym("q", 6 * n)
-    Os: list[Any] = [ca.SX.zeros(3, 1)]
-    As: list[Any] = [ca.SX.eye(3)]
-    for i in range(n):
-        _, R = _euler_sx(ca, q[6 * i + 3 : 6 * i + 6])
-        Os.append(Os[-1] + As[-1] @ q[6 * i : 6 * i + 3])
-        As.append(As[-1] @ R)
+    q, Os, As = _spatial_frames_sx(ca, stack.n)
     from stackik.formulation.obstacle_rows import ObstacleRows
 
     specs = ObstacleRows(stack, tuple(obstacles), margin).specs
