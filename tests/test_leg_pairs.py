@@ -12,6 +12,7 @@ import pytest
 
 import stackik as sk
 from stackik import distance as dist
+from stackik.check import FEAS_TOL
 from stackik.clearance import plate_frames
 from stackik.formulation import Problem
 from stackik.formulation.leg_pairs import LegPairRows, close_pairs, pair_table
@@ -161,7 +162,7 @@ def test_a_folded_tall_stack_is_solved_clear(k: int, method: str) -> None:
     """A planar n = 16 target whose least-FN pose on legs of zero radius folds into itself
     with 12 mm legs (the check refuses it on non-adjacent bodies alone) is solved with the
     rows, and the independent check (``stackik.clearances``, exact distances) confirms
-    every clearance >= 0 and the target reached."""
+    every clearance >= 0 (to ``FEAS_TOL``) and the target reached."""
     t = _n16_targets()[k]
     thin = sk.solve_ik(REF16, t, method=method)
     assert thin.success
@@ -171,7 +172,8 @@ def test_a_folded_tall_stack_is_solved_clear(k: int, method: str) -> None:
     fat = sk.solve_ik(FAT16, t, method=method)
     assert fat.success, fat.message
     c = sk.clearances(FAT16, fat.q, phi=t.phi)
-    assert c.minimum >= 0.0 and c.non_adjacent >= 0.0
+    # >= 0 to the check's tolerance (a binding row ends at rounding from its bound)
+    assert c.minimum >= -FEAS_TOL and c.non_adjacent >= -FEAS_TOL
     assert sk.check_pose(FAT16, t, fat.q).ok
 
 

@@ -89,7 +89,7 @@ CLEAR_COST_RTOL = 1e-3
 #: pairs of bodies of non-adjacent platforms (legs, plates) that come within this [mm] of
 #: their least distance there or at its pose
 #: (:func:`stackik.formulation.leg_pairs.close_pairs`; the other pairs cost nothing) ...
-UNFOLD_SCREEN_MM = 40.0
+UNFOLD_SCREEN_MM = 20.0
 #: ... again with the pairs found close at that run's pose added, up to this many runs ...
 UNFOLD_ROUNDS = 4
 #: ... for at most this many of the interior point's folded poses (lowest FN first, one
