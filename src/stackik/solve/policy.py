@@ -91,7 +91,7 @@ CLEAR_COST_RTOL = 1e-3
 #: (:func:`stackik.formulation.leg_pairs.close_pairs`; the other pairs cost nothing) ...
 UNFOLD_SCREEN_MM = 20.0
 #: ... again with the pairs found close at that run's pose added, up to this many runs ...
-UNFOLD_ROUNDS = 4
+UNFOLD_ROUNDS = 8
 #: ... for at most this many of the interior point's folded poses (lowest FN first, one
 #: per basin: :func:`stackik.solve.stages._unfold_batch`).
 UNFOLD_STARTS = 2
