@@ -11,7 +11,9 @@ they do exactly the block arithmetic of :mod:`stackik._compiled.linalg` (and, fo
 :func:`add_normal`, of the planar and spatial barrier loops before the pair) and nothing
 else (the fingerprint is unchanged).
 
-The rows themselves: the obstacle rows (:func:`stackik._compiled.obstacle_rows.obstacle_rows`)
+The rows themselves: the obstacle rows (:func:`stackik._compiled.obstacle_rows.obstacle_rows`),
+the rows of the bodies of non-adjacent platforms
+(:func:`stackik._compiled.leg_pairs.segment_pair_rows`)
 and the leg-force limit rows (:func:`stackik._compiled.force_rows.force_rows`), each its
 family's one definition, called from :func:`dense_rows` alone with the mode's variables
 (``planar``, the plane angle ``phi``). Their exact curvature is not formed (squared
@@ -28,6 +30,7 @@ import numpy as np
 
 from stackik._compiled.core import _jit
 from stackik._compiled.force_rows import force_rows
+from stackik._compiled.leg_pairs import segment_pair_rows
 from stackik._compiled.linalg import _AI_dot, _AIT_dot
 from stackik._compiled.obstacle_rows import obstacle_rows
 
@@ -40,10 +43,18 @@ def dense_rows(q: FloatArray, P: Any, planar: bool, phi: float) -> tuple[FloatAr
     or :class:`stackik._compiled.planar.PlanarData` with ``planar`` and its plane angle
     ``phi`` [rad]) at the raw pose ``q`` (n, k) [mm, rad]: values ``c`` (rows,) and Jacobian
     (rows, k n) against ``q``: the obstacle rows (``P.obstacles``: their kernel's arrays,
-    :attr:`stackik.formulation.obstacle_rows.ObstacleRows.kernel_args`), then the leg-force
+    :attr:`stackik.formulation.obstacle_rows.ObstacleRows.kernel_args`), then the rows of
+    bodies of non-adjacent platforms (``P.leg_pairs``:
+    :attr:`stackik.formulation.leg_pairs.LegPairRows.kernel_args`), then the leg-force
     limit rows (``P.forces``: :attr:`stackik.formulation.forces.ForceLimits.kernel_args`;
-    the limited platforms are its entry 9)."""
+    the limited platforms are its entry 9; last, where :func:`force_sr1` takes them)."""
     cO, JO = obstacle_rows(q, *P.obstacles, P.ob_margin, P.ob_L, planar, phi)  # type: ignore[call-arg]
+    if P.leg_pairs[2].shape[0] > 0:
+        cP, JP = segment_pair_rows(q, *P.leg_pairs, planar, phi, True)  # type: ignore[call-arg]
+        if cO.size == 0:
+            cO, JO = cP, JP
+        else:
+            cO, JO = np.concatenate((cO, cP)), np.vstack((JO, JP))
     if P.forces[9].size == 0:
         return cO, JO
     cF, JF = force_rows(q, *P.forces, planar, phi)  # type: ignore[call-arg]

@@ -88,6 +88,7 @@ class SpatialData(NamedTuple):
     ob_margin: float  #: the obstacle rows' clearance margin [mm]
     ob_L: float  #: the obstacle rows' length scale [mm]
     forces: Any  #: the force rows' kernel arrays (ForceLimits.kernel_args)
+    leg_pairs: Any  #: non-adjacent leg-pair rows' kernel arguments (LegPairRows.kernel_args)
     n_dense: int  #: number of dense rows (0: none; :mod:`stackik._compiled.dense_rows`)
 
 
@@ -594,7 +595,8 @@ def _with_fscale(P0: Any, fscale: float) -> Any:
     return SpatialData(P0.xs, P0.cs, P0.es, P0.position, P0.rotation, fscale, P0.c0, P0.w,
                        P0.top, P0.base, P0.leg_min, P0.leg_max, P0.sin_joint,
                        P0.feasible, P0.pairs, P0.rho, P0.pair_scale, P0.obstacles,
-                       P0.ob_margin, P0.ob_L, P0.forces, P0.n_dense)  # fmt: skip
+                       P0.ob_margin, P0.ob_L, P0.forces, P0.leg_pairs,
+                       P0.n_dense)  # fmt: skip
 
 
 @_jit
@@ -603,7 +605,8 @@ def _with_target(P0: Any, position: Any, rotation: Any) -> Any:
     return SpatialData(P0.xs, P0.cs, P0.es, position, rotation, P0.fscale, P0.c0, P0.w,
                        P0.top, P0.base, P0.leg_min, P0.leg_max, P0.sin_joint,
                        P0.feasible, P0.pairs, P0.rho, P0.pair_scale, P0.obstacles,
-                       P0.ob_margin, P0.ob_L, P0.forces, P0.n_dense)  # fmt: skip
+                       P0.ob_margin, P0.ob_L, P0.forces, P0.leg_pairs,
+                       P0.n_dense)  # fmt: skip
 
 
 # =========================================================================================

@@ -11,10 +11,12 @@ leg radius or the clearance margin is positive: with zero radii and margin 0 two
 touch (the check then has nothing to enforce either), so the problem is the paper's,
 unchanged.
 
-Not constrained by the solvers (the check enforces them, so a colliding pose is never a
+Not constrained by these rows (the check enforces them, so a colliding pose is never a
 success): legs of adjacent platforms (kept >= 26.6 mm apart on the reference geometry by the
-joint-angle limits, ``docs/clearance.md``), bodies of platforms two or more apart, plates,
-obstacles; and planar poses (their legs keep >= 48 mm on the reference geometry).
+joint-angle limits, ``docs/clearance.md``) and two plates of platforms two or more apart.
+Obstacles have their rows (:mod:`stackik.formulation.obstacle_rows`); legs against legs and
+plates of platforms two or more apart have rows a solve adds when a pose folds into itself
+(:mod:`stackik.formulation.leg_pairs`, :attr:`Clearance.leg_pairs`).
 """
 
 from __future__ import annotations
@@ -99,12 +101,17 @@ class Clearance:
         The rows that keep the legs clear of the spheres, capsules and half-spaces
         (:mod:`stackik.formulation.obstacle_rows`; planar ones in the target's plane), or
         None.
+    leg_pairs : LegPairRows or None
+        Rows for some pairs of legs of non-adjacent platforms
+        (:mod:`stackik.formulation.leg_pairs`), or None: a problem has none until a solve
+        finds such a pair close (:meth:`stackik.formulation.Problem.with_leg_pairs`).
     """
 
     margin: float = 0.0
     obstacles: tuple[Obstacle, ...] = ()
     self_legs: SelfLegs | None = None
     obstacle_rows: Any = None
+    leg_pairs: Any = None
 
 
 def clearance_of(

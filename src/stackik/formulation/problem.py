@@ -207,11 +207,12 @@ class Problem:
     @property
     def dense_rows(self) -> bool:
         """Whether the problem has rows outside the per-platform blocks of the compiled
-        kernels, without second derivatives: leg-force limits, obstacle rows, planar
-        self-leg rows (the SQP engine takes them in its dense form)."""
+        kernels, without second derivatives: leg-force limits, obstacle rows, non-adjacent
+        leg-pair rows, planar self-leg rows (the SQP engine takes them in its dense form)."""
         return (
             self.forces is not None
             or self.clearance.obstacle_rows is not None
+            or self.clearance.leg_pairs is not None
             or (self.planar and self.self_legs is not None)
         )
 
@@ -239,13 +240,27 @@ class Problem:
         lean.clearance = dataclasses.replace(self.clearance, self_legs=None)
         return lean
 
+    def with_leg_pairs(self, pairs: Any) -> Problem:
+        """This problem with rows for the pairs ``pairs`` (indices into
+        :func:`stackik.formulation.leg_pairs.pair_table`'s pairs) of bodies of non-adjacent
+        platforms (:class:`~stackik.formulation.leg_pairs.LegPairRows`, in place of any it
+        has; none when ``pairs`` is empty): a shallow copy, its own evaluation caches."""
+        from stackik.formulation.leg_pairs import LegPairRows
+
+        out = self._variant()
+        rows = LegPairRows(self.stack, pairs, self.clearance.margin, self.mode.phi(self.target))
+        out.clearance = dataclasses.replace(self.clearance, leg_pairs=rows if rows.size else None)
+        return out
+
     @property
     def n_ineq(self) -> int:
         """Number of inequality rows: the 24 n limits, the self-leg rows, the obstacle
-        rows, the force rows."""
+        rows, the non-adjacent leg-pair rows, the force rows."""
         sl = 0 if self.self_legs is None else self.n * self.self_legs.m
-        ob = self.clearance.obstacle_rows
-        extra = (0 if ob is None else ob.size) + (0 if self.forces is None else self.forces.size)
+        cl = self.clearance
+        extra = sum(
+            0 if f is None else f.size for f in (cl.obstacle_rows, cl.leg_pairs, self.forces)
+        )
         return int(self.cs.size + sl + extra)
 
     # --- index arrays (built on first use) ------------------------------------------
@@ -336,10 +351,6 @@ class Problem:
             cin, Jin = self.fast(q)  # scaled (set_scaling in __init__)
             if self.self_legs is not None:
                 cin, Jin = self._with_self_legs(q, cin, Jin)
-            if self.clearance.obstacle_rows is not None:
-                c_o, J_o = self.clearance.obstacle_rows(q)
-                cin = np.concatenate([cin, c_o])
-                Jin = np.vstack([Jin, J_o * self.xs])
         else:
             from stackik._compiled.spatial_kinematics import block_jacobian, spatial_parts
 
@@ -368,10 +379,11 @@ class Problem:
             Jin = block_jacobian(Jc, readonly(self.cs), readonly(self.xs))
             if self.self_legs is not None:
                 cin, Jin = self._with_self_legs(q, cin, Jin)
-            if self.clearance.obstacle_rows is not None:
-                c_o, J_o = self.clearance.obstacle_rows(q)
-                cin = np.concatenate([cin, c_o])
-                Jin = np.vstack([Jin, J_o * self.xs])
+        for dense in (self.clearance.obstacle_rows, self.clearance.leg_pairs):
+            if dense is not None:  # the compiled interior points' dense rows, in their order
+                c_d, J_d = dense(q)
+                cin = np.concatenate([cin, c_d])
+                Jin = np.vstack([Jin, J_d * self.xs])
         if self.forces is not None:
             c_f, J_f = self.forces(q)
             cin = np.concatenate([cin, c_f])

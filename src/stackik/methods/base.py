@@ -90,6 +90,10 @@ class Method:
     modes: ClassVar[frozenset[str]] = frozenset({"planar", "spatial"})
     #: True when the method uses BLAS on its matrices (the solve applies the thread limit)
     uses_blas: ClassVar[bool] = True
+    #: True when the method carries the rows of non-adjacent leg pairs
+    #: (:attr:`stackik.formulation.Problem.with_leg_pairs`; a local run that folds into
+    #: itself is then solved again with them, :func:`stackik.solve.stages._local_run`)
+    leg_pair_rows: ClassVar[bool] = True
 
     def supports(self, prob: Problem) -> str | None:
         """None when the method can solve ``prob``, else the reason it cannot."""

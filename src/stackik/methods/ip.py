@@ -32,7 +32,9 @@ __all__ = [
     "IPMethod",
     "ip_basins",
     "ip_multi",
+    "folds_only",
     "ip_solve",
+    "n_dense",
     "problem_arrays",
     "unconstrained_shortfall",
     "warm_up",
@@ -45,6 +47,7 @@ def spatial_problem_arrays(prob: Any) -> SpatialData:
     from stackik._compiled.spatial import SpatialData
     from stackik.formulation.clearance import NO_PAIRS
     from stackik.formulation.forces import no_force_rows
+    from stackik.formulation.leg_pairs import no_leg_pair_rows
     from stackik.formulation.obstacle_rows import no_obstacle_rows
 
     st = prob.stack
@@ -52,6 +55,7 @@ def spatial_problem_arrays(prob: Any) -> SpatialData:
     sl = prob.self_legs
     ob = prob.clearance.obstacle_rows
     fr = prob.forces
+    lp = prob.clearance.leg_pairs
     return SpatialData(
         readonly(prob.xs),
         readonly(prob.cs),
@@ -74,7 +78,17 @@ def spatial_problem_arrays(prob: Any) -> SpatialData:
         0.0 if ob is None else ob.margin,
         float(np.max(st.leg_max)) if ob is None else ob.L,
         no_force_rows(st) if fr is None else fr.kernel_args,
-        (0 if ob is None else int(ob.size)) + (0 if fr is None else int(fr.size)),
+        no_leg_pair_rows(st) if lp is None else lp.kernel_args,
+        n_dense(prob),
+    )
+
+
+def n_dense(prob: Problem) -> int:
+    """Number of the dense rows of ``prob`` the compiled interior points carry (obstacle,
+    non-adjacent leg-pair and leg-force rows: :mod:`stackik._compiled.dense_rows`)."""
+    cl = prob.clearance
+    return sum(
+        0 if f is None else int(f.size) for f in (cl.obstacle_rows, cl.leg_pairs, prob.forces)
     )
 
 
@@ -90,8 +104,10 @@ def problem_arrays(prob: Any) -> PlanarData:
     w = float(prob.w_th[0])
     ob = prob.clearance.obstacle_rows
     fr = prob.forces
+    lp = prob.clearance.leg_pairs
     from stackik._compiled.planar import PlanarData
     from stackik.formulation.forces import no_force_rows
+    from stackik.formulation.leg_pairs import no_leg_pair_rows
     from stackik.formulation.obstacle_rows import no_obstacle_rows
 
     return PlanarData(
@@ -116,7 +132,8 @@ def problem_arrays(prob: Any) -> PlanarData:
         float(np.max(prob.stack.leg_max)) if ob is None else ob.L,
         float(tgt.phi),
         no_force_rows(prob.stack) if fr is None else fr.kernel_args,
-        (0 if ob is None else int(ob.size)) + (0 if fr is None else int(fr.size)),
+        no_leg_pair_rows(prob.stack) if lp is None else lp.kernel_args,
+        n_dense(prob),
     )
 
 
@@ -226,6 +243,11 @@ class IPBatch:
     nit: int
     statuses: list[RunStatus]
     bound: list[Run] = field(default_factory=list)
+    #: the runs that ranked before ``best`` and failed the check on non-adjacent bodies
+    #: alone (:func:`folds_only`), lowest objective first, each with its start (raw): the
+    #: starts of runs with the rows of the pairs close there
+    #: (:func:`stackik.solve.stages.ip_stage`)
+    folded: list[tuple[Run, FloatArray]] = field(default_factory=list)
 
 
 def _run_batch(
@@ -262,6 +284,7 @@ def ip_starts(
     order = sorted(range(len(starts)), key=lambda j: (not viols[j] <= RANK_VIOLATION, objs[j]))
     least: Run | None = None
     bound: list[Run] = []
+    folded: list[tuple[Run, FloatArray]] = []
     total = int(np.sum(nits))
     for j in order:
         q = prob.q_of(X[j])
@@ -287,7 +310,9 @@ def ip_starts(
             obj = prob.objective_value(q)
             run = Run(q, int(nits[j]), statuses[j], chk, obj, None, texts[j])
         if chk.ok:
-            return IPBatch(run, least, total, statuses, bound)
+            return IPBatch(run, least, total, statuses, bound, folded)
+        if folds_only(chk, prob.clearance.margin):
+            folded.append((run, starts[j]))
         # a pose that fails only on rows outside the interior point is a start for the
         # engine that has them; a shortfall no engine constrains is not
         clear = unconstrained_shortfall(prob, chk)
@@ -299,7 +324,7 @@ def ip_starts(
             least = run
         if viols[j] > RANK_VIOLATION:  # the rest are farther off: stop checking
             break
-    return IPBatch(None, least, total, statuses, bound)
+    return IPBatch(None, least, total, statuses, bound, folded)
 
 
 @dataclass
@@ -390,6 +415,22 @@ def unconstrained_shortfall(prob: Problem, chk: Any) -> float:
     with_rows = set() if cl.obstacle_rows is None else {id(o) for o in cl.obstacle_rows.obstacles}
     kinds += [d for o, d in zip(cl.obstacles, c.obstacles) if id(o) not in with_rows]
     return max([0.0] + [m - d for d in kinds])
+
+
+def folds_only(chk: Any, margin: float) -> bool:
+    """Whether the check ``chk`` fails only on non-adjacent bodies: the pose is at the
+    target within every limit (and force limit), clear of obstacles, its platforms' own
+    legs and adjacent legs (to ``margin`` [mm]), but two bodies of platforms two or more
+    apart come closer than ``margin``. Such a pose is a start for the rows of the close
+    leg pairs (:mod:`stackik.formulation.leg_pairs`)."""
+    from stackik.check import FEAS_TOL, pose_ok
+
+    c = chk.clearances
+    if chk.ok or c is None or not margin - c.non_adjacent > FEAS_TOL:
+        return False
+    others = max([chk.max_violation_mm] + [margin - d for d in (c.self_legs, c.adjacent_legs)]
+                 + [margin - d for d in c.obstacles])  # fmt: skip
+    return pose_ok(chk.position_error, chk.angle_error, others, True, chk.peak_force_ratio)
 
 
 class IPMethod(Method):

@@ -12,8 +12,9 @@ weighted squared position derivatives ``w_a x (P_ee - O_{i+1})`` of every angle 
 the 24 limits per platform with :class:`Problem`'s scaling, then (when the problem carries
 them, ``prob.self_legs``) the self-leg rows of :mod:`stackik._compiled.self_legs` written
 symbolically (:func:`_self_leg_rows`), then (with obstacles, planar and spatial) the obstacle
-rows of :mod:`stackik.formulation.obstacle_rows` (:func:`_obstacle_rows`). The orientation
-equality is
+rows of :mod:`stackik.formulation.obstacle_rows` (:func:`_obstacle_rows`), then (when a solve
+gave the problem some, :mod:`stackik.formulation.leg_pairs`) the rows for bodies of
+non-adjacent platforms (:func:`_pair_rows`, both modes). The orientation equality is
 the skew part ``vee(E - E^T) / 2 = sin(angle) axis`` of ``E = R_target^T R_ee``: smooth
 everywhere (the rotation vector's ``acos`` is not differentiable at the solution), equal to
 the rotation vector to third order at ``E = I``, so first and second derivatives agree
@@ -188,6 +189,60 @@ def _self_leg_key(prob: Problem) -> Any:
     return (pairs, tuple(map(float, sl.rho)), tuple(map(float, sl.scale)))
 
 
+def pair_key(prob: Problem) -> Any:
+    """The rows of ``prob`` for bodies of non-adjacent platforms as plain data (a solver
+    cache key): ``(rows, L)``, each row ``(plates of a, ends of a, plates of b, ends of b,
+    rho)`` (:class:`stackik.formulation.leg_pairs.LegPairRows`), or None without them."""
+    rows = prob.clearance.leg_pairs
+    if rows is None:
+        return None
+    plates, points, pairs, rho, L = rows.kernel_args
+
+    def seg(e: int) -> tuple[Any, ...]:
+        return (tuple(map(int, plates[e])), tuple(tuple(map(float, x)) for x in points[e]))
+
+    key = tuple((*seg(int(a)), *seg(int(b)), float(r)) for (a, b), r in zip(pairs, rho))
+    return key, float(L)
+
+
+def _pair_rows(ca: Any, Os: list[Any], As: list[Any], key: Any) -> list[Any]:
+    """:class:`stackik.formulation.leg_pairs.LegPairRows` written symbolically (the kernel
+    :func:`stackik._compiled.leg_pairs.segment_pair_rows`): per pair of segments
+    (:func:`pair_key`) ``(d^2 - rho^2) / L^2``, ``d`` at the closest points of
+    :func:`_closest_params` (the kernel's branches)."""
+    pairs, L = key
+    rows = []
+    for pa, xa, pb, xb, rho in pairs:
+        a0, a1 = (Os[p] + As[p] @ np.asarray(x) for p, x in zip(pa, xa))
+        b0, b1 = (Os[p] + As[p] @ np.asarray(x) for p, x in zip(pb, xb))
+        s, t = _closest_params(ca, a0, a1, b0, b1)
+        g = a0 + s * (a1 - a0) - (b0 + t * (b1 - b0))
+        rows.append((ca.dot(g, g) - rho**2) / L**2)
+    return rows
+
+
+def pair_function(prob: Problem) -> Any:
+    """A CasADi function of the raw spatial pose ``q`` (6 n,) [mm, rad] to the rows of
+    ``prob`` for bodies of non-adjacent platforms, as the IPOPT solver carries them (for
+    the tests)."""
+    ca = _casadi()
+    q, Os, As = _spatial_frames_sx(ca, prob.n)
+    return ca.Function("pair_rows", [q], [ca.vertcat(*_pair_rows(ca, Os, As, pair_key(prob)))])
+
+
+def _spatial_frames_sx(ca: Any, n: int) -> tuple[Any, list[Any], list[Any]]:
+    """A symbolic raw spatial pose ``q`` (6 n,) and its plate origins ``O_0..O_n`` and
+    rotations ``A_0..A_n`` (for the tests' CasADi functions of single row families)."""
+    q = ca.SX.sym("q", 6 * n)
+    Os: list[Any] = [ca.SX.zeros(3, 1)]
+    As: list[Any] = [ca.SX.eye(3)]
+    for i in range(n):
+        _, R = _euler_sx(ca, q[6 * i + 3 : 6 * i + 6])
+        Os.append(Os[-1] + As[-1] @ q[6 * i : 6 * i + 3])
+        As.append(As[-1] @ R)
+    return q, Os, As
+
+
 def obstacle_key(prob: Problem) -> Any:
     """The obstacle rows of ``prob`` as plain data (a solver cache key,
     :attr:`stackik.formulation.obstacle_rows.ObstacleRows.specs`), or None without rows."""
@@ -202,14 +257,7 @@ def obstacle_function(stack: Stack, obstacles: Any, margin: float) -> Any:
     in the order of :class:`stackik.formulation.obstacle_rows.ObstacleRows` (for the
     tests)."""
     ca = _casadi()
-    n = stack.n
-    q = ca.SX.sym("q", 6 * n)
-    Os: list[Any] = [ca.SX.zeros(3, 1)]
-    As: list[Any] = [ca.SX.eye(3)]
-    for i in range(n):
-        _, R = _euler_sx(ca, q[6 * i + 3 : 6 * i + 6])
-        Os.append(Os[-1] + As[-1] @ q[6 * i : 6 * i + 3])
-        As.append(As[-1] @ R)
+    q, Os, As = _spatial_frames_sx(ca, stack.n)
     from stackik.formulation.obstacle_rows import ObstacleRows
 
     specs = ObstacleRows(stack, tuple(obstacles), margin).specs
@@ -363,6 +411,7 @@ def _solver(
     load: Any = None,
     obstacles: Any = None,
     self_legs: Any = None,
+    pairs: Any = None,
 ) -> Any:
     ca = _casadi()
     n = stack.n
@@ -410,7 +459,7 @@ def _solver(
     sf, m = _lift_forces(ca, stack, load)
     g_f: list[Any] = []
     g_ob: list[Any] = []
-    if sf is not None or obstacles is not None or self_legs is not None:
+    if sf is not None or obstacles is not None or self_legs is not None or pairs is not None:
         # the plates' frames in 3D: O_j = O_{j-1} + A_{j-1} P_j
         axis = plane_axis(phi)
         K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
@@ -432,6 +481,8 @@ def _solver(
                 g_ob += _self_leg_rows(ca, Bw, Tw, pairs, rho_sl[i], scale_sl[i])
         if obstacles is not None:
             g_ob += _obstacle_rows(ca, stack, Os, As, obstacles)
+        if pairs is not None:
+            g_ob += _pair_rows(ca, Os, As, pairs)
     g = ca.vertcat(g_eq, *g_f, *g_in, *g_ob)
     nlp = {"x": u if sf is None else ca.vertcat(u, sf), "p": p, "f": f, "g": g}
     solver = _nlpsol(ca, "stackik_ipopt", nlp, user)
@@ -465,6 +516,7 @@ def _spatial_solver(
     self_legs: tuple[tuple[tuple[int, int], ...], tuple[float, ...], tuple[float, ...]]
     | None = None,
     obstacles: Any = None,
+    pairs: Any = None,
 ) -> Any:
     """IPOPT for the scaled spatial problem (with ``load``: the lifted leg forces of
     :func:`_force_equilibrium`, appended to the variables; with ``self_legs = (pairs, rho,
@@ -535,6 +587,8 @@ def _spatial_solver(
     g_f = [] if sf is None else _force_equilibrium(ca, stack, load, Os, As, sf)
     x_all = u if sf is None else ca.vertcat(u, sf)
     g_ob = [] if obstacles is None else _obstacle_rows(ca, stack, Os, As, obstacles)
+    if pairs is not None:
+        g_ob += _pair_rows(ca, Os, As, pairs)
     g_all = ca.vertcat(g_eq, *g_f, *g_in, *g_sl, *g_ob)
     nlp = {"x": x_all, "p": p, "f": f, "g": g_all}
     solver = _nlpsol(ca, "stackik_ipopt_spatial", nlp, user)
@@ -570,15 +624,16 @@ def run_ipopt(
     if isinstance(target, PlanarTarget):
         solver, lbg, ubg = _solver(
             prob.stack, target.phi, prob.objective, tuple(prob.xs), key, load,
-            obstacle_key(prob), _self_leg_key(prob),
+            obstacle_key(prob), _self_leg_key(prob), pair_key(prob),
         )  # fmt: skip
         par = target.y
     else:
         assert isinstance(target, SpatialTarget)
         legs = _self_leg_key(prob)
         solver, lbg, ubg = _spatial_solver(
-            prob.stack, prob.objective, tuple(prob.xs), key, load, legs, obstacle_key(prob)
-        )
+            prob.stack, prob.objective, tuple(prob.xs), key, load, legs, obstacle_key(prob),
+            pair_key(prob),
+        )  # fmt: skip
         par = np.concatenate(
             [
                 target.position,

@@ -40,6 +40,9 @@ __all__ = [
     "SHARED_OPTIONS",
     "SPATIAL_GIVE_UP",
     "SPATIAL_GIVE_UP_MM",
+    "UNFOLD_ROUNDS",
+    "UNFOLD_SCREEN_MM",
+    "UNFOLD_STARTS",
     "StartPlan",
     "auto_method",
     "plan_starts",
@@ -80,6 +83,18 @@ CLEAR_MU0 = 1e-3
 #: obstacle-free basins: the batch with the obstacle rows from the plan's starts runs too,
 #: and the better wins.
 CLEAR_COST_RTOL = 1e-3
+
+#: A run whose pose fails the check on non-adjacent bodies alone (folded into itself:
+#: :func:`stackik.methods.ip.folds_only`) is made again from its start, with rows for the
+#: pairs of bodies of non-adjacent platforms (legs, plates) that come within this [mm] of
+#: their least distance there or at its pose
+#: (:func:`stackik.formulation.leg_pairs.close_pairs`; the other pairs cost nothing) ...
+UNFOLD_SCREEN_MM = 20.0
+#: ... again with the pairs found close at that run's pose added, up to this many runs ...
+UNFOLD_ROUNDS = 8
+#: ... for at most this many of the interior point's folded poses (lowest FN first, one
+#: per basin: :func:`stackik.solve.stages._unfold_batch`).
+UNFOLD_STARTS = 2
 
 #: Planar default from ``n = ADAPTIVE_N`` on: the interior point first runs
 #: ``ADAPTIVE_FIRST`` of the batch's random starts alone (:func:`tall_random_starts`), and

@@ -40,6 +40,9 @@ from stackik.solve.policy import (
     SHARED_OPTIONS,
     SPATIAL_GIVE_UP,
     SPATIAL_GIVE_UP_MM,
+    UNFOLD_ROUNDS,
+    UNFOLD_SCREEN_MM,
+    UNFOLD_STARTS,
     StartPlan,
 )
 from stackik.solve.request import Request
@@ -207,6 +210,8 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     n_run += tried0
     if found is not None and (batch.best is None or _lower(found, batch.best)):
         batch.best = found
+    if batch.folded:
+        _unfold_batch(req, method, batch)
     if batch.bound:
         return _force_handover(req, batch, n_run)
     if batch.best is not None:
@@ -294,6 +299,8 @@ def _merge(parts: list[IPBatch]) -> IPBatch:
         out.nit += part.nit
         out.statuses += part.statuses
         out.bound += part.bound
+        out.folded += part.folded
+    out.folded.sort(key=lambda f: f[0].obj)
     return out
 
 
@@ -519,6 +526,78 @@ def _recentre(req: Request, method: IPMethod, best: Run, nit: int) -> tuple[Run,
     return best, nit
 
 
+def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
+    """The interior point's runs that folded into themselves (``batch.folded``: they failed
+    the check on non-adjacent bodies alone, at a lower objective than ``batch.best``),
+    made again from their starts by :func:`_unfold` (at most :data:`UNFOLD_STARTS`, lowest
+    first, one per basin); a passing run of lower objective replaces ``batch.best`` (in
+    place; the iterations counted). A batch without such runs is left as it is."""
+    from stackik.methods.ip import SAME_BASIN_RTOL
+
+    def solve(prob: Problem, q: FloatArray) -> Run | None:
+        left = req.time_left(time.perf_counter())
+        got = method.run_many(prob, [q], req.options, left)
+        batch.nit += got.nit
+        return got.best if got.best is not None else got.least
+
+    tried: list[float] = []
+    for run, start in batch.folded:
+        if len(tried) == UNFOLD_STARTS or req.out_of_time():
+            break
+        if batch.best is not None and not _lower(run, batch.best):
+            break
+        if any(abs(run.obj - o) <= SAME_BASIN_RTOL * abs(o) for o in tried):
+            continue  # the same basin's minimum as one tried
+        tried.append(run.obj)
+        got = _unfold(req, run, start, solve)
+        if got is not None and got.check.ok and (batch.best is None or _lower(got, batch.best)):
+            batch.best = got
+
+
+def _unfold(
+    req: Request,
+    run: Run,
+    start: FloatArray,
+    solve: Callable[[Problem, FloatArray], Run | None],
+) -> Run | None:
+    """``run`` (from the raw pose ``start``) folded into itself
+    (:func:`stackik.methods.ip.folds_only`): made again from ``start`` with rows for the
+    pairs of bodies of non-adjacent platforms (legs and legs, legs and plates) that come
+    within :data:`UNFOLD_SCREEN_MM` of their least distance at ``start`` or at its pose
+    (:func:`stackik.formulation.leg_pairs.close_pairs`), and while the result folds again,
+    with the pairs close at its pose added, up to :data:`UNFOLD_ROUNDS` runs. From the
+    start, not from the folded pose: there the bodies pass through each other, and a
+    squared distance has no gradient that pulls them apart. Returns the last run
+    (``solve``'s: the request's problem with those rows, from a raw pose; it counts its
+    iterations), or None when no run was made (no close pair: a plate-plate contact,
+    which has no rows)."""
+    from stackik.formulation.leg_pairs import close_pairs
+    from stackik.methods.ip import folds_only
+
+    prob = req.problem
+    margin, phi = prob.clearance.margin, prob.mode.phi(prob.target)
+
+    def close(qs: list[FloatArray]) -> set[int]:
+        return {int(p) for p in close_pairs(prob.stack, qs, margin, phi, UNFOLD_SCREEN_MM)}
+
+    pairs = close([start, run.q])
+    out: Run | None = None
+    for _ in range(UNFOLD_ROUNDS):
+        if not pairs or req.out_of_time():
+            break
+        got = solve(prob.with_leg_pairs(sorted(pairs)), start)
+        if got is None:
+            break
+        out = got
+        if got.check.ok or not folds_only(got.check, margin):
+            break
+        more = pairs | close([got.q])
+        if more == pairs:
+            break
+        pairs = more
+    return out
+
+
 def _local_run(
     req: Request, method: Method, qs: FloatArray, options: dict[str, object], left: float
 ) -> Run:
@@ -527,7 +606,33 @@ def _local_run(
     with them only when its pose fails the check on a platform's own legs alone (at the
     target, within every limit and every other clearance), the iterations of both
     counted. A run whose legs stay clear is thus the run of the problem without the rows,
-    and a solve on legs with a radius that never come close is the zero-radius solve."""
+    and a solve on legs with a radius that never come close is the zero-radius solve.
+    A run that then fails on non-adjacent bodies alone (folded into itself) is solved again
+    from the same start with rows for the pairs close at its start or its pose
+    (:func:`_unfold`); the passing one of the two is the run (else the first), the
+    iterations of all counted."""
+    run = _lazy_self_legs(req, method, qs, options, left)
+    from stackik.methods.ip import folds_only
+
+    if not method.leg_pair_rows or not folds_only(run.check, req.problem.clearance.margin):
+        return run
+    nit = run.nit
+
+    def solve(prob: Problem, q: FloatArray) -> Run:
+        nonlocal nit
+        got = method.run(prob, q, options, req.time_left(time.perf_counter()), req.qp_solver)
+        nit += got.nit
+        return got
+
+    got = _unfold(req, run, qs, solve)
+    best = got if got is not None and got.check.ok else run
+    return dataclasses.replace(best, nit=nit)
+
+
+def _lazy_self_legs(
+    req: Request, method: Method, qs: FloatArray, options: dict[str, object], left: float
+) -> Run:
+    """One local run from ``qs`` with lazy planar self-leg rows (:func:`_local_run`)."""
     prob = req.problem
     if not prob.lazy_self_legs:
         return method.run(prob, qs, options, left, req.qp_solver)
