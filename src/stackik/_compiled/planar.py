@@ -462,15 +462,19 @@ def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) ->
 
 
 @_jit
-def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
-              last_shift: float) -> tuple[FloatArray, FloatArray, float, float]:  # fmt: skip
+def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, last_shift: float,
+              try_plain: bool) -> tuple[FloatArray, FloatArray, float, float]:  # fmt: skip
     """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` by a null-space method.
 
     The null-space basis ``Z = [-B^-1 C; I]`` uses the first platform's three columns
     ``B`` of ``AE = [B C]`` (always invertible: a rotation and a unit angle row). When the
     reduced Hessian ``Z^T W Z`` is not positive definite, a multiple of the identity is
     added until it is (the shift), so that ``dx`` is a descent direction of the merit
-    function. Returns ``dx``, ``dy``, the curvature ``dx^T W dx`` and the shift used.
+    function. ``try_plain`` False (the previous step needed a shift) skips the unshifted
+    factorisation and starts from a third of ``last_shift`` (the last nonzero shift):
+    at scale most steps need one, and the attempt that fails costs a factorisation
+    (2.19 -> 1.47 factorisations a step at n = 64, docs/benchmarks.md). Returns ``dx``,
+    ``dy``, the curvature ``dx^T W dx`` and the shift used.
     """
     N = W.shape[0]
     K = N - 3
@@ -515,9 +519,14 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
         rz[a] = E[0, a] * res[0] + E[1, a] * res[1] + E[2, a] * res[2] + res[3 + a]
     Et = E.T.copy()
     # inertia correction as in IPOPT: the smallest shift (tried in factors of 8, starting
-    # from a third of the last one) that makes the reduced Hessian positive definite
+    # from a third of the last one) that makes the reduced Hessian positive definite.
+    # IPOPT tries the unshifted matrix first at every step unless it has found the
+    # Hessian degenerate (3 steps in a row needing a perturbation); here it is skipped
+    # after each shifted step (try_plain): measured, docs/benchmarks.md
     shift = 0.0
-    L, ok = _cholesky(Hz, 0.0)
+    ok = False
+    if try_plain or not last_shift > 0.0:  # else L comes from the loop below
+        L, ok = _cholesky(Hz, 0.0)
     if not ok:
         scale = 0.0
         for i in range(Hz.shape[0]):
@@ -623,7 +632,8 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     z = np.ones(m)  # bound multipliers start at 1, as IPOPT's
     # least-squares equality multipliers
     yE = _ls_multipliers(AE, g, AIT_dot(AI, z))
-    last_shift = 0.0
+    last_shift = 0.0  # the last nonzero shift, and the previous step's
+    prev_shift = 0.0
     logsum = np.log(s).sum()
     logsum_t = logsum
     theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
@@ -686,10 +696,11 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         rhs = np.empty(N)
         for a in range(N):
             rhs[a] = -g[a] + AEty[a] + AIv[a]
-        dx, _, _, shift = _kkt_step(W, AE, cE, rhs, last_shift)
+        dx, _, _, shift = _kkt_step(W, AE, cE, rhs, last_shift, prev_shift == 0.0)
         if not _finite(dx):
             status = IP_NONFINITE
             break
+        prev_shift = shift
         if shift > 0.0:
             last_shift = shift
         AIdx = AI_dot(AI, dx)

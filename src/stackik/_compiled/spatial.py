@@ -550,10 +550,12 @@ def _basis(AE: FloatArray, cE: FloatArray) -> tuple[FloatArray, FloatArray, bool
 
 @_jit
 def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
-              last_shift: float) -> tuple[FloatArray, float]:  # fmt: skip
+              last_shift: float, try_plain: bool) -> tuple[FloatArray, float]:  # fmt: skip
     """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` for ``dx`` by a null-space method
     (:func:`_basis`), adding ``delta I`` to ``W`` until the reduced Hessian is positive
-    definite (IPOPT's inertia correction)."""
+    definite (IPOPT's inertia correction; ``try_plain`` False: the previous step needed a
+    shift, the unshifted factorisation is skipped, as in the planar kernel's
+    :func:`stackik._compiled.planar._kkt_step`)."""
     Z, dxp, structured = _basis(AE, cE)
     N = W.shape[0]
     res = rhs - W @ dxp
@@ -582,7 +584,9 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
         rz = Z.T @ res
     K = Hz.shape[0]
     shift = 0.0
-    L, ok = _cholesky(Hz, 0.0)
+    ok = False
+    if try_plain or not last_shift > 0.0:  # else L comes from the loop below
+        L, ok = _cholesky(Hz, 0.0)
     if not ok:
         scale = 0.0
         for i in range(K):
@@ -656,7 +660,8 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     s = np.maximum(cI, 1e-2)
     z = np.ones(m)
     yE = _ls_multipliers(AE, g, AIT_dot(AI, z))
-    last_shift = 0.0
+    last_shift = 0.0  # the last nonzero shift, and the previous step's
+    prev_shift = 0.0
     logsum = np.log(s).sum()
     logsum_t = logsum
     theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
@@ -711,10 +716,11 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         for r in range(m):
             v[r] = mu / s[r] - Sig[r] * (cI[r] - s[r])
         rhs = -g + AEty + AIT_dot(AI, v)
-        dx, shift = _kkt_step(W, AE, cE, rhs, last_shift)
+        dx, shift = _kkt_step(W, AE, cE, rhs, last_shift, prev_shift == 0.0)
         if not np.all(np.isfinite(dx)):
             status = IP_NONFINITE
             break
+        prev_shift = shift
         if shift > 0.0:
             last_shift = shift
         AIdx = AI_dot(AI, dx)
