@@ -15,8 +15,8 @@ drawn with ``rng = seed + k`` in the plane ``phi = 2 pi k / count``
 - ``ipopt8``: ``method="ipopt", starts=8`` (time for the eight, best FN);
 - ``ipopt_ref``: ``method="ipopt", starts=--ref-starts, rng=1000 + k``.
 
-Each run's wall time and the process's CPU time (the default's CPU median is reported
-too: on a shared machine the steadier reading).
+Each run's wall time and the process's CPU time (the default's is reported too; it
+counts the process's other threads, such as BLAS workers still spinning after IPOPT).
 
 ``--part i/m`` runs only the targets ``k = i mod m``; every row is also appended to
 ``<stem>.jsonl`` as it is done. ``--merge A.json B.json ...`` summarises the rows of
@@ -160,8 +160,9 @@ def markdown(lines: list[dict[str, Any]], meta: dict[str, Any]) -> str:
     cpu = [s for s in lines if "default_median_cpu_ms" in s]
     if cpu:
         body += (
-            "\nThe default's CPU time (the process's; steadier than wall time on a shared "
-            "machine), median (max): "
+            "\nThe default's CPU time, median (max): the process's, so it also counts the "
+            "process's other threads (BLAS workers the IPOPT runs leave spinning: it can "
+            "exceed the wall time): "
             + ", ".join(
                 f"n = {s['n']} {s['default_median_cpu_ms']:.0f} ({s['default_max_cpu_ms']:.0f}) ms"
                 for s in cpu
