@@ -470,11 +470,8 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, la
     ``B`` of ``AE = [B C]`` (always invertible: a rotation and a unit angle row). When the
     reduced Hessian ``Z^T W Z`` is not positive definite, a multiple of the identity is
     added until it is (the shift), so that ``dx`` is a descent direction of the merit
-    function. ``try_plain`` False (the previous step needed a shift) skips the unshifted
-    factorisation and starts from a third of ``last_shift`` (the last nonzero shift):
-    at scale most steps need one, and the attempt that fails costs a factorisation
-    (2.19 -> 1.47 factorisations a step at n = 64, docs/benchmarks.md). Returns ``dx``,
-    ``dy``, the curvature ``dx^T W dx`` and the shift used.
+    function; after a shifted step (``try_plain`` False) from ``last_shift / 3`` on, with no
+    unshifted attempt. Returns ``dx``, ``dy``, the curvature ``dx^T W dx`` and the shift used.
     """
     N = W.shape[0]
     K = N - 3
@@ -518,11 +515,9 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, la
     for a in range(K):
         rz[a] = E[0, a] * res[0] + E[1, a] * res[1] + E[2, a] * res[2] + res[3 + a]
     Et = E.T.copy()
-    # inertia correction as in IPOPT: the smallest shift (tried in factors of 8, starting
-    # from a third of the last one) that makes the reduced Hessian positive definite.
-    # IPOPT tries the unshifted matrix first at every step unless it has found the
-    # Hessian degenerate (3 steps in a row needing a perturbation); here it is skipped
-    # after each shifted step (try_plain): measured, docs/benchmarks.md
+    # inertia correction as in IPOPT: the smallest shift (tried in factors of 8, from a third
+    # of the last one) making the reduced Hessian positive definite; unlike IPOPT, no
+    # unshifted attempt right after a shifted step (try_plain; docs/benchmarks.md)
     shift = 0.0
     ok = False
     if try_plain or not last_shift > 0.0:  # else L comes from the loop below
@@ -632,8 +627,7 @@ def _ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     z = np.ones(m)  # bound multipliers start at 1, as IPOPT's
     # least-squares equality multipliers
     yE = _ls_multipliers(AE, g, AIT_dot(AI, z))
-    last_shift = 0.0  # the last nonzero shift, and the previous step's
-    prev_shift = 0.0
+    last_shift = prev_shift = 0.0  # the last nonzero shift; the previous step's
     logsum = np.log(s).sum()
     logsum_t = logsum
     theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
