@@ -128,10 +128,13 @@ def markdown(summary: list[dict[str, Any]], seed: int, info: dict[str, Any]) -> 
         "12 mm poses whose FN differs from the 0 mm pose's by more than 1e-9 (relative); "
         "`cost_*`: FN(12 mm) / FN(0 mm) - 1 over targets where both succeed; "
         "`time_ratio`: summed time 12 mm / 0 mm"
-        + ("; `ok_ipopt8`: IPOPT from 8 starts on the 12 mm stack, success and clear; "
-           "`ipopt8_vs_r12`: targets where its FN is more than 0.5 % below the default's; "
-           "`time_ratio_ipopt8`: its summed time / the default's (12 mm)"
-           if "ok_ipopt8" in keys else "")  # fmt: skip
+        + (
+            "; `ok_ipopt8`: IPOPT from 8 starts on the 12 mm stack, success and clear; "
+            "`ipopt8_vs_r12`: targets where its FN is more than 0.5 % below the default's; "
+            "`time_ratio_ipopt8`: its summed time / the default's (12 mm)"
+            if "ok_ipopt8" in keys
+            else ""
+        )  # fmt: skip
         + ".",
         "",
         "| " + " | ".join(keys) + " |",
@@ -169,8 +172,9 @@ def main() -> None:
         w.writeheader()
         w.writerows(rows)
     (args.out / "nonadj_bench.json").write_text(
-        json.dumps({"seed": args.seed, "machine": info, "summary": summary, "rows": rows},
-                   indent=1)  # fmt: skip
+        json.dumps(
+            {"seed": args.seed, "machine": info, "summary": summary, "rows": rows}, indent=1
+        )  # fmt: skip
     )
     text = markdown(summary, args.seed, info)
     (args.out / "nonadj_bench.md").write_text(text)

@@ -61,7 +61,7 @@ def _parts(stack: Stack, target: Any, q: Any) -> dict[str, float]:
         return {
             "evaluate": _time(lambda: kernel._evaluate_ip(u, P, NONE, NONE, NONE, 0.0), reps),
             "hessian": _time(lambda: kernel._lagrangian_hessian(u, yE, z, P), reps),
-            "kkt_step": _time(lambda: kernel._kkt_step(W, AE, cE, -g, 0.0), reps),
+            "kkt_step": _time(lambda: kernel._kkt_step(W, AE, cE, -g, 0.0, True), reps),
             "cholesky": _time(lambda: _cholesky(Hz, 0.0), reps),
         }
 

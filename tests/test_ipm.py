@@ -131,16 +131,25 @@ def test_cholesky_and_kkt_step():
     Aeq = rng.standard_normal((3, N))
     c = rng.standard_normal(3)
     r = rng.standard_normal(N)
-    dx, dy, curv, shift = _ipm._kkt_step(W, Aeq, c, r, 0.0)
+    dx, dy, curv, shift = _ipm._kkt_step(W, Aeq, c, r, 0.0, True)
     assert shift == 0.0
     np.testing.assert_allclose(W @ dx - Aeq.T @ dy, r, atol=1e-10)
     np.testing.assert_allclose(Aeq @ dx, -c, atol=1e-10)
     np.testing.assert_allclose(curv, dx @ W @ dx, rtol=1e-12)
     # indefinite: a shift makes the reduced Hessian positive definite
-    dx, dy, curv, shift = _ipm._kkt_step(-W, Aeq, c, r, 0.0)
+    dx, dy, curv, shift = _ipm._kkt_step(-W, Aeq, c, r, 0.0, True)
     assert shift > 0.0
     np.testing.assert_allclose(Aeq @ dx, -c, atol=1e-10)
     np.testing.assert_allclose(-W @ dx + shift * dx - Aeq.T @ dy, r, atol=1e-8 * (1 + shift))
+    # after a shifted step (try_plain False) the unshifted matrix is not tried: the shift
+    # starts at a third of the last one, even where none is needed, and the step solves
+    # the shifted system
+    dx, dy, curv, shift = _ipm._kkt_step(W, Aeq, c, r, 3.0, False)
+    assert shift == 1.0
+    np.testing.assert_allclose(Aeq @ dx, -c, atol=1e-10)
+    np.testing.assert_allclose(W @ dx + shift * dx - Aeq.T @ dy, r, atol=1e-8)
+    # ... and with no earlier shift the unshifted matrix is tried whatever try_plain says
+    assert _ipm._kkt_step(W, Aeq, c, r, 0.0, False)[3] == 0.0
 
 
 def test_ip_solve_reaches_the_paper_optimum():

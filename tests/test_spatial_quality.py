@@ -204,9 +204,11 @@ def test_spatial_hops_turn_the_top_platforms_only() -> None:
 
 def test_spatial_default_hops_from_its_best_pose() -> None:
     # n >= 5: the default's pose is at least as good as its starts' best, hops included,
-    # and on this target the hops find a lower minimum than all 18 starts
+    # and on this target the hops find a lower minimum than all 18 starts (seed 9629: on
+    # 9605's second target, since the inertia rule of 2026-12-03, the starts alone find
+    # the least FN IPOPT from 32 starts finds)
     stack = Stack.reference(5)
-    targets = random_spatial_targets(stack, 2, 9605)
+    targets = random_spatial_targets(stack, 2, 9629)
     for k, target in enumerate(targets):
         r = solve_ik(stack, target)
         assert r.success and r.n_starts == spatial_start_count(5) + spatial_hop_count(5)

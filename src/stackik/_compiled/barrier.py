@@ -182,7 +182,7 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
     s = np.maximum(cI, 1e-2)
     z = np.ones(m)  # bound multipliers start at 1, as IPOPT's
     yE = kernel.eq_multipliers(P, AE, g, AIT_dot(AI, z))
-    last_shift = 0.0
+    last_shift = prev_shift = 0.0  # the last nonzero shift; the previous step's
     logsum = np.log(s).sum()
     theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
     theta_max = 1e4 * max(1.0, theta0)
@@ -227,10 +227,11 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
         rhs = np.empty(N)
         for a in range(N):
             rhs[a] = -g[a] + AEty[a] + AIv[a]
-        dx, shift = kernel.kkt_step(P, W, AE, cE, rhs, last_shift)
+        dx, shift = kernel.kkt_step(P, W, AE, cE, rhs, last_shift, prev_shift == 0.0)
         if not _finite(dx):
             status = IP_NONFINITE
             break
+        prev_shift = shift
         if shift > 0.0:
             last_shift = shift
         AIdx = AI_dot(AI, dx)

@@ -105,10 +105,12 @@ def hessian(parts: Any, yE: Any, z: Any, P: Any, wq: float) -> Any:
     return _unresolved()
 
 
-def kkt_step(P: Any, W: Any, AE: Any, cE: Any, rhs: Any, last_shift: float) -> Any:
+def kkt_step(P: Any, W: Any, AE: Any, cE: Any, rhs: Any, last_shift: float,
+             try_plain: bool) -> Any:  # fmt: skip
     """``dx, shift``: the Newton step of ``[W AE^T; AE 0] [dx; -y] = [rhs; -cE]`` with the
     reduced Hessian made positive definite by the smallest shift ``delta I`` that does it
-    (inertia correction; ``last_shift`` the last step's, 0: none yet)."""
+    (inertia correction; ``last_shift`` the last nonzero shift, 0: none yet; the unshifted
+    matrix tried first only when ``try_plain``, i.e. the previous step needed none)."""
     return _unresolved()
 
 
@@ -152,7 +154,7 @@ def _hessian(parts, yE, z, P, wq):  # type: ignore[no-untyped-def]
 
 
 @overload(kkt_step, jit_options=_OPTIONS)
-def _kkt_step(P, W, AE, cE, rhs, last_shift):  # type: ignore[no-untyped-def]
+def _kkt_step(P, W, AE, cE, rhs, last_shift, try_plain):  # type: ignore[no-untyped-def]
     return _implementation("kkt_step", P)
 
 

@@ -439,15 +439,16 @@ def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) ->
 
 
 @_jit
-def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
-              last_shift: float) -> tuple[FloatArray, FloatArray, float, float]:  # fmt: skip
+def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, last_shift: float,
+              try_plain: bool) -> tuple[FloatArray, FloatArray, float, float]:  # fmt: skip
     """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` by a null-space method.
 
     The null-space basis ``Z = [-B^-1 C; I]`` uses the first platform's three columns
     ``B`` of ``AE = [B C]`` (always invertible: a rotation and a unit angle row). When the
     reduced Hessian ``Z^T W Z`` is not positive definite, a multiple of the identity is
     added until it is (the shift), so that ``dx`` is a descent direction of the merit
-    function. Returns ``dx``, ``dy``, the curvature ``dx^T W dx`` and the shift used.
+    function; after a shifted step (``try_plain`` False) from ``last_shift / 3`` on, with no
+    unshifted attempt. Returns ``dx``, ``dy``, the curvature ``dx^T W dx`` and the shift used.
     """
     N = W.shape[0]
     K = N - 3
@@ -491,10 +492,13 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
     for a in range(K):
         rz[a] = E[0, a] * res[0] + E[1, a] * res[1] + E[2, a] * res[2] + res[3 + a]
     Et = E.T.copy()
-    # inertia correction as in IPOPT: the smallest shift (tried in factors of 8, starting
-    # from a third of the last one) that makes the reduced Hessian positive definite
+    # inertia correction as in IPOPT: the smallest shift (tried in factors of 8, from a third
+    # of the last one) making the reduced Hessian positive definite; unlike IPOPT, no
+    # unshifted attempt right after a shifted step (try_plain; docs/benchmarks.md)
     shift = 0.0
-    L, ok = _cholesky(Hz, 0.0)
+    ok = False
+    if try_plain or not last_shift > 0.0:  # else L comes from the loop below
+        L, ok = _cholesky(Hz, 0.0)
     if not ok:
         scale = 0.0
         for i in range(Hz.shape[0]):
@@ -579,9 +583,9 @@ def _kernel_evaluate(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: 
 
 @_jit
 def _kernel_kkt_step(P: Any, W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
-                     last_shift: float) -> tuple[FloatArray, float]:  # fmt: skip
+                     last_shift: float, try_plain: bool) -> tuple[FloatArray, float]:  # fmt: skip
     """:func:`_kkt_step`'s step and shift."""
-    dx, _, _, shift = _kkt_step(W, AE, cE, rhs, last_shift)
+    dx, _, _, shift = _kkt_step(W, AE, cE, rhs, last_shift, try_plain)
     return dx, shift
 
 

@@ -525,10 +525,12 @@ def _basis(AE: FloatArray, cE: FloatArray) -> tuple[FloatArray, FloatArray, bool
 
 @_jit
 def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
-              last_shift: float) -> tuple[FloatArray, float]:  # fmt: skip
+              last_shift: float, try_plain: bool) -> tuple[FloatArray, float]:  # fmt: skip
     """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` for ``dx`` by a null-space method
     (:func:`_basis`), adding ``delta I`` to ``W`` until the reduced Hessian is positive
-    definite (IPOPT's inertia correction)."""
+    definite (IPOPT's inertia correction; ``try_plain`` False: the previous step needed a
+    shift, the unshifted factorisation is skipped, as in the planar kernel's
+    :func:`stackik._compiled.planar._kkt_step`)."""
     Z, dxp, structured = _basis(AE, cE)
     N = W.shape[0]
     res = rhs - W @ dxp
@@ -557,7 +559,9 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
         rz = Z.T @ res
     K = Hz.shape[0]
     shift = 0.0
-    L, ok = _cholesky(Hz, 0.0)
+    ok = False
+    if try_plain or not last_shift > 0.0:  # else L comes from the loop below
+        L, ok = _cholesky(Hz, 0.0)
     if not ok:
         scale = 0.0
         for i in range(K):
@@ -614,9 +618,9 @@ def _with_target(P0: Any, position: Any, rotation: Any) -> Any:
 # =========================================================================================
 @_jit
 def _kernel_kkt_step(P: Any, W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
-                     last_shift: float) -> tuple[FloatArray, float]:  # fmt: skip
+                     last_shift: float, try_plain: bool) -> tuple[FloatArray, float]:  # fmt: skip
     """:func:`_kkt_step`."""
-    return _kkt_step(W, AE, cE, rhs, last_shift)
+    return _kkt_step(W, AE, cE, rhs, last_shift, try_plain)
 
 
 @_jit
