@@ -237,7 +237,9 @@ def test_spatial_hops_and_recentring_respect_max_time() -> None:
     # past the budget no hop batch and no re-centring run starts
     target5 = random_spatial_targets(Stack.reference(5), 1, 9605)[0]
     r = solve_ik(Stack.reference(5), target5, max_time=1e-9)
-    assert r.n_starts <= spatial_start_count(5)
+    # the batch's first run keeps 1 ms (Request.time_left); where that cuts it short of a
+    # pose that passes, "auto" hands the target to the SQP engine for one start (not a hop)
+    assert r.n_starts <= spatial_start_count(5) + (r.method == "sqp")
     stack = Stack.reference(4)
     target = random_spatial_targets(stack, 1, 9611)[0]
     quick = solve_ik(stack, target, starts=1, max_time=1e-9)
