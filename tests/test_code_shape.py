@@ -26,12 +26,7 @@ MODULE_LINES = 900
 CLASS_ATTRIBUTES = 25
 
 #: Functions over their limit, as "module/path.py:qualified_name".
-FUNCTION_ALLOW: frozenset[str] = frozenset(
-    {
-        # compiled path kernels (the barrier loop of both modes is one, _compiled/barrier.py)
-        "_compiled/planar_path.py:_pc_kkt",
-    }
-)
+FUNCTION_ALLOW: frozenset[str] = frozenset()
 
 #: Modules over the limit.
 MODULE_ALLOW: frozenset[str] = frozenset()

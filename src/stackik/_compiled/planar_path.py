@@ -12,7 +12,14 @@ from typing import Any
 import numpy as np
 
 from stackik._compiled.barrier import ip_loop, polish, polished
-from stackik._compiled.core import IP_NONFINITE, IP_SUCCESS, OBJ_MAX_GRAD, _finite, _jit
+from stackik._compiled.core import (
+    IP_NONFINITE,
+    IP_SUCCESS,
+    OBJ_MAX_GRAD,
+    _finite,
+    _jit,
+    _jit_inline,
+)
 from stackik._compiled.linalg import _AIT_dot, _lu_solve, min_norm_solve
 from stackik._compiled.path import (
     PC_CHANGES,
@@ -116,20 +123,13 @@ def _orth_unit(v0: float, v1: float, v2: float, Q: FloatArray, r: int) -> tuple[
     return v0 / nv, v1 / nv, v2 / nv
 
 
-@_jit
-def _pc_kkt(W: FloatArray, AE: FloatArray, D: FloatArray, idx: FloatArray, r1: FloatArray,
-            r2: FloatArray, rA: FloatArray, n: int) -> tuple[Any, ...]:  # fmt: skip
-    """The Newton step of the continuation step: the solution of
-
-        W dx - AE^T dy - AA^T dz = r1,   AE dx = r2,   AA dx = rA
-
-    (``AA``: the rows ``idx`` of the block-diagonal limit Jacobian ``D``), by platforms:
-    each platform's active rows fix the part of its ``dx`` in their span (the rows that
-    depend on others, beyond 3 or in a lower rank, are taken as consistent with them),
-    a system of the free parts and ``dy`` (size ``N - rank + 3``, not ``N + 3 + na``)
-    gives the rest, and each platform's ``dz`` is the least-norm solution of its rows'
-    part of the first equation (unique where its rows are independent). Returns
-    ``(dx, dy, dz, ok)``; ``ok`` False when the system is singular."""
+@_jit_inline
+def _pc_span(D: FloatArray, idx: FloatArray, rA: FloatArray,
+             n: int) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`_pc_kkt`'s first part, by platforms: the part ``dxp`` (N,) of ``dx`` in the
+    span of each platform's active rows (``AA dx = rA`` there), the orthonormal free
+    directions ``Z`` (3, nz) and their platforms ``zp``, and each platform's basis ``Qs``
+    (n, 3, 3) of the span, of rank ``rk``. Returns ``dxp, Z, zp, nz, Qs, rk``."""
     N = 3 * n
     na = idx.size
     dxp = np.zeros(N)
@@ -192,6 +192,16 @@ def _pc_kkt(W: FloatArray, AE: FloatArray, D: FloatArray, idx: FloatArray, r1: F
             zp[nz] = i
             nz += 1
             nb += 1
+    return dxp, Z, zp, nz, Qs, rk
+
+
+@_jit_inline
+def _pc_reduced(W: FloatArray, AE: FloatArray, r1: FloatArray, r2: FloatArray,
+                dxp: FloatArray, Z: FloatArray, zp: FloatArray,
+                nz: int) -> tuple[FloatArray, FloatArray, bool]:  # fmt: skip
+    """:func:`_pc_kkt`'s second part: ``dx = dxp + Z v`` and ``dy`` from the reduced system
+    in ``(v, dy)``. Returns ``dx, dy, ok`` (``ok`` False: singular)."""
+    N = W.shape[0]
     # the reduced system in (v, dy): Z^T W Z v - Z^T AE^T dy = Z^T (r1 - W dxp),
     # AE Z v = r2 - AE dxp
     m2 = nz + 3
@@ -229,15 +239,28 @@ def _pc_kkt(W: FloatArray, AE: FloatArray, D: FloatArray, idx: FloatArray, r1: F
     sol, ok = _lu_solve(M, rhs)
     dx = dxp.copy()
     dy = np.zeros(3)
-    dz = np.zeros(na)
     if not ok:
-        return dx, dy, dz, False
+        return dx, dy, False
     for c in range(nz):
         b0 = 3 * zp[c]
         for t in range(3):
             dx[b0 + t] += Z[t, c] * sol[c]
     for r in range(3):
         dy[r] = sol[nz + r]
+    return dx, dy, True
+
+
+@_jit_inline
+def _pc_multipliers(W: FloatArray, AE: FloatArray, D: FloatArray, idx: FloatArray,
+                    r1: FloatArray, dx: FloatArray, dy: FloatArray, Qs: FloatArray,
+                    rk: FloatArray, n: int) -> tuple[FloatArray, bool]:  # fmt: skip
+    """:func:`_pc_kkt`'s last part: each platform's least-norm ``dz`` of its active rows'
+    part of the first equation. Returns ``dz, ok`` (``ok`` False: a rank-deficient
+    platform, which the span ruled out)."""
+    N = 3 * n
+    na = idx.size
+    dz = np.zeros(na)
+    rows = np.empty(max(na, 1), dtype=np.int64)
     # multipliers: per platform, the least-norm dz with A^T dz = (W dx - AE^T dy - r1)
     # on its variables (A = C Q^T, C = A Q: C^T dz = Q^T b, dz = C (C^T C)^-1 Q^T b)
     bvec = np.empty(N)
@@ -277,7 +300,7 @@ def _pc_kkt(W: FloatArray, AE: FloatArray, D: FloatArray, idx: FloatArray, r1: F
                 elif acc > 0.0:
                     G[s, s] = math.sqrt(acc)
                 else:
-                    return dx, dy, dz, False
+                    return dz, False
         for s in range(r):  # L y = Q^T b, then L^T w = y
             for u in range(s):
                 w[s] -= G[s, u] * w[u]
@@ -291,7 +314,29 @@ def _pc_kkt(W: FloatArray, AE: FloatArray, D: FloatArray, idx: FloatArray, r1: F
             for s in range(r):
                 acc += C[t, s] * w[s]
             dz[rows[t]] = acc
-    return dx, dy, dz, True
+    return dz, True
+
+
+@_jit
+def _pc_kkt(W: FloatArray, AE: FloatArray, D: FloatArray, idx: FloatArray, r1: FloatArray,
+            r2: FloatArray, rA: FloatArray, n: int) -> tuple[Any, ...]:  # fmt: skip
+    """The Newton step of the continuation step: the solution of
+
+        W dx - AE^T dy - AA^T dz = r1,   AE dx = r2,   AA dx = rA
+
+    (``AA``: the rows ``idx`` of the block-diagonal limit Jacobian ``D``), by platforms:
+    each platform's active rows fix the part of its ``dx`` in their span (the rows that
+    depend on others, beyond 3 or in a lower rank, are taken as consistent with them),
+    a system of the free parts and ``dy`` (size ``N - rank + 3``, not ``N + 3 + na``)
+    gives the rest, and each platform's ``dz`` is the least-norm solution of its rows'
+    part of the first equation (unique where its rows are independent). Returns
+    ``(dx, dy, dz, ok)``; ``ok`` False when the system is singular."""
+    dxp, Z, zp, nz, Qs, rk = _pc_span(D, idx, rA, n)
+    dx, dy, ok = _pc_reduced(W, AE, r1, r2, dxp, Z, zp, nz)
+    if not ok:
+        return dx, dy, np.zeros(idx.size), False
+    dz, ok = _pc_multipliers(W, AE, D, idx, r1, dx, dy, Qs, rk, n)
+    return dx, dy, dz, ok
 
 
 @_jit
