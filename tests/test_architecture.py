@@ -39,13 +39,17 @@ LAYERS: tuple[tuple[str, ...], ...] = (
         "stackik._io",
         "stackik._version",
         "stackik._arrays",
+        "stackik.families",
     ),
 )
 
 #: What the engines may import from stackik (nothing of the orchestration).
 ENGINE_RULES: dict[str, tuple[str, ...]] = {
     "stackik.sqp": ("stackik.sqp",),
-    "stackik._compiled": (),
+    # the user's constraint families, called back in object mode (stackik.families
+    # itself imports nothing of stackik)
+    "stackik._compiled": ("stackik.families",),
+    "stackik.families": (),
     # the compiled twin of the acceptance rule: shares no code with the solvers it checks
     "stackik._compiled.check": ("stackik.check", "stackik._arrays"),
     "stackik.batch": (),

@@ -11,6 +11,7 @@ from stackik._version import __version__
 from stackik.check import PoseCheck, check_pose
 from stackik.clearance import Clearances, clearances
 from stackik.convex import ConvexStartError, convex_start
+from stackik.families import ConstraintFamily, register_family
 from stackik.geometry import GeometryError, PlatformGeometry, Stack
 from stackik.kinematics import (
     frobenius_norm,
@@ -51,6 +52,7 @@ __all__ = [
     "clearances",
     "ConfidenceEllipse",
     "Conditioning",
+    "ConstraintFamily",
     "convex_start",
     "ConvexStartError",
     "draw_perturbations",
@@ -89,6 +91,7 @@ __all__ = [
     "PoseMonteCarlo",
     "random_feasible_poses",
     "random_reachable_targets",
+    "register_family",
     "reproduce",
     "solve_ik",
     "solve_many",

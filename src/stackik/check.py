@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from stackik.clearance import Clearances, clearances, needs_clearances
+from stackik.families import ConstraintFamily, as_families
 from stackik.geometry import Stack, finite_number
 from stackik.kinematics import planar_forward, spatial_forward
 from stackik.loads import Load, Statics, statics
@@ -111,6 +112,9 @@ class PoseCheck:
         every clearance is then a distance, >= 0 by construction).
     clearance_violation : float
         ``max(0, clearance - clearances.minimum)`` [mm] (0 when not computed).
+    family_violation : float
+        ``max(0, -c)`` over the rows of the constraint families checked (in their unit,
+        :meth:`stackik.ConstraintFamily.check_values`; 0 without any).
     """
 
     ok: bool
@@ -123,12 +127,14 @@ class PoseCheck:
     statics: Statics | None = None
     clearances: Clearances | None = None
     clearance_violation: float = 0.0
+    family_violation: float = 0.0
 
     @property
     def violation_mm(self) -> float:
-        """The worst shortfall as a length [mm]: limits and clearances (what ranks the
-        least-violating pose of a solve that found no passing one)."""
-        return max(self.max_violation_mm, self.clearance_violation)
+        """The worst shortfall as a length [mm]: limits, clearances and constraint
+        families (what ranks the least-violating pose of a solve that found no passing
+        one)."""
+        return max(self.max_violation_mm, self.clearance_violation, self.family_violation)
 
 
 def so3_log(R: FloatArray) -> FloatArray:
@@ -146,6 +152,7 @@ def check_pose(
     *,
     obstacles: Sequence[Obstacle] | Obstacle | None = (),
     clearance: float = 0.0,
+    constraints: Sequence[ConstraintFamily] | ConstraintFamily | None = (),
 ) -> PoseCheck:
     """Check a pose against a target, every limit, every force limit and every clearance,
     independently of any solver.
@@ -177,6 +184,11 @@ def check_pose(
         penetration fails). Legs of zero radius that cross exactly are at distance 0, so
         with zero radii, zero thickness, no obstacle and margin 0 the clearances cannot
         fail and are not computed (``PoseCheck.clearances`` is None).
+    constraints : sequence of ConstraintFamily, optional
+        A user's constraint families (:mod:`stackik.families`): each row of
+        :meth:`~stackik.ConstraintFamily.check_values` must be ``>= -FEAS_TOL`` (in the
+        family's unit; ``PoseCheck.family_violation``). These are the user's own
+        definitions: the check has no independent implementation of them.
 
     Raises
     ------
@@ -185,6 +197,7 @@ def check_pose(
         base (every pose would).
     """
     obs = as_obstacles(obstacles)
+    fams = as_families(constraints)
     margin = finite_number(clearance, "clearance")
     if margin < 0:
         raise ValueError(f"clearance: must be >= 0 mm, got {margin}")
@@ -222,5 +235,10 @@ def check_pose(
             v_cl = max(0.0, margin - cl.minimum)
         else:  # no distances of a non-finite pose (it fails on its limits anyway)
             v_cl = float("inf")
-    ok = pose_ok(pos_err, ang_err, max(v_mm, v_cl), finite, ratio)
-    return PoseCheck(ok, pos_err, ang_err, max_v, v_mm, c, ratio, st, cl, v_cl)
+    v_fam = 0.0
+    for f in fams:
+        vals = np.asarray(f.check_values(stack, qa, phi), dtype=float)
+        v_fam = max(v_fam, float(np.max(-vals, initial=0.0)))
+        finite = finite and bool(np.all(np.isfinite(vals)))
+    ok = pose_ok(pos_err, ang_err, max(v_mm, v_cl, v_fam), finite, ratio)
+    return PoseCheck(ok, pos_err, ang_err, max_v, v_mm, c, ratio, st, cl, v_cl, v_fam)

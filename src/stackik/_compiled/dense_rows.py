@@ -16,7 +16,9 @@ the rows of the bodies of non-adjacent platforms
 (:func:`stackik._compiled.leg_pairs.segment_pair_rows`)
 and the leg-force limit rows (:func:`stackik._compiled.force_rows.force_rows`), each its
 family's one definition, called from :func:`dense_rows` alone with the mode's variables
-(``planar``, the plane angle ``phi``). Their exact curvature is not formed (squared
+(``planar``, the plane angle ``phi``); between the last two, the rows of a user's
+constraint families (:mod:`stackik.families`), called back in object mode
+(:func:`family_rows`). Their exact curvature is not formed (squared
 distances, plane distances and leg forces; the limit and self-leg rows keep their exact
 Hessians); the leg-force rows get an SR1 estimate (:func:`force_sr1`).
 """
@@ -27,7 +29,9 @@ import math
 from typing import Any
 
 import numpy as np
+from numba import objmode
 
+from stackik import families as _families
 from stackik._compiled.core import _jit
 from stackik._compiled.force_rows import force_rows
 from stackik._compiled.leg_pairs import segment_pair_rows
@@ -47,7 +51,9 @@ def dense_rows(q: FloatArray, P: Any, planar: bool, phi: float) -> tuple[FloatAr
     bodies of non-adjacent platforms (``P.leg_pairs``:
     :attr:`stackik.formulation.leg_pairs.LegPairRows.kernel_args`), then the leg-force
     limit rows (``P.forces``: :attr:`stackik.formulation.forces.ForceLimits.kernel_args`;
-    the limited platforms are its entry 9; last, where :func:`force_sr1` takes them)."""
+    the limited platforms are its entry 9; last, where :func:`force_sr1` takes them);
+    before the force rows, the constraint families' rows (``P.families``, a token:
+    :func:`family_rows`)."""
     cO, JO = obstacle_rows(q, *P.obstacles, P.ob_margin, P.ob_L, planar, phi)  # type: ignore[call-arg]
     if P.leg_pairs[2].shape[0] > 0:
         cP, JP = segment_pair_rows(q, *P.leg_pairs, planar, phi, True)  # type: ignore[call-arg]
@@ -55,12 +61,30 @@ def dense_rows(q: FloatArray, P: Any, planar: bool, phi: float) -> tuple[FloatAr
             cO, JO = cP, JP
         else:
             cO, JO = np.concatenate((cO, cP)), np.vstack((JO, JP))
+    if P.families != 0:
+        cU, JU = family_rows(P.families, q)
+        if cO.size == 0:
+            cO, JO = cU, JU
+        else:
+            cO, JO = np.concatenate((cO, cU)), np.vstack((JO, JU))
     if P.forces[9].size == 0:
         return cO, JO
     cF, JF = force_rows(q, *P.forces, planar, phi)  # type: ignore[call-arg]
     if cO.size == 0:
         return cF, JF
     return np.concatenate((cO, cF)), np.vstack((JO, JF))
+
+
+@_jit
+def family_rows(token: int, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The rows of the constraint families named ``token`` at the raw pose ``q`` (n, k):
+    :func:`stackik.families.kernel_rows`, called in object mode (Python: a family is a
+    user's class, with no compiled code of its own and nothing to recompile), values
+    (rows,) and Jacobian (rows, k n) against ``q``."""
+    qc = np.ascontiguousarray(q)
+    with objmode(c="float64[::1]", J="float64[:, ::1]"):
+        c, J = _families.kernel_rows(token, qc)
+    return c, J
 
 
 @_jit

@@ -71,6 +71,7 @@ class PlanarData(NamedTuple):
     forces: Any  #: the force rows' kernel arrays (ForceLimits.kernel_args)
     leg_pairs: Any  #: non-adjacent leg-pair rows' kernel arguments (LegPairRows.kernel_args)
     n_dense: int  #: number of dense rows (0: none; :mod:`stackik._compiled.dense_rows`)
+    families: int  #: token of the constraint families' rows (0: none; stackik.families)
 
 
 @_jit
@@ -79,7 +80,7 @@ def _with_fscale(P0: Any, fscale: float) -> Any:
     return PlanarData(P0.xs, P0.cs, P0.es, P0.target, fscale, P0.c0, P0.w, P0.tf, P0.tz, P0.bf,
                       P0.bz, P0.ls0, P0.lmin2, P0.lmax2, P0.sj, P0.feasible, P0.obstacles,
                       P0.ob_margin, P0.ob_L, P0.ob_phi, P0.forces, P0.leg_pairs,
-                      P0.n_dense)  # fmt: skip
+                      P0.n_dense, P0.families)  # fmt: skip
 
 
 @_jit
@@ -88,7 +89,7 @@ def _with_target(P0: Any, target: Any) -> Any:
     return PlanarData(P0.xs, P0.cs, P0.es, target, P0.fscale, P0.c0, P0.w, P0.tf, P0.tz, P0.bf,
                       P0.bz, P0.ls0, P0.lmin2, P0.lmax2, P0.sj, P0.feasible, P0.obstacles,
                       P0.ob_margin, P0.ob_L, P0.ob_phi, P0.forces, P0.leg_pairs,
-                      P0.n_dense)  # fmt: skip
+                      P0.n_dense, P0.families)  # fmt: skip
 
 
 FloatArray = np.ndarray

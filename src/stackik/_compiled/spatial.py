@@ -90,6 +90,7 @@ class SpatialData(NamedTuple):
     forces: Any  #: the force rows' kernel arrays (ForceLimits.kernel_args)
     leg_pairs: Any  #: non-adjacent leg-pair rows' kernel arguments (LegPairRows.kernel_args)
     n_dense: int  #: number of dense rows (0: none; :mod:`stackik._compiled.dense_rows`)
+    families: int  #: token of the constraint families' rows (0: none; stackik.families)
 
 
 # =========================================================================================
@@ -600,7 +601,7 @@ def _with_fscale(P0: Any, fscale: float) -> Any:
                        P0.top, P0.base, P0.leg_min, P0.leg_max, P0.sin_joint,
                        P0.feasible, P0.pairs, P0.rho, P0.pair_scale, P0.obstacles,
                        P0.ob_margin, P0.ob_L, P0.forces, P0.leg_pairs,
-                       P0.n_dense)  # fmt: skip
+                       P0.n_dense, P0.families)  # fmt: skip
 
 
 @_jit
@@ -610,7 +611,7 @@ def _with_target(P0: Any, position: Any, rotation: Any) -> Any:
                        P0.top, P0.base, P0.leg_min, P0.leg_max, P0.sin_joint,
                        P0.feasible, P0.pairs, P0.rho, P0.pair_scale, P0.obstacles,
                        P0.ob_margin, P0.ob_L, P0.forces, P0.leg_pairs,
-                       P0.n_dense)  # fmt: skip
+                       P0.n_dense, P0.families)  # fmt: skip
 
 
 # =========================================================================================

@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from stackik._arrays import readonly
+from stackik.families import FamilyRows, as_families
 from stackik.formulation.clearance import Clearance, SelfLegs, clearance_of
 from stackik.formulation.forces import ForceLimits, ForceResiduals, force_limited
 from stackik.formulation.modes import mode_of
@@ -86,14 +87,13 @@ class Problem:
         clearance: float = 0.0,
         obstacles: Any = (),
         force_weight: float = 0.0,
+        constraints: Any = (),
     ) -> None:
         self.stack = stack
         self.load = load
         self.target = target
         self.mode = mode_of(target)
         n = stack.n
-        self.n = n
-        self.k = self.mode.k
         self.objective = objective
         self.x_ref = x_ref
         if objective == "weighted":
@@ -126,6 +126,9 @@ class Problem:
             rows = ForceResiduals(stack, load, phi, weight=force_weight)
         if rows is None and force_limited(stack):
             rows = ForceLimits(stack, load, phi)
+        fams = as_families(constraints)
+        #: the rows of the user's constraint families (stackik.families), or None
+        self.families: FamilyRows | None = FamilyRows(stack, fams, phi) if fams else None
         #: the leg-force limit rows (appended after the limits), or None: no finite force_max
         self.forces = rows if force_limited(stack) else None
         #: objective="force" or a force_weight: the scaled leg forces as residuals
@@ -158,6 +161,16 @@ class Problem:
         return r * c, Jr * self.xs * c
 
     @property
+    def n(self) -> int:
+        """Number of platforms."""
+        return self.stack.n
+
+    @property
+    def k(self) -> int:
+        """Variables per platform: 3 planar, 6 spatial."""
+        return self.mode.k
+
+    @property
     def planar(self) -> bool:
         """Planar mode (3 variables per platform), else spatial (6)."""
         return self.mode.planar
@@ -173,9 +186,11 @@ class Problem:
         from stackik.check import check_pose
 
         cl = self.clearance
+        fams = () if self.families is None else self.families.families
         return check_pose(
-            self.stack, self.target, q, self.load, obstacles=cl.obstacles, clearance=cl.margin
-        )
+            self.stack, self.target, q, self.load, obstacles=cl.obstacles, clearance=cl.margin,
+            constraints=fams,
+        )  # fmt: skip
 
     def without_force_limits(self) -> Problem:
         """This problem without its leg-force limit rows (a shallow copy, its own
@@ -208,9 +223,11 @@ class Problem:
     def dense_rows(self) -> bool:
         """Whether the problem has rows outside the per-platform blocks of the compiled
         kernels, without second derivatives: leg-force limits, obstacle rows, non-adjacent
-        leg-pair rows, planar self-leg rows (the SQP engine takes them in its dense form)."""
+        leg-pair rows, planar self-leg rows, constraint families (the SQP engine takes them
+        in its dense form)."""
         return (
             self.forces is not None
+            or self.families is not None
             or self.clearance.obstacle_rows is not None
             or self.clearance.leg_pairs is not None
             or (self.planar and self.self_legs is not None)
@@ -253,14 +270,21 @@ class Problem:
         return out
 
     @property
+    def dense_families(self) -> tuple[Any, ...]:
+        """The row families after the per-platform blocks, in the order every engine
+        takes them (:mod:`stackik._compiled.dense_rows`): obstacle rows, non-adjacent
+        leg-pair rows, constraint families, leg-force rows (None where absent); each
+        ``rows(q) -> (values, Jacobian against the raw pose)`` with a ``size``."""
+        cl = self.clearance
+        return (cl.obstacle_rows, cl.leg_pairs, self.families, self.forces)
+
+    @property
     def n_ineq(self) -> int:
         """Number of inequality rows: the 24 n limits, the self-leg rows, the obstacle
-        rows, the non-adjacent leg-pair rows, the force rows."""
+        rows, the non-adjacent leg-pair rows, the constraint families' rows, the force
+        rows."""
         sl = 0 if self.self_legs is None else self.n * self.self_legs.m
-        cl = self.clearance
-        extra = sum(
-            0 if f is None else f.size for f in (cl.obstacle_rows, cl.leg_pairs, self.forces)
-        )
+        extra = sum(0 if f is None else f.size for f in self.dense_families)
         return int(self.cs.size + sl + extra)
 
     # --- index arrays (built on first use) ------------------------------------------
@@ -379,15 +403,11 @@ class Problem:
             Jin = block_jacobian(Jc, readonly(self.cs), readonly(self.xs))
             if self.self_legs is not None:
                 cin, Jin = self._with_self_legs(q, cin, Jin)
-        for dense in (self.clearance.obstacle_rows, self.clearance.leg_pairs):
+        for dense in self.dense_families:
             if dense is not None:  # the compiled interior points' dense rows, in their order
                 c_d, J_d = dense(q)
                 cin = np.concatenate([cin, c_d])
                 Jin = np.vstack([Jin, J_d * self.xs])
-        if self.forces is not None:
-            c_f, J_f = self.forces(q)
-            cin = np.concatenate([cin, c_f])
-            Jin = np.vstack([Jin, J_f * self.xs])
         f, g = self._objective(u, q, spatial_ch)
         out = (f, g, ceq, Jeq, cin, Jin)
         self._cache = (u.copy(), out)

@@ -80,16 +80,15 @@ def spatial_problem_arrays(prob: Any) -> SpatialData:
         no_force_rows(st) if fr is None else fr.kernel_args,
         no_leg_pair_rows(st) if lp is None else lp.kernel_args,
         n_dense(prob),
+        0 if prob.families is None else prob.families.token,
     )
 
 
 def n_dense(prob: Problem) -> int:
     """Number of the dense rows of ``prob`` the compiled interior points carry (obstacle,
-    non-adjacent leg-pair and leg-force rows: :mod:`stackik._compiled.dense_rows`)."""
-    cl = prob.clearance
-    return sum(
-        0 if f is None else int(f.size) for f in (cl.obstacle_rows, cl.leg_pairs, prob.forces)
-    )
+    non-adjacent leg-pair, constraint-family and leg-force rows:
+    :mod:`stackik._compiled.dense_rows`)."""
+    return sum(0 if f is None else int(f.size) for f in prob.dense_families)
 
 
 def problem_arrays(prob: Any) -> PlanarData:
@@ -134,6 +133,7 @@ def problem_arrays(prob: Any) -> PlanarData:
         no_force_rows(prob.stack) if fr is None else fr.kernel_args,
         no_leg_pair_rows(prob.stack) if lp is None else lp.kernel_args,
         n_dense(prob),
+        0 if prob.families is None else prob.families.token,
     )
 
 
@@ -294,12 +294,13 @@ def ip_starts(
             cl = prob.clearance
             if chk.ok and (
                 prob.forces is not None
+                or prob.families is not None
                 or clearances_can_fail(
                     prob.stack, cl.obstacles, cl.margin, q, prob.mode.phi(prob.target)
                 )
             ):
-                # bodies with a size, obstacles, a margin or a force limit: the twin checks
-                # none of them
+                # bodies with a size, obstacles, a margin, a force limit or constraint
+                # families: the twin checks none of them
                 chk = prob.check(q)
             # the objective at the polished point, unscaled (f = objective / fscale)
             obj = objs[j] * prob.fscale
@@ -428,7 +429,8 @@ def folds_only(chk: Any, margin: float) -> bool:
     c = chk.clearances
     if chk.ok or c is None or not margin - c.non_adjacent > FEAS_TOL:
         return False
-    others = max([chk.max_violation_mm] + [margin - d for d in (c.self_legs, c.adjacent_legs)]
+    others = max([chk.max_violation_mm, chk.family_violation]
+                 + [margin - d for d in (c.self_legs, c.adjacent_legs)]
                  + [margin - d for d in c.obstacles])  # fmt: skip
     return pose_ok(chk.position_error, chk.angle_error, others, True, chk.peak_force_ratio)
 

@@ -671,6 +671,9 @@ class IpoptMethod(Method):
             return 'method "ipopt" does not take objective="force"; use "auto", "slsqp" or "sqp"'
         if prob.force_weight > 0.0:
             return 'method "ipopt" does not take force_weight; use "auto", "slsqp" or "sqp"'
+        if prob.families is not None:
+            return ('method "ipopt" does not take constraint families (its rows are symbolic); '
+                    'use "auto", "ip", "sqp" or "slsqp"')  # fmt: skip
         return None  # run_ipopt reports what it cannot do as an OptionError
 
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:

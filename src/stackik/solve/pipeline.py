@@ -53,6 +53,7 @@ def solve_ik(
     obstacles: Any = (),
     clearance: float = 0.0,
     force_weight: float = 0.0,
+    constraints: Any = (),
 ) -> IKResult:
     """Solve the inverse kinematics of a stack for one target.
 
@@ -157,6 +158,12 @@ def solve_ik(
         ``"slsqp"`` (the ``"auto"`` choice), ``"sqp"``, ``"trust-constr"``; ``"ip"`` and
         ``"ipopt"`` refuse it. ``objective_value`` is the total; ``frobenius_norm`` stays
         the pose's FN.
+    constraints : ConstraintFamily or sequence of ConstraintFamily, optional
+        A user's row families ``c(q) >= 0`` (:class:`stackik.ConstraintFamily`, one
+        definition per mode): ``"ip"`` (the default), ``"sqp"``, ``"slsqp"`` and
+        ``"trust-constr"`` keep them and the check enforces them (a pose with a row below
+        ``-FEAS_TOL`` in the family's unit is not a success); ``"ipopt"`` refuses them.
+        See :mod:`stackik.families`.
     blas_threads : int or None
         BLAS threads during the solve (default 1: the matrices are small and threads only
         contend, 5x slower at n = 32 on a loaded 2-core machine); None leaves the process
@@ -179,7 +186,7 @@ def solve_ik(
             starts=starts, rng=rng, options=options, sigma_t=sigma_t,
             sigma_theta=sigma_theta, start=start, max_time=max_time, t_start=t_start,
             blas=blas, load=load, obstacles=obstacles, clearance=clearance,
-            force_weight=force_weight,
+            force_weight=force_weight, constraints=constraints,
         )  # fmt: skip
         return _result(req, _run(req))
     finally:

@@ -82,6 +82,7 @@ class Request:
         prob = Problem(
             self.stack, self.target, self.objective, self.weights, load=p.load,
             obstacles=cl.obstacles, clearance=cl.margin,
+            constraints=() if p.families is None else p.families.families,
         )  # fmt: skip
         sigma_theta = None if self.weights is None else self.weights[1]  # (its spread only)
         planar = self.mode.planar
@@ -179,6 +180,7 @@ def build_request(
     obstacles: Any = (),
     clearance: float = 0.0,
     force_weight: float = 0.0,
+    constraints: Any = (),
 ) -> Request:
     """Validate the arguments of :func:`stackik.solve_ik` and formulate the problem."""
     budget = _check_scalars(stack, max_time, objective, starts, start)
@@ -206,7 +208,7 @@ def build_request(
         raise ValueError(f"load: expected a stackik.Load or None, got {type(load).__name__}")
     prob = Problem(
         stack, target, objective, weights, load=load, obstacles=obstacles,
-        clearance=clearance, force_weight=weight,
+        clearance=clearance, force_weight=weight, constraints=constraints,
     )  # fmt: skip
     reason = chosen.supports(prob)
     if reason is not None:

@@ -227,7 +227,11 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     # pose or no pose that carries the load (not an unreachable target): the SQP engine
     # decides, with the rows
     prob = req.problem
-    dense = prob.clearance.obstacle_rows is not None or prob.forces is not None
+    dense = (
+        prob.clearance.obstacle_rows is not None
+        or prob.forces is not None
+        or prob.families is not None
+    )
     stalled = not dense and all(s in (RunStatus.STALLED, RunStatus.SKIPPED) for s in batch.statuses)
     queue = plan.queue
     if stalled:

@@ -1,0 +1,245 @@
+"""A constraint family added from outside the package (stackik.families): one definition
+per mode, solved by the compiled interior point and the SQP engine, planar and spatial,
+and enforced by the check.
+
+The test-only family: every plate's origin at least ``h`` mm above the base plane.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import stackik
+from stackik import ConstraintFamily, PlanarTarget
+from stackik.families import FamilyRows, family, family_names, kernel_rows, register_family
+from stackik.formulation import Problem
+
+
+class PlateHeight(ConstraintFamily):
+    """Every plate's origin at least ``h`` [mm] above the base plane: one row per
+    platform, ``z_i - h >= 0`` [mm]."""
+
+    name = "test_plate_height"
+
+    def __init__(self, h: float) -> None:
+        self.h = float(h)
+
+    def planar_rows(self, stack, q, phi):
+        n = q.shape[0]
+        c = np.empty(n)
+        J = np.zeros((n, 3 * n))
+        for i in range(n):  # plate i's origin: the end effector of platforms 0..i
+            y = stackik.planar_forward(q[: i + 1])
+            c[i] = y[1] - self.h
+            J[i, : 3 * (i + 1)] = stackik.planar_jacobian(q[: i + 1])[1]
+        return c, J
+
+    def spatial_rows(self, stack, q):
+        n = q.shape[0]
+        c = np.empty(n)
+        J = np.zeros((n, 6 * n))
+        for i in range(n):
+            P, _ = stackik.spatial_forward(q[: i + 1])
+            c[i] = P[2] - self.h
+            J[i, : 6 * (i + 1)] = stackik.spatial_jacobian(q[: i + 1])[2]
+        return c, J
+
+    def check_values(self, stack, q, phi):
+        """Independent of the rows: the plate origins of the forward kinematics."""
+        if phi is None:
+            return stackik.spatial_plate_origins(q)[1:, 2] - self.h
+        return stackik.planar_plate_origins(q)[1:, 1] - self.h
+
+
+register_family(PlateHeight)
+
+PLANAR = PlanarTarget(600.0, 1000.0, -1.57)
+
+
+def _spatial_target(stack):
+    """The paper's first target as a spatial one (its free optimum lifts plate 0 to
+    350 mm, 100 mm short of its legs' reach: 25 mm more is feasible)."""
+    return PLANAR.to_spatial()
+
+
+def _fd_jacobian(fun, x, h):
+    """Central differences of ``fun`` at ``x`` with step ``h``."""
+    cols = []
+    for a in range(x.size):
+        e = np.zeros(x.size)
+        e[a] = h
+        cols.append((fun(x + e) - fun(x - e)) / (2 * h))
+    return np.array(cols).T
+
+
+@pytest.fixture(scope="module")
+def stack():
+    return stackik.Stack.reference(4)
+
+
+@pytest.mark.parametrize("planar", [True, False])
+def test_family_rows_jacobian_matches_finite_differences(stack, planar):
+    """Problem's inequality rows with the family: the family's block of the Jacobian
+    (scaled variables) against central differences of the rows' values."""
+    rng = np.random.default_rng(3)
+    target = PLANAR if planar else _spatial_target(stack)
+    prob = Problem(stack, target, "frobenius", None, constraints=[PlateHeight(50.0)])
+    k = 3 if planar else 6
+    q = np.tile([20.0, 300.0, 0.1] if planar else [10.0, -5.0, 300.0, 0.05, 0.02, -0.03],
+                (stack.n, 1)) + rng.normal(0, [1.0] * (k - 1) + [0.01], (stack.n, k))  # fmt: skip
+    u = prob.u_of(q)
+    rows = slice(prob.n_ineq - stack.n, prob.n_ineq)  # the family's rows are last here
+    _, _, _, _, cin, Jin = prob.evaluate(u)
+    h = 1e-6  # scaled variables are O(1): truncation O(h^2), rounding O(eps / h)
+    fd = _fd_jacobian(lambda v: prob.evaluate(v)[4][rows], u, h)
+    scale = max(1.0, float(np.abs(Jin[rows]).max()))
+    np.testing.assert_allclose(Jin[rows], fd, atol=1e-6 * scale, rtol=0)
+    # the values: z - h over the longest leg (the family's row scale)
+    z = (stackik.planar_plate_origins(q)[1:, 1] if planar
+         else stackik.spatial_plate_origins(q)[1:, 2])  # fmt: skip
+    np.testing.assert_allclose(cin[rows], (z - 50.0) / stack.leg_max.max(), rtol=1e-12)
+
+
+def _solve_pair(stack, target, method):
+    free = stackik.solve_ik(stack, target, method=method, rng=0)
+    assert free.success
+    z = (stackik.planar_plate_origins(free.q)[1:, 1] if isinstance(target, PlanarTarget)
+         else stackik.spatial_plate_origins(free.q)[1:, 2])  # fmt: skip
+    h = float(z.min()) + 25.0  # the free optimum's lowest plate is 25 mm too low
+    fam = PlateHeight(h)
+    held = stackik.solve_ik(stack, target, method=method, rng=0, constraints=[fam])
+    return free, held, fam, h
+
+
+@pytest.mark.parametrize("method", ["ip", "sqp"])
+@pytest.mark.parametrize("planar", [True, False])
+def test_ip_and_sqp_keep_the_family_and_the_check_enforces_it(stack, method, planar):
+    target = PLANAR if planar else _spatial_target(stack)
+    free, held, fam, h = _solve_pair(stack, target, method)
+    assert held.success, held.message
+    assert held.method == method  # solved by the engine asked, not handed over
+    phi = target.phi if planar else None
+    values = fam.check_values(stack, held.q, phi)
+    assert values.min() >= -stackik.check.FEAS_TOL
+    assert held.frobenius_norm >= free.frobenius_norm * (1 - 1e-9)
+    # the check with the family refuses the free optimum and accepts the held pose
+    bad = stackik.check_pose(stack, target, free.q, constraints=[fam])
+    assert not bad.ok
+    assert bad.family_violation == pytest.approx(25.0, rel=1e-9)
+    assert bad.violation_mm >= 25.0 - 1e-9
+    good = stackik.check_pose(stack, target, held.q, constraints=fam)
+    assert good.ok and good.family_violation <= stackik.check.FEAS_TOL
+    # without the family the free pose is fine
+    assert stackik.check_pose(stack, target, free.q).ok
+
+
+@pytest.mark.parametrize("planar", [True, False])
+def test_ip_and_sqp_agree_on_the_held_optimum(stack, planar):
+    """Both engines, from the same starts, end at poses whose FN agree to 1e-5
+    (the family binds: the lowest plate sits at h)."""
+    target = PLANAR if planar else _spatial_target(stack)
+    _, held_ip, fam, h = _solve_pair(stack, target, "ip")
+    held_sqp = stackik.solve_ik(stack, target, method="sqp", rng=0, constraints=[fam])
+    phi = target.phi if planar else None
+    for r in (held_ip, held_sqp):
+        assert r.success
+        assert fam.check_values(stack, r.q, phi).min() == pytest.approx(0.0, abs=1e-4)
+    assert held_sqp.frobenius_norm == pytest.approx(held_ip.frobenius_norm, rel=1e-5)
+
+
+def test_default_method_keeps_the_family(stack):
+    free = stackik.solve_ik(stack, PLANAR)
+    h = float(stackik.planar_plate_origins(free.q)[1:, 1].min()) + 25.0
+    r = stackik.solve_ik(stack, PLANAR, constraints=[PlateHeight(h)])
+    assert r.success
+    assert stackik.planar_plate_origins(r.q)[1:, 1].min() >= h - stackik.check.FEAS_TOL
+
+
+def test_a_family_no_pose_meets_is_not_a_success(stack):
+    """Plates above 10 m on a target at 1 m: no pose passes; the result says so."""
+    r = stackik.solve_ik(stack, PLANAR, constraints=[PlateHeight(1e4)], max_time=5.0)
+    assert not r.success
+    assert r.status != stackik.IKStatus.SUCCESS
+
+
+def test_ipopt_refuses_families_and_bad_input_is_a_clear_error(stack):
+    with pytest.raises(ValueError, match="ipopt"):
+        stackik.solve_ik(stack, PLANAR, method="ipopt", constraints=[PlateHeight(0.0)])
+    with pytest.raises(ValueError, match="ConstraintFamily"):
+        stackik.solve_ik(stack, PLANAR, constraints=[object()])
+    with pytest.raises(ValueError, match="ConstraintFamily"):
+        stackik.check_pose(stack, PLANAR, np.zeros((stack.n, 3)), constraints=["h"])
+
+    class WrongShape(PlateHeight):
+        def planar_rows(self, stack, q, phi):
+            c, J = super().planar_rows(stack, q, phi)
+            return c, J[:, :-1]
+
+    with pytest.raises(ValueError, match="Jacobian of shape"):
+        Problem(stack, PLANAR, "frobenius", None, constraints=[WrongShape(0.0)])
+
+    class PlanarOnly(ConstraintFamily):
+        def planar_rows(self, stack, q, phi):
+            return np.zeros(1), np.zeros((1, q.size))
+
+    with pytest.raises(ValueError, match="no spatial rows"):
+        stackik.solve_ik(stack, _spatial_target(stack), constraints=[PlanarOnly()])
+
+
+def test_registry_by_name():
+    assert "test_plate_height" in family_names()
+    f = family("test_plate_height", h=12.0)
+    assert isinstance(f, PlateHeight) and f.h == 12.0
+    with pytest.raises(ValueError, match="unknown constraint family"):
+        family("no_such_family")
+
+    class Other(ConstraintFamily):
+        name = "test_plate_height"
+
+    with pytest.raises(ValueError, match="taken"):
+        register_family(Other)
+    with pytest.raises(ValueError, match="subclass"):
+        register_family(int)  # type: ignore[arg-type]
+
+
+def test_kernel_rows_token_lives_with_its_rows(stack):
+    rows = FamilyRows(stack, (PlateHeight(10.0),), float(PLANAR.phi))
+    q = np.tile([20.0, 300.0, 0.1], (stack.n, 1))
+    c, J = kernel_rows(rows.token, q)
+    c2, J2 = rows(q)
+    np.testing.assert_array_equal(c, c2)
+    np.testing.assert_array_equal(J, J2)
+    assert c.flags.c_contiguous and J.flags.c_contiguous
+    token = rows.token
+    del rows
+    import gc
+
+    gc.collect()
+    with pytest.raises(RuntimeError, match="gone"):
+        kernel_rows(token, q)
+
+
+def test_slsqp_keeps_the_family(stack):
+    free, held, fam, h = _solve_pair(stack, PLANAR, "slsqp")
+    assert held.success and held.method == "slsqp"
+    assert fam.check_values(stack, held.q, PLANAR.phi).min() >= -stackik.check.FEAS_TOL
+
+
+def test_the_guide_example_runs_and_says_what_it_prints(capsys):
+    """docs/guide/constraints.md's example, run as written; its comments give the
+    printed values."""
+    import re
+    from pathlib import Path
+
+    page = Path(__file__).resolve().parents[1] / "docs" / "guide" / "constraints.md"
+    code = re.search(r"```python\n(.*?)```", page.read_text(), re.S)
+    assert code is not None
+    exec(compile(code.group(1), str(page), "exec"), {"__name__": "guide_example"})
+    lines = capsys.readouterr().out.split("\n")
+    z_free, fn_free = map(float, lines[0].split())
+    z_held, fn_held = map(float, lines[1].split())
+    assert z_free == pytest.approx(376.8, abs=0.05) and z_held >= 400.0 - 1e-6
+    assert fn_held > fn_free
+    ok, viol = lines[2].split()
+    assert ok == "False" and float(viol) == pytest.approx(23.2, abs=0.05)
