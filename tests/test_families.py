@@ -9,50 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from plate_height import PlateHeight
 
 import stackik
 from stackik import ConstraintFamily, PlanarTarget
 from stackik.families import FamilyRows, family, family_names, kernel_rows, register_family
 from stackik.formulation import Problem
-
-
-class PlateHeight(ConstraintFamily):
-    """Every plate's origin at least ``h`` [mm] above the base plane: one row per
-    platform, ``z_i - h >= 0`` [mm]."""
-
-    name = "test_plate_height"
-
-    def __init__(self, h: float) -> None:
-        self.h = float(h)
-
-    def planar_rows(self, stack, q, phi):
-        n = q.shape[0]
-        c = np.empty(n)
-        J = np.zeros((n, 3 * n))
-        for i in range(n):  # plate i's origin: the end effector of platforms 0..i
-            y = stackik.planar_forward(q[: i + 1])
-            c[i] = y[1] - self.h
-            J[i, : 3 * (i + 1)] = stackik.planar_jacobian(q[: i + 1])[1]
-        return c, J
-
-    def spatial_rows(self, stack, q):
-        n = q.shape[0]
-        c = np.empty(n)
-        J = np.zeros((n, 6 * n))
-        for i in range(n):
-            P, _ = stackik.spatial_forward(q[: i + 1])
-            c[i] = P[2] - self.h
-            J[i, : 6 * (i + 1)] = stackik.spatial_jacobian(q[: i + 1])[2]
-        return c, J
-
-    def check_values(self, stack, q, phi):
-        """Independent of the rows: the plate origins of the forward kinematics."""
-        if phi is None:
-            return stackik.spatial_plate_origins(q)[1:, 2] - self.h
-        return stackik.planar_plate_origins(q)[1:, 1] - self.h
-
-
-register_family(PlateHeight)
+from tests import fd
 
 PLANAR = PlanarTarget(600.0, 1000.0, -1.57)
 
@@ -63,25 +26,17 @@ def _spatial_target(stack):
     return PLANAR.to_spatial()
 
 
-def _fd_jacobian(fun, x, h):
-    """Central differences of ``fun`` at ``x`` with step ``h``."""
-    cols = []
-    for a in range(x.size):
-        e = np.zeros(x.size)
-        e[a] = h
-        cols.append((fun(x + e) - fun(x - e)) / (2 * h))
-    return np.array(cols).T
-
-
 @pytest.fixture(scope="module")
 def stack():
     return stackik.Stack.reference(4)
 
 
+@pytest.mark.derivatives
 @pytest.mark.parametrize("planar", [True, False])
 def test_family_rows_jacobian_matches_finite_differences(stack, planar):
     """Problem's inequality rows with the family: the family's block of the Jacobian
-    (scaled variables) against central differences of the rows' values."""
+    (scaled variables) against central differences of the rows' values (tolerance from
+    tests/fd.py's scale model, the terms' scale of each row)."""
     rng = np.random.default_rng(3)
     target = PLANAR if planar else _spatial_target(stack)
     prob = Problem(stack, target, "frobenius", None, constraints=[PlateHeight(50.0)])
@@ -91,10 +46,10 @@ def test_family_rows_jacobian_matches_finite_differences(stack, planar):
     u = prob.u_of(q)
     rows = slice(prob.n_ineq - stack.n, prob.n_ineq)  # the family's rows are last here
     _, _, _, _, cin, Jin = prob.evaluate(u)
-    h = 1e-6  # scaled variables are O(1): truncation O(h^2), rounding O(eps / h)
-    fd = _fd_jacobian(lambda v: prob.evaluate(v)[4][rows], u, h)
-    scale = max(1.0, float(np.abs(Jin[rows]).max()))
-    np.testing.assert_allclose(Jin[rows], fd, atol=1e-6 * scale, rtol=0)
+    num = fd.central(lambda v: prob.evaluate(v)[4][rows].copy(), u)
+    fd.assert_derivative_close(
+        Jin[rows], num, f_scale=fd.term_scale(cin[rows], num), what="family rows"
+    )
     # the values: z - h over the longest leg (the family's row scale)
     z = (stackik.planar_plate_origins(q)[1:, 1] if planar
          else stackik.spatial_plate_origins(q)[1:, 2])  # fmt: skip
