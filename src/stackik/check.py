@@ -8,6 +8,10 @@ acceptance rule; the compiled twin (:mod:`stackik._compiled.check`) imports only
 checks the limits and the target, not the forces or clearances: those are needed only
 with a load or force limit, or with obstacles, a leg radius, a plate thickness or a
 margin, see :func:`stackik.clearance.needs_clearances`).
+
+A user's constraint families (:mod:`stackik.families`) are the one exception to the
+independence: the check judges their own ``check_values`` (the rows the solvers see,
+unless the family gives an independent form), as the family's author defined them.
 """
 
 from __future__ import annotations
