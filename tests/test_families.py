@@ -198,3 +198,30 @@ def test_the_guide_example_runs_and_says_what_it_prints(capsys):
     assert fn_held > fn_free
     ok, viol = lines[2].split()
     assert ok == "False" and float(viol) == pytest.approx(23.2, abs=0.05)
+
+
+@pytest.mark.parametrize(("mode", "planar"), [("fast", True), ("global", True), ("fast", False)])
+def test_solve_path_keeps_the_family_at_every_waypoint(stack, mode, planar):
+    """A path whose least-FN poses have their lowest plate below h on some waypoints:
+    with the family every waypoint keeps it (the full check), no step goes over
+    max_jump, and the path completes."""
+    from stackik.paths import interpolate_targets
+
+    ends = [PLANAR, PlanarTarget(450.0, 1100.0, -1.2)]
+    ts = interpolate_targets(ends if planar else [t.to_spatial() for t in ends], steps=8)
+    plain = stackik.solve_path(stack, ts, mode=mode)
+    assert plain.success
+    phi = PLANAR.phi if planar else None
+    fam = PlateHeight(0.0)
+    low = [float(fam.check_values(stack, q, phi).min()) for q in plain.q]
+    fam = PlateHeight(min(low) + 15.0)
+    assert sum(z < fam.h for z in low) >= 2  # the family binds on some waypoints
+    path = stackik.solve_path(stack, ts, mode=mode, constraints=[fam])
+    assert path.success and path.completed == len(ts)
+    d = np.abs(np.diff(path.q, axis=0))
+    k = 2 if planar else 3
+    assert np.all(d[..., :k] <= 50.0 + 1e-9) and np.all(d[..., k:] <= 0.25 + 1e-12)
+    for t, q in zip(ts, path.q):
+        assert stackik.check_pose(stack, t, q, constraints=[fam]).ok
+    with pytest.raises(ValueError, match="ConstraintFamily"):
+        stackik.solve_path(stack, ts, constraints=[1.0])

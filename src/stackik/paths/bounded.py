@@ -99,6 +99,7 @@ def bounded_ip(
     obstacles: Any = (),
     clearance: float = 0.0,
     load: Any = None,
+    constraints: Any = (),
 ) -> FloatArray | None:
     """:func:`bounded_step`'s problem (the same objective, box and transit objective) on
     the compiled interior point (:func:`stackik._compiled.barrier.ip_box`, exact Hessians,
@@ -110,7 +111,8 @@ def bounded_ip(
     from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
     prob = Problem(
-        stack, target, "frobenius", None, obstacles=obstacles, clearance=clearance, load=load
+        stack, target, "frobenius", None, obstacles=obstacles, clearance=clearance, load=load,
+        constraints=constraints,
     )
     P = problem_arrays(prob) if prob.planar else spatial_problem_arrays(prob)
     lo, hi = _box(prob, q_prev, max_jump, IP_BOX_SHRINK)
@@ -150,6 +152,7 @@ def bounded_step(
     obstacles: Any = (),
     clearance: float = 0.0,
     load: Any = None,
+    constraints: Any = (),
 ) -> FloatArray | None:
     """Least-FN pose of ``target`` within ``max_jump`` of ``q_prev``, or None.
 
@@ -171,8 +174,8 @@ def bounded_step(
         Pose to approach (see above).
     max_time : float
         Wall-time budget [s].
-    obstacles, clearance, load
-        As :func:`stackik.solve_ik`'s: the step has the same self-leg, obstacle and
+    obstacles, clearance, load, constraints
+        As :func:`stackik.solve_ik`'s: the step has the same self-leg, obstacle, family and
         leg-force rows (:mod:`stackik.formulation.clearance`,
         :mod:`stackik.formulation.forces`), so it goes around an obstacle or off a force
         limit within the box (:func:`bounded_ip`'s compiled problem has the obstacle rows
@@ -185,7 +188,8 @@ def bounded_step(
         stopped on bad numbers.
     """
     prob = Problem(
-        stack, target, "frobenius", None, obstacles=obstacles, clearance=clearance, load=load
+        stack, target, "frobenius", None, obstacles=obstacles, clearance=clearance, load=load,
+        constraints=constraints,
     )
     exact = prob.fast is not None and not prob.dense_rows
     evaluate, hessian = prob.evaluate, prob.lagrangian_hessian

@@ -116,6 +116,9 @@ class Tracker:
     clearance: float = 0.0
     #: the load the leg forces carry: a pose is accepted only within the force limits
     load: Any = None
+    #: the user's constraint families (stackik.families): the steps' problems have their
+    #: rows, and a pose is accepted only when the full check passes too
+    constraints: tuple[Any, ...] = ()
 
     def __post_init__(self) -> None:
         self.scale = jump_scale(self.max_jump, 3 if self.planar else 6)
@@ -136,9 +139,14 @@ class Tracker:
 
     @property
     def _kw(self) -> dict[str, Any]:
-        """``obstacles``, ``clearance`` and ``load`` as keywords (of ``Problem``,
-        ``solve_ik``, ``check_pose`` and the bounded steps)."""
-        return {"obstacles": self.obstacles, "clearance": self.clearance, "load": self.load}
+        """``obstacles``, ``clearance``, ``load`` and ``constraints`` as keywords (of
+        ``Problem``, ``solve_ik``, ``check_pose`` and the bounded steps)."""
+        return {
+            "obstacles": self.obstacles,
+            "clearance": self.clearance,
+            "load": self.load,
+            "constraints": self.constraints,
+        }
 
     def _problem(self, target: Target) -> Any:
         from stackik.formulation import Problem
@@ -147,13 +155,15 @@ class Tracker:
 
     def _clear(self, target: Target, q: FloatArray) -> bool:
         """The full check's verdict on what the compiled twins do not check (clearances,
-        leg forces): True at once when none of them can fail."""
+        leg forces, constraint families): True at once when none of them can fail."""
         from stackik.clearance import clearances_can_fail
         from stackik.formulation.forces import force_limited
 
         phi = mode_of(target).phi(target)
-        can_fail = force_limited(self.stack) or clearances_can_fail(
-            self.stack, self.obstacles, self.clearance, q, phi
+        can_fail = (
+            bool(self.constraints)
+            or force_limited(self.stack)
+            or clearances_can_fail(self.stack, self.obstacles, self.clearance, q, phi)
         )
         if not can_fail:
             return True

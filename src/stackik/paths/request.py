@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from stackik.check import check_pose
+from stackik.families import as_families
 from stackik.formulation.clearance import Clearance, clearance_of
 from stackik.geometry import Stack
 from stackik.loads import Load
@@ -62,16 +63,19 @@ class _Request:
     clear: Clearance = field(default_factory=Clearance)
     #: the load the leg forces carry (solve_ik's): every waypoint within the force limits
     load: Load | None = None
+    #: the user's constraint families every waypoint keeps (solve_ik's ``constraints``)
+    constraints: tuple[Any, ...] = ()
     memo: dict[Any, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def clear_kw(self) -> dict[str, Any]:
-        """``obstacles``, ``clearance`` and ``load`` keywords for solve_ik, the Tracker and
-        the bounded steps."""
+        """``obstacles``, ``clearance``, ``load`` and ``constraints`` keywords for
+        solve_ik, the Tracker and the bounded steps."""
         return {
             "obstacles": self.clear.obstacles,
             "clearance": self.clear.margin,
             "load": self.load,
+            "constraints": self.constraints,
         }
 
     def key(self) -> dict[str, Any]:
@@ -98,6 +102,11 @@ class _Request:
                 else {}
             ),
             **({} if self.load is None else {"load": _load_key(self.load)}),
+            **(
+                {"constraints": [_family_key(f) for f in self.constraints]}
+                if self.constraints
+                else {}
+            ),
         }
 
     def default_solve(self, target: Target, index: int) -> Any:
@@ -127,6 +136,7 @@ def _request(
     obstacles: Any = (),
     clearance: Any = 0.0,
     load: Any = None,
+    constraints: Any = (),
 ) -> _Request:
     if not isinstance(stack, Stack):
         raise ValueError(f"stack: expected a Stack, got {type(stack).__name__}")
@@ -136,6 +146,7 @@ def _request(
     planar = isinstance(pts[0], PlanarTarget)
     k = 3 if planar else 6
     clear = clearance_of(stack, planar, clearance, obstacles)
+    fams = as_families(constraints)
     mj = _pair(max_jump, "max_jump")
     if mode not in MODES:
         raise ValueError(f"mode: unknown {mode!r}; choose one of {MODES}")
@@ -167,7 +178,7 @@ def _request(
             if not math.isfinite(fv) or fv <= 0:
                 raise ValueError(f"{name}: must be finite and > 0, got {v!r}")
             speeds[j] = fv
-    q0 = None if start is None else _start_pose(stack, pts[0], k, start, clear, load)
+    q0 = None if start is None else _start_pose(stack, pts[0], k, start, clear, load, fams)
     if reanchor_every is None:
         reanchor_every = max(REANCHOR_EVERY, REANCHOR_PER_N * stack.n)
         if not planar and stack.n > SPATIAL_REANCHOR_N:
@@ -188,8 +199,14 @@ def _request(
             raise ValueError(f"rng: expected None, an int seed or a Generator ({exc})") from None
     return _Request(
         stack, pts, planar, k, mj, mode, w, refine, max_depth, q0, speeds[0], speeds[1],
-        max_candidates, seed, reanchor_every, clear, load,
+        max_candidates, seed, reanchor_every, clear, load, fams,
     )  # fmt: skip
+
+
+def _family_key(f: Any) -> dict[str, Any]:
+    """A constraint family's identity for checkpoints: its class and its attributes."""
+    state = {k: repr(v) for k, v in sorted(vars(f).items())}
+    return {"class": f"{type(f).__module__}.{type(f).__qualname__}", "state": state}
 
 
 def _load_key(load: Load) -> dict[str, Any]:
@@ -206,7 +223,13 @@ def _load_key(load: Load) -> dict[str, Any]:
 
 
 def _start_pose(
-    stack: Stack, target: Target, k: int, start: Any, clear: Clearance, load: Load | None
+    stack: Stack,
+    target: Target,
+    k: int,
+    start: Any,
+    clear: Clearance,
+    load: Load | None,
+    constraints: tuple[Any, ...] = (),
 ) -> FloatArray:
     """``start`` as a pose that passes the check for the first waypoint, or a ValueError."""
     try:
@@ -215,7 +238,10 @@ def _start_pose(
         raise ValueError("start: expected an array of numbers") from None
     if q0.shape != (stack.n, k) or not np.all(np.isfinite(q0)):
         raise ValueError(f"start: expected finite values of shape ({stack.n}, {k}), got {q0.shape}")
-    chk = check_pose(stack, target, q0, load, obstacles=clear.obstacles, clearance=clear.margin)
+    chk = check_pose(
+        stack, target, q0, load, obstacles=clear.obstacles, clearance=clear.margin,
+        constraints=constraints,
+    )  # fmt: skip
     if not chk.ok:
         raise ValueError(
             "start: the pose does not reach targets[0] within every limit, force limit and "

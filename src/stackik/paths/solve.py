@@ -112,6 +112,7 @@ def solve_path(
     obstacles: Any = (),
     clearance: float = 0.0,
     load: Any = None,
+    constraints: Any = (),
 ) -> PathResult:
     """Continuous least-FN poses along a sequence of end-effector waypoints.
 
@@ -169,6 +170,9 @@ def solve_path(
         As :func:`stackik.solve_ik`'s: every waypoint passes the full check with them, and
         the steps carry their rows (a step goes around an obstacle or along a force limit
         within ``max_jump``, else the path breaks there); ``leg_forces`` under ``load``.
+    constraints : ConstraintFamily or sequence of ConstraintFamily, optional
+        As :func:`stackik.solve_ik`'s (:mod:`stackik.families`): every waypoint keeps them
+        (the full check), and the steps' problems carry their rows.
 
     Returns
     -------
@@ -189,6 +193,7 @@ def solve_path(
     req = _request(
         stack, targets, max_jump, mode, motion_weight, refine, max_depth, start,
         leg_speed, leg_accel, max_candidates, rng, reanchor_every, obstacles, clearance, load,
+        constraints,
     )  # fmt: skip
     return _run(req, checkpoint, t_start)
 
@@ -235,6 +240,7 @@ def _solve(req: _Request, ck: PathCheckpoint, t_start: float) -> PathResult:
     tracker = Tracker(
         req.stack, req.planar, req.max_jump, req.max_depth,
         obstacles=req.clear.obstacles, clearance=req.clear.margin, load=req.load,
+        constraints=req.constraints,
     )  # fmt: skip
     if req.mode == "fast" or req.refine:
         out = _fast(req, ck, tracker)
