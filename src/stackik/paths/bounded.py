@@ -111,7 +111,13 @@ def bounded_ip(
     from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
     prob = Problem(
-        stack, target, "frobenius", None, obstacles=obstacles, clearance=clearance, load=load,
+        stack,
+        target,
+        "frobenius",
+        None,
+        obstacles=obstacles,
+        clearance=clearance,
+        load=load,
         constraints=constraints,
     )
     P = problem_arrays(prob) if prob.planar else spatial_problem_arrays(prob)
@@ -188,7 +194,13 @@ def bounded_step(
         stopped on bad numbers.
     """
     prob = Problem(
-        stack, target, "frobenius", None, obstacles=obstacles, clearance=clearance, load=load,
+        stack,
+        target,
+        "frobenius",
+        None,
+        obstacles=obstacles,
+        clearance=clearance,
+        load=load,
         constraints=constraints,
     )
     exact = prob.fast is not None and not prob.dense_rows
