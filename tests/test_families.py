@@ -225,3 +225,33 @@ def test_solve_path_keeps_the_family_at_every_waypoint(stack, mode, planar):
         assert stackik.check_pose(stack, t, q, constraints=[fam]).ok
     with pytest.raises(ValueError, match="ConstraintFamily"):
         stackik.solve_path(stack, ts, constraints=[1.0])
+
+
+class _NaNRows(ConstraintFamily):
+    def planar_rows(self, stack, q, phi):
+        return (np.ones(2) if not q.any() else np.full(2, np.nan)), np.zeros((2, q.size))
+
+
+class _Raises(ConstraintFamily):
+    def planar_rows(self, stack, q, phi):
+        if q.any():
+            raise RuntimeError("a bug in the family")
+        return np.ones(1), np.zeros((1, q.size))
+
+
+class _Grows(ConstraintFamily):
+    def planar_rows(self, stack, q, phi):
+        m = 1 if not q.any() else 2
+        return np.ones(m), np.zeros((m, q.size))
+
+
+@pytest.mark.parametrize("method", ["ip", "sqp", "auto"])
+def test_a_broken_family_is_a_clear_error_from_every_engine(stack, method):
+    """NaN rows make a failed solve (no success, no exception); rows that raise or change
+    their count are a FamilyError naming the family, whichever engine met them first."""
+    r = stackik.solve_ik(stack, PLANAR, method=method, constraints=[_NaNRows()], max_time=5)
+    assert not r.success
+    with pytest.raises(stackik.FamilyError, match="_Raises: RuntimeError: a bug"):
+        stackik.solve_ik(stack, PLANAR, method=method, constraints=[_Raises()], max_time=5)
+    with pytest.raises(stackik.FamilyError, match="_Grows: 2 rows at this pose, 1 at"):
+        stackik.solve_ik(stack, PLANAR, method=method, constraints=[_Grows()], max_time=5)

@@ -11,7 +11,7 @@ from stackik._version import __version__
 from stackik.check import PoseCheck, check_pose
 from stackik.clearance import Clearances, clearances
 from stackik.convex import ConvexStartError, convex_start
-from stackik.families import ConstraintFamily, register_family
+from stackik.families import ConstraintFamily, FamilyError, register_family
 from stackik.geometry import GeometryError, PlatformGeometry, Stack
 from stackik.kinematics import (
     frobenius_norm,
@@ -57,6 +57,7 @@ __all__ = [
     "ConvexStartError",
     "draw_perturbations",
     "f_factor",
+    "FamilyError",
     "frobenius_norm",
     "GeometryError",
     "GRAVITY",

@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from stackik.clearance import Clearances, clearances, needs_clearances
-from stackik.families import ConstraintFamily, as_families
+from stackik.families import ConstraintFamily, as_families, check_values_of
 from stackik.geometry import Stack, finite_number
 from stackik.kinematics import planar_forward, spatial_forward
 from stackik.loads import Load, Statics, statics
@@ -241,7 +241,7 @@ def check_pose(
             v_cl = float("inf")
     v_fam = 0.0
     for f in fams:
-        vals = np.asarray(f.check_values(stack, qa, phi), dtype=float)
+        vals = check_values_of(f, stack, qa, phi)
         v_fam = max(v_fam, float(np.max(-vals, initial=0.0)))
         finite = finite and bool(np.all(np.isfinite(vals)))
     ok = pose_ok(pos_err, ang_err, max(v_mm, v_cl, v_fam), finite, ratio)

@@ -44,6 +44,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ConstraintFamily",
+    "FamilyError",
     "FamilyRows",
     "family",
     "family_names",
@@ -52,6 +53,12 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+
+
+class FamilyError(ValueError):
+    """A constraint family failed: its rows raised, or came with the wrong shape or a
+    row count that changed. Every engine lets it through (a failing start of a solver is
+    otherwise a failed run): the family is broken, not the start."""
 
 
 class ConstraintFamily:
@@ -70,12 +77,12 @@ class ConstraintFamily:
         """Rows of a planar pose ``q`` (n, 3) [mm, mm, rad] in the plane at angle ``phi``
         [rad]: values ``c`` (m,) in the family's unit and their Jacobian (m, 3 n) against
         ``q.ravel()``."""
-        raise ValueError(f"constraint family {self._label()}: no planar rows defined")
+        raise FamilyError(f"constraint family {self._label()}: no planar rows defined")
 
     def spatial_rows(self, stack: Stack, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Rows of a spatial pose ``q`` (n, 6) [mm, rad]: values ``c`` (m,) in the
         family's unit and their Jacobian (m, 6 n) against ``q.ravel()``."""
-        raise ValueError(f"constraint family {self._label()}: no spatial rows defined")
+        raise FamilyError(f"constraint family {self._label()}: no spatial rows defined")
 
     def row_scale(self, stack: Stack) -> float:
         """The unit the solvers measure the rows in: they see ``c / row_scale`` (default
@@ -141,16 +148,34 @@ def as_families(constraints: Any) -> tuple[ConstraintFamily, ...]:
     return items
 
 
+def check_values_of(
+    f: ConstraintFamily, stack: Stack, q: FloatArray, phi: float | None
+) -> FloatArray:
+    """``f.check_values(stack, q, phi)`` as a float array; what it raises (other than
+    arithmetic) as a :class:`FamilyError` naming the family."""
+    try:
+        return np.asarray(f.check_values(stack, q, phi), dtype=float).reshape(-1)
+    except (FamilyError, ArithmeticError):
+        raise
+    except Exception as exc:  # noqa: BLE001 - the user's code: say whose it is
+        raise FamilyError(f"constraint family {f._label()}: {type(exc).__name__}: {exc}") from exc
+
+
 def _rows_of(
     f: ConstraintFamily, stack: Stack, q: FloatArray, phi: float | None
 ) -> tuple[FloatArray, FloatArray]:
     """``f``'s rows at ``q`` as float arrays of checked shapes (ValueError otherwise)."""
     n, k = q.shape
-    c, J = f.spatial_rows(stack, q) if phi is None else f.planar_rows(stack, q, phi)
-    c = np.asarray(c, dtype=float).reshape(-1)
-    J = np.asarray(J, dtype=float)
+    try:
+        c, J = f.spatial_rows(stack, q) if phi is None else f.planar_rows(stack, q, phi)
+        c = np.asarray(c, dtype=float).reshape(-1)
+        J = np.asarray(J, dtype=float)
+    except (FamilyError, ArithmeticError):
+        raise
+    except Exception as exc:  # noqa: BLE001 - the user's code: say whose it is
+        raise FamilyError(f"constraint family {f._label()}: {type(exc).__name__}: {exc}") from exc
     if J.shape != (c.size, n * k):
-        raise ValueError(
+        raise FamilyError(
             f"constraint family {f._label()}: Jacobian of shape {J.shape}, expected "
             f"({c.size}, {n * k})"
         )
@@ -176,6 +201,7 @@ class FamilyRows:
         if not (np.all(np.isfinite(self.scales)) and np.all(self.scales > 0)):
             raise ValueError("constraint families: every row_scale must be finite and > 0")
         k = 6 if phi is None else 3
+        self.size = -1
         c, _ = self(np.zeros((stack.n, k)))  # sizes (a family's row count is fixed)
         self.size = int(c.size)
         self.token = _register_rows(self)
@@ -190,7 +216,14 @@ class FamilyRows:
         n_var = qa.size
         if not cs:
             return np.zeros(0), np.zeros((0, n_var))
-        return np.concatenate(cs), np.vstack(Js)
+        c_all = np.concatenate(cs)
+        if self.size >= 0 and c_all.size != self.size:
+            names = ", ".join(f._label() for f in self.families)
+            raise FamilyError(
+                f"constraint families {names}: {c_all.size} rows at this pose, "
+                f"{self.size} at the first (a family's row count must not change)"
+            )
+        return c_all, np.vstack(Js)
 
 
 _TOKENS = itertools.count(1)
@@ -208,17 +241,15 @@ def _register_rows(rows: FamilyRows) -> int:
 def kernel_rows(token: int, q: FloatArray) -> tuple[FloatArray, FloatArray]:
     """The rows the compiled interior points call back for (object mode,
     :func:`stackik._compiled.dense_rows.dense_rows`): the values and Jacobian of the
-    :class:`FamilyRows` named ``token`` at the raw pose ``q`` (n, k), C-contiguous, with
-    non-finite values where the family raised or returned rows of the wrong size (the
-    kernels treat them as a failed evaluation)."""
+    :class:`FamilyRows` named ``token`` at the raw pose ``q`` (n, k), C-contiguous; NaN
+    where the family's arithmetic failed (``ArithmeticError``: the kernels treat it as a
+    failed evaluation, as they do NaN rows). Anything else the family raises leaves the
+    solve as a :class:`FamilyError`, from every engine."""
     rows = _LIVE.get(int(token))
-    n_var = q.size
     if rows is None:
         raise RuntimeError(f"constraint family rows {token} are gone")
     try:
         c, J = rows(q)
-    except (ValueError, ArithmeticError):
-        c, J = np.full(rows.size, np.nan), np.full((rows.size, n_var), np.nan)
-    if c.size != rows.size:
-        c, J = np.full(rows.size, np.nan), np.full((rows.size, n_var), np.nan)
-    return np.ascontiguousarray(c), np.ascontiguousarray(J)
+    except ArithmeticError:
+        c, J = np.full(rows.size, np.nan), np.full((rows.size, q.size), np.nan)
+    return np.ascontiguousarray(c, dtype=float), np.ascontiguousarray(J, dtype=float)

@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from stackik.check import PoseCheck
+from stackik.families import FamilyError
 from stackik.formulation import Problem, polish
 from stackik.result import OptionError
 
@@ -128,7 +129,7 @@ class Method:
         u0 = prob.u_of(q0)
         try:
             u, nit, text = self.solve_with(prob, u0, options, time_left, qp_solver)
-        except OptionError:
+        except (OptionError, FamilyError):
             raise
         except Exception as exc:  # noqa: BLE001 - a crashing start is a failed start
             u, nit, text = u0, 0, f"error: {type(exc).__name__}: {exc}"

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from stackik._arrays import readonly
+from stackik.families import FamilyError
 from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem, polish
 from stackik.methods.base import FloatArray, Method, Run, RunStatus, run_status
 from stackik.result import OptionError
@@ -260,7 +261,7 @@ def _run_batch(
     opts = {"max_time": max_time, **options}
     try:
         return ip_multi(prob, U0, opts)
-    except OptionError:
+    except (OptionError, FamilyError):
         raise
     except Exception:  # noqa: BLE001
         return None
