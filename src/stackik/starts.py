@@ -176,15 +176,15 @@ def fold_patterns(stack: Stack, q0: FloatArray, depth: int) -> list[FloatArray]:
     return out
 
 
-def reach_fraction(stack: Stack, target: PlanarTarget) -> float:
+def reach_fraction(stack: Stack, target: Target) -> float:
     """The target's distance from the base over the stack's nominal height: ``|P| /
-    sum(h_i)`` with ``h_i`` :func:`nominal_height` (dimensionless, >= 0).
+    sum(h_i)`` with ``h_i`` :func:`nominal_height` (dimensionless, >= 0; either mode).
 
     Small values mean compact targets: a few platforms reach the target and the rest coil
     around it, and the FN minima then differ in which way the bottom of the stack bends
     and how the coils turn (many basins a few percent apart, docs/benchmarks.md).
     """
-    return float(math.hypot(target.rho, target.z) / np.sum(nominal_height(stack)))
+    return float(np.linalg.norm(mode_of(target).position(target)) / np.sum(nominal_height(stack)))
 
 
 #: Platforms at the bottom of the stack that :func:`arc_starts` bend ...

@@ -244,10 +244,11 @@ def plan_starts(req: Any) -> StartPlan:
         starts = SPATIAL_STARTS
         spatial_default = True
     n_planned = len(queue) if starts is None else int(starts)
-    compact = (
+    compact = (  # (the spatial defaults are spatial_default or returned above)
         starts is None
         and req.structured
-        and req.mode.planar
+        and not spatial_default
+        and req.method.name == "ip"
         and req.stack.n >= ADAPTIVE_N
         and reach_fraction(req.stack, req.target) < COMPACT_REACH
     )
