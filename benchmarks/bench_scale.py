@@ -9,9 +9,10 @@ drawn with ``rng = seed + k`` in the plane ``phi = 2 pi k / count``
 
 - ``default``: ``solve_ik(stack, target)``;
 - ``full``: the default with its adaptive early stop turned off
-  (:data:`stackik.solve.policy.ADAPTIVE_N` set out of reach): every start of the
-  structured batch, the default before the adaptive plan (same as ``default`` for
-  n < ADAPTIVE_N);
+  (:data:`stackik.solve.policy.ADAPTIVE_N` set out of reach, which also turns off the
+  compact-target plan, :data:`stackik.solve.policy.COMPACT_REACH`): every start of the
+  structured batch without arcs or hops, the default before the adaptive plan (same as
+  ``default`` for n < ADAPTIVE_N);
 - ``ipopt8``: ``method="ipopt", starts=8`` (time for the eight, best FN);
 - ``ipopt_ref``: ``method="ipopt", starts=--ref-starts, rng=1000 + k``.
 
@@ -58,7 +59,8 @@ REUSED = (("ipopt8", "ipopt8"), ("ipopt_ref", "ipopt_ref"), ("before", "default"
 
 
 def _full(stack: Stack, target: Any) -> Any:
-    """The default without its adaptive early stop (every start of the batch)."""
+    """The default without its adaptive early stop and compact-target plan (every start of
+    the structured batch, no arcs or hops)."""
     saved = policy.ADAPTIVE_N
     policy.ADAPTIVE_N = math.inf
     try:
@@ -222,9 +224,11 @@ def markdown(lines: list[dict[str, Any]], meta: dict[str, Any]) -> str:
         "# Planar stacks at scale (benchmarks/bench_scale.py)\n\n"
         f"`{meta['command']}` on {meta['machine']}. Reference stacks; best known = least FN "
         f"over IPOPT from --ref-starts starts ({meta['ref_starts']}; 0: not run), IPOPT-8, the "
-        "default and the full batch (the default without its adaptive early stop, i.e. the "
-        "default before it). Times are wall times on a shared machine; ratios are medians "
-        "of per-target ratios.\n\n" + head + body + tail
+        "default and the full batch (the default without its adaptive early stop and its "
+        "compact-target plan: every start of the structured batch, no arcs or hops)"
+        + (", and the reused default (--reuse)" if "--reuse" in meta["command"] else "")
+        + ". Times are wall times on a shared machine; ratios are medians of per-target "
+        "ratios (with --reuse, the IPOPT times are the earlier run's).\n\n" + head + body + tail
     )
 
 
