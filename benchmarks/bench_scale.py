@@ -9,14 +9,21 @@ drawn with ``rng = seed + k`` in the plane ``phi = 2 pi k / count``
 
 - ``default``: ``solve_ik(stack, target)``;
 - ``full``: the default with its adaptive early stop turned off
-  (:data:`stackik.solve.policy.ADAPTIVE_N` set out of reach): every start of the
-  structured batch, the default before the adaptive plan (same as ``default`` for
-  n < ADAPTIVE_N);
+  (:data:`stackik.solve.policy.ADAPTIVE_N` set out of reach, which also turns off the
+  compact-target plan, :data:`stackik.solve.policy.COMPACT_REACH`): every start of the
+  structured batch without arcs or hops, the default before the adaptive plan (same as
+  ``default`` for n < ADAPTIVE_N);
 - ``ipopt8``: ``method="ipopt", starts=8`` (time for the eight, best FN);
 - ``ipopt_ref``: ``method="ipopt", starts=--ref-starts, rng=1000 + k``.
 
 Each run's wall time and the process's CPU time (the default's is reported too; it
 counts the process's other threads, such as BLAS workers still spinning after IPOPT).
+
+``--reuse A.json`` takes the IPOPT rows (``ipopt8``, ``ipopt_ref``) of an earlier run of
+the same targets (same ``--seed`` and ``--count``) instead of solving them again, and that
+run's ``default`` as ``before`` (the default of the tree that made it: a before/after on
+the same targets; it counts toward the best known); only ``default`` and ``full`` are
+solved.
 
 ``--part i/m`` runs only the targets ``k = i mod m``; every row is also appended to
 ``<stem>.jsonl`` as it is done. ``--merge A.json B.json ...`` summarises the rows of
@@ -45,11 +52,15 @@ from stackik import PlanarTarget, Stack, solve_ik
 from stackik.bench import machine_info
 
 WITHIN = 1e-3  # "best known" within 0.1 %
-LABELS = ("default", "full", "ipopt8", "ipopt_ref")  # ipopt_ref: with --ref-starts > 0
+LABELS = ("default", "full", "ipopt8", "ipopt_ref", "before")  # ipopt_ref: --ref-starts > 0
+FIELDS = ("time", "cpu", "success", "fn", "nit", "starts")
+#: --reuse: (label here, label in the earlier run)
+REUSED = (("ipopt8", "ipopt8"), ("ipopt_ref", "ipopt_ref"), ("before", "default"))
 
 
 def _full(stack: Stack, target: Any) -> Any:
-    """The default without its adaptive early stop (every start of the batch)."""
+    """The default without its adaptive early stop and compact-target plan (every start of
+    the structured batch, no arcs or hops)."""
     saved = policy.ADAPTIVE_N
     policy.ADAPTIVE_N = math.inf
     try:
@@ -59,10 +70,17 @@ def _full(stack: Stack, target: Any) -> Any:
 
 
 def run_size(
-    n: int, count: int, seed: int, ref_starts: int, part: tuple[int, int], log: Path
+    n: int,
+    count: int,
+    seed: int,
+    ref_starts: int,
+    part: tuple[int, int],
+    log: Path,
+    reuse: dict[tuple[int, int], dict[str, Any]] | None = None,
 ) -> list[dict[str, Any]]:
     """The rows of size ``n``: targets ``k`` with ``k % part[1] == part[0]``, each also
-    appended to ``log`` (JSON lines) as it is done."""
+    appended to ``log`` (JSON lines) as it is done; ``reuse``: rows of an earlier run by
+    ``(n, k)`` whose IPOPT runs (and default, as ``before``) are taken, not solved."""
     stack = Stack.reference(n)
     rows = []
     for k, target in enumerate(targets(True, stack, count, seed)):
@@ -76,7 +94,15 @@ def run_size(
         }
         if ref_starts > 0:
             runs["ipopt_ref"] = {"method": "ipopt", "starts": ref_starts, "rng": 1000 + k}
+        if reuse is not None:
+            old = reuse[(n, k)]
+            for label, src in REUSED:
+                if f"{src}_time" in old:
+                    row.update({f"{label}_{f}": old[f"{src}_{f}"] for f in FIELDS})
+                    runs[label] = {}
         for label, kw in runs.items():
+            if f"{label}_time" in row:  # reused
+                continue
             t0, c0 = time.perf_counter(), time.process_time()
             r = _full(stack, target) if label == "full" else solve_ik(stack, target, **kw)
             row[f"{label}_time"] = time.perf_counter() - t0
@@ -85,6 +111,7 @@ def run_size(
             row[f"{label}_fn"] = r.frobenius_norm if r.success else math.nan
             row[f"{label}_nit"] = int(r.nit)
             row[f"{label}_starts"] = int(r.n_starts)
+        runs = {label: runs[label] for label in LABELS if label in runs}
         fns = [row[f"{label}_fn"] for label in runs if row[f"{label}_success"]]
         row["best"] = min(fns) if fns else math.nan
         for label in runs:
@@ -169,6 +196,17 @@ def markdown(lines: list[dict[str, Any]], meta: dict[str, Any]) -> str:
             )
             + ".\n"
         )
+    before = [s for s in lines if "before_within" in s]
+    if before:
+        body += (
+            "\nThe default of the tree that made the reused rows (--reuse), within 0.1 % and "
+            "median ms (max) there: "
+            + ", ".join(
+                f"n = {s['n']} {s['before_within']}/{s['targets']}, {s['before_median_ms']:.0f}"
+                for s in before
+            )
+            + ".\n"
+        )
     first, last = lines[0], lines[-1]
     tail = ""
     if len(lines) > 1:
@@ -186,9 +224,11 @@ def markdown(lines: list[dict[str, Any]], meta: dict[str, Any]) -> str:
         "# Planar stacks at scale (benchmarks/bench_scale.py)\n\n"
         f"`{meta['command']}` on {meta['machine']}. Reference stacks; best known = least FN "
         f"over IPOPT from --ref-starts starts ({meta['ref_starts']}; 0: not run), IPOPT-8, the "
-        "default and the full batch (the default without its adaptive early stop, i.e. the "
-        "default before it). Times are wall times on a shared machine; ratios are medians "
-        "of per-target ratios.\n\n" + head + body + tail
+        "default and the full batch (the default without its adaptive early stop and its "
+        "compact-target plan: every start of the structured batch, no arcs or hops)"
+        + (", and the reused default (--reuse)" if "--reuse" in meta["command"] else "")
+        + ". Times are wall times on a shared machine; ratios are medians of per-target "
+        "ratios (with --reuse, the IPOPT times are the earlier run's).\n\n" + head + body + tail
     )
 
 
@@ -202,6 +242,7 @@ def main() -> None:
     ap.add_argument("--stem", default="scale")
     ap.add_argument("--part", default="0/1", help="i/m: only the targets k = i mod m")
     ap.add_argument("--merge", type=Path, nargs="+", help="scale JSON files to summarise")
+    ap.add_argument("--reuse", type=Path, help="scale JSON whose IPOPT rows to take")
     args = ap.parse_args()
     rows: list[dict[str, Any]] = []
     if args.merge:
@@ -220,13 +261,25 @@ def main() -> None:
         args.out.mkdir(parents=True, exist_ok=True)
         log = args.out / f"{args.stem}.jsonl"
         log.write_text("")
+        reuse = None
+        if args.reuse:
+            old = json.loads(args.reuse.read_text())
+            cmd = old["meta"]["command"]
+            assert f"--count {args.count} --seed {args.seed} " in cmd + " ", (
+                f"--reuse: {args.reuse} is not a run of --count {args.count} --seed {args.seed}"
+            )
+            reuse = {(r["n"], r["k"]): r for r in old["rows"]}
+            args.ref_starts = old["meta"]["ref_starts"]
         for n in args.n:
-            rows += run_size(n, args.count, args.seed, args.ref_starts, (part[0], part[1]), log)
+            rows += run_size(
+                n, args.count, args.seed, args.ref_starts, (part[0], part[1]), log, reuse
+            )
         meta = {
             "command": "python benchmarks/bench_scale.py --n "
             + " ".join(map(str, args.n))
             + f" --count {args.count} --seed {args.seed} --ref-starts {args.ref_starts}"
-            + (f" --part {args.part}" if args.part != "0/1" else ""),
+            + (f" --part {args.part}" if args.part != "0/1" else "")
+            + (f" --reuse {args.reuse} (run on {old['meta']['machine']})" if args.reuse else ""),
             "machine": "{cpus} CPUs ({cpu}), {date}".format(**machine_info()),
             "ref_starts": args.ref_starts,
         }

@@ -17,7 +17,17 @@ from stackik import PlanarTarget, PlatformGeometry, Stack, solve_ik
 from stackik.methods.ip import IPMethod
 from stackik.sampling import random_planar_targets
 from stackik.solve.policy import ADAPTIVE_FIRST, ADAPTIVE_N, StartPlan
-from stackik.starts import fold_depth, tall_random_starts
+from stackik.starts import (
+    ARC_PLATFORMS,
+    ARC_TURN,
+    arc_starts,
+    fold_depth,
+    fold_offset,
+    nominal_height,
+    paper_initial_guess,
+    reach_fraction,
+    tall_random_starts,
+)
 
 N_BIG = int(ADAPTIVE_N)
 
@@ -154,3 +164,80 @@ def test_explicit_starts_and_rows_outside_the_ip_keep_one_call(
     fat = Stack((g,) * N_BIG)
     solve_ik(fat, target, method="ip")
     assert _counts(spy) == [_batch_size(N_BIG)]  # rows outside the interior point: one call
+
+
+def test_reach_fraction_and_arc_starts() -> None:
+    stack = Stack.reference(N_BIG)
+    target = PlanarTarget(300.0, 400.0, 1.0)
+    assert reach_fraction(stack, target) == pytest.approx(500.0 / np.sum(nominal_height(stack)))
+    q0 = paper_initial_guess(stack, target)
+    left, right = arc_starts(stack, q0)
+    m, a = ARC_PLATFORMS, fold_offset(stack)
+    for q, sign in ((left, 1.0), (right, -1.0)):
+        assert q.shape == q0.shape
+        np.testing.assert_allclose(q[:m, 2] - q0[:m, 2], sign * ARC_TURN, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(q[:m, 0] - q0[:m, 0], -sign * a, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(q[:m, 1], q0[:m, 1])
+        np.testing.assert_array_equal(q[m:], q0[m:])
+    short = Stack.reference(3)  # fewer platforms than ARC_PLATFORMS: all of them bend
+    q3 = paper_initial_guess(short, target)
+    np.testing.assert_allclose(arc_starts(short, q3)[0][:, 2] - q3[:, 2], ARC_TURN, atol=1e-12)
+
+
+def _compact_target(n: int) -> PlanarTarget:
+    """A reachable target of ``Stack.reference(n)`` with a reach fraction below
+    COMPACT_REACH (the first such seed of random_planar_targets in the plane 0.3)."""
+    stack = Stack.reference(n)
+    for seed in range(200):
+        t = random_planar_targets(stack, 1, rng=seed, phis=(0.3,))[0]
+        if reach_fraction(stack, t) < policy.COMPACT_REACH:
+            return t
+    raise AssertionError("no compact target")
+
+
+def test_compact_targets_take_arcs_the_whole_batch_and_hops(spy: list[list[Any]]) -> None:
+    stack, target = Stack.reference(N_BIG), _compact_target(N_BIG)
+    res = solve_ik(stack, target)
+    size = _batch_size(N_BIG) + 2  # the two arcs
+    assert res.success
+    assert _counts(spy) == [size, policy.COMPACT_HOPS]
+    assert res.n_starts == size + policy.COMPACT_HOPS
+    q0 = paper_initial_guess(stack, target)
+    batch = spy[0]
+    randoms = size - tall_random_starts(N_BIG)
+    for q, arc in zip(batch[randoms - 2 : randoms], arc_starts(stack, q0), strict=True):
+        np.testing.assert_array_equal(q, arc)  # the arcs, before the random starts
+    # the hops perturb the batch's best pose at the random starts' scale
+    best = min(
+        (solve_ik(stack, target, method="ip", x0=q) for q in batch),
+        key=lambda r: r.frobenius_norm if r.success else math.inf,
+    )
+    scale = np.max(np.abs(np.asarray(spy[1]) - best.q) / policy_scale(stack))
+    assert 0.0 < scale < 6.0
+    assert res.frobenius_norm <= best.frobenius_norm * (1 + 1e-12)
+    spy.clear()
+    again = solve_ik(stack, target)
+    np.testing.assert_array_equal(again.q, res.q)  # deterministic
+
+
+def policy_scale(stack: Stack) -> Any:
+    """The random starts' per-variable scale, shape (n, 3)."""
+    from stackik.formulation.modes import mode_of
+
+    return mode_of(PlanarTarget(0.0, 1.0, 0.0)).perturbation(stack).reshape(stack.n, 3)
+
+
+def test_compact_plan_only_on_the_large_planar_structured_default(
+    spy: list[list[Any]],
+) -> None:
+    stack, target = Stack.reference(N_BIG), _compact_target(N_BIG)
+    solve_ik(stack, target, method="ip", starts=3)  # the user's starts
+    assert _counts(spy) == [3]
+    spy.clear()
+    solve_ik(stack, target, x0=paper_initial_guess(stack, target))  # x0: one start
+    assert _counts(spy) == [1]
+    small = Stack.reference(N_BIG // 2)
+    spy.clear()
+    res = solve_ik(small, _compact_target(N_BIG // 2))  # below ADAPTIVE_N: unchanged
+    assert _counts(spy) == [_batch_size(N_BIG // 2)]
+    assert res.n_starts == _batch_size(N_BIG // 2)

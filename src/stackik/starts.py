@@ -18,15 +18,19 @@ from stackik.geometry import Stack
 from stackik.targets import PlanarTarget, Target
 
 __all__ = [
+    "ARC_PLATFORMS",
+    "ARC_TURN",
     "SPATIAL_STARTS",
     "SPATIAL_HOPS",
     "SPATIAL_START_ORDER",
     "StartSampler",
+    "arc_starts",
     "fold_depth",
     "fold_patterns",
     "initial_starts",
     "nominal_height",
     "paper_initial_guess",
+    "reach_fraction",
     "spatial_hop_count",
     "spatial_hops",
     "spatial_start_count",
@@ -168,6 +172,45 @@ def fold_patterns(stack: Stack, q0: FloatArray, depth: int) -> list[FloatArray]:
         signs = np.array([1.0 if (code >> j) & 1 else -1.0 for j in range(m)])
         q = q0.copy()
         q[n - m :, 0] += a * signs
+        out.append(q)
+    return out
+
+
+def reach_fraction(stack: Stack, target: Target) -> float:
+    """The target's distance from the base over the stack's nominal height: ``|P| /
+    sum(h_i)`` with ``h_i`` :func:`nominal_height` (dimensionless, >= 0; either mode).
+
+    Small values mean compact targets: a few platforms reach the target and the rest coil
+    around it, and the FN minima then differ in which way the bottom of the stack bends
+    and how the coils turn (many basins a few percent apart, docs/benchmarks.md).
+    """
+    return float(np.linalg.norm(mode_of(target).position(target)) / np.sum(nominal_height(stack)))
+
+
+#: Platforms at the bottom of the stack that :func:`arc_starts` bend ...
+ARC_PLATFORMS = 8
+#: ... and the turn of each [rad].
+ARC_TURN = 0.5
+
+
+def arc_starts(stack: Stack, q0: FloatArray) -> list[FloatArray]:
+    """Two planar starts with the bottom of the stack bent one way or the other: ``q0``
+    with each of the bottom :data:`ARC_PLATFORMS` platforms turned by ``+-ARC_TURN`` [rad]
+    and moved sideways by ``-+`` :func:`fold_offset` [mm] in its own frame (a turn and a
+    shift that agree, an arc to the left or to the right).
+
+    Which way the bottom of a tall stack bends toward a compact target is a discrete
+    choice that a local solver keeps, and the paper's guess (each platform turning by
+    ``theta / n``) and its perturbations nearly always take one of them. ``q0``: shape
+    (n, 3); returns two arrays of that shape (left first).
+    """
+    m = min(ARC_PLATFORMS, stack.n)
+    a = fold_offset(stack)
+    out = []
+    for sign in (1.0, -1.0):
+        q = q0.copy()
+        q[:m, 2] += sign * ARC_TURN
+        q[:m, 0] -= sign * a
         out.append(q)
     return out
 
@@ -328,8 +371,13 @@ class StartSampler:
 
     def draw(self) -> FloatArray:
         """One random start, shape (n, k)."""
+        return self.draw_around(self.q0)
+
+    def draw_around(self, q: FloatArray) -> FloatArray:
+        """One random start around the pose ``q`` (shape (n, k)) instead of ``q0``, from
+        the same generator (the same draws in call order)."""
         if self._gen is None:
             self._gen = np.random.default_rng(0)
         n, k = self.stack.n, self.mode.k
         pert = self.mode.perturbation(self.stack)
-        return self.q0 + (self._gen.standard_normal(n * k) * pert).reshape(n, k)  # type: ignore[no-any-return]
+        return q + (self._gen.standard_normal(n * k) * pert).reshape(n, k)  # type: ignore[no-any-return]

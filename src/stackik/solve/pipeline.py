@@ -106,8 +106,11 @@ def solve_ik(
         the random ones alone, and when both pass the check with FN within 5e-4 of each
         other (relative, :data:`~stackik.solve.policy.ADAPTIVE_RTOL`) returns the better
         of them (``n_starts`` 2); otherwise it runs the other 14 too and keeps the best
-        pose of all (the adaptive plan, :func:`stackik.solve.stages.ip_stage`); in
-        spatial mode
+        pose of all (the adaptive plan, :func:`stackik.solve.stages.ip_stage`); toward a
+        compact target (:func:`stackik.starts.reach_fraction` below 0.4,
+        :data:`~stackik.solve.policy.COMPACT_REACH`) it runs the whole batch with two
+        arc starts (:func:`stackik.starts.arc_starts`) and then eight random
+        perturbations of its best pose (``n_starts`` 26); in spatial mode
         the interior point's structured starts (:func:`stackik.starts.spatial_starts`: 8
         up to n = 4, 18 from n = 5; twists, leans and folds; from n = 5 then 12 hops from
         the best pose, :func:`stackik.starts.spatial_hops`), the SQP engine's five

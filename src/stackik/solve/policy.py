@@ -16,9 +16,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from stackik.starts import (
     SPATIAL_STARTS,
+    arc_starts,
     fold_depth,
     fold_patterns,
     initial_starts,
+    reach_fraction,
     spatial_start_count,
     spatial_starts,
     tall_random_starts,
@@ -30,6 +32,8 @@ __all__ = [
     "ADAPTIVE_RTOL",
     "CLEAR_COST_RTOL",
     "CLEAR_MU0",
+    "COMPACT_HOPS",
+    "COMPACT_REACH",
     "FORCE_COST_RTOL",
     "FORCE_METHOD",
     "FORCE_MU0",
@@ -107,6 +111,18 @@ ADAPTIVE_N: float = 32
 ADAPTIVE_FIRST = 2
 ADAPTIVE_RTOL = 5e-4
 
+#: Planar default from ``n = ADAPTIVE_N`` on, targets with a
+#: :func:`stackik.starts.reach_fraction` below ``COMPACT_REACH`` (compact: most of the stack
+#: coils around the target): no early stop; the batch also has the two
+#: :func:`stackik.starts.arc_starts`, and ``COMPACT_HOPS`` random perturbations of its best
+#: pose run after it (:meth:`StartPlan.batch`, :func:`stackik.solve.stages.ip_stage`). On
+#: the design targets at n = 64 (seeds 52700 and 63300) the two random starts of the
+#: adaptive plan agreed on a basin up to 8 % above the best known on such targets, the
+#: bent bottom (an arc) reached the best basin, the hops the best coils around it
+#: (docs/benchmarks.md, 2026-12-04).
+COMPACT_REACH = 0.4
+COMPACT_HOPS = 8
+
 #: Spatial ``starts=1`` from the paper's guess: initial barriers of the interior point's
 #: runs from its own pose after the first (:func:`stackik.solve.stages.ip_stage`).
 RECENTRE_MU0 = (0.1, 1.0)
@@ -165,21 +181,28 @@ class StartPlan:
         structured default.
     spatial_default : bool
         The spatial default schedule (early stop on unreachable targets).
+    compact : bool
+        The planar structured default of a tall stack (``n >= ADAPTIVE_N``) toward a
+        compact target (:data:`COMPACT_REACH`): arcs in the batch, no early stop, hops.
     """
 
     queue: list[FloatArray]
     n_planned: int
     starts: int | None
     spatial_default: bool
+    compact: bool = False
 
     def batch(self, sampler: Any, structured: bool, n: int) -> list[FloatArray]:
         """The starts of a one-call batch method (the interior point): the planned ones,
         plus on the structured default every fold pattern of the top platforms
-        (:func:`stackik.starts.fold_depth`) and, for tall stacks, random ones; random
-        starts fill up to the count asked for."""
+        (:func:`stackik.starts.fold_depth`), toward a compact target (:attr:`compact`) the
+        two :func:`stackik.starts.arc_starts` and, for tall stacks, random ones (last);
+        random starts fill up to the count asked for."""
         qs = self.queue[: self.n_planned]
         if self.starts is None and structured:
             qs += fold_patterns(sampler.stack, self.queue[0], fold_depth(n))
+            if self.compact:
+                qs += arc_starts(sampler.stack, self.queue[0])
             qs += [sampler.draw() for _ in range(tall_random_starts(n))]
         while len(qs) < self.n_planned:
             qs.append(sampler.draw())
@@ -190,8 +213,10 @@ class StartPlan:
         the others only if they disagree: on the planar structured default (no ``starts``,
         no ``x0``) from ``n = ADAPTIVE_N`` on, the first :data:`ADAPTIVE_FIRST` random
         starts (the batch ends with its :func:`tall_random_starts`); none (the whole batch
-        in one call) otherwise."""
+        in one call) otherwise, and toward a compact target (:attr:`compact`)."""
         tall = tall_random_starts(n)
+        if self.compact:
+            return []
         if self.starts is None and structured and planar and n >= ADAPTIVE_N and tall:
             first = count - tall
             return list(range(first, first + min(ADAPTIVE_FIRST, tall)))
@@ -219,4 +244,12 @@ def plan_starts(req: Any) -> StartPlan:
         starts = SPATIAL_STARTS
         spatial_default = True
     n_planned = len(queue) if starts is None else int(starts)
-    return StartPlan(queue, n_planned, starts, spatial_default)
+    compact = (  # (the spatial defaults are spatial_default or returned above)
+        starts is None
+        and req.structured
+        and not spatial_default
+        and req.method.name == "ip"
+        and req.stack.n >= ADAPTIVE_N
+        and reach_fraction(req.stack, req.target) < COMPACT_REACH
+    )
+    return StartPlan(queue, n_planned, starts, spatial_default, compact)

@@ -30,6 +30,7 @@ from stackik.solve.policy import (
     ADAPTIVE_RTOL,
     CLEAR_COST_RTOL,
     CLEAR_MU0,
+    COMPACT_HOPS,
     FORCE_COST_RTOL,
     FORCE_METHOD,
     FORCE_MU0,
@@ -218,6 +219,8 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         best, nit, tried = batch.best, batch.nit, n_run
         if plan.spatial_default:
             best, nit, tried = _hop(req, method, best, nit, tried)
+        elif plan.compact:
+            best, nit, tried = _compact_hops(req, method, best, nit, tried)
         elif plan.starts == 1 and req.structured and _recentres(req):
             best, nit = _recentre(req, method, best, nit)
         return Verdict(best, IKStatus.SUCCESS, nit, tried, "ip")
@@ -497,6 +500,27 @@ def _hop(req: Request, method: IPMethod, best: Run, nit: int, tried: int) -> tup
     hops = spatial_hops(req.stack, best.q)[: spatial_hop_count(req.stack.n)]
     if not hops or req.out_of_time():
         return best, nit, tried
+    left = req.time_left(time.perf_counter())
+    batch = method.run_many(req.problem, hops, req.options, left)
+    if batch.best is not None and _lower(batch.best, best):
+        best = batch.best
+    ran = sum(st is not RunStatus.SKIPPED for st in batch.statuses)
+    return best, nit + batch.nit, tried + ran
+
+
+def _compact_hops(
+    req: Request, method: IPMethod, best: Run, nit: int, tried: int
+) -> tuple[Run, int, int]:
+    """The planar default's hops toward a compact target (:attr:`StartPlan.compact`):
+    :data:`stackik.solve.policy.COMPACT_HOPS` random perturbations of the best pose
+    (:meth:`stackik.starts.StartSampler.draw_around`, the random starts' scale) in one
+    compiled call (within what is left of ``max_time``); a passing run with a lower FN
+    replaces ``best``. The coils of such poses have many minima a few tenths of a percent
+    apart, and the perturbed best pose settles in a neighbouring one. ``tried`` counts
+    the hops that ran."""
+    if req.out_of_time():
+        return best, nit, tried
+    hops = [req.sampler.draw_around(best.q) for _ in range(COMPACT_HOPS)]
     left = req.time_left(time.perf_counter())
     batch = method.run_many(req.problem, hops, req.options, left)
     if batch.best is not None and _lower(batch.best, best):
