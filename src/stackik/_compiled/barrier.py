@@ -321,7 +321,7 @@ def polished(cE: FloatArray, cI: FloatArray, reach: float) -> bool:
     return True
 
 
-@_jit
+@_jit_inline
 def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> FloatArray:
     """:func:`stackik.formulation.polish` compiled: up to ``iters`` min-norm Newton
     corrections of the end-effector equalities and of the rows violated by less than

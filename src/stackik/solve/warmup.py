@@ -64,7 +64,7 @@ def _dispatchers(kind: str) -> list[Any]:
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _barrier.ip_multi,
             _barrier.ip_box, _spatial_ipm_path.ip_path, _spatial_ipm.evaluate,
-            _barrier.polish, _spatial_ipm.lagrangian_hessian, _check._spatial_check,
+            _spatial_ipm.lagrangian_hessian, _check._spatial_check,
             _check._spatial_check_many, _self_legs.self_leg_block,
             _obstacle_rows.obstacle_rows, _force_rows.force_rows, _body.body_clearances,
             _force_rows.leg_force_jacobian]  # fmt: skip
