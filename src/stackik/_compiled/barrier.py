@@ -321,7 +321,7 @@ def polished(cE: FloatArray, cI: FloatArray, reach: float) -> bool:
     return True
 
 
-@_jit
+@_jit_inline
 def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> FloatArray:
     """:func:`stackik.formulation.polish` compiled: up to ``iters`` min-norm Newton
     corrections of the end-effector equalities and of the rows violated by less than
@@ -356,13 +356,17 @@ def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> Fl
 @_jit
 def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatArray,
              max_iter: int, deadline: float, polish_iters: int, reach: float,
-             margin: float) -> tuple[Any, ...]:  # fmt: skip
-    """:func:`ip_loop` from each row of ``U0``, each followed by ``polish_iters`` steps of
-    :func:`polish` (0: none, the caller polishes).
+             margin: float, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+             wq: float) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`ip_loop` from each row of ``U0`` (k, N), each followed by ``polish_iters``
+    steps of :func:`polish` (0: none, the caller polishes).
 
-    ``mu0[j]`` is the initial barrier parameter of start j. Returns the points (k, N),
+    ``mu0[j]`` is the initial barrier parameter of start j; ``lo``, ``hi`` (N,; empty:
+    none), ``ug`` (N,) and ``wq`` are :func:`ip_loop`'s path-step extensions (writable
+    arrays: one compiled specialisation of the loop). Returns the points (k, N),
     statuses, iteration counts, scaled objective values and the worst scaled violation of
-    each (equalities and rows), for ranking; the caller re-checks the pose it returns.
+    each (equalities and rows, without the extensions), for ranking; the caller re-checks
+    the pose it returns.
     """
     k, N = U0.shape
     X = np.empty((k, N))
@@ -376,10 +380,11 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
         if j > 0 and _now() > deadline:
             break
         x, st, it, _, _, _ = ip_loop(
-            U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline, none, none, none, 0.0
+            U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline, lo, hi, ug, wq
         )
         if st == IP_NONFINITE or not _finite(x):
             x = U0[j].copy()
+            st = IP_NONFINITE
         x = polish(x, P, polish_iters, reach, margin)
         X[j] = x
         status[j] = st
@@ -392,18 +397,21 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
     return X, status, nit, obj, viol
 
 
-@_jit
 def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray, wq: float,
            tol: float, constr_tol: float, mu0: float, max_iter: int, reach: float,
            margin: float) -> tuple[FloatArray, int, int]:  # fmt: skip
-    """One barrier solve of a path step inside the box ``lo <= u <= hi`` (scaled) with
-    ``wq |u - ug|^2`` added to the objective (``wq = 0``: none), then :func:`polish`.
-    Returns the point, the status and the iteration count; the caller checks the pose and
-    the box."""
-    # copies: the barrier loop sees writable arrays whatever the caller passes, as from
-    # ip_multi (one compiled specialisation of the loop, not one per array flag)
-    x, st, it, _, _, _ = ip_loop(u0.copy(), P, tol, constr_tol, mu0, max_iter, 1e300,
-                                 lo.copy(), hi.copy(), ug.copy(), wq)  # fmt: skip
-    if st == IP_NONFINITE or not _finite(x):
-        return u0.copy(), IP_NONFINITE, it
-    return polish(x, P, 3, reach, margin), st, it
+    """One barrier solve of a path step inside the box ``lo <= u <= hi`` (scaled, (N,)
+    each) with ``wq |u - ug|^2`` added to the objective (``wq = 0``, ``ug`` empty: none),
+    then 3 steps of :func:`polish`: :func:`ip_multi` with the one start ``u0`` (N,) (one
+    compiled kernel for both, not two). Returns the point (``u0`` itself when the solve
+    gave non-finite values), the status and the iteration count; the caller checks the
+    pose and the box."""
+    # copies: the compiled loop sees writable arrays whatever the caller passes
+    U0 = np.array(u0, dtype=float).reshape(1, -1)
+    X, st, nit, _, _ = ip_multi(U0, P, tol, constr_tol, np.array([float(mu0)]), max_iter,
+                                1e300, 3, reach, margin, np.array(lo, dtype=float),
+                                np.array(hi, dtype=float), np.array(ug, dtype=float),
+                                float(wq))  # fmt: skip
+    if st[0] == IP_NONFINITE:
+        return np.array(u0, dtype=float), IP_NONFINITE, int(nit[0])
+    return X[0], int(st[0]), int(nit[0])

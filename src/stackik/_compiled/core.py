@@ -27,7 +27,12 @@ _jit = njit(cache=True, error_model="numpy", nogil=True)
 #: The same, inlined where called (numba IR): for the small parts of one iteration that
 #: the kernels' hot loops call (the barrier method's errors, barrier update, step lengths
 #: and filter test; the Hessian's block subtraction), so that splitting a loop into named
-#: parts costs no call.
+#: parts costs no call; and for small functions called in one or a few places (the
+#: polish, the KKT solves behind the kernel interface, a path step's target test):
+#: every compiled (not inlined) function is a library of its own that numba optimises
+#: and turns into machine code with all its callees linked in, so a thin layer compiles
+#: its callees once more. Large functions stay compiled: numba's inlining and LLVM's
+#: function passes on the inlined whole cost more than the library they save.
 _jit_inline = njit(cache=True, error_model="numpy", nogil=True, inline="always")
 warnings.filterwarnings(
     "ignore", message="Code running in object mode won't allow parallel execution"

@@ -1,7 +1,7 @@
 """What the planar and spatial path kernels (:mod:`stackik._compiled.planar_path`,
 :mod:`stackik._compiled.spatial_path`) share: the continuation step's budgets and
 tolerances, its handling of mirror limits (rows that copy another row of the set), its
-optimality errors and its active-set change.
+optimality errors, its start (the objective scaling) and its active-set change.
 """
 
 from __future__ import annotations
@@ -10,7 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from stackik._compiled.core import _jit, _jit_inline
+from stackik._compiled import kernel
+from stackik._compiled.core import OBJ_MAX_GRAD, _jit, _jit_inline
 
 FloatArray = Any
 
@@ -74,6 +75,22 @@ def _release(act: FloatArray, zf: FloatArray, parent: FloatArray, rj: int) -> No
     for r in range(act.size):
         if parent[r] == rj:
             act[r] = False
+
+
+@_jit_inline
+def _pc_start(x0: FloatArray, P0: Any, g: FloatArray, yE0: FloatArray, z0: FloatArray,
+              active: FloatArray, m: int) -> tuple[Any, ...]:  # fmt: skip
+    """The start of a continuation step at ``x0`` (N,) with the objective gradient ``g``
+    (N,) there: the objective scaling of :func:`stackik._compiled.barrier.ip_loop`
+    (``max |g| <= OBJ_MAX_GRAD``). Returns ``(fs, P, g, x, yE, zf, act, new)``: the scale
+    factor, ``P0`` with the scaled objective, ``g`` scaled, a copy of ``x0``, the
+    multipliers ``yE0`` (E,) and ``z0`` (m,) scaled, a copy of the active mask ``active``
+    (m,) and the mask of the limits the last change added (m,; none yet)."""
+    gmax = np.abs(g).max()
+    fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
+    P = kernel.with_fscale(P0, P0.fscale / fs)
+    new = np.zeros(m, dtype=np.bool_)
+    return fs, P, g * fs, x0.copy(), yE0 * fs, z0 * fs, active.copy(), new
 
 
 @_jit_inline

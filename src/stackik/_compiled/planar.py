@@ -29,6 +29,7 @@ import numpy as np
 from stackik._compiled import kernel
 from stackik._compiled.core import (
     _jit,
+    _jit_inline,
     _limit_rows,
 )
 from stackik._compiled.dense_rows import (
@@ -360,7 +361,7 @@ def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
     return f, grad, cE, AE, cI, D
 
 
-@_jit
+@_jit_inline
 def _evaluate_ext(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
                   wq: float) -> tuple[Any, ...]:  # fmt: skip
     """:func:`_evaluate` with the extensions of a path step: the objective plus
@@ -439,7 +440,7 @@ def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) ->
     return subtract_blocks_scaled(H, Hb, xs)
 
 
-@_jit
+@_jit_inline
 def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, last_shift: float,
               try_plain: bool) -> tuple[FloatArray, FloatArray, float, float]:  # fmt: skip
     """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` by a null-space method.
@@ -539,7 +540,7 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, la
     return dx, dy, curv, shift
 
 
-@_jit
+@_jit_inline
 def _AET_dot(AE: FloatArray, y: FloatArray) -> FloatArray:
     """``AE^T y`` for the (3, N) equality Jacobian."""
     N = AE.shape[1]
@@ -549,7 +550,7 @@ def _AET_dot(AE: FloatArray, y: FloatArray) -> FloatArray:
     return out
 
 
-@_jit
+@_jit_inline
 def _ls_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArray:
     """Least-squares equality multipliers: ``argmin |g - AI^T z - AE^T y|``."""
     N = AE.shape[1]

@@ -11,11 +11,11 @@ from typing import Any
 
 import numpy as np
 
+from stackik._compiled import kernel
 from stackik._compiled.barrier import ip_loop, polish, polished
 from stackik._compiled.core import (
     IP_NONFINITE,
     IP_SUCCESS,
-    OBJ_MAX_GRAD,
     _finite,
     _jit,
     _jit_inline,
@@ -29,15 +29,14 @@ from stackik._compiled.path import (
     _merge_twins,
     _pc_change,
     _pc_errors,
+    _pc_start,
     _pc_verdict,
     _release,
 )
 from stackik._compiled.planar import (
     _AET_dot,
     _evaluate,
-    _evaluate_ip,
     _lagrangian_hessian,
-    _with_fscale,
     _with_target,
 )
 
@@ -381,18 +380,9 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     N = 3 * n
     m = 24 * n
     f, g, cE, AE, cI, D = _evaluate(x0, P0)
-    gmax = np.abs(g).max()
-    fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
-    P = _with_fscale(P0, P0.fscale / fs)
-    g = g * fs
-    x = x0.copy()
-    yE = yE0 * fs
-    zf = z0 * fs  # full multipliers; only the rows of the Newton system are used
-    act = active.copy()
-    new = np.zeros(m, dtype=np.bool_)  # the limits the last change added
-    ok = False
-    it = 0
-    changes = 0
+    # zf: the full multipliers; only the rows of the Newton system are used
+    fs, P, g, x, yE, zf, act, new = _pc_start(x0, P0, g, yE0, z0, active, m)
+    ok, it, changes = False, 0, 0
     while True:
         parent = _merge_twins(act, cI, D, zf, m)
         idx = np.nonzero(act & (parent < 0))[0]
@@ -451,7 +441,7 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     return x, ok, yE / fs, zf / fs, act, it, cE, cI
 
 
-@_jit
+@_jit_inline
 def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: float,
              ang_tol: float) -> bool:  # fmt: skip
     """Whether the polished point ``xn`` reaches ``P``'s target (``pos_tol`` [mm],
@@ -459,7 +449,7 @@ def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: f
     (scaled) and moves no variable from ``x`` by more than ``jump`` (scaled, per
     variable)."""
     none = np.empty(0)
-    f, g, cE, AE, cI, _ = _evaluate_ip(xn, P, none, none, none, 0.0)
+    f, g, cE, AE, cI, _, _ = kernel.evaluate(xn, P, none, none, none, 0.0)
     return _reaches_at(xn, x, cE, cI, P.es, jump, pos_tol, ang_tol)
 
 
@@ -484,7 +474,7 @@ def _reaches_at(xn: FloatArray, x: FloatArray, cE: FloatArray, cI: FloatArray,
 PC_ACTIVE_GUESS = 1e-6
 
 
-@_jit
+@_jit_inline
 def _ls_state(x: FloatArray, P: Any) -> tuple[FloatArray, FloatArray, FloatArray]:
     """A continuation step's start state at a point that has none: the limits within
     PC_ACTIVE_GUESS of their bound as the active set and the least-squares multipliers of
@@ -658,7 +648,7 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
                          actp, yE2, z2, act2)  # fmt: skip
             return X, k, how, yE, z, active, have, hist
         xn = polish(xn, P, 3, reach, margin)
-        f, g, cE, AE, cI, _ = _evaluate_ip(xn, P, none, none, none, 0.0)
+        f, g, cE, AE, cI, _, _ = kernel.evaluate(xn, P, none, none, none, 0.0)
         if not _reaches_at(xn, x, cE, cI, es, jump, pos_tol, ang_tol):
             if _reaches_at(xn, x, cE, cI, es, far, pos_tol, ang_tol):
                 how[k] = -1  # a pose of the target farther than jump: it left its basin

@@ -43,6 +43,7 @@ import numpy as np
 from stackik._compiled import kernel
 from stackik._compiled.core import (
     _jit,
+    _jit_inline,
     _limit_rows,
 )
 from stackik._compiled.dense_rows import (
@@ -354,7 +355,7 @@ def evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
     return f, g, cE, AE, cI, D
 
 
-@_jit
+@_jit_inline
 def _evaluate_ext(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
                   wq: float) -> tuple[Any, ...]:  # fmt: skip
     """:func:`_evaluate` with a path step's extensions: ``wq |u - ug|^2`` added to the
@@ -524,7 +525,7 @@ def _basis(AE: FloatArray, cE: FloatArray) -> tuple[FloatArray, FloatArray, bool
     return Vt[rank:].T.copy(), dxp, False
 
 
-@_jit
+@_jit_inline
 def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
               last_shift: float, try_plain: bool) -> tuple[FloatArray, float]:  # fmt: skip
     """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` for ``dx`` by a null-space method
@@ -582,7 +583,7 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
     return dx, shift
 
 
-@_jit
+@_jit_inline
 def _ls_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArray:
     """Least-squares equality multipliers ``argmin |g - AI^T z - AE^T y|``."""
     G = AE @ AE.T

@@ -11,8 +11,9 @@ from typing import Any
 
 import numpy as np
 
+from stackik._compiled import kernel
 from stackik._compiled.barrier import ip_loop, polish
-from stackik._compiled.core import IP_NONFINITE, IP_SUCCESS, OBJ_MAX_GRAD, _jit
+from stackik._compiled.core import IP_NONFINITE, IP_SUCCESS, _jit, _jit_inline
 from stackik._compiled.linalg import _AIT_dot
 from stackik._compiled.path import (
     PC_CHANGES,
@@ -22,12 +23,11 @@ from stackik._compiled.path import (
     _merge_twins,
     _pc_change,
     _pc_errors,
+    _pc_start,
     _pc_verdict,
     _release,
 )
 from stackik._compiled.spatial import (
-    _evaluate_ip,
-    _with_fscale,
     _with_target,
     evaluate,
     lagrangian_hessian,
@@ -119,18 +119,8 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     f, g, cE, AE, cI, D = evaluate(x0, P0)
     R = D.shape[1]  # rows a platform: the 24 limits and the self-leg rows
     m = R * n
-    gmax = np.abs(g).max()
-    fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
-    P = _with_fscale(P0, P0.fscale / fs)
-    g = g * fs
-    x = x0.copy()
-    yE = yE0 * fs
-    zf = z0 * fs
-    act = active.copy()
-    new = np.zeros(m, dtype=np.bool_)  # the limits the last change added
-    ok = False
-    it = 0
-    changes = 0
+    fs, P, g, x, yE, zf, act, new = _pc_start(x0, P0, g, yE0, z0, active, m)
+    ok, it, changes = False, 0, 0
     while True:
         parent = _merge_twins(act, cI, D, zf, m)
         # rows that depend on others of their platform stay active, out of the Newton
@@ -210,7 +200,7 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     return x, ok, yE / fs, zf / fs, act, it
 
 
-@_jit
+@_jit_inline
 def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: float,
              ang_tol: float) -> bool:  # fmt: skip
     """Whether the polished point ``xn`` reaches ``P``'s target (``pos_tol`` [mm]; the
@@ -219,7 +209,7 @@ def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: f
     (scaled)."""
     es = P.es
     none = np.empty(0)
-    f, g, cE, AE, cI, _, _ = _evaluate_ip(xn, P, none, none, none, 0.0)
+    f, g, cE, AE, cI, _, _ = kernel.evaluate(xn, P, none, none, none, 0.0)
     pe = math.sqrt((cE[0] / es[0]) ** 2 + (cE[1] / es[1]) ** 2 + (cE[2] / es[2]) ** 2)
     ae = math.sqrt((cE[3] / es[3]) ** 2 + (cE[4] / es[4]) ** 2 + (cE[5] / es[5]) ** 2)
     if not (pe <= pos_tol and ae <= ang_tol and cI.min() >= -1e-12):

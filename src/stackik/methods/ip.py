@@ -209,6 +209,7 @@ def ip_multi(
     P, polish_iters = (
         (problem_arrays(prob), 3) if prob.planar else (spatial_problem_arrays(prob), 0)
     )
+    none = np.empty(0)  # no box, no distance term (a path step's extensions)
     X, st, nit, obj, viol = barrier.ip_multi(
         U,
         P,
@@ -220,6 +221,10 @@ def ip_multi(
         polish_iters,
         POLISH_REACH,
         POLISH_MARGIN,
+        none,
+        none,
+        none,
+        0.0,
     )
     return X, [IP_STATUS[int(s)] for s in st], nit, obj, viol
 

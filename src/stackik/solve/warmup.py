@@ -46,7 +46,7 @@ def _dispatchers(kind: str) -> list[Any]:
         from stackik._compiled import planar as _ipm
         from stackik._compiled import planar_path as _ipm_path
 
-        return [_barrier.ip_multi, _barrier.ip_box, _ipm_path.ip_path, _ipm._evaluate,
+        return [_barrier.ip_multi, _ipm_path.ip_path, _ipm._evaluate,
                 _ipm._lagrangian_hessian, _check._planar_check,
                 _check._planar_check_many, _check._planar_path_arrays]  # fmt: skip
     # (the obstacle and force rows and the check's body distances, shared by both modes,
@@ -63,8 +63,8 @@ def _dispatchers(kind: str) -> list[Any]:
     from stackik._compiled import spatial_path as _spatial_ipm_path
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _barrier.ip_multi,
-            _barrier.ip_box, _spatial_ipm_path.ip_path, _spatial_ipm.evaluate,
-            _barrier.polish, _spatial_ipm.lagrangian_hessian, _check._spatial_check,
+            _spatial_ipm_path.ip_path, _spatial_ipm.evaluate,
+            _spatial_ipm.lagrangian_hessian, _check._spatial_check,
             _check._spatial_check_many, _self_legs.self_leg_block,
             _obstacle_rows.obstacle_rows, _force_rows.force_rows, _body.body_clearances,
             _force_rows.leg_force_jacobian]  # fmt: skip
