@@ -89,6 +89,17 @@ def _transit_terms(prob: Problem, q_prev: FloatArray, goal: FloatArray,
     return f0, d0, ug
 
 
+def _step_problem(
+    stack: Stack, target: Target, obstacles: Any, clearance: float, load: Any, constraints: Any
+) -> Problem:
+    """The FN problem of a bounded step, with the path's clearances, load and constraint
+    families (their rows: the step goes around what they keep out)."""
+    return Problem(
+        stack, target, "frobenius", None, obstacles=obstacles, clearance=clearance, load=load,
+        constraints=constraints,
+    )  # fmt: skip
+
+
 def bounded_ip(
     stack: Stack,
     target: Target,
@@ -110,16 +121,7 @@ def bounded_ip(
     from stackik.formulation import POLISH_MARGIN, POLISH_REACH
     from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
-    prob = Problem(
-        stack,
-        target,
-        "frobenius",
-        None,
-        obstacles=obstacles,
-        clearance=clearance,
-        load=load,
-        constraints=constraints,
-    )
+    prob = _step_problem(stack, target, obstacles, clearance, load, constraints)
     P = problem_arrays(prob) if prob.planar else spatial_problem_arrays(prob)
     lo, hi = _box(prob, q_prev, max_jump, IP_BOX_SHRINK)
     ug, wq, f0 = np.zeros(0), 0.0, 1.0
@@ -193,16 +195,7 @@ def bounded_step(
         The pose the SQP engine ends at (the caller checks it), or None when the engine
         stopped on bad numbers.
     """
-    prob = Problem(
-        stack,
-        target,
-        "frobenius",
-        None,
-        obstacles=obstacles,
-        clearance=clearance,
-        load=load,
-        constraints=constraints,
-    )
+    prob = _step_problem(stack, target, obstacles, clearance, load, constraints)
     exact = prob.fast is not None and not prob.dense_rows
     evaluate, hessian = prob.evaluate, prob.lagrangian_hessian
     if goal is not None:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -500,8 +500,17 @@ def _hop(req: Request, method: IPMethod, best: Run, nit: int, tried: int) -> tup
     hops = spatial_hops(req.stack, best.q)[: spatial_hop_count(req.stack.n)]
     if not hops or req.out_of_time():
         return best, nit, tried
+    return _best_of(req, method, hops, best, nit, tried)
+
+
+def _best_of(
+    req: Request, method: IPMethod, starts: list[Any], best: Run, nit: int, tried: int
+) -> tuple[Run, int, int]:
+    """``starts`` in one compiled batch within what is left of ``max_time``: its best run
+    replaces ``best`` when it passes with a lower FN; the batch's iterations and runs
+    counted into ``nit`` and ``tried``."""
     left = req.time_left(time.perf_counter())
-    batch = method.run_many(req.problem, hops, req.options, left)
+    batch = method.run_many(req.problem, starts, req.options, left)
     if batch.best is not None and _lower(batch.best, best):
         best = batch.best
     ran = sum(st is not RunStatus.SKIPPED for st in batch.statuses)
@@ -521,12 +530,7 @@ def _compact_hops(
     if req.out_of_time():
         return best, nit, tried
     hops = [req.sampler.draw_around(best.q) for _ in range(COMPACT_HOPS)]
-    left = req.time_left(time.perf_counter())
-    batch = method.run_many(req.problem, hops, req.options, left)
-    if batch.best is not None and _lower(batch.best, best):
-        best = batch.best
-    ran = sum(st is not RunStatus.SKIPPED for st in batch.statuses)
-    return best, nit + batch.nit, tried + ran
+    return _best_of(req, method, hops, best, nit, tried)
 
 
 def _recentres(req: Request) -> bool:
