@@ -255,3 +255,19 @@ def test_a_broken_family_is_a_clear_error_from_every_engine(stack, method):
         stackik.solve_ik(stack, PLANAR, method=method, constraints=[_Raises()], max_time=5)
     with pytest.raises(stackik.FamilyError, match="_Grows: 2 rows at this pose, 1 at"):
         stackik.solve_ik(stack, PLANAR, method=method, constraints=[_Grows()], max_time=5)
+
+
+def test_solve_many_in_worker_processes_gives_the_same_poses(stack):
+    """A family travels to worker processes pickled (its class importable there) and the
+    poses they find are the in-process ones, bit for bit."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    ts = [PLANAR, PlanarTarget(450.0, 1100.0, -1.2)]
+    fam = PlateHeight(390.0)
+    here = stackik.solve_many(stack, ts, constraints=[fam])
+    with ProcessPoolExecutor(1) as ex:
+        there = stackik.solve_many(stack, ts, constraints=[fam], executor=ex)
+    for t, a, b in zip(ts, here, there):
+        assert a.success and b.success
+        np.testing.assert_array_equal(a.q, b.q)
+        assert stackik.check_pose(stack, t, b.q, constraints=[fam]).ok
