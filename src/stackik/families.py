@@ -31,9 +31,11 @@ the stack's longest leg [mm], as for the other length rows).
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import threading
 import weakref
+from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -148,32 +150,37 @@ def as_families(constraints: Any) -> tuple[ConstraintFamily, ...]:
     return items
 
 
-def check_values_of(
-    f: ConstraintFamily, stack: Stack, q: FloatArray, phi: float | None
-) -> FloatArray:
-    """``f.check_values(stack, q, phi)`` as a float array; what it raises (other than
-    arithmetic) as a :class:`FamilyError` naming the family."""
+@contextlib.contextmanager
+def _whose(f: ConstraintFamily) -> Iterator[None]:
+    """Run the user's code of ``f``: what it raises (other than arithmetic, and
+    :class:`FamilyError` itself) becomes a :class:`FamilyError` naming the family."""
     try:
-        return np.asarray(f.check_values(stack, q, phi), dtype=float).reshape(-1)
+        yield
     except (FamilyError, ArithmeticError):
         raise
     except Exception as exc:  # noqa: BLE001 - the user's code: say whose it is
         raise FamilyError(f"constraint family {f._label()}: {type(exc).__name__}: {exc}") from exc
+
+
+def check_values_of(
+    f: ConstraintFamily, stack: Stack, q: FloatArray, phi: float | None
+) -> FloatArray:
+    """``f.check_values(stack, q, phi)`` as a float array (:func:`_whose` for what it
+    raises)."""
+    with _whose(f):
+        return np.asarray(f.check_values(stack, q, phi), dtype=float).reshape(-1)
 
 
 def _rows_of(
     f: ConstraintFamily, stack: Stack, q: FloatArray, phi: float | None
 ) -> tuple[FloatArray, FloatArray]:
-    """``f``'s rows at ``q`` as float arrays of checked shapes (ValueError otherwise)."""
+    """``f``'s rows at ``q`` as float arrays of checked shapes (:class:`FamilyError`
+    otherwise, and for what the family raises: :func:`_whose`)."""
     n, k = q.shape
-    try:
+    with _whose(f):
         c, J = f.spatial_rows(stack, q) if phi is None else f.planar_rows(stack, q, phi)
         c = np.asarray(c, dtype=float).reshape(-1)
         J = np.asarray(J, dtype=float)
-    except (FamilyError, ArithmeticError):
-        raise
-    except Exception as exc:  # noqa: BLE001 - the user's code: say whose it is
-        raise FamilyError(f"constraint family {f._label()}: {type(exc).__name__}: {exc}") from exc
     if J.shape != (c.size, n * k):
         raise FamilyError(
             f"constraint family {f._label()}: Jacobian of shape {J.shape}, expected "
@@ -201,29 +208,25 @@ class FamilyRows:
         if not (np.all(np.isfinite(self.scales)) and np.all(self.scales > 0)):
             raise ValueError("constraint families: every row_scale must be finite and > 0")
         k = 6 if phi is None else 3
-        self.size = -1
-        c, _ = self(np.zeros((stack.n, k)))  # sizes (a family's row count is fixed)
-        self.size = int(c.size)
+        #: the number of rows (a family's row count is fixed: the count at the zero pose)
+        self.size = int(self._rows(np.zeros((stack.n, k)))[0].size)
         self.token = _register_rows(self)
 
     def __call__(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
-        qa = np.asarray(q, dtype=float)
-        cs, Js = [], []
-        for f, s in zip(self.families, self.scales):
-            c, J = _rows_of(f, self.stack, qa, self.phi)
-            cs.append(c / s)
-            Js.append(J / s)
-        n_var = qa.size
-        if not cs:
-            return np.zeros(0), np.zeros((0, n_var))
-        c_all = np.concatenate(cs)
-        if self.size >= 0 and c_all.size != self.size:
+        c, J = self._rows(np.asarray(q, dtype=float))
+        if c.size != self.size:
             names = ", ".join(f._label() for f in self.families)
             raise FamilyError(
-                f"constraint families {names}: {c_all.size} rows at this pose, "
+                f"constraint families {names}: {c.size} rows at this pose, "
                 f"{self.size} at the first (a family's row count must not change)"
             )
-        return c_all, np.vstack(Js)
+        return c, J
+
+    def _rows(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Every family's rows at ``q``, scaled, stacked (families non-empty)."""
+        parts = [_rows_of(f, self.stack, q, self.phi) for f in self.families]
+        c = np.concatenate([c / s for (c, _), s in zip(parts, self.scales)])
+        return c, np.vstack([J / s for (_, J), s in zip(parts, self.scales)])
 
 
 _TOKENS = itertools.count(1)

@@ -161,6 +161,17 @@ class Problem:
         return r * c, Jr * self.xs * c
 
     @property
+    def constraints(self) -> tuple[Any, ...]:
+        """The user's constraint families (``solve_ik``'s ``constraints``; () when none)."""
+        return () if self.families is None else self.families.families
+
+    @property
+    def family_token(self) -> int:
+        """The token that names the families' rows to the compiled kernels (0: none;
+        :func:`stackik.families.kernel_rows`)."""
+        return 0 if self.families is None else self.families.token
+
+    @property
     def n(self) -> int:
         """Number of platforms."""
         return self.stack.n
@@ -186,10 +197,9 @@ class Problem:
         from stackik.check import check_pose
 
         cl = self.clearance
-        fams = () if self.families is None else self.families.families
         return check_pose(
             self.stack, self.target, q, self.load, obstacles=cl.obstacles, clearance=cl.margin,
-            constraints=fams,
+            constraints=self.constraints,
         )  # fmt: skip
 
     def without_force_limits(self) -> Problem:

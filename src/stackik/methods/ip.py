@@ -81,7 +81,7 @@ def spatial_problem_arrays(prob: Any) -> SpatialData:
         no_force_rows(st) if fr is None else fr.kernel_args,
         no_leg_pair_rows(st) if lp is None else lp.kernel_args,
         n_dense(prob),
-        0 if prob.families is None else prob.families.token,
+        prob.family_token,
     )
 
 
@@ -134,7 +134,7 @@ def problem_arrays(prob: Any) -> PlanarData:
         no_force_rows(prob.stack) if fr is None else fr.kernel_args,
         no_leg_pair_rows(prob.stack) if lp is None else lp.kernel_args,
         n_dense(prob),
-        0 if prob.families is None else prob.families.token,
+        prob.family_token,
     )
 
 

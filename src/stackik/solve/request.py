@@ -82,7 +82,7 @@ class Request:
         prob = Problem(
             self.stack, self.target, self.objective, self.weights, load=p.load,
             obstacles=cl.obstacles, clearance=cl.margin,
-            constraints=() if p.families is None else p.families.families,
+            constraints=p.constraints,
         )  # fmt: skip
         sigma_theta = None if self.weights is None else self.weights[1]  # (its spread only)
         planar = self.mode.planar
