@@ -204,8 +204,12 @@ def _request(
 
 
 def _family_key(f: Any) -> dict[str, Any]:
-    """A constraint family's identity for checkpoints: its class and its attributes."""
-    state = {k: repr(v) for k, v in sorted(vars(f).items())}
+    """A constraint family's identity for checkpoints: its class and its attributes
+    (arrays in full: their repr elides the middle of a large one)."""
+    state = {
+        k: np.asarray(v).tolist() if isinstance(v, np.ndarray) else repr(v)
+        for k, v in sorted(vars(f).items())
+    }
     return {"class": f"{type(f).__module__}.{type(f).__qualname__}", "state": state}
 
 
