@@ -178,14 +178,15 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     to the SQP engine with the options both engines take. The planar structured default
     from ``n = ADAPTIVE_N`` on runs the batch adaptively (:func:`_adaptive_batch`).
     """
-    from stackik.methods.ip import IPMethod
+    from stackik.methods.ip import IPMethod, n_dense
 
     method = req.method
     assert isinstance(method, IPMethod)
     starts = plan.batch(req.sampler, req.structured, req.stack.n)
-    if not req.mode.planar or req.stack.n >= PLANAR_BLAS_N:
+    if not req.mode.planar or req.stack.n >= PLANAR_BLAS_N or n_dense(req.problem):
         # the spatial kernels call LAPACK/BLAS on (6n)^2 matrices, the planar ones on
-        # (3n)^2 from n = 48 on, where OpenBLAS starts threads (CPU 2x wall at n = 48-64)
+        # (3n)^2 from n = 48 on, where OpenBLAS starts threads (CPU 2x wall at n = 48-64),
+        # and on the dense rows' normal matrix (:func:`_unfold_batch`)
         req.blas.apply()
     nit0 = tried0 = 0
     found: Run | None = None
@@ -563,12 +564,23 @@ def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
     the check on non-adjacent bodies alone, at a lower objective than ``batch.best``),
     made again from their starts by :func:`_unfold` (at most :data:`UNFOLD_STARTS`, lowest
     first, one per basin); a passing run of lower objective replaces ``batch.best`` (in
-    place; the iterations counted). A batch without such runs is left as it is."""
+    place; the iterations counted). A batch without such runs is left as it is.
+
+    The runs carry dense rows, whose normal matrix is a BLAS product every iteration: the
+    solve's BLAS thread limit applies from here on (the planar batch below
+    :data:`PLANAR_BLAS_N` runs without it). On a machine whose two cores other processes
+    share, OpenBLAS's threads on those (3n) x (3n) products made the runs with a few
+    hundred rows 8-60x slower an iteration (planar n = 16 with 12 mm legs: one run of
+    160 iterations with 880 rows 0.06 s CPU with one thread, 3.0 s without the limit;
+    ``benchmarks/profile_unfold.py``)."""
     from stackik.methods.ip import SAME_BASIN_RTOL
+
+    req.blas.apply()
+    options = req.options
 
     def solve(prob: Problem, q: FloatArray) -> Run | None:
         left = req.time_left(time.perf_counter())
-        got = method.run_many(prob, [q], req.options, left)
+        got = method.run_many(prob, [q], options, left)
         batch.nit += got.nit
         return got.best if got.best is not None else got.least
 
