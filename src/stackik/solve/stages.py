@@ -41,6 +41,7 @@ from stackik.solve.policy import (
     SHARED_OPTIONS,
     SPATIAL_GIVE_UP,
     SPATIAL_GIVE_UP_MM,
+    UNFOLD_MU0,
     UNFOLD_ROUNDS,
     UNFOLD_SCREEN_MM,
     UNFOLD_STARTS,
@@ -563,8 +564,9 @@ def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
     """The interior point's runs that folded into themselves (``batch.folded``: they failed
     the check on non-adjacent bodies alone, at a lower objective than ``batch.best``),
     made again from their starts by :func:`_unfold` (at most :data:`UNFOLD_STARTS`, lowest
-    first, one per basin); a passing run of lower objective replaces ``batch.best`` (in
-    place; the iterations counted). A batch without such runs is left as it is.
+    first, one per basin; initial barrier :data:`UNFOLD_MU0` unless the caller set
+    ``mu0``); a passing run of lower objective replaces ``batch.best`` (in place; the
+    iterations counted). A batch without such runs is left as it is.
 
     The runs carry dense rows, whose normal matrix is a BLAS product every iteration: the
     solve's BLAS thread limit applies from here on (the planar batch below
@@ -576,7 +578,7 @@ def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
     from stackik.methods.ip import SAME_BASIN_RTOL
 
     req.blas.apply()
-    options = req.options
+    options = {"mu0": UNFOLD_MU0, **req.options}
 
     def solve(prob: Problem, q: FloatArray) -> Run | None:
         left = req.time_left(time.perf_counter())
