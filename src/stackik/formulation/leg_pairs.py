@@ -249,13 +249,35 @@ def no_leg_pair_rows(stack: Stack) -> tuple[Any, ...]:
 
 
 def close_pairs(
-    stack: Stack, poses: list[FloatArray], margin: float, phi: float | None, screen: float
+    stack: Stack,
+    poses: list[FloatArray],
+    margin: float,
+    phi: float | None,
+    screen: float,
+    per_plate: int | None = None,
 ) -> Any:
-    """The pairs (indices into :attr:`PairTable.pairs`) whose segments come within
+    """The pairs (indices into :attr:`PairTable.pairs`, ascending) whose segments come within
     ``rho + screen`` [mm] of each other at any of the raw ``poses``: the pairs a solve's rows
-    cover (the others cost nothing)."""
-    every = LegPairRows(stack, np.arange(pair_table(stack).pairs.shape[0]), margin, phi)
-    near = np.zeros(every.size, dtype=bool)
+    cover (the others cost nothing). With ``per_plate``, of a leg's pairs with the covering
+    segments of one plate only the ``per_plate`` closest (least distance over ``poses``;
+    ties to the lower index) stay: the rows then keep the leg off the plate near where it
+    is, not over the whole plate (the covering argument of the module doc holds for the
+    segments kept; the check's exact distances decide the rest)."""
+    table = pair_table(stack)
+    every = LegPairRows(stack, np.arange(table.pairs.shape[0]), margin, phi)
+    d = np.full(every.size, np.inf)
     for q in poses:
-        near |= every.distances(q) < screen
-    return np.flatnonzero(near)
+        d = np.minimum(d, every.distances(q))
+    near = np.flatnonzero(d < screen)
+    if per_plate is None:
+        return near
+    if per_plate < 1:
+        raise ValueError(f"per_plate: at least 1, not {per_plate}")
+    plate = table.body[table.pairs[near, 1]]
+    legs, plated = near[plate < 0], near[plate >= 0]
+    key = table.pairs[plated, 0] * (stack.n + 1) + plate[plate >= 0]
+    order = np.lexsort((plated, d[plated], key))  # by (leg, plate), then distance, index
+    key, plated = key[order], plated[order]
+    first = np.searchsorted(key, key, side="left")  # each group's first position
+    rank = np.arange(key.size) - first
+    return np.sort(np.concatenate((legs, plated[rank < per_plate])))

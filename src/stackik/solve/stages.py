@@ -42,6 +42,7 @@ from stackik.solve.policy import (
     SPATIAL_GIVE_UP,
     SPATIAL_GIVE_UP_MM,
     UNFOLD_MU0,
+    UNFOLD_PLATE_ROWS,
     UNFOLD_ROUNDS,
     UNFOLD_SCREEN_MM,
     UNFOLD_STARTS,
@@ -565,7 +566,8 @@ def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
     the check on non-adjacent bodies alone, at a lower objective than ``batch.best``),
     made again from their starts by :func:`_unfold` (at most :data:`UNFOLD_STARTS`, lowest
     first, one per basin; initial barrier :data:`UNFOLD_MU0` unless the caller set
-    ``mu0``); a passing run of lower objective replaces ``batch.best`` (in place; the
+    ``mu0``; of a leg and a plate the rows of :data:`UNFOLD_PLATE_ROWS` covering segments);
+    a passing run of lower objective replaces ``batch.best`` (in place; the
     iterations counted). A batch without such runs is left as it is.
 
     The runs carry dense rows, whose normal matrix is a BLAS product every iteration: the
@@ -595,7 +597,7 @@ def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
         if any(abs(run.obj - o) <= SAME_BASIN_RTOL * abs(o) for o in tried):
             continue  # the same basin's minimum as one tried
         tried.append(run.obj)
-        got = _unfold(req, run, start, solve)
+        got = _unfold(req, run, start, solve, UNFOLD_PLATE_ROWS)
         if got is not None and got.check.ok and (batch.best is None or _lower(got, batch.best)):
             batch.best = got
 
@@ -605,12 +607,14 @@ def _unfold(
     run: Run,
     start: FloatArray,
     solve: Callable[[Problem, FloatArray], Run | None],
+    per_plate: int | None = None,
 ) -> Run | None:
     """``run`` (from the raw pose ``start``) folded into itself
     (:func:`stackik.methods.ip.folds_only`): made again from ``start`` with rows for the
     pairs of bodies of non-adjacent platforms (legs and legs, legs and plates) that come
     within :data:`UNFOLD_SCREEN_MM` of their least distance at ``start`` or at its pose
-    (:func:`stackik.formulation.leg_pairs.close_pairs`), and while the result folds again,
+    (:func:`stackik.formulation.leg_pairs.close_pairs`; of a leg and a plate, the
+    ``per_plate`` closest covering segments, None: all), and while the result folds again,
     with the pairs close at its pose added, up to :data:`UNFOLD_ROUNDS` runs. From the
     start, not from the folded pose: there the bodies pass through each other, and a
     squared distance has no gradient that pulls them apart. Returns the last run
@@ -624,7 +628,8 @@ def _unfold(
     margin, phi = prob.clearance.margin, prob.mode.phi(prob.target)
 
     def close(qs: list[FloatArray]) -> set[int]:
-        return {int(p) for p in close_pairs(prob.stack, qs, margin, phi, UNFOLD_SCREEN_MM)}
+        found = close_pairs(prob.stack, qs, margin, phi, UNFOLD_SCREEN_MM, per_plate)
+        return {int(p) for p in found}
 
     pairs = close([start, run.q])
     out: Run | None = None
