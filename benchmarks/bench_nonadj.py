@@ -5,21 +5,24 @@ Run: ``python benchmarks/bench_nonadj.py [--seed 5917] [--ipopt] [--cases 0,1,2,
 [--screen MM] [--out benchmarks/results]``; writes ``nonadj_bench.{csv,json,md}``
 (``--screen``: the lazy rows' screening distance instead of ``UNFOLD_SCREEN_MM``).
 
-Cases: planar n = 4, 8 (20 targets each) and 16 (10), spatial n = 4 (20), drawn with
+Cases: planar n = 4, 8 (20 targets each), 16 (10), 32 (5) and 64 (3), spatial n = 4 (20),
+drawn with
 ``rng = seed + n`` (planar: :func:`stackik.sampling.random_reachable_targets` in the plane
 ``phi = 0.3``; spatial: :func:`stackik.sampling.random_spatial_targets`), each solved with
 the default on ``Stack.uniform(PlatformGeometry.hexagonal(leg_radius=r), n)`` for
 r = 0 and r = 12 mm, interleaved (each variant solves the first target once untimed
 before: kernels loaded). With ``--ipopt``, IPOPT from 8 starts
 (``method="ipopt", starts=8``) on the 12 mm stack too, with the same rows (the self legs;
-the non-adjacent bodies' rows added lazily, as for every local engine).
+the non-adjacent bodies' rows added lazily, as for every local engine), on the cases up to
+``IPOPT_MAX_N`` platforms.
 
 Every 12 mm pose called a success is re-checked with :func:`stackik.clearances` (the exact
 distances, independent of the rows): ``false`` counts the successes with a negative
 clearance (must be 0). Columns: successes at 0 and 12 mm, the FN cost of the 12 mm pose
 relative to the 0 mm pose (median and largest, over targets where both succeed), how many
-12 mm poses differ from the 0 mm pose (FN relative difference > 1e-9), and the ratio of
-the summed solve times (12 / 0 mm).
+12 mm poses differ from the 0 mm pose (FN relative difference > 1e-9), the ratio of
+the summed solve times (12 / 0 mm; wall, and CPU: ``time.process_time``), the median
+solve times [ms] and the longest 12 mm solve [s].
 """
 
 from __future__ import annotations
@@ -37,7 +40,17 @@ from stackik import PlatformGeometry, Stack, clearances, solve_ik
 from stackik.bench import machine_info
 from stackik.sampling import random_reachable_targets, random_spatial_targets
 
-CASES = [("planar", 4, 20), ("planar", 8, 20), ("planar", 16, 10), ("spatial", 4, 20)]
+CASES = [
+    ("planar", 4, 20),
+    ("planar", 8, 20),
+    ("planar", 16, 10),
+    ("spatial", 4, 20),
+    ("planar", 32, 5),
+    ("planar", 64, 3),
+]
+#: IPOPT from 8 starts only up to this many platforms (at n = 32 and 64 it takes minutes a
+#: target with the rows)
+IPOPT_MAX_N = 16
 RADIUS = 12.0
 SAME_FN = 1e-9
 
@@ -50,9 +63,9 @@ def _targets(mode: str, n: int, count: int, seed: int) -> list[Any]:
 
 
 def _solve(stack: Stack, t: Any, kw: dict[str, Any]) -> dict[str, Any]:
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     r = solve_ik(stack, t, **kw)
-    dt = time.perf_counter() - t0
+    dt, cpu = time.perf_counter() - t0, time.process_time() - c0
     phi = getattr(t, "phi", None)
     c = clearances(stack, r.q, phi=phi)
     return {
@@ -60,6 +73,7 @@ def _solve(stack: Stack, t: Any, kw: dict[str, Any]) -> dict[str, Any]:
         "ok": bool(r.success),
         "fn": float(r.frobenius_norm),
         "time": dt,
+        "cpu": cpu,
         "method": r.method,
         "clearance": float(c.minimum),
         "non_adjacent": float(c.non_adjacent),
@@ -72,7 +86,7 @@ def run_case(mode: str, n: int, count: int, seed: int, ipopt: bool) -> list[dict
     rows = []
     targets = _targets(mode, n, count, seed)
     variants = (("r0", st0, {}), ("r12", st12, {})) + (
-        (("ipopt8", st12, {"method": "ipopt", "starts": 8}),) if ipopt else ()
+        (("ipopt8", st12, {"method": "ipopt", "starts": 8}),) if ipopt and n <= IPOPT_MAX_N else ()
     )
     for _, st, kw in variants:  # kernels loaded, caches warm: not timed
         solve_ik(st, targets[0], **kw)
@@ -104,8 +118,12 @@ def summarise(rows: list[dict[str, Any]], ipopt: bool) -> list[dict[str, Any]]:
             "cost_median": float(np.median(cost)) if cost else float("nan"),
             "cost_max": float(np.max(cost)) if cost else float("nan"),
             "time_ratio": sum(r["r12_time"] for r in sel) / sum(r["r0_time"] for r in sel),
+            "cpu_ratio": sum(r["r12_cpu"] for r in sel) / sum(r["r0_cpu"] for r in sel),
+            "median_ms_r0": 1e3 * float(np.median([r["r0_time"] for r in sel])),
+            "median_ms_r12": 1e3 * float(np.median([r["r12_time"] for r in sel])),
+            "max_s_r12": max(r["r12_time"] for r in sel),
         }
-        if ipopt:
+        if ipopt and n <= IPOPT_MAX_N:
             s["ok_ipopt8"] = sum(r["ipopt8_ok"] and r["ipopt8_clearance"] >= 0 for r in sel)
             s["ipopt8_vs_r12"] = sum(
                 r["ipopt8_ok"] and r["r12_ok"] and r["r12_fn"] > r["ipopt8_fn"] * (1 + 5e-3)
@@ -119,7 +137,7 @@ def summarise(rows: list[dict[str, Any]], ipopt: bool) -> list[dict[str, Any]]:
 
 
 def markdown(summary: list[dict[str, Any]], seed: int, info: dict[str, Any]) -> str:
-    keys = list(summary[0])
+    keys = list(dict.fromkeys(k for s in summary for k in s))  # (no IPOPT past IPOPT_MAX_N)
     lines = [
         f"# Non-adjacent leg rows: 12 mm legs against 0 mm (seed {seed})",
         "",
@@ -127,7 +145,8 @@ def markdown(summary: list[dict[str, Any]], seed: int, info: dict[str, Any]) -> 
         "12 mm successes with a negative clearance by `stackik.clearances`; `changed`: "
         "12 mm poses whose FN differs from the 0 mm pose's by more than 1e-9 (relative); "
         "`cost_*`: FN(12 mm) / FN(0 mm) - 1 over targets where both succeed; "
-        "`time_ratio`: summed time 12 mm / 0 mm"
+        "`time_ratio`, `cpu_ratio`: summed wall and CPU time 12 mm / 0 mm; `median_ms_*`: "
+        "median solve time [ms]; `max_s_r12`: the longest 12 mm solve [s]"
         + (
             "; `ok_ipopt8`: IPOPT from 8 starts on the 12 mm stack, success and clear; "
             "`ipopt8_vs_r12`: targets where its FN is more than 0.5 % below the default's; "
@@ -141,8 +160,9 @@ def markdown(summary: list[dict[str, Any]], seed: int, info: dict[str, Any]) -> 
         "|" + "---|" * len(keys),
     ]
     for s in summary:
+        vals = [(k, s.get(k, "-")) for k in keys]
         cells = [f"{v:.2e}" if isinstance(v, float) and k.startswith("cost") else
-                 f"{v:.2f}" if isinstance(v, float) else str(v) for k, v in s.items()]  # fmt: skip
+                 f"{v:.2f}" if isinstance(v, float) else str(v) for k, v in vals]  # fmt: skip
         lines.append("| " + " | ".join(cells) + " |")
     lines += ["", f"Machine: {info.get('cpu', '?')}, shared (timings rough)."]
     return "\n".join(lines) + "\n"
@@ -168,7 +188,7 @@ def main() -> None:
     info = machine_info()
     args.out.mkdir(parents=True, exist_ok=True)
     with open(args.out / "nonadj_bench.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w = csv.DictWriter(fh, fieldnames=list(dict.fromkeys(k for r in rows for k in r)))
         w.writeheader()
         w.writerows(rows)
     (args.out / "nonadj_bench.json").write_text(

@@ -52,11 +52,11 @@ def _install() -> None:
             PHASE["round"] += 1
         return out
 
-    def timed_unfold(req: Any, run: Any, start: Any, solve: Any) -> Any:
+    def timed_unfold(*args: Any) -> Any:
         PHASE["name"], PHASE["round"] = f"unfold{PHASE.get('k', 0)}", 1
         PHASE["k"] = PHASE.get("k", 0) + 1
         try:
-            return unfold(req, run, start, solve)
+            return unfold(*args)
         finally:
             PHASE["name"], PHASE["round"] = "after", 0
 
