@@ -30,7 +30,7 @@ from stackik.sampling import random_reachable_targets
 from stackik.solve import stages
 
 CALLS: list[dict[str, Any]] = []
-PHASE = {"name": "batch", "round": 0}
+PHASE: dict[str, Any] = {"name": "batch", "round": 0}
 
 
 def _install() -> None:
@@ -69,7 +69,7 @@ def _install() -> None:
         return out
 
     IPMethod.run_many = timed_run_many  # type: ignore[method-assign]
-    stages._unfold = timed_unfold
+    stages._unfold = timed_unfold  # type: ignore[assignment]
     leg_pairs.close_pairs = timed_close
 
 
