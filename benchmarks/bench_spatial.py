@@ -56,8 +56,10 @@ METHODS: list[tuple[str, dict[str, Any]]] = [
 ]
 
 
-def targets(n: int, count: int, seed: int = SEED) -> tuple[Stack, list[Any]]:
-    stack = Stack.reference(n)
+def targets(
+    n: int, count: int, seed: int = SEED, leg_radius: float = 0.0
+) -> tuple[Stack, list[Any]]:
+    stack = Stack.reference(n, leg_radius=leg_radius)
     return stack, random_spatial_targets(stack, count, seed + n)
 
 
@@ -129,7 +131,11 @@ def summarise(rows: list[dict[str, Any]], sizes: dict[int, int]) -> list[dict[st
 
 
 def markdown(
-    summary: list[dict[str, Any]], info: dict[str, Any], cmd: str, seed: int = SEED
+    summary: list[dict[str, Any]],
+    info: dict[str, Any],
+    cmd: str,
+    seed: int = SEED,
+    leg_radius: float = 0.0,
 ) -> str:
     lines = [
         "# Spatial benchmark",
@@ -138,8 +144,8 @@ def markdown(
         f"Python {info['python']}, NumPy {info['numpy']}, {info['date']}; "
         f"load average at start {info.get('load', '?')}.",
         "",
-        "Random reachable spatial targets on the reference stack "
-        f"(`stackik.sampling.random_spatial_targets`, seed {seed} + n). Best known = the "
+        f"Random reachable spatial targets on the reference stack, legs of radius {leg_radius:g} "
+        f"mm (`stackik.sampling.random_spatial_targets`, seed {seed} + n). Best known = the "
         "least FN of every method in the table. Within 0.1 % = passes the check and "
         "FN <= 1.001 x best known. Ratios = IPOPT-8's median / the method's median (same "
         "run), of wall-clock time and of CPU time (the process's; BLAS on one thread): on "
@@ -168,6 +174,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument(
         "--seed", type=int, default=SEED, help="targets' seed (+ n); another for an outside check"
     )
+    ap.add_argument(
+        "--leg-radius", type=float, default=0.0, help="legs' radius [mm] of the reference stack"
+    )
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results"))
     ap.add_argument("--reuse", action="store_true", help="keep rows already computed")
     ap.add_argument("--redo", nargs="*", default=[], help="methods to rerun with --reuse")
@@ -195,7 +204,7 @@ def main(argv: list[str] | None = None) -> None:
         for r in rows:
             fh.write(json.dumps(r) + "\n")
     for n, count in sizes.items():
-        stack, tgs = targets(n, count, args.seed)
+        stack, tgs = targets(n, count, args.seed, args.leg_radius)
         for name, kw in methods:
             todo = [j for j in range(count) if (name, n, j) not in done]
             if not todo:
@@ -221,7 +230,7 @@ def main(argv: list[str] | None = None) -> None:
         w = csv.DictWriter(fh, fieldnames=list(summary[0]))
         w.writeheader()
         w.writerows(summary)
-    md = markdown(summary, info, cmd.strip(), args.seed)
+    md = markdown(summary, info, cmd.strip(), args.seed, args.leg_radius)
     (args.out / "spatial_bench.md").write_text(md)
     print(md)
 

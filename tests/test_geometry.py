@@ -491,3 +491,14 @@ def test_geometry_show_names_the_clearance_sizes():
     text = describe_stack(Stack.uniform(PlatformGeometry.hexagonal(leg_radius=12), 2))
     assert "leg radius 12 mm" in text and "plate thickness" not in text
     assert "radius" not in describe_stack(Stack.reference(2)).splitlines()[1]
+
+
+def test_reference_with_a_leg_radius():
+    from stackik.geometry import ACTUATOR_RADIUS
+
+    g = PlatformGeometry.reference(leg_radius=ACTUATOR_RADIUS)
+    assert g == PlatformGeometry.hexagonal(leg_radius=12.0)
+    assert Stack.reference(3, leg_radius=12.0) == Stack.uniform(g, 3)
+    assert Stack.reference(2, leg_radius=0.0) == Stack.reference(2)
+    with pytest.raises(GeometryError, match="leg_radius"):
+        Stack.reference(2, leg_radius=-1.0)

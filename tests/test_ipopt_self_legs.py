@@ -92,3 +92,33 @@ def test_ipopt_keeps_the_legs_apart() -> None:
     assert r.success, r.message
     assert clearances(fat, r.q).self_legs >= -1e-6
     assert r.frobenius_norm >= free.frobenius_norm * (1 - 1e-6)  # a constraint costs FN
+
+
+def test_planar_ipopt_runs_with_self_leg_rows() -> None:
+    # the planar CasADi rows on 12 mm legs (once raised: the start came back, 0 iterations)
+    from stackik import PlanarTarget, check_pose
+
+    stack = Stack.reference(4, leg_radius=12.0)
+    target = PlanarTarget(600.0, 1000.0, -1.57)
+    r = solve_ik(stack, target, method="ipopt", starts=1)
+    assert r.success and r.nit > 0
+    assert check_pose(stack, target, r.q).ok
+
+
+def test_a_solver_that_raises_is_never_a_success(monkeypatch) -> None:
+    """A run whose solver raised leaves its start: even a start that passes the check is
+    no answer, and the solve fails."""
+    from stackik.methods.ipopt import IpoptMethod
+    from stackik.result import IKStatus
+
+    stack = Stack.reference(3, leg_radius=12.0)
+    target = random_spatial_targets(stack, 1, rng=5)[0]
+    good = solve_ik(stack, target)
+    assert good.success
+
+    def boom(self, *args, **kwargs):
+        raise RuntimeError("broken rows")
+
+    monkeypatch.setattr(IpoptMethod, "solve", boom)
+    r = solve_ik(stack, target, method="ipopt", x0=good.q)
+    assert not r.success and r.status is IKStatus.FAILED

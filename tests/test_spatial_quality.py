@@ -28,11 +28,14 @@ except ImportError:  # pragma: no cover - optional extra
 
 @pytest.mark.skipif(not HAVE_IPOPT, reason="casadi not installed")
 @pytest.mark.parametrize("n", [2, 4])
-def test_ipopt_spatial_matches_sqp(n: int) -> None:
-    stack = Stack.reference(n)
+@pytest.mark.parametrize("radius", [0.0, 12.0])
+def test_ipopt_spatial_matches_sqp(n: int, radius: float) -> None:
+    # legs with a radius: IPOPT's CasADi self-leg rows (they once raised, and the start
+    # came back as a success with 0 iterations)
+    stack = Stack.reference(n, leg_radius=radius)
     for target in random_spatial_targets(stack, 3, 9301 + n):
         ip = solve_ik(stack, target, method="ipopt", starts=1)
-        assert ip.success, ip.message
+        assert ip.success and ip.nit > 0, ip.message
         assert check_pose(stack, target, ip.q).ok
         sq = solve_ik(stack, target, method="sqp", starts=1)
         assert sq.success

@@ -29,6 +29,9 @@ REF_HALF_ANGLE = math.radians(15.0)  # [rad] a = b
 REF_LEG_MIN = 250.0  # [mm]
 REF_LEG_MAX = 450.0  # [mm]
 REF_JOINT_MIN = math.radians(20.0)  # [rad]
+#: [mm] a realistic actuator radius (chosen, not given), for
+#: ``Stack.reference(n, leg_radius=ACTUATOR_RADIUS)``
+ACTUATOR_RADIUS = 12.0
 
 
 class GeometryError(ValueError):
@@ -248,12 +251,15 @@ class PlatformGeometry:
         )
 
     @classmethod
-    def reference(cls) -> PlatformGeometry:
+    def reference(cls, *, leg_radius: float = 0.0) -> PlatformGeometry:
         """The reference geometry of DESIGN §2 (chosen, not published by the paper).
 
-        ``r_b = r_t = 150`` mm, ``a = b = 15`` deg, legs 250-450 mm, joints >= 20 deg.
+        ``r_b = r_t = 150`` mm, ``a = b = 15`` deg, legs 250-450 mm, joints >= 20 deg;
+        ``leg_radius`` [mm] sizes the actuators for the clearance check (0: the paper's
+        legs as lines; :data:`ACTUATOR_RADIUS` = 12 mm is a realistic actuator, the one
+        the clearance benchmarks use).
         """
-        return cls.hexagonal()
+        return cls.hexagonal(leg_radius=leg_radius)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (lists and floats), the inverse of :meth:`from_dict`.
@@ -381,9 +387,10 @@ class Stack(Sequence[PlatformGeometry]):
         return cls(tuple([geometry] * int(n)))
 
     @classmethod
-    def reference(cls, n: int = 4) -> Stack:
-        """``n`` reference platforms (:meth:`PlatformGeometry.reference`)."""
-        return cls.uniform(PlatformGeometry.reference(), n)
+    def reference(cls, n: int = 4, *, leg_radius: float = 0.0) -> Stack:
+        """``n`` reference platforms (:meth:`PlatformGeometry.reference`), legs of radius
+        ``leg_radius`` [mm] (0 by default, the paper's legs as lines)."""
+        return cls.uniform(PlatformGeometry.reference(leg_radius=leg_radius), n)
 
     # --- sequence protocol ----------------------------------------------------------
     def __len__(self) -> int:

@@ -78,6 +78,13 @@ class Run:
     lifted: tuple[FloatArray, FloatArray, FloatArray] | None = None
     detail: str = ""
 
+    @property
+    def ok(self) -> bool:
+        """Whether the run is an answer: its pose passed the check and its solver did not
+        raise (a solver that raised leaves its start, which may pass the check but is no
+        solution: such a run fails, its error in :attr:`detail`)."""
+        return self.check.ok and self.status is not RunStatus.ERROR
+
 
 class Method:
     """One way of solving the scaled NLP from a start.

@@ -474,11 +474,11 @@ def _solver(
         if sf is not None:
             g_f = _force_equilibrium(ca, stack, load, Os, As, sf)
         if self_legs is not None:  # in the base frame (the distances are the same)
-            pairs, rho_sl, scale_sl = self_legs
+            legs, rho_sl, scale_sl = self_legs  # not ``pairs``: the non-adjacent rows' key
             for i in range(n):
                 Bw = [Os[i] + As[i] @ stack.base_nodes[i, k] for k in range(6)]
                 Tw = [Os[i + 1] + As[i + 1] @ stack.top_nodes[i, k] for k in range(6)]
-                g_ob += _self_leg_rows(ca, Bw, Tw, pairs, rho_sl[i], scale_sl[i])
+                g_ob += _self_leg_rows(ca, Bw, Tw, legs, rho_sl[i], scale_sl[i])
         if obstacles is not None:
             g_ob += _obstacle_rows(ca, stack, Os, As, obstacles)
         if pairs is not None:
@@ -569,8 +569,8 @@ def _spatial_solver(
         g_in += rows[0] + rows[1] + rows[2] + rows[3]
         if self_legs is not None:
             T = [px + R @ stack.top_nodes[i, k] for k in range(6)]
-            pairs, rho, scale = self_legs
-            g_sl += _self_leg_rows(ca, stack.base_nodes[i], T, pairs, rho[i], scale[i])
+            legs, rho, scale = self_legs  # not ``pairs``: the non-adjacent rows' key
+            g_sl += _self_leg_rows(ca, stack.base_nodes[i], T, legs, rho[i], scale[i])
     P_ee, R_ee = O, A
     E = R_t.T @ R_ee
     skew = 0.5 * ca.vertcat(E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1])
