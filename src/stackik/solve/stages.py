@@ -476,9 +476,11 @@ def _clear_first_applies(req: Request, plan: StartPlan) -> bool:
 
 
 def _spatial_self_legs(req: Request) -> bool:
-    """A spatial problem with self-leg rows (legs with a radius): its default searches
+    """A problem whose interior point carries self-leg rows (spatial, legs with a radius;
+    the planar ones are lazy, :attr:`Problem.rows_outside_ip`): its default searches
     without them first (:func:`_clear_first`)."""
-    return not req.mode.planar and req.problem.self_legs is not None
+    prob = req.problem
+    return prob.self_legs is not None and not prob.rows_outside_ip
 
 
 def _clear_first(
