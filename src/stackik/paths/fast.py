@@ -185,7 +185,7 @@ class _FastRun:
         # solve from there slides far, 10-25 ms, and mostly jumps)
         return tracker.step(last.q, last.target, tb, subdivide=not off, warm_tried=tried,
                             warm_left=tried and tracker.tried_left,
-                            box_first=off and not req.planar)  # fmt: skip
+                            box_first=off and (not req.planar or tracker.unfolding))  # fmt: skip
 
     def _accept(self, q: FloatArray, how: str) -> None:
         """Append the pose of the pending top; reanchor when due; checkpoint."""
