@@ -19,9 +19,9 @@ Every rung accepts a pose only when the full check passes (clearances included).
 that the check refuses only for bodies of non-adjacent platforms (the stack folded into
 itself, :func:`stackik.methods.ip.folds_only`) has the rung made again from the same pose
 with rows for the pairs of such bodies close there or at the refused pose, as
-:func:`stackik.solve.stages._unfold` does for a solve; from then on every step carries rows
-for the pairs close at its start (:meth:`Tracker._pairs`). A path that never folds has no
-such rows: it is the path without them, bit for bit.
+:func:`stackik.solve.stages._unfold` does for a solve; and every step carries rows for the
+pairs close at its start (:meth:`Tracker._pairs`, solve_ik's screen). A path on which no
+such pair comes close has no such rows: it is the path without them, bit for bit.
 """
 
 from __future__ import annotations
@@ -146,10 +146,13 @@ class Tracker:
         #: the carried state of a second pose followed beside the path (a fast path's
         #: goal basin, :meth:`follow`)
         self._side_carry: tuple[Any, ...] | None = None
-        #: rows for bodies of non-adjacent platforms: none until a pose folds (then every
-        #: step carries those of the pairs close at its start, :meth:`_pairs`), and the
-        #: pairs close at the poses that folded from a start (keyed by its bytes)
-        self._unfolding = False
+        #: rows for bodies of non-adjacent platforms (:meth:`_pairs`): whether any can be
+        #: needed (legs or plates of a size, or a margin: else such bodies are never
+        #: closer than 0), and the pairs close at the poses that folded from a start
+        #: (keyed by its bytes)
+        self._sized = self.clearance > 0.0 or any(
+            g.leg_radius > 0.0 or g.plate_thickness > 0.0 for g in self.stack
+        )
         self._more: dict[bytes, frozenset[int]] = {}
         #: the full check that refused the last pose :meth:`_clear` was given (else None;
         #: a caller clears it before the checks whose refusal it reads)
@@ -166,13 +169,12 @@ class Tracker:
             "constraints": self.constraints,
         }
 
-    @property
-    def unfolding(self) -> bool:
-        """Whether a pose of the path folded into itself (:meth:`_folded`): its steps carry
-        rows for the close bodies of non-adjacent platforms, and a warm solve from a
-        bounded step's pose, off the optimum of those rows, mostly slides farther than one
-        jump (fast mode then tries the bounded rung first, as spatial)."""
-        return self._unfolding
+    def folded_at(self, q: FloatArray, target: Target) -> bool:
+        """Whether a step from ``q`` to ``target`` carries rows for bodies of non-adjacent
+        platforms (:meth:`_pairs`: some pair is close at ``q``): a warm solve from a
+        bounded step's pose on such rows mostly slides farther than one jump (planar fast
+        mode then tries the bounded rung first, as spatial)."""
+        return bool(self._pairs(q, target))
 
     def _problem(self, target: Target, pairs: tuple[int, ...] = ()) -> Any:
         """The FN problem of ``target`` with the path's clearances, load and families, and
@@ -194,10 +196,11 @@ class Tracker:
 
     def _pairs(self, q: FloatArray, target: Target) -> tuple[int, ...]:
         """The pairs of bodies of non-adjacent platforms a step from ``q`` to ``target``
-        keeps apart (sorted): none until a pose of the path folded (:meth:`_folded`), then
-        those close at ``q`` (:meth:`_close`) and those close at the poses that folded
-        from ``q``."""
-        if not self._unfolding:
+        keeps apart (sorted): those close at ``q`` (:meth:`_close`) and those close at the
+        poses that folded from ``q`` (:meth:`_folded`); none when no such pair can come
+        closer than the margin (zero radii, thickness and margin). A function of ``q`` and
+        the rungs from it: a path resumed from a checkpoint carries the same rows."""
+        if not self._sized:
             return ()
         return tuple(sorted(self._more.get(q.tobytes(), frozenset()) | self._close([q], target)))
 
@@ -208,13 +211,12 @@ class Tracker:
         was refused by the full check (:attr:`_refused`) on bodies of non-adjacent
         platforms alone (:func:`stackik.methods.ip.folds_only`), and the pairs close at
         ``q`` or ``q_bad`` are not all in the rows it had (``used``). Those pairs are kept
-        for rungs from ``q``, and from now on every step carries such rows."""
+        for rungs from ``q``."""
         from stackik.methods.ip import folds_only
 
         chk = self._refused
         if q_bad is None or chk is None or not folds_only(chk, self.clearance):
             return False
-        self._unfolding = True
         key = q.tobytes()
         more = self._more.get(key, frozenset()) | self._close([q, q_bad], target)
         self._more[key] = more
