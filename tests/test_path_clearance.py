@@ -241,3 +241,18 @@ def test_a_folding_spatial_path_goes_through_clear() -> None:
     for t, q in zip(ts, path.q):
         assert sk.check_pose(fat, t, q).ok
         assert sk.clearances(fat, q).minimum >= -FEAS_TOL
+
+
+def test_a_folding_path_resumed_from_its_checkpoint_is_the_same(tmp_path) -> None:
+    """The rows a step carries depend on its previous pose alone: a folding planar n = 16
+    path cut at several records of its checkpoint and resumed gives the uninterrupted
+    poses, bit for bit."""
+    ts = _folding_path(4, 12)
+    ck = tmp_path / "ck.jsonl"
+    full = sk.solve_path(FAT16, ts, checkpoint=ck)
+    assert full.success and full.info["unfold"] > 0
+    lines = ck.read_text().splitlines(keepends=True)
+    for cut in (3, len(lines) // 2, len(lines) - 2):
+        ck.write_text("".join(lines[:cut]))
+        resumed = sk.solve_path(FAT16, ts, checkpoint=ck)
+        np.testing.assert_array_equal(resumed.q, full.q)
