@@ -308,31 +308,38 @@ class Tracker:
         (:func:`stackik.methods.ip.ip_multi` with one start, then the compiled check)
         without the pipeline around it (its request, plan and result cost ~4x the solve
         at n = 4); the same pose and verdict."""
-        opts = {} if mu0 is None else {"mu0": mu0}
-        pairs = self._pairs(q, target)
-        if not self.planar and not pairs:
-            # (solve_ik remakes a run that folds with the rows of the pairs close at q and
-            # at its pose itself)
-            r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options=opts, **self._kw)
-            return r.success, r.q
         from stackik._compiled.check import planar_check
         from stackik.methods.ip import ip_multi, ip_starts
 
+        opts = {} if mu0 is None else {"mu0": mu0}
+        pairs = self._pairs(q, target)
+
+        def planar_run(prob: Any) -> tuple[bool, FloatArray]:
+            X, *_ = ip_multi(prob, prob.u_of(q)[None], opts)
+            qw = prob.q_of(X[0])
+            return bool(planar_check(self.stack, target, qw)[0].ok) and self._clear(target, qw), qw
+
+        def spatial_run(prob: Any) -> tuple[bool, FloatArray]:
+            # solve_ik's run from x0 (polished and checked by the full check)
+            got = ip_starts(prob, [q], opts, math.inf)
+            run = got.best if got.best is not None else got.least
+            if run is None:
+                return False, q
+            self._refused = None if run.check.ok else run.check
+            return bool(run.check.ok), run.q
+
+        run_one = planar_run
+        if not self.planar:
+            if not pairs:
+                # (solve_ik remakes a run that folds with the rows of the pairs close at q
+                # and at its pose itself)
+                r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options=opts,
+                             **self._kw)  # fmt: skip
+                return r.success, r.q
+            run_one = spatial_run
         for _ in range(UNFOLD_ROUNDS):
-            prob = self._problem(target, pairs)
             self._refused = None
-            if not self.planar:  # solve_ik's run from x0 (polished and checked)
-                got = ip_starts(prob, [q], opts, math.inf)
-                run = got.best if got.best is not None else got.least
-                if run is None:
-                    return False, q
-                qw, ok = run.q, bool(run.check.ok)
-                if not ok:
-                    self._refused = run.check
-            else:
-                X, *_ = ip_multi(prob, prob.u_of(q)[None], opts)
-                qw = prob.q_of(X[0])
-                ok = bool(planar_check(self.stack, target, qw)[0].ok) and self._clear(target, qw)
+            ok, qw = run_one(self._problem(target, pairs))
             if ok or not self._folded(q, target, qw, pairs):
                 return ok, qw
             pairs = self._pairs(q, target)
