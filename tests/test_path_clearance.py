@@ -1,17 +1,23 @@
 """Paths keep their clearances (issue 29): every waypoint of solve_path(..., obstacles=,
 clearance=) passes the full check; a truss member across the least-FN path's legs is gone
-around within max_jump."""
+around within max_jump; a tall stack that folds into itself is unfolded step by step."""
 
 from __future__ import annotations
+
+from typing import Any
 
 import numpy as np
 import pytest
 
 import stackik as sk
+from stackik.check import FEAS_TOL
 from stackik.clearance import plate_frames
+from stackik.formulation import Problem
 from stackik.kinematics import spatial_chain
+from stackik.methods.ip import folds_only
 from stackik.paths import interpolate_targets
 from stackik.rotations import euler_zyx
+from stackik.sampling import random_reachable_targets, random_spatial_targets
 
 REF = sk.Stack.reference(4)
 FAT = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 4)
@@ -162,3 +168,91 @@ def test_planar_path_beside_a_wall() -> None:
         assert not path.success and f"waypoint {k}" in path.message
         assert "obstacle" in path.message
         assert not sk.solve_ik(REF, ts[k], obstacles=[wall]).success
+
+
+REF16 = sk.Stack.reference(16)
+FAT16 = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 16)
+
+
+def _folding_path(i: int, m: int) -> list[sk.PlanarTarget]:
+    """A straight planar n = 16 path between random reachable targets (plane phi = 0.3)
+    whose least-FN poses on legs of zero radius fold into themselves with 12 mm legs."""
+    keys = random_reachable_targets(REF16, 8, rng=36, phi=0.3)
+    return interpolate_targets([keys[i], keys[i + 1]], steps=m - 1)
+
+
+def _clear_and_continuous(stack: sk.Stack, path: sk.paths.PathResult) -> None:
+    """Every waypoint passes the check, every exact clearance >= 0 (to FEAS_TOL), no step
+    over the default max_jump."""
+    assert path.success and path.completed == path.m
+    for t, q in zip(path.targets, path.q):
+        assert sk.check_pose(stack, t, q).ok
+        assert sk.clearances(stack, q, phi=t.phi).minimum >= -FEAS_TOL
+    d = np.abs(np.diff(path.q, axis=0))
+    assert np.all(d[..., :2] <= 50.0) and np.all(d[..., 2] <= 0.25)
+
+
+@pytest.mark.parametrize(("i", "m", "mode"), [(4, 12, "fast"), (6, 4, "global")])
+def test_a_folding_tall_path_goes_through_clear(i: int, m: int, mode: str) -> None:
+    """Planar n = 16 on 12 mm legs: the zero-radius path's poses fold into themselves (the
+    check refuses them on non-adjacent bodies alone), and the path with the legs' radius
+    (which broke at waypoint 1 (fast) or 2 (global) when its steps had no rows for such
+    bodies) goes through,
+    every waypoint clear by the exact distances, its steps having been made again with
+    the rows of the close pairs (``info["unfold"]``)."""
+    ts = _folding_path(i, m)
+    thin = sk.solve_path(REF16, ts)
+    assert thin.success
+    refused = [sk.check_pose(FAT16, t, q) for t, q in zip(ts, thin.q)]
+    assert any(folds_only(c, 0.0) for c in refused)
+    path = sk.solve_path(FAT16, ts, mode=mode)
+    _clear_and_continuous(FAT16, path)
+    assert path.info["unfold"] > 0
+
+
+def test_a_path_that_never_folds_has_no_pair_rows(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Planar n = 4 on 12 mm legs: no non-adjacent pair comes close, so no step gets rows for
+    one (``with_leg_pairs`` is never called) and the poses are the zero-radius path's, bit
+    for bit (fast and global)."""
+
+    def refuse(self: Problem, pairs: Any) -> Problem:
+        raise AssertionError("rows for non-adjacent pairs where none is close")
+
+    monkeypatch.setattr(Problem, "with_leg_pairs", refuse)
+    fat = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 4)
+    ts = _planar_path()
+    for mode in ("fast", "global"):
+        a, b = sk.solve_path(REF, ts, mode=mode), sk.solve_path(fat, ts, mode=mode)
+        assert a.success and b.success and b.info["unfold"] == 0
+        np.testing.assert_array_equal(a.q, b.q)
+
+
+def test_a_folding_spatial_path_goes_through_clear() -> None:
+    """Spatial n = 12 on 12 mm legs (a straight path of bench_path's set, seed 2024): a step
+    folds the stack into itself, and the path (which broke at waypoint 1 when its steps had
+    no rows for non-adjacent bodies) goes through, every waypoint clear."""
+    ref = sk.Stack.reference(12)
+    fat = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 12)
+    keys = random_spatial_targets(ref, 15, rng=2024)
+    ts = interpolate_targets([keys[0], keys[1]], steps=7)
+    path = sk.solve_path(fat, ts)
+    assert path.success and path.completed == len(ts) and _jumps_ok(path)
+    assert path.info["unfold"] > 0
+    for t, q in zip(ts, path.q):
+        assert sk.check_pose(fat, t, q).ok
+        assert sk.clearances(fat, q).minimum >= -FEAS_TOL
+
+
+def test_a_folding_path_resumed_from_its_checkpoint_is_the_same(tmp_path) -> None:
+    """The rows a step carries depend on its previous pose alone: a folding planar n = 16
+    path cut at several records of its checkpoint and resumed gives the uninterrupted
+    poses, bit for bit."""
+    ts = _folding_path(4, 12)
+    ck = tmp_path / "ck.jsonl"
+    full = sk.solve_path(FAT16, ts, checkpoint=ck)
+    assert full.success and full.info["unfold"] > 0
+    lines = ck.read_text().splitlines(keepends=True)
+    for cut in (3, len(lines) // 2, len(lines) - 2):
+        ck.write_text("".join(lines[:cut]))
+        resumed = sk.solve_path(FAT16, ts, checkpoint=ck)
+        np.testing.assert_array_equal(resumed.q, full.q)

@@ -90,14 +90,18 @@ def _transit_terms(prob: Problem, q_prev: FloatArray, goal: FloatArray,
 
 
 def _step_problem(
-    stack: Stack, target: Target, obstacles: Any, clearance: float, load: Any, constraints: Any
-) -> Problem:
+    stack: Stack, target: Target, obstacles: Any, clearance: float, load: Any, constraints: Any,
+    pairs: Any = (),
+) -> Problem:  # fmt: skip
     """The FN problem of a bounded step, with the path's clearances, load and constraint
-    families (their rows: the step goes around what they keep out)."""
-    return Problem(
+    families (their rows: the step goes around what they keep out), and rows for the
+    ``pairs`` of bodies of non-adjacent platforms
+    (:meth:`stackik.formulation.Problem.with_leg_pairs`; none when empty)."""
+    prob = Problem(
         stack, target, "frobenius", None, obstacles=obstacles, clearance=clearance, load=load,
         constraints=constraints,
     )  # fmt: skip
+    return prob.with_leg_pairs(pairs) if len(pairs) else prob
 
 
 def bounded_ip(
@@ -111,6 +115,7 @@ def bounded_ip(
     clearance: float = 0.0,
     load: Any = None,
     constraints: Any = (),
+    pairs: Any = (),
 ) -> FloatArray | None:
     """:func:`bounded_step`'s problem (the same objective, box and transit objective) on
     the compiled interior point (:func:`stackik._compiled.barrier.ip_box`, exact Hessians,
@@ -121,7 +126,7 @@ def bounded_ip(
     from stackik.formulation import POLISH_MARGIN, POLISH_REACH
     from stackik.methods.ip import IP_DEFAULTS, problem_arrays, spatial_problem_arrays
 
-    prob = _step_problem(stack, target, obstacles, clearance, load, constraints)
+    prob = _step_problem(stack, target, obstacles, clearance, load, constraints, pairs)
     P = problem_arrays(prob) if prob.planar else spatial_problem_arrays(prob)
     lo, hi = _box(prob, q_prev, max_jump, IP_BOX_SHRINK)
     ug, wq, f0 = np.zeros(0), 0.0, 1.0
@@ -161,6 +166,7 @@ def bounded_step(
     clearance: float = 0.0,
     load: Any = None,
     constraints: Any = (),
+    pairs: Any = (),
 ) -> FloatArray | None:
     """Least-FN pose of ``target`` within ``max_jump`` of ``q_prev``, or None.
 
@@ -188,6 +194,10 @@ def bounded_step(
         :mod:`stackik.formulation.forces`), so it goes around an obstacle or off a force
         limit within the box (:func:`bounded_ip`'s compiled problem has the obstacle rows
         and, spatial, the self-leg rows, not the force rows).
+    pairs : sequence of int
+        Pairs of bodies of non-adjacent platforms the step keeps apart (indices into
+        :func:`stackik.formulation.leg_pairs.pair_table`'s pairs; both this engine and
+        :func:`bounded_ip` carry their rows); none by default.
 
     Returns
     -------
@@ -195,7 +205,7 @@ def bounded_step(
         The pose the SQP engine ends at (the caller checks it), or None when the engine
         stopped on bad numbers.
     """
-    prob = _step_problem(stack, target, obstacles, clearance, load, constraints)
+    prob = _step_problem(stack, target, obstacles, clearance, load, constraints, pairs)
     exact = prob.fast is not None and not prob.dense_rows
     evaluate, hessian = prob.evaluate, prob.lagrangian_hessian
     if goal is not None:

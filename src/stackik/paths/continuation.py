@@ -14,6 +14,14 @@ The ladder, cheapest first (each rung is tried only when the one before fails):
    ended, and the path leaves it continuously instead of jumping to another one.
 
 A step that fails all three is a break: no pose of the next target within ``max_jump``.
+
+Every rung accepts a pose only when the full check passes (clearances included). A pose
+that the check refuses only for bodies of non-adjacent platforms (the stack folded into
+itself, :func:`stackik.methods.ip.folds_only`) has the rung made again from the same pose
+with rows for the pairs of such bodies close there or at the refused pose, as
+:func:`stackik.solve.stages._unfold` does for a solve; and every step carries rows for the
+pairs close at its start (:meth:`Tracker._pairs`, solve_ik's screen). A path on which no
+such pair comes close has no such rows: it is the path without them, bit for bit.
 """
 
 from __future__ import annotations
@@ -32,6 +40,7 @@ from stackik.geometry import Stack
 from stackik.paths.bounded import bounded_ip, bounded_step
 from stackik.paths.interpolate import lerp_target
 from stackik.solve import solve_ik
+from stackik.solve.policy import UNFOLD_ROUNDS, UNFOLD_SCREEN_MM
 from stackik.targets import Target
 
 __all__ = ["BOX_INSIDE", "WARM_MU0", "Step", "StepCounts", "Tracker", "jump_scale"]
@@ -77,6 +86,7 @@ class StepCounts:
     transit_failed: int = 0
     sqp_fallback: int = 0  # bounded/transit steps the compiled interior point missed
     pc: int = 0  # warm steps made by the predictor-corrector step (no barrier solve)
+    unfold: int = 0  # rungs made again with rows for close non-adjacent bodies (a fold)
 
     def as_dict(self) -> dict[str, int]:
         return dict(self.__dict__)
@@ -136,6 +146,17 @@ class Tracker:
         #: the carried state of a second pose followed beside the path (a fast path's
         #: goal basin, :meth:`follow`)
         self._side_carry: tuple[Any, ...] | None = None
+        #: rows for bodies of non-adjacent platforms (:meth:`_pairs`): whether any can be
+        #: needed (legs or plates of a size, or a margin: else such bodies are never
+        #: closer than 0), and the pairs close at the poses that folded from a start
+        #: (keyed by its bytes)
+        self._sized = self.clearance > 0.0 or any(
+            g.leg_radius > 0.0 or g.plate_thickness > 0.0 for g in self.stack
+        )
+        self._more: dict[bytes, frozenset[int]] = {}
+        #: the full check that refused the last pose :meth:`_clear` was given (else None;
+        #: a caller clears it before the checks whose refusal it reads)
+        self._refused: Any = None
 
     @property
     def _kw(self) -> dict[str, Any]:
@@ -148,10 +169,61 @@ class Tracker:
             "constraints": self.constraints,
         }
 
-    def _problem(self, target: Target) -> Any:
+    def folded_at(self, q: FloatArray, target: Target) -> bool:
+        """Whether a step from ``q`` to ``target`` carries rows for bodies of non-adjacent
+        platforms (:meth:`_pairs`: some pair is close at ``q``): a warm solve from a
+        bounded step's pose on such rows mostly slides farther than one jump (planar fast
+        mode then tries the bounded rung first, as spatial)."""
+        return bool(self._pairs(q, target))
+
+    def _problem(self, target: Target, pairs: tuple[int, ...] = ()) -> Any:
+        """The FN problem of ``target`` with the path's clearances, load and families, and
+        rows for ``pairs`` of bodies of non-adjacent platforms (none when empty)."""
         from stackik.formulation import Problem
 
-        return Problem(self.stack, target, "frobenius", None, **self._kw)
+        prob = Problem(self.stack, target, "frobenius", None, **self._kw)
+        return prob.with_leg_pairs(pairs) if pairs else prob
+
+    def _close(self, qs: list[FloatArray], target: Target) -> frozenset[int]:
+        """The pairs of bodies of non-adjacent platforms within ``UNFOLD_SCREEN_MM`` of their
+        least distance at any of the poses ``qs`` of ``target``'s mode
+        (:func:`stackik.formulation.leg_pairs.close_pairs`, solve_ik's screen)."""
+        from stackik.formulation.leg_pairs import close_pairs
+
+        phi = mode_of(target).phi(target)
+        near = close_pairs(self.stack, qs, self.clearance, phi, UNFOLD_SCREEN_MM)
+        return frozenset(int(p) for p in near)
+
+    def _pairs(self, q: FloatArray, target: Target) -> tuple[int, ...]:
+        """The pairs of bodies of non-adjacent platforms a step from ``q`` to ``target``
+        keeps apart (sorted): those close at ``q`` (:meth:`_close`) and those close at the
+        poses that folded from ``q`` (:meth:`_folded`); none when no such pair can come
+        closer than the margin (zero radii, thickness and margin). A function of ``q`` and
+        the rungs from it: a path resumed from a checkpoint carries the same rows."""
+        if not self._sized:
+            return ()
+        return tuple(sorted(self._more.get(q.tobytes(), frozenset()) | self._close([q], target)))
+
+    def _folded(
+        self, q: FloatArray, target: Target, q_bad: FloatArray | None, used: tuple[int, ...]
+    ) -> bool:
+        """Whether a rung from ``q`` is worth making again with more rows: its pose ``q_bad``
+        was refused by the full check (:attr:`_refused`) on bodies of non-adjacent
+        platforms alone (:func:`stackik.methods.ip.folds_only`), and the pairs close at
+        ``q`` or ``q_bad`` are not all in the rows it had (``used``). Those pairs are kept
+        for rungs from ``q``."""
+        from stackik.methods.ip import folds_only
+
+        chk = self._refused
+        if q_bad is None or chk is None or not folds_only(chk, self.clearance):
+            return False
+        key = q.tobytes()
+        more = self._more.get(key, frozenset()) | self._close([q, q_bad], target)
+        self._more[key] = more
+        if more <= set(used):
+            return False
+        self.counts.unfold += 1
+        return True
 
     def _clear(self, target: Target, q: FloatArray) -> bool:
         """The full check's verdict on what the compiled twins do not check (clearances,
@@ -167,7 +239,9 @@ class Tracker:
         )
         if not can_fail:
             return True
-        return bool(check.check_pose(self.stack, target, q, **self._kw).ok)
+        chk = check.check_pose(self.stack, target, q, **self._kw)
+        self._refused = None if chk.ok else chk
+        return bool(chk.ok)
 
     def ratio(self, qa: FloatArray, qb: FloatArray) -> float:
         """Largest per-variable change from ``qa`` to ``qb`` in units of ``max_jump``."""
@@ -234,17 +308,42 @@ class Tracker:
         (:func:`stackik.methods.ip.ip_multi` with one start, then the compiled check)
         without the pipeline around it (its request, plan and result cost ~4x the solve
         at n = 4); the same pose and verdict."""
-        opts = {} if mu0 is None else {"mu0": mu0}
-        if not self.planar:
-            r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options=opts, **self._kw)
-            return r.success, r.q
         from stackik._compiled.check import planar_check
-        from stackik.methods.ip import ip_multi
+        from stackik.methods.ip import ip_multi, ip_starts
 
-        prob = self._problem(target)
-        X, *_ = ip_multi(prob, prob.u_of(q)[None], opts)
-        qw = prob.q_of(X[0])
-        return bool(planar_check(self.stack, target, qw)[0].ok) and self._clear(target, qw), qw
+        opts = {} if mu0 is None else {"mu0": mu0}
+        pairs = self._pairs(q, target)
+
+        def planar_run(prob: Any) -> tuple[bool, FloatArray]:
+            X, *_ = ip_multi(prob, prob.u_of(q)[None], opts)
+            qw = prob.q_of(X[0])
+            return bool(planar_check(self.stack, target, qw)[0].ok) and self._clear(target, qw), qw
+
+        def spatial_run(prob: Any) -> tuple[bool, FloatArray]:
+            # solve_ik's run from x0 (polished and checked by the full check)
+            got = ip_starts(prob, [q], opts, math.inf)
+            run = got.best if got.best is not None else got.least
+            if run is None:
+                return False, q
+            self._refused = None if run.check.ok else run.check
+            return bool(run.check.ok), run.q
+
+        run_one = planar_run
+        if not self.planar:
+            if not pairs:
+                # (solve_ik remakes a run that folds with the rows of the pairs close at q
+                # and at its pose itself)
+                r = solve_ik(self.stack, target, x0=q, starts=1, method="ip", options=opts,
+                             **self._kw)  # fmt: skip
+                return r.success, r.q
+            run_one = spatial_run
+        for _ in range(UNFOLD_ROUNDS):
+            self._refused = None
+            ok, qw = run_one(self._problem(target, pairs))
+            if ok or not self._folded(q, target, qw, pairs):
+                return ok, qw
+            pairs = self._pairs(q, target)
+        return False, qw
 
     def warm_many(
         self, q: FloatArray, targets: list[Target], max_iter: int | None = None
@@ -256,9 +355,32 @@ class Tracker:
         :meth:`warm` would accept them (checked by the compiled twin of ``check_pose``, each within
         one jump of the one before). Stops at the first it
         does not reach; the caller takes that one through the ladder (:meth:`step`).
-        ``max_iter``: iterations of each barrier solve (default: the interior point's)."""
+        ``max_iter``: iterations of each barrier solve (default: the interior point's).
+
+        A pose refused only for bodies of non-adjacent platforms (:meth:`_folded`): the run
+        is made again from the pose before it with the rows of the pairs close there and
+        at the refused pose, up to ``UNFOLD_ROUNDS`` times."""
+        out: list[FloatArray] = []
+        start = q
+        for _ in range(UNFOLD_ROUNDS):
+            if len(out) == len(targets):
+                break
+            pairs = self._pairs(start, targets[len(out)])
+            got, bad = self._warm_run(start, targets[len(out) :], max_iter, pairs)
+            out += got
+            start = out[-1] if out else q
+            if bad is None or not self._folded(start, targets[len(out)], bad, pairs):
+                break
+        return out
+
+    def _warm_run(
+        self, q: FloatArray, targets: list[Target], max_iter: int | None, pairs: tuple[int, ...]
+    ) -> tuple[list[FloatArray], FloatArray | None]:
+        """One compiled run of :meth:`warm_many` with rows for ``pairs`` of bodies of
+        non-adjacent platforms: the poses it reaches and, when the full check refused the
+        pose after them (:attr:`_refused`), that pose (else None)."""
         if not targets:
-            return []
+            return [], None
         from stackik._compiled import planar_path as _ipm_path
         from stackik._compiled import spatial_path as _spatial_ipm_path
         from stackik._compiled.check import planar_checks, spatial_check_many
@@ -267,9 +389,9 @@ class Tracker:
 
         # the scaled problem's arrays depend on the target only through its values (which
         # the kernels replace step by step) and, planar, its plane: built once per plane
-        key = getattr(targets[0], "phi", None)
+        key = (getattr(targets[0], "phi", None), pairs)
         if self._run_problem is None or self._run_problem[0] != key:
-            prob = self._problem(targets[0])
+            prob = self._problem(targets[0], pairs)
             arrays = problem_arrays(prob) if self.planar else spatial_problem_arrays(prob)
             jump = readonly(np.tile(self.scale, self.stack.n) / prob.xs)
             self._run_problem = (key, prob, arrays, jump)
@@ -299,6 +421,7 @@ class Tracker:
         # every pose checked and within one jump of the one before, at once: the leading
         # ones that are
         good = np.zeros(0, dtype=bool)
+        refused: FloatArray | None = None
         if reached:
             prev = np.concatenate([q[None], Q[:-1]])
             jumps = np.max(np.abs(Q - prev) / self.scale, axis=(1, 2))
@@ -310,7 +433,10 @@ class Tracker:
             for j in range(reached):  # the clearances, up to the first that fails
                 if not good[j]:
                     break
+                self._refused = None
                 good[j] = self._clear(targets[j], Q[j])
+                if not good[j]:
+                    refused = Q[j]
         bad = np.flatnonzero(~good)
         out: list[FloatArray] = list(Q[: bad[0] if bad.size else reached])
         self.counts.warm += len(out)
@@ -323,7 +449,7 @@ class Tracker:
         if len(out) == reached < len(targets):  # the kernel's warm solve failed
             self.tried_from = out[-1] if out else q
             self.tried_left = bool(how[reached] == -1)  # ... finding a far pose
-        return out
+        return out, refused
 
     def _no_state(self) -> tuple[Any, ...]:
         if self.planar:  # multipliers, active set, have, the point before and targets
@@ -359,19 +485,30 @@ class Tracker:
         the attempt (and a failure) under ``rung``."""
         setattr(self.counts, rung, getattr(self.counts, rung) + 1)
         goal = kw.get("goal")
-        qb = bounded_ip(self.stack, target, q, self.scale, goal=goal, **self._kw)
-        if self._accepts(q, target, qb):
-            return qb
+        pairs = self._pairs(q, target)
+        for _ in range(UNFOLD_ROUNDS):  # made again while its pose folds (_folded)
+            qb = bounded_ip(self.stack, target, q, self.scale, goal=goal, pairs=pairs, **self._kw)
+            if self._accepts(q, target, qb):
+                return qb
+            if not self._folded(q, target, qb, pairs):
+                break
+            pairs = self._pairs(q, target)
         self.counts.sqp_fallback += 1  # the SQP engine: slower, keeps its iterates in the box
-        qb = bounded_step(self.stack, target, q, self.scale, **kw, **self._kw)
-        if self._accepts(q, target, qb):
-            return qb
+        for _ in range(UNFOLD_ROUNDS):
+            qb = bounded_step(self.stack, target, q, self.scale, **kw, pairs=pairs, **self._kw)
+            if self._accepts(q, target, qb):
+                return qb
+            if not self._folded(q, target, qb, pairs):
+                break
+            pairs = self._pairs(q, target)
         failed = f"{rung}_failed"
         setattr(self.counts, failed, getattr(self.counts, failed) + 1)
         return None
 
     def _accepts(self, q: FloatArray, target: Target, qb: FloatArray | None) -> bool:
-        """``qb`` is a pose of ``target`` (checked) within one jump of ``q``."""
+        """``qb`` is a pose of ``target`` (checked) within one jump of ``q`` (:attr:`_refused`:
+        the full check's refusal, when that is what failed)."""
+        self._refused = None
         if qb is None or not self.ratio(q, qb) <= 1.0:
             return False
         if self.planar:  # the compiled twin of check_pose (same verdicts, tested), ~30x faster

@@ -182,10 +182,12 @@ class _FastRun:
         # solve from this pose to this waypoint
         tried = len(self.path) == self.ladder_at and depth == 0 and tracker.tried_from is last.q
         # spatial, off the optimum: the boxed solve first (~2 ms at n = 4; a warm barrier
-        # solve from there slides far, 10-25 ms, and mostly jumps)
+        # solve from there slides far, 10-25 ms, and mostly jumps); planar too where the
+        # step carries rows for close bodies of non-adjacent platforms (its warm solves
+        # slid 3-5 jumps)
+        box = off and (not req.planar or tracker.folded_at(last.q, tb))
         return tracker.step(last.q, last.target, tb, subdivide=not off, warm_tried=tried,
-                            warm_left=tried and tracker.tried_left,
-                            box_first=off and not req.planar)  # fmt: skip
+                            warm_left=tried and tracker.tried_left, box_first=box)  # fmt: skip
 
     def _accept(self, q: FloatArray, how: str) -> None:
         """Append the pose of the pending top; reanchor when due; checkpoint."""
