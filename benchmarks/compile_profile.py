@@ -1,6 +1,7 @@
 """Where the kernels' compile time goes on an empty numba cache, per function and per pass.
 
-Run with ``python benchmarks/compile_profile.py planar`` (or ``spatial``; a minute or more
+Run with ``python benchmarks/compile_profile.py planar`` (or ``spatial``, ``planar_path``,
+``spatial_path``: a path family with its mode's solver family; a minute or more
 each): ``stackik.warm_up((kind,))`` in a fresh subprocess with an empty temporary
 ``NUMBA_CACHE_DIR``, with a listener on numba's ``numba:compile``, ``numba:run_pass`` and
 ``numba:llvm_lock`` events. Events nest (typing a caller compiles its callees), so each
@@ -153,7 +154,7 @@ def profile(kind: str, src: str | None) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("kind", choices=("planar", "spatial"))
+    ap.add_argument("kind", choices=("planar", "spatial", "planar_path", "spatial_path"))
     ap.add_argument("--src", help="PYTHONPATH of the tree to profile (default: inherited)")
     ap.add_argument("--top", type=int, default=25, help="functions to list")
     ap.add_argument("--json", help="write the whole table here")

@@ -4,7 +4,8 @@ After :func:`stackik.warm_up` a first solve compiles and imports nothing (the fi
 clock used to include the interior point's object-mode clock, compiled in every process,
 and threadpoolctl's first scan: 31-39 ms against 0.6-0.9 ms later); a spatial solve loads
 no planar kernel unless its target turns out unreachable, and then off the clock; a
-compilation shows its progress per kernel family. Processes are spawned, so that what
+compilation shows its progress per kernel family; a solve compiles no path kernel (the
+path families compile on the first path). Processes are spawned, so that what
 this test process has loaded does not hide a cost; nothing here asserts a time.
 """
 
@@ -111,6 +112,69 @@ def test_a_spatial_solve_loads_no_planar_kernel():
     # records the compilations of a first spatial solve there)
     out = _in_fresh_process(_kernels_a_spatial_solve_loads)
     assert out == {"status": "success", "ready": ["spatial"], "planar specialisations": 0}
+
+
+def _families_solves_and_paths_load() -> dict[str, object]:
+    """Runs in a fresh process: a planar solve, then a planar path, then a spatial path
+    (no warm-up); after each, the families loaded and how many specialisations the
+    path families' entry points got."""
+    solve_path, interpolate = sk.solve_path, sk.interpolate_targets  # (lazy attributes)
+    stack = sk.Stack.reference(3)
+    keys = [sk.PlanarTarget(0.0, 800.0, 0.0), sk.PlanarTarget(100.0, 780.0, 0.1)]
+    steps = {
+        "planar solve": lambda: sk.solve_ik(stack, keys[0]),
+        "planar path": lambda: solve_path(stack, interpolate(keys, steps=3)),
+        "spatial path": lambda: solve_path(
+            stack, interpolate([t.to_spatial() for t in keys], steps=3)
+        ),
+    }
+    out: dict[str, object] = {}
+    for name, step in steps.items():
+        ok = bool(step().success)
+        out[name] = {
+            "success": ok,
+            "ready": sorted(warmup._READY),
+            "specialisations": {
+                kind: sum(len(d.signatures) for d in warmup._dispatchers(kind))
+                for kind in ("planar_path", "spatial_path")
+            },
+        }
+    return out
+
+
+def test_a_solve_compiles_no_path_kernel_and_a_path_its_own_modes():
+    out = _in_fresh_process(_families_solves_and_paths_load)
+    assert out == {
+        "planar solve": {
+            "success": True,
+            "ready": ["planar"],
+            "specialisations": {"planar_path": 0, "spatial_path": 0},
+        },
+        "planar path": {
+            "success": True,
+            "ready": ["planar", "planar_path"],
+            "specialisations": {"planar_path": 3, "spatial_path": 0},
+        },
+        "spatial path": {
+            "success": True,
+            "ready": ["planar", "planar_path", "spatial", "spatial_path"],
+            "specialisations": {"planar_path": 3, "spatial_path": 2},
+        },
+    }
+
+
+def test_a_path_family_loads_its_modes_solver_family_first(monkeypatch):
+    order: list[str] = []
+    monkeypatch.setattr(warmup, "_READY", set())
+    monkeypatch.setattr(warmup, "kernels_cached", lambda kind: True)
+    monkeypatch.setattr(warmup, "_warm", order.append)
+    assert warmup.ensure_kernels("spatial_path") >= 0.0
+    assert order == ["spatial", "spatial_path"]
+    warmup.ensure_kernels("spatial")  # loaded once
+    warmup.ensure_kernels("planar_path")
+    assert order == ["spatial", "spatial_path", "planar", "planar_path"]
+    with pytest.raises(ValueError, match="unknown 'paths'"):
+        warmup.ensure_kernels("paths")
 
 
 def test_an_unreachable_spatial_target_loads_the_planar_kernels_off_the_clock(monkeypatch):

@@ -225,9 +225,8 @@ def _load_before_clock(planar: bool) -> bool:
     from stackik.solve.blas import _BLAS, _blas_controller
     from stackik.solve.warmup import ensure_kernels
 
-    loaded = ensure_kernels("planar") > 0.0
-    if not planar:
-        loaded = ensure_kernels("spatial") > 0.0 or loaded
+    kinds = ("planar_path",) if planar else ("planar", "spatial_path")
+    loaded = sum(ensure_kernels(kind) for kind in kinds) > 0.0
     if not _BLAS:
         _blas_controller()
         loaded = True

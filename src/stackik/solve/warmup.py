@@ -9,7 +9,10 @@ loaded 2-core machine: ``benchmarks/results/first_run.md``) and writes machine c
 the sources (or to ``NUMBA_CACHE_DIR``); later processes load it (a fraction of a
 second). :func:`solve_ik` calls :func:`ensure_kernels` for what the request needs
 *before* its clock starts, so compilation never eats a solve's time budget nor shows in
-:attr:`IKResult.time`; the warm-up also runs what numba compiles per process whatever
+:attr:`IKResult.time` (:func:`stackik.solve_path` does the same for its mode's path
+family: the continuation steps of :mod:`stackik._compiled.planar_path` or
+:mod:`stackik._compiled.spatial_path` and the batch checks, compiled on the first path,
+not the first solve); the warm-up also runs what numba compiles per process whatever
 the cache (the interior point's object-mode clock) and creates the BLAS controller, so
 that a first solve after it pays nothing a later one does not.
 
@@ -31,24 +34,39 @@ from typing import IO, Any
 
 __all__ = ["KERNEL_KINDS", "ensure_kernels", "kernels_cached", "warm_up"]
 
-#: The kernel families (compiled and loaded separately: a spatial solve needs no planar
-#: kernel unless its target turns out unreachable).
-KERNEL_KINDS: tuple[str, ...] = ("planar", "spatial")
+#: The kernel families, compiled and loaded separately: a spatial solve needs no planar
+#: kernel unless its target turns out unreachable, and a solve needs no path kernel (the
+#: path families hold the continuation steps and the batch checks of
+#: :func:`stackik.solve_path`: about 30 % of a mode's compile time, paid on the first
+#: path instead of the first solve).
+KERNEL_KINDS: tuple[str, ...] = ("planar", "spatial", "planar_path", "spatial_path")
+
+#: The families a family's warm-up runs on top of (its kernels call theirs).
+_NEEDS: dict[str, tuple[str, ...]] = {"planar_path": ("planar",), "spatial_path": ("spatial",)}
 
 _READY: set[str] = set()
 _LOCK = threading.Lock()
 
 
 def _dispatchers(kind: str) -> list[Any]:
+    """The compiled entry points of the family ``kind`` (what its progress counts)."""
+    if kind == "planar_path":
+        from stackik._compiled import check as _check
+        from stackik._compiled import planar_path as _ipm_path
+
+        return [_ipm_path.ip_path, _check._planar_check_many, _check._planar_path_arrays]
+    if kind == "spatial_path":
+        from stackik._compiled import check as _check
+        from stackik._compiled import spatial_path as _spatial_ipm_path
+
+        return [_spatial_ipm_path.ip_path, _check._spatial_check_many]
     if kind == "planar":
         from stackik._compiled import barrier as _barrier
         from stackik._compiled import check as _check
         from stackik._compiled import planar as _ipm
-        from stackik._compiled import planar_path as _ipm_path
 
-        return [_barrier.ip_multi, _ipm_path.ip_path, _ipm._evaluate,
-                _ipm._lagrangian_hessian, _check._planar_check,
-                _check._planar_check_many, _check._planar_path_arrays]  # fmt: skip
+        return [_barrier.ip_multi, _ipm._evaluate, _ipm._lagrangian_hessian,
+                _check._planar_check]  # fmt: skip
     # (the obstacle and force rows and the check's body distances, shared by both modes,
     # are spatial entry points; the planar warm-up runs them too; the barrier method's
     # entry points are both modes', compiled once for each)
@@ -60,12 +78,10 @@ def _dispatchers(kind: str) -> list[Any]:
     from stackik._compiled import self_legs as _self_legs
     from stackik._compiled import spatial as _spatial_ipm
     from stackik._compiled import spatial_kinematics as _spatial
-    from stackik._compiled import spatial_path as _spatial_ipm_path
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _barrier.ip_multi,
-            _spatial_ipm_path.ip_path, _spatial_ipm.evaluate,
-            _spatial_ipm.lagrangian_hessian, _check._spatial_check,
-            _check._spatial_check_many, _self_legs.self_leg_block,
+            _spatial_ipm.evaluate, _spatial_ipm.lagrangian_hessian, _check._spatial_check,
+            _self_legs.self_leg_block,
             _obstacle_rows.obstacle_rows, _force_rows.force_rows, _body.body_clearances,
             _force_rows.leg_force_jacobian]  # fmt: skip
 
@@ -156,6 +172,9 @@ def kernels_cached(kind: str) -> bool | None:
 
 
 def _warm(kind: str) -> None:
+    if kind in _NEEDS:
+        _warm_path_kernels(kind == "planar_path")
+        return
     from stackik.methods.ip import ip_starts
     from stackik.solve.blas import _blas_controller
 
@@ -166,7 +185,6 @@ def _warm(kind: str) -> None:
     # two starts: the batch reads its clock before the second (an object-mode call that
     # numba compiles in every process, cache or not: 31-39 ms of the first solve's time)
     ip_starts(prob, [q0, q0], {}, math.inf)
-    _warm_path_kernels(planar)
     _warm_sqp_kernels(planar)
     import numpy as np
 
@@ -191,6 +209,12 @@ def _warm(kind: str) -> None:
         Problem(limited, prob.target, objective, None).evaluate(prob.u_of(q0))
 
 
+def _label(kind: str) -> str:
+    """``"planar solver"``, ``"spatial path"``, ...: the family in a progress line."""
+    mode, _, part = kind.partition("_")
+    return f"{mode} {part or 'solver'}"
+
+
 class _Progress:
     """Compilation progress of one kernel family on ``stream``, fed by numba's
     ``numba:compile`` events: a tqdm bar ticking per entry point when ``tty``, else a
@@ -209,7 +233,7 @@ class _Progress:
 
             self.bar = tqdm(
                 total=self.total,
-                desc=f"stackik: {kind} kernels",
+                desc=f"stackik: {kind.replace('_', ' ')} kernels",
                 file=stream,
                 bar_format="{desc} {n_fmt}/{total_fmt} [{elapsed}{postfix}]",
                 mininterval=0.0,  # every tick shown (a few per family)
@@ -217,7 +241,7 @@ class _Progress:
             )
         else:
             print(
-                f"stackik: compiling the {kind} solver kernels ({self.total} entry points; "
+                f"stackik: compiling the {_label(kind)} kernels ({self.total} entry points; "
                 "first run on this machine only, cached afterwards)",
                 file=stream,
                 flush=True,
@@ -243,7 +267,7 @@ class _Progress:
         if self.bar is not None:
             self.bar.close()
         print(
-            f"stackik: compiled the {self.kind} solver kernels in {seconds:.0f} s "
+            f"stackik: compiled the {_label(self.kind)} kernels in {seconds:.0f} s "
             f"({len(self.done)} of {self.total} entry points, {self.functions} functions "
             "in all)",
             file=self.stream,
@@ -277,16 +301,19 @@ def _progress(kind: str, stream: IO[str] | None = None) -> Iterator[_Progress]:
 
 
 def ensure_kernels(kind: str, *, notice: bool = True) -> float:
-    """Load or compile the kernels of ``kind`` (``"planar"`` or ``"spatial"``) once per
-    process; returns the seconds spent (0 when already done). A compilation shows its
-    progress on stderr (module docstring; ``notice=False`` silences it)."""
+    """Load or compile the kernels of ``kind`` (one of :data:`KERNEL_KINDS`: ``"planar"``,
+    ``"spatial"``, ``"planar_path"``, ``"spatial_path"``; a path family with its mode's
+    solver family) once per process; returns the seconds spent (0 when already done). A
+    compilation shows its progress on stderr (module docstring; ``notice=False``
+    silences it)."""
     if kind not in KERNEL_KINDS:
         raise ValueError(f"kind: unknown {kind!r}; choose one of {KERNEL_KINDS}")
     if kind in _READY:
         return 0.0
+    spent = sum(ensure_kernels(k, notice=notice) for k in _NEEDS.get(kind, ()))
     with _LOCK:
         if kind in _READY:
-            return 0.0
+            return spent
         t0 = time.perf_counter()
         if notice and kernels_cached(kind) is False:
             with _progress(kind):
@@ -294,7 +321,7 @@ def ensure_kernels(kind: str, *, notice: bool = True) -> float:
         else:
             _warm(kind)
         _READY.add(kind)
-        return time.perf_counter() - t0
+        return spent + time.perf_counter() - t0
 
 
 def warm_up(kinds: tuple[str, ...] = KERNEL_KINDS, *, notice: bool = True) -> float:
