@@ -177,6 +177,22 @@ def test_a_path_family_loads_its_modes_solver_family_first(monkeypatch):
         warmup.ensure_kernels("paths")
 
 
+def test_the_warm_up_compiles_at_its_own_opt_level_unless_the_user_set_one(monkeypatch):
+    from numba.core import config
+
+    seen: list[int] = []
+    monkeypatch.setattr(warmup, "_READY", set())
+    monkeypatch.setattr(warmup, "kernels_cached", lambda kind: True)
+    monkeypatch.setattr(warmup, "_warm", lambda kind: seen.append(int(config.OPT)))
+    monkeypatch.delenv("NUMBA_OPT", raising=False)
+    before = config.OPT
+    warmup.ensure_kernels("planar")
+    assert seen == [warmup.COMPILE_OPT] and config.OPT is before  # restored afterwards
+    monkeypatch.setenv("NUMBA_OPT", "3")  # the user's choice wins
+    warmup.ensure_kernels("spatial")
+    assert seen == [warmup.COMPILE_OPT, int(before)] and config.OPT is before
+
+
 def test_an_unreachable_spatial_target_loads_the_planar_kernels_off_the_clock(monkeypatch):
     from stackik.solve import request
 

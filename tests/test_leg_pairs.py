@@ -148,6 +148,35 @@ def test_no_pair_is_no_row_and_bad_index_is_refused() -> None:
         LegPairRows(FAT, [size], 0.0)
 
 
+def test_no_rows_have_the_kernel_types_of_rows_and_the_table_its_pairs() -> None:
+    """``no_leg_pair_rows`` (empty arrays, no table built) gives the compiled interior
+    points arguments of the same numba types as rows of the table (no new
+    specialisation); the table's pairs and ``rho`` are the module doc's, in its order
+    (written here as a plain loop)."""
+    from numba import typeof
+
+    from stackik.formulation.leg_pairs import no_leg_pair_rows
+
+    rows = LegPairRows(FAT, [0, 1], 0.0).kernel_args
+    empty = no_leg_pair_rows(FAT)
+    assert [typeof(a) for a in empty] == [typeof(a) for a in rows]
+    assert empty[-1] == rows[-1] and all(a.shape[0] == 0 for a in empty[:-1])
+    t = pair_table(FAT)
+    kappa_tau = {int(p): t.rho[i] - 7.0 for i, p in enumerate(t.body[t.pairs[:, 1]]) if p >= 0}
+    want = []
+    for i in range(FAT.n):
+        for k in range(6):
+            want += [(6 * i + k, 6 * j + m, 14.0) for j in range(i + 2, FAT.n) for m in range(6)]
+            want += [
+                (6 * i + k, int(e), 7.0 + kappa_tau[p])
+                for p in range(FAT.n + 1)
+                if p not in (i, i + 1)
+                for e in np.flatnonzero(t.body == p)
+            ]
+    np.testing.assert_array_equal(t.pairs, [w[:2] for w in want])
+    np.testing.assert_allclose(t.rho, [w[2] for w in want], rtol=1e-15)
+
+
 REF16 = sk.Stack.reference(16)
 FAT16 = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 16)
 

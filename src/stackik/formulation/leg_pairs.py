@@ -95,30 +95,57 @@ class PairTable:
 CHORD_MM = 12.0
 
 
-def _covering(hull: FloatArray) -> tuple[list[tuple[Any, Any]], float]:
+def _covering(hull: FloatArray) -> tuple[FloatArray, float]:
     """The covering segments of the convex polygon ``hull`` (M, 2, counter-clockwise) in
-    ``z = 0``, as 3D end pairs, and their covering radius ``kappa``: the polygon's edges
-    and its chords ``x = x_k`` at the spacing ``w <= CHORD_MM`` (the first ``w / 2`` from
-    its leftmost vertex). Every point ``p`` of the polygon lies within ``kappa = w / 2`` of
-    one: the nearest chord's line is within ``w / 2``, and the horizontal segment from
-    ``p`` to it either ends on the chord or leaves the polygon through an edge."""
+    ``z = 0``, as their 3D ends (K, 2, 3), and their covering radius ``kappa``: the
+    polygon's edges and its chords ``x = x_k`` at the spacing ``w <= CHORD_MM`` (the first
+    ``w / 2`` from its leftmost vertex). Every point ``p`` of the polygon lies within
+    ``kappa = w / 2`` of one: the nearest chord's line is within ``w / 2``, and the
+    horizontal segment from ``p`` to it either ends on the chord or leaves the polygon
+    through an edge."""
     M = hull.shape[0]
-    segs: list[tuple[Any, Any]] = []
-    for k in range(M):
-        v, w = hull[k], hull[(k + 1) % M]
-        segs.append((np.array([v[0], v[1], 0.0]), np.array([w[0], w[1], 0.0])))
+    nxt = np.roll(hull, -1, axis=0)  # edge k runs from vertex k to vertex k + 1
     lo, hi = float(hull[:, 0].min()), float(hull[:, 0].max())
     count = max(1, math.ceil((hi - lo) / CHORD_MM))
     width = (hi - lo) / count
-    for c in range(count):
-        x = lo + (c + 0.5) * width
-        ys = []
-        for k in range(M):  # the edges' crossings of the line x
-            (x0, y0), (x1, y1) = hull[k], hull[(k + 1) % M]
-            if (x0 - x) * (x1 - x) <= 0.0 and x0 != x1:
-                ys.append(y0 + (x - x0) / (x1 - x0) * (y1 - y0))
-        segs.append((np.array([x, min(ys), 0.0]), np.array([x, max(ys), 0.0])))
-    return segs, width / 2
+    x = (lo + (np.arange(count) + 0.5) * width)[:, None]  # (count, 1): the chords' lines
+    (x0, y0), (x1, y1) = hull.T, nxt.T
+    crosses = ((x0 - x) * (x1 - x) <= 0.0) & (x0 != x1)  # (count, M): edges each line crosses
+    with np.errstate(divide="ignore", invalid="ignore"):
+        y = y0 + (x - x0) / (x1 - x0) * (y1 - y0)
+    ends = np.zeros((M + count, 2, 3))
+    ends[:M, 0, :2], ends[:M, 1, :2] = hull, nxt
+    ends[M:, :, 0] = x
+    ends[M:, 0, 1] = np.where(crosses, y, np.inf).min(axis=1)
+    ends[M:, 1, 1] = np.where(crosses, y, -np.inf).max(axis=1)
+    return ends, width / 2
+
+
+def _pair_list(
+    n: int, body: Any, radius: FloatArray, tau: FloatArray, kappa: FloatArray
+) -> tuple[Any, FloatArray]:
+    """Every pair of :class:`PairTable` (m, 2) and its ``rho`` (m,), in the table's order:
+    for each leg ``a = 6 i + k`` in turn, the legs of platforms ``j >= i + 2``, then the
+    covering segments of every plate ``p`` other than ``i`` and ``i + 1`` (ascending: the
+    segments are laid out plate by plate). Built platform by platform with whole arrays:
+    a stack of 64 has about 10^6 pairs."""
+    seg = np.flatnonzero(body >= 0)  # the plates' covering segments, ascending
+    plate = body[seg]
+    pairs: list[Any] = []
+    rho: list[FloatArray] = []
+    for i in range(n):
+        legs = np.arange(6 * (i + 2), 6 * n, dtype=np.int64)
+        keep = (plate != i) & (plate != i + 1)
+        other = np.concatenate((legs, seg[keep]))
+        r_other = np.concatenate(
+            (radius[i] + radius[legs // 6], radius[i] + tau[plate[keep]] + kappa[plate[keep]])
+        )
+        own = 6 * i + np.arange(6, dtype=np.int64)
+        pairs.append(np.column_stack((np.repeat(own, other.size), np.tile(other, 6))))
+        rho.append(np.tile(r_other, 6))
+    if not pairs:
+        return np.zeros((0, 2), dtype=np.int64), np.zeros(0)
+    return np.concatenate(pairs), np.concatenate(rho)
 
 
 def pair_table(stack: Stack) -> PairTable:
@@ -129,14 +156,9 @@ def pair_table(stack: Stack) -> PairTable:
 
         n = st.n
         radius = np.array([g.leg_radius for g in st], dtype=float)
-        plates: list[Any] = []
-        points: list[Any] = []
-        body: list[int] = []
-        for i in range(n):
-            for k in range(6):
-                plates.append((i, i + 1))
-                points.append((st.base_nodes[i][k], st.top_nodes[i][k]))
-                body.append(-1)
+        plates: list[Any] = [np.repeat([(i, i + 1) for i in range(n)], 6, axis=0)]
+        points: list[Any] = [np.stack((st.base_nodes, st.top_nodes), axis=2).reshape(-1, 2, 3)]
+        body: list[Any] = [np.full(6 * n, -1)]
         kappa = np.zeros(n + 1)
         tau = np.zeros(n + 1)
         for p in range(n + 1):
@@ -145,34 +167,19 @@ def pair_table(stack: Stack) -> PairTable:
             )
             thick = max(st[i].plate_thickness for i in (p - 1, p) if 0 <= i < n)
             tau[p] = thick / 2 + float(np.abs(nodes[:, 2]).max())
-            segs, kappa[p] = _covering(convex_hull_2d(nodes[:, :2]))
-            for a, b in segs:
-                plates.append((p, p))
-                points.append((a, b))
-                body.append(p)
-        body_a = np.array(body)
-        pairs: list[tuple[int, int]] = []
-        rho: list[float] = []
-        for i in range(n):
-            for k in range(6):
-                a = 6 * i + k
-                for j in range(i + 2, n):
-                    for m in range(6):
-                        pairs.append((a, 6 * j + m))
-                        rho.append(radius[i] + radius[j])
-                for p in range(n + 1):
-                    if p in (i, i + 1):
-                        continue
-                    for e in np.flatnonzero(body_a == p):
-                        pairs.append((a, int(e)))
-                        rho.append(radius[i] + tau[p] + kappa[p])
+            ends, kappa[p] = _covering(convex_hull_2d(nodes[:, :2]))
+            plates.append(np.full((len(ends), 2), p))
+            points.append(ends)
+            body.append(np.full(len(ends), p))
+        body_a = np.concatenate(body)
+        pairs, rho = _pair_list(n, body_a, radius, tau, kappa)
         return PairTable(
-            plates=_readonly_int(plates, 2),
-            points=readonly(np.reshape(points, (-1, 2, 3))),
-            body=_readonly_int(body, 1).reshape(-1),
+            plates=_readonly_int(np.concatenate(plates), 2),
+            points=readonly(np.concatenate(points)),
+            body=_readonly_int(body_a, 1).reshape(-1),
             kappa=readonly(kappa),
             pairs=_readonly_int(pairs, 2),
-            rho=readonly(np.asarray(rho, dtype=float)),
+            rho=readonly(rho),
         )
 
     return stack.derived(("leg_pair_table",), build)  # type: ignore[no-any-return]
@@ -242,10 +249,16 @@ class LegPairRows:
 
 def no_leg_pair_rows(stack: Stack) -> tuple[Any, ...]:
     """:attr:`LegPairRows.kernel_args` of no pair on ``stack`` (cached per stack): the
-    compiled interior points' arguments when a problem has no such rows (same types)."""
-    return stack.derived(  # type: ignore[no-any-return]
-        ("no_leg_pair_rows",), lambda st: LegPairRows(st, np.zeros(0), 0.0).kernel_args
-    )
+    compiled interior points' arguments when a problem has no such rows (the same types,
+    empty arrays: without a pair the kernel reads no segment, and a first solve does not
+    pay for :func:`pair_table`, about 10^6 pairs at n = 64)."""
+
+    def make(st: Stack) -> tuple[Any, ...]:
+        none = _readonly_int(np.zeros((0, 2)), 2)
+        return (none, readonly(np.zeros((0, 2, 3))), none, readonly(np.zeros(0)),
+                float(np.max(st.leg_max)))  # fmt: skip
+
+    return stack.derived(("no_leg_pair_rows",), make)  # type: ignore[no-any-return]
 
 
 def close_pairs(

@@ -44,6 +44,12 @@ KERNEL_KINDS: tuple[str, ...] = ("planar", "spatial", "planar_path", "spatial_pa
 #: The families a family's warm-up runs on top of (its kernels call theirs).
 _NEEDS: dict[str, tuple[str, ...]] = {"planar_path": ("planar",), "spatial_path": ("spatial",)}
 
+#: numba's LLVM IR optimisation level (``NUMBA_OPT``) for stackik's kernels: 1 instead of
+#: numba's default 3 compiles a family about 15 % faster on an empty cache
+#: (``benchmarks/compile_profile.py``) and solves 1-1.5 % slower, with the same poses
+#: (``docs/benchmarks.md``). A ``NUMBA_OPT`` in the environment takes precedence.
+COMPILE_OPT = 1
+
 _READY: set[str] = set()
 _LOCK = threading.Lock()
 
@@ -209,6 +215,28 @@ def _warm(kind: str) -> None:
         Problem(limited, prob.target, objective, None).evaluate(prob.u_of(q0))
 
 
+@contextmanager
+def _compile_opt() -> Iterator[None]:
+    """numba's LLVM IR optimisation level at :data:`COMPILE_OPT` while in the block (the
+    warm-up's compilation), unless the user chose one (``NUMBA_OPT`` in the environment:
+    then that one); restored afterwards, so that the user's own numba code keeps its own.
+    Machine-code generation keeps numba's level (fixed when numba starts)."""
+    import os
+
+    from numba.core import config as numba_config
+
+    config: Any = numba_config  # its settings are set at import time: mypy sees none
+    if "NUMBA_OPT" in os.environ:
+        yield
+        return
+    before = config.OPT
+    config.OPT = config._OptLevel(COMPILE_OPT)
+    try:
+        yield
+    finally:
+        config.OPT = before
+
+
 def _label(kind: str) -> str:
     """``"planar solver"``, ``"spatial path"``, ...: the family in a progress line."""
     mode, _, part = kind.partition("_")
@@ -315,11 +343,12 @@ def ensure_kernels(kind: str, *, notice: bool = True) -> float:
         if kind in _READY:
             return spent
         t0 = time.perf_counter()
-        if notice and kernels_cached(kind) is False:
-            with _progress(kind):
+        with _compile_opt():
+            if notice and kernels_cached(kind) is False:
+                with _progress(kind):
+                    _warm(kind)
+            else:
                 _warm(kind)
-        else:
-            _warm(kind)
         _READY.add(kind)
         return spent + time.perf_counter() - t0
 
