@@ -151,8 +151,9 @@ def test_no_pair_is_no_row_and_bad_index_is_refused() -> None:
 def test_no_rows_have_the_kernel_types_of_rows_and_the_table_its_pairs() -> None:
     """``no_leg_pair_rows`` (empty arrays, no table built) gives the compiled interior
     points arguments of the same numba types as rows of the table (no new
-    specialisation); the table's pairs and ``rho`` are the module doc's, in its order
-    (written here as a plain loop)."""
+    specialisation); the table's pairs are the module doc's, in its order (written here
+    as a plain loop), with ``rho = 2 r`` for two legs and one ``r + tau_p + kappa_p`` per
+    plate ``p`` (that sum read from the table)."""
     from numba import typeof
 
     from stackik.formulation.leg_pairs import no_leg_pair_rows

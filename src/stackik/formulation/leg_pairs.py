@@ -143,9 +143,7 @@ def _pair_list(
         own = 6 * i + np.arange(6, dtype=np.int64)
         pairs.append(np.column_stack((np.repeat(own, other.size), np.tile(other, 6))))
         rho.append(np.tile(r_other, 6))
-    if not pairs:
-        return np.zeros((0, 2), dtype=np.int64), np.zeros(0)
-    return np.concatenate(pairs), np.concatenate(rho)
+    return np.concatenate(pairs), np.concatenate(rho)  # n >= 1: a Stack has a platform
 
 
 def pair_table(stack: Stack) -> PairTable:

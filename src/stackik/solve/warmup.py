@@ -25,6 +25,7 @@ when it starts and one when it ends, with the seconds it took.
 from __future__ import annotations
 
 import math
+import os
 import sys
 import threading
 import time
@@ -221,8 +222,6 @@ def _compile_opt() -> Iterator[None]:
     warm-up's compilation), unless the user chose one (``NUMBA_OPT`` in the environment:
     then that one); restored afterwards, so that the user's own numba code keeps its own.
     Machine-code generation keeps numba's level (fixed when numba starts)."""
-    import os
-
     from numba.core import config as numba_config
 
     config: Any = numba_config  # its settings are set at import time: mypy sees none
