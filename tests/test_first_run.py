@@ -261,3 +261,61 @@ def test_a_compilation_on_a_terminal_ticks_a_bar_per_entry_point(monkeypatch):
     assert "stackik: planar kernels 0/3" in text and "stackik: planar kernels 3/3" in text
     assert "gamma_kernel" in text  # the function being compiled, on the bar
     assert text.rstrip().splitlines()[-1].endswith("(3 of 3 entry points, 3 functions in all)")
+
+
+def _rows_code_a_plain_solve_compiles() -> dict[str, object]:
+    """Runs in a fresh process: a planar solve without dense rows, then one with an
+    obstacle across its legs (no warm-up); after each, the families loaded and the
+    specialisations of the dense rows' kernels (none until a problem has such rows)."""
+    import numpy as np
+
+    from stackik._compiled import dense_rows, obstacle_rows
+
+    stack = sk.Stack.reference(4)
+    target = sk.PlanarTarget(600.0, 1000.0, -1.57)
+    sphere = sk.Sphere(np.array([300.0, 0.0, 500.0]), 50.0)
+    out: dict[str, object] = {}
+    for name, kw in (("plain", {}), ("obstacle", {"obstacles": [sphere]})):
+        r = sk.solve_ik(stack, target, **kw)
+        out[name] = {
+            "success": bool(r.success),
+            "ready": sorted(warmup._READY),
+            "rows code": len(dense_rows._with_rows.signatures)
+            + len(obstacle_rows.obstacle_rows.signatures),
+        }
+    return out
+
+
+def test_a_solve_without_dense_rows_compiles_none_of_their_code():
+    # the problem data's n_dense is None without dense rows: numba compiles the kernels for
+    # that type without the rows' code; a request that can carry rows loads the _rows twin
+    out = _in_fresh_process(_rows_code_a_plain_solve_compiles)
+    assert out["plain"] == {"success": True, "ready": ["planar"], "rows code": 0}
+    assert out["obstacle"]["success"] is True
+    assert out["obstacle"]["ready"] == ["planar", "planar_rows"]
+    assert out["obstacle"]["rows code"] >= 2
+
+
+def test_rows_needed_names_every_source_of_dense_rows():
+    import numpy as np
+
+    ref = sk.Stack.reference(3)
+    assert not warmup.rows_needed(ref)
+    assert warmup.rows_needed(ref, obstacles=sk.Sphere(np.zeros(3) + 500.0, 10.0))
+    assert warmup.rows_needed(ref, clearance=5.0)
+    assert warmup.rows_needed(sk.Stack.reference(3, leg_radius=12.0))
+    assert warmup.rows_needed(ref, force_weight=1.0)
+    assert warmup.rows_needed(ref, objective="force")
+    limited = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(force_max=1e3), 3)
+    assert warmup.rows_needed(limited)
+    assert not warmup.rows_needed(ref, clearance="bad")  # the request's validation says so
+
+
+def test_lean_is_the_absence_of_dense_rows():
+    from stackik._compiled.dense_rows import lean
+
+    class P:
+        def __init__(self, n: int | None) -> None:
+            self.n_dense = n
+
+    assert lean(P(None)) and lean(P(0)) and not lean(P(3))

@@ -29,7 +29,8 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import objmode
+from numba import objmode, types
+from numba.extending import overload
 
 from stackik import families as _families
 from stackik._compiled.core import _jit
@@ -39,6 +40,10 @@ from stackik._compiled.linalg import _AI_dot, _AIT_dot
 from stackik._compiled.obstacle_rows import obstacle_rows
 
 FloatArray = Any
+
+#: The jit options of an implementation compiled in place of its stub (part of the cached
+#: kernel that calls it; :mod:`stackik._compiled.kernel`).
+_OPTIONS: Any = {"error_model": "numpy", "nogil": True}
 
 
 @_jit
@@ -87,13 +92,63 @@ def family_rows(token: int, q: FloatArray) -> tuple[FloatArray, FloatArray]:
     return c, J
 
 
-@_jit
 def with_dense_rows(u: FloatArray, P: Any, cI: FloatArray, D: FloatArray, planar: bool,
                     phi: float) -> tuple[Any, Any]:  # fmt: skip
     """``c_I`` (block rows, then the dense rows) and the pair ``(D, JD)`` at the scaled
     point ``u`` (k n,; ``k = D.shape[2]``), ``JD`` in scaled variables; ``cI`` itself and an
     empty ``JD`` when ``P`` has no dense rows. ``planar``, ``phi``: the mode's variables
-    (:func:`dense_rows`; spatial: False, 0)."""
+    (:func:`dense_rows`; spatial: False, 0).
+
+    Resolved by numba at compile time from the type of ``P.n_dense`` (:func:`lean`): a
+    problem without dense rows (``n_dense`` None) compiles the first branch alone, so the
+    kernels of a problem with no obstacle, leg-pair, family or force rows hold none of
+    those rows' code (a first solve compiles about a third less); a problem with dense
+    rows (``n_dense`` their number) compiles the second."""
+    if lean(P):
+        return cI, (D, np.empty((0, u.size)))
+    return _with_rows(u, P, cI, D, planar, phi)
+
+
+def lean(P: Any) -> bool:
+    """Whether the problem data ``P`` has no dense rows: ``P.n_dense`` None or 0. In
+    compiled code the constant True where ``P.n_dense`` is None (a constant of ``P``'s
+    type: numba compiles the kernels of a problem without dense rows as a specialisation
+    of their own, with none of the dense rows' code)."""
+    return P.n_dense is None or P.n_dense == 0
+
+
+def lean_type(P: Any) -> bool:
+    """Whether the numba type ``P`` of problem data (a ``NamedTuple`` type) has
+    ``n_dense`` None: no dense rows."""
+    return isinstance(P.types[P.fields.index("n_dense")], types.NoneType)
+
+
+@overload(lean, jit_options=_OPTIONS)
+def _lean(P):  # type: ignore[no-untyped-def]
+    if lean_type(P):
+        return lambda P: True
+    return lambda P: P.n_dense == 0
+
+
+@overload(with_dense_rows, jit_options=_OPTIONS)
+def _with_dense_rows(u, P, cI, D, planar, phi):  # type: ignore[no-untyped-def]
+    if lean_type(P):
+
+        def plain(u, P, cI, D, planar, phi):  # type: ignore[no-untyped-def]
+            return cI, (D, np.empty((0, u.size)))
+
+        return plain
+
+    def rows(u, P, cI, D, planar, phi):  # type: ignore[no-untyped-def]
+        return _with_rows(u, P, cI, D, planar, phi)
+
+    return rows
+
+
+@_jit
+def _with_rows(u: FloatArray, P: Any, cI: FloatArray, D: FloatArray, planar: bool,
+               phi: float) -> tuple[Any, Any]:  # fmt: skip
+    """:func:`with_dense_rows` of a problem with dense rows (``P.n_dense`` their number)."""
     N = u.size
     if P.n_dense == 0:
         return cI, (D, np.empty((0, N)))

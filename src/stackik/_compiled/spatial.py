@@ -90,7 +90,9 @@ class SpatialData(NamedTuple):
     ob_L: float  #: the obstacle rows' length scale [mm]
     forces: Any  #: the force rows' kernel arrays (ForceLimits.kernel_args)
     leg_pairs: Any  #: non-adjacent leg-pair rows' kernel arguments (LegPairRows.kernel_args)
-    n_dense: int  #: number of dense rows (0: none; :mod:`stackik._compiled.dense_rows`)
+    #: number of dense rows (:mod:`stackik._compiled.dense_rows`), None where there are none:
+    #: a type of its own, compiled without the dense rows' code (``dense_rows.lean``)
+    n_dense: int | None
     families: int  #: token of the constraint families' rows (0: none; stackik.families)
 
 

@@ -74,6 +74,7 @@ from stackik.paths.transit import (
     TRANSIT_STEPS,
 )
 from stackik.solve.blas import BlasLimit
+from stackik.solve.warmup import rows_needed
 from stackik.targets import Target
 
 __all__ = [
@@ -201,7 +202,8 @@ def solve_path(
 def _run(req: _Request, checkpoint: str | Path | None, t_start: float) -> PathResult:
     """Load what a path needs before its clock starts, open the checkpoint and solve with
     one BLAS thread (``t_start``: when :func:`solve_path` was called)."""
-    if _load_before_clock(req.planar):  # after the validation: bad input loads nothing
+    rows = rows_needed(req.stack, req.clear.obstacles, req.clear.margin, req.constraints)
+    if _load_before_clock(req.planar, rows):  # after the validation: bad input loads nothing
         t_start = time.perf_counter()
     ck = PathCheckpoint(checkpoint, req.key() if checkpoint is not None else {})
     # one BLAS thread, as solve_ik's: the path kernels (the spatial interior point and
@@ -216,16 +218,20 @@ def _run(req: _Request, checkpoint: str | Path | None, t_start: float) -> PathRe
         blas.restore()
 
 
-def _load_before_clock(planar: bool) -> bool:
+def _load_before_clock(planar: bool, rows: bool = False) -> bool:
     """What a path loads once per process, before its clock starts (as :func:`solve_ik`
     does for its kernels, so that :attr:`PathResult.time` is the path's own work): the
     compiled kernels (the path kernels among them: tens of milliseconds to load from
     numba's cache on first use) and the BLAS controller (threadpoolctl scans the loaded
-    libraries, ~10 ms). Whether anything was loaded (the clock restarts then)."""
+    libraries, ~10 ms); with ``rows`` (:func:`stackik.solve.warmup.rows_needed`) the
+    path family's twin for problems with dense rows. Whether anything was loaded (the
+    clock restarts then)."""
     from stackik.solve.blas import _BLAS, _blas_controller
     from stackik.solve.warmup import ensure_kernels
 
-    kinds = ("planar_path",) if planar else ("planar", "spatial_path")
+    kinds: tuple[str, ...] = ("planar_path",) if planar else ("planar", "spatial_path")
+    if rows:
+        kinds += ("planar_path_rows",) if planar else ("planar_rows", "spatial_path_rows")
     loaded = sum(ensure_kernels(kind) for kind in kinds) > 0.0
     if not _BLAS:
         _blas_controller()

@@ -24,7 +24,7 @@ from stackik.solve.nearest import BEYOND_MESSAGE, stretch_toward
 from stackik.solve.policy import StartPlan, plan_starts
 from stackik.solve.request import Request, build_request
 from stackik.solve.stages import Handover, Verdict, ip_stage, local_stage
-from stackik.solve.warmup import ensure_kernels
+from stackik.solve.warmup import ensure_kernels, rows_needed
 from stackik.targets import PlanarTarget, SpatialTarget, Target
 
 __all__ = ["MethodName", "solve_ik"]
@@ -179,7 +179,8 @@ def solve_ik(
         compiled twin :func:`stackik._compiled.check.planar_check`, tested to agree, does the
         check).
     """
-    for kind in _kernels_needed(stack, target):
+    rows = rows_needed(stack, obstacles, clearance, constraints, force_weight, objective)
+    for kind in _kernels_needed(stack, target, rows):
         ensure_kernels(kind)  # load or compile before the clock starts
     t_start = time.perf_counter()
     blas = BlasLimit(blas_threads)
@@ -202,7 +203,7 @@ def _beyond_reach(stack: Stack, target: Target) -> bool:
     return float(np.linalg.norm(position)) > reach_bound(stack)
 
 
-def _kernels_needed(stack: object, target: object) -> tuple[str, ...]:
+def _kernels_needed(stack: object, target: object, rows: bool = False) -> tuple[str, ...]:
     """The compiled kernels a request calls for sure: the planar set for every planar
     target (every method evaluates the planar problem, the SQP its Hessian, through it:
     a cold first SQP solve used to spend its 18 s budget compiling and return its start
@@ -210,12 +211,16 @@ def _kernels_needed(stack: object, target: object) -> tuple[str, ...]:
     targets, with the planar set only for a target beyond the reach bound (its
     stretched pose is a planar bisection). A spatial target that turns out unreachable
     later loads the planar set then, off the clock (:meth:`Request.load_kernels`): a
-    first spatial solve compiles no planar kernel (it used to compile both sets)."""
+    first spatial solve compiles no planar kernel (it used to compile both sets). With
+    ``rows`` (:func:`stackik.solve.warmup.rows_needed`), each set's ``_rows`` twin too: the
+    kernels for problem data with dense rows."""
     if not isinstance(stack, Stack) or not isinstance(target, PlanarTarget | SpatialTarget):
         return ()  # the request's validation reports it
     if isinstance(target, PlanarTarget):
-        return ("planar",)
-    return ("spatial", "planar") if _beyond_reach(stack, target) else ("spatial",)
+        kinds: tuple[str, ...] = ("planar",)
+    else:
+        kinds = ("spatial", "planar") if _beyond_reach(stack, target) else ("spatial",)
+    return kinds + tuple(f"{kind}_rows" for kind in kinds) if rows else kinds
 
 
 def _run(req: Request) -> Verdict:

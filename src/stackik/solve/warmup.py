@@ -33,17 +33,31 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import IO, Any
 
-__all__ = ["KERNEL_KINDS", "ensure_kernels", "kernels_cached", "warm_up"]
+__all__ = ["KERNEL_KINDS", "ensure_kernels", "kernels_cached", "rows_needed", "warm_up"]
 
 #: The kernel families, compiled and loaded separately: a spatial solve needs no planar
 #: kernel unless its target turns out unreachable, and a solve needs no path kernel (the
 #: path families hold the continuation steps and the batch checks of
 #: :func:`stackik.solve_path`: about 30 % of a mode's compile time, paid on the first
-#: path instead of the first solve).
-KERNEL_KINDS: tuple[str, ...] = ("planar", "spatial", "planar_path", "spatial_path")
+#: path instead of the first solve). Each family has a ``_rows`` twin: the same kernels
+#: compiled for problems with dense rows (obstacle, non-adjacent body, constraint-family
+#: or leg-force rows: :mod:`stackik._compiled.dense_rows`), which numba compiles as a
+#: specialisation of their own (the problem data's ``n_dense`` is None without them), so a
+#: solve without such rows compiles none of their code (:func:`rows_needed`).
+KERNEL_KINDS: tuple[str, ...] = (
+    "planar", "spatial", "planar_path", "spatial_path",
+    "planar_rows", "spatial_rows", "planar_path_rows", "spatial_path_rows",
+)  # fmt: skip
 
 #: The families a family's warm-up runs on top of (its kernels call theirs).
-_NEEDS: dict[str, tuple[str, ...]] = {"planar_path": ("planar",), "spatial_path": ("spatial",)}
+_NEEDS: dict[str, tuple[str, ...]] = {
+    "planar_path": ("planar",),
+    "spatial_path": ("spatial",),
+    "planar_rows": ("planar",),
+    "spatial_rows": ("spatial",),
+    "planar_path_rows": ("planar_path", "planar_rows"),
+    "spatial_path_rows": ("spatial_path", "spatial_rows"),
+}
 
 #: numba's LLVM IR optimisation level (``NUMBA_OPT``) for stackik's kernels: 1 instead of
 #: numba's default 3 compiles a family about 15 % faster on an empty cache
@@ -57,6 +71,8 @@ _LOCK = threading.Lock()
 
 def _dispatchers(kind: str) -> list[Any]:
     """The compiled entry points of the family ``kind`` (what its progress counts)."""
+    if kind.endswith("_rows"):
+        return _row_dispatchers(kind)
     if kind == "planar_path":
         from stackik._compiled import check as _check
         from stackik._compiled import planar_path as _ipm_path
@@ -74,47 +90,94 @@ def _dispatchers(kind: str) -> list[Any]:
 
         return [_barrier.ip_multi, _ipm._evaluate, _ipm._lagrangian_hessian,
                 _check._planar_check]  # fmt: skip
-    # (the obstacle and force rows and the check's body distances, shared by both modes,
-    # are spatial entry points; the planar warm-up runs them too; the barrier method's
-    # entry points are both modes', compiled once for each)
+    # (the barrier method's entry points are both modes', compiled once for each)
     from stackik._compiled import barrier as _barrier
-    from stackik._compiled import body_distances as _body
     from stackik._compiled import check as _check
-    from stackik._compiled import force_rows as _force_rows
-    from stackik._compiled import obstacle_rows as _obstacle_rows
     from stackik._compiled import self_legs as _self_legs
     from stackik._compiled import spatial as _spatial_ipm
     from stackik._compiled import spatial_kinematics as _spatial
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _barrier.ip_multi,
             _spatial_ipm.evaluate, _spatial_ipm.lagrangian_hessian, _check._spatial_check,
-            _self_legs.self_leg_block,
-            _obstacle_rows.obstacle_rows, _force_rows.force_rows, _body.body_clearances,
-            _force_rows.leg_force_jacobian]  # fmt: skip
+            _self_legs.self_leg_block]  # fmt: skip
 
 
-def _small_problem(planar: bool) -> tuple[Any, ...]:
+def _row_dispatchers(kind: str) -> list[Any]:
+    """The entry points of a ``_rows`` family: its plain twin's main kernel (compiled
+    again for problem data with dense rows) and, for the solver families, the rows'
+    kernels the NumPy evaluation calls (shared by both modes)."""
+    from stackik._compiled import barrier as _barrier
+    from stackik._compiled import body_distances as _body
+    from stackik._compiled import force_rows as _force_rows
+    from stackik._compiled import obstacle_rows as _obstacle_rows
+    from stackik._compiled import planar_path as _ipm_path
+    from stackik._compiled import spatial_path as _spatial_ipm_path
+
+    if kind == "planar_path_rows":
+        return [_ipm_path.ip_path]
+    if kind == "spatial_path_rows":
+        return [_spatial_ipm_path.ip_path]
+    return [_barrier.ip_multi, _obstacle_rows.obstacle_rows, _force_rows.force_rows,
+            _body.body_clearances, _force_rows.leg_force_jacobian]  # fmt: skip
+
+
+def rows_needed(
+    stack: Any,
+    obstacles: Any = (),
+    clearance: Any = 0.0,
+    constraints: Any = (),
+    force_weight: Any = 0.0,
+    objective: Any = "frobenius",
+) -> bool:
+    """Whether a request on ``stack`` with these arguments (those of
+    :func:`stackik.solve_ik`) can carry dense rows, so that it needs the ``_rows`` kernel
+    families: obstacles, a clearance margin, legs or plates with a size (the non-adjacent
+    bodies' rows a folded pose gets), constraint families, finite force limits or a force
+    term. Arguments the request's validation will refuse count as none."""
+    from stackik.clearance import needs_clearances
+    from stackik.formulation.forces import force_limited
+
+    try:
+        if obstacles is not None and not isinstance(obstacles, list | tuple):
+            obstacles = (obstacles,)
+        return bool(
+            needs_clearances(stack, tuple(obstacles or ()), float(clearance or 0.0))
+            or constraints
+            or force_limited(stack)
+            or float(force_weight or 0.0) > 0.0
+            or objective == "force"
+        )
+    except (TypeError, ValueError, AttributeError):
+        return False
+
+
+def _small_problem(planar: bool, rows: bool = False) -> tuple[Any, ...]:
     """``(stack, planar target, target of the mode, Problem, paper's guess)`` of the
-    two-platform problem the warm-ups run the kernels on."""
+    two-platform problem the warm-ups run the kernels on; with ``rows``, a sphere within
+    reach gives it dense rows (the obstacle rows: the ``_rows`` families' problem data)."""
+    import numpy as np
+
     from stackik.formulation import Problem
     from stackik.geometry import PlatformGeometry, Stack
+    from stackik.obstacles import Sphere
     from stackik.starts import paper_initial_guess
     from stackik.targets import PlanarTarget
 
-    # the paper's model (legs of zero radius): the variants with rows are warmed apart
+    # the paper's model (legs of zero radius)
     stack = Stack.uniform(PlatformGeometry.hexagonal(), 2)
     pt = PlanarTarget(0.0, 700.0, 0.0)
     target = pt if planar else pt.to_spatial()
+    obstacles = [Sphere(np.array([0.0, 0.0, 300.0]), 10.0)] if rows else []
     return (
         stack,
         pt,
         target,
-        Problem(stack, target, "frobenius", None),
+        Problem(stack, target, "frobenius", None, obstacles=obstacles),
         paper_initial_guess(stack, target),
     )
 
 
-def _warm_sqp_kernels(planar: bool) -> None:
+def _warm_sqp_kernels(planar: bool, rows: bool = False) -> None:
     """Run the kernels the SQP method evaluates its compiled problem with
     (:class:`stackik.methods._sqp_compiled.CompiledNLP`: writable point and multipliers,
     read-only problem arrays; a path's transit step computes its ``f0`` with the same
@@ -123,14 +186,14 @@ def _warm_sqp_kernels(planar: bool) -> None:
 
     from stackik.methods._sqp_compiled import CompiledNLP
 
-    stack, _, _, prob, q0 = _small_problem(planar)
+    stack, _, _, prob, q0 = _small_problem(planar, rows)
     nlp = CompiledNLP(prob)
     u = prob.u_of(q0)
     nlp.evaluate(u)
     nlp.hessian(u, np.zeros(3 if planar else 6), np.zeros(nlp.R * stack.n))
 
 
-def _warm_path_kernels(planar: bool) -> None:
+def _warm_path_kernels(planar: bool, rows: bool = False) -> None:
     """Run the path kernels (:mod:`stackik.paths`: the boxed and goal-seeking step, the
     run of warm steps, the batch check) once on a small problem, with the argument
     types the paths pass (read-only arrays), so that a path's clock sees no loading."""
@@ -144,7 +207,7 @@ def _warm_path_kernels(planar: bool) -> None:
     from stackik.formulation import POLISH_MARGIN, POLISH_REACH
     from stackik.methods.ip import problem_arrays, spatial_problem_arrays
 
-    stack, pt, _, prob, q0 = _small_problem(planar)
+    stack, pt, _, prob, q0 = _small_problem(planar, rows)
     u0 = readonly(prob.u_of(q0))
     lo, hi = readonly(u0 - 0.1), readonly(u0 + 0.1)
     P = problem_arrays(prob) if planar else spatial_problem_arrays(prob)
@@ -173,42 +236,59 @@ def kernels_cached(kind: str) -> bool | None:
     """True when numba's on-disk cache holds current machine code for every entry point
     of ``kind``, False when some must be compiled, None when that cannot be told."""
     try:
+        if kind.endswith("_rows"):  # its main kernel's index holds the rows' data type
+            index = _dispatchers(kind)[0]._cache._cache_file._load_index()
+            return any(_rows_signature(key[0], kind.startswith("planar")) for key in index)
         return all(bool(d._cache._cache_file._load_index()) for d in _dispatchers(kind))
     except Exception:  # noqa: BLE001 - numba internals: unknown, not an error
         return None
 
 
+def _rows_signature(sig: Any, planar: bool) -> bool:
+    """Whether a compiled signature takes the mode's problem data with dense rows."""
+    from stackik._compiled.dense_rows import lean_type
+    from stackik._compiled.planar import PlanarData
+    from stackik._compiled.spatial import SpatialData
+
+    data = PlanarData if planar else SpatialData
+    return any(
+        getattr(t, "instance_class", None) is data and not lean_type(t)
+        for t in getattr(sig, "args", sig)
+    )
+
+
 def _warm(kind: str) -> None:
-    if kind in _NEEDS:
-        _warm_path_kernels(kind == "planar_path")
+    planar = kind.startswith("planar")
+    rows = kind.endswith("_rows")
+    if "_path" in kind:
+        _warm_path_kernels(planar, rows)
         return
-    from stackik.methods.ip import ip_starts
+    from stackik.methods.ip import ip_starts, n_dense
     from stackik.solve.blas import _blas_controller
 
     _blas_controller()  # threadpoolctl's scan of the loaded libraries (~20 ms), once
-    planar = kind == "planar"
-    _, _, _, prob, q0 = _small_problem(planar)
+    _, _, _, prob, q0 = _small_problem(planar, rows)
+    assert bool(n_dense(prob)) == rows  # the problem data's type is the family's
     prob.evaluate(prob.u_of(q0))
     # two starts: the batch reads its clock before the second (an object-mode call that
     # numba compiles in every process, cache or not: 31-39 ms of the first solve's time)
     ip_starts(prob, [q0, q0], {}, math.inf)
-    _warm_sqp_kernels(planar)
-    import numpy as np
+    _warm_sqp_kernels(planar, rows)
+    if rows:
+        _warm_row_evaluations(prob, q0, planar)
 
+
+def _warm_row_evaluations(prob: Any, q0: Any, planar: bool) -> None:
+    """The rows' kernels the NumPy evaluation (:class:`stackik.formulation.Problem`, the
+    SQP engine's and SciPy's) and the check call on their own."""
+    from stackik.clearance import clearances
     from stackik.formulation import Problem
-    from stackik.obstacles import Sphere
-
-    # the obstacle rows Problem appends (a sphere within reach)
-    near = Sphere(np.array([0.0, 0.0, 300.0]), 10.0)
-    Problem(prob.stack, prob.target, "frobenius", None, obstacles=[near]).evaluate(prob.u_of(q0))
-    # the self-leg rows Problem appends for legs with a radius
     from stackik.geometry import PlatformGeometry, Stack
 
+    # the self-leg rows Problem appends for legs with a radius
     fat = Stack.uniform(PlatformGeometry.hexagonal(leg_radius=1.0), prob.n)
     Problem(fat, prob.target, "frobenius", None).evaluate(prob.u_of(q0))
     # the check's distances between the bodies (stackik._compiled.body_distances)
-    from stackik.clearance import clearances
-
     clearances(fat, q0, phi=getattr(prob.target, "phi", None) if planar else None)
     # the leg-force rows and the force objective's residuals (stackik._compiled.force_rows)
     limited = Stack.uniform(PlatformGeometry.hexagonal(plate_mass=1.0, force_max=1e3), prob.n)
@@ -237,9 +317,11 @@ def _compile_opt() -> Iterator[None]:
 
 
 def _label(kind: str) -> str:
-    """``"planar solver"``, ``"spatial path"``, ...: the family in a progress line."""
-    mode, _, part = kind.partition("_")
-    return f"{mode} {part or 'solver'}"
+    """``"planar solver"``, ``"spatial path"``, ``"planar solver (dense rows)"``, ...: the
+    family in a progress line."""
+    base, rows = kind.removesuffix("_rows"), kind.endswith("_rows")
+    mode, _, part = base.partition("_")
+    return f"{mode} {part or 'solver'}" + (" (dense rows)" if rows else "")
 
 
 class _Progress:
