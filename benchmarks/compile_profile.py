@@ -1,7 +1,8 @@
 """Where the kernels' compile time goes on an empty numba cache, per function and per pass.
 
 Run with ``python benchmarks/compile_profile.py planar`` (or ``spatial``, ``planar_path``,
-``spatial_path``: a path family with its mode's solver family; a minute or more
+``spatial_path``: a path family with its mode's solver family; ``planar_rows`` and the other
+``_rows`` twins: with the families they need; a minute or more
 each): ``stackik.warm_up((kind,))`` in a fresh subprocess with an empty temporary
 ``NUMBA_CACHE_DIR``, with a listener on numba's ``numba:compile``, ``numba:run_pass`` and
 ``numba:llvm_lock`` events. Events nest (typing a caller compiles its callees), so each
@@ -154,7 +155,14 @@ def profile(kind: str, src: str | None) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("kind", choices=("planar", "spatial", "planar_path", "spatial_path"))
+    ap.add_argument(
+        "kind",
+        choices=(
+            "planar", "spatial", "planar_path", "spatial_path",
+            "planar_rows", "spatial_rows", "planar_path_rows", "spatial_path_rows",
+        ),  # fmt: skip
+        help="a kernel family (stackik.solve.warmup.KERNEL_KINDS; _rows: since 2026-12-05)",
+    )
     ap.add_argument("--src", help="PYTHONPATH of the tree to profile (default: inherited)")
     ap.add_argument("--top", type=int, default=25, help="functions to list")
     ap.add_argument("--json", help="write the whole table here")

@@ -280,6 +280,8 @@ def _rows_code_a_plain_solve_compiles() -> dict[str, object]:
         out[name] = {
             "success": bool(r.success),
             "ready": sorted(warmup._READY),
+            # compiled or loaded: the rows' kernel the NumPy evaluation calls (a callee
+            # loaded from the cache inside its caller gets no signature of its own)
             "rows code": len(dense_rows._with_rows.signatures)
             + len(obstacle_rows.obstacle_rows.signatures),
         }
@@ -293,7 +295,7 @@ def test_a_solve_without_dense_rows_compiles_none_of_their_code():
     assert out["plain"] == {"success": True, "ready": ["planar"], "rows code": 0}
     assert out["obstacle"]["success"] is True
     assert out["obstacle"]["ready"] == ["planar", "planar_rows"]
-    assert out["obstacle"]["rows code"] >= 2
+    assert out["obstacle"]["rows code"] >= 1
 
 
 def test_rows_needed_names_every_source_of_dense_rows():

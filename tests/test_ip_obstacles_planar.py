@@ -94,7 +94,7 @@ def test_no_obstacle_rows_leave_the_kernel_data_empty() -> None:
     for obs in ((), (far,)):
         prob = Problem(REF, t, "frobenius", None, obstacles=obs)
         P = problem_arrays(prob)
-        assert P.n_dense == 0 and P.obstacles[-1].size == 0 and not prob.rows_outside_ip
+        assert P.n_dense is None and P.obstacles[-1].size == 0 and not prob.rows_outside_ip
         u = prob.u_of(sk.paper_initial_guess(REF, t))
         f, g, cE, AE, cI, (D, JD) = _evaluate_ip(u, P)
         f0, g0, cE0, AE0, cI0, D0 = _evaluate(u, P)
