@@ -158,8 +158,14 @@ def main() -> None:
     ap.add_argument(
         "kind",
         choices=(
-            "planar", "spatial", "planar_path", "spatial_path",
-            "planar_rows", "spatial_rows", "planar_path_rows", "spatial_path_rows",
+            "planar",
+            "spatial",
+            "planar_path",
+            "spatial_path",
+            "planar_rows",
+            "spatial_rows",
+            "planar_path_rows",
+            "spatial_path_rows",
         ),  # fmt: skip
         help="a kernel family (stackik.solve.warmup.KERNEL_KINDS; _rows: since 2026-12-05)",
     )
