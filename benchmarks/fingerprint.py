@@ -6,6 +6,10 @@ A refactor that claims "behaviour unchanged" runs this before and after and comp
     python benchmarks/fingerprint.py --out after.json       # on the new one
     python benchmarks/fingerprint.py --compare before.json after.json
 
+``--rows`` adds the cases whose problems carry rows beyond the limits (obstacles, legs of a
+radius, force limits). The script runs the tree its ``PYTHONPATH`` names, so the same copy
+of it can fingerprint an old tree: ``PYTHONPATH=OLD/src python benchmarks/fingerprint.py``.
+
 Each case records the status, the FN, the method that produced the pose, the number of
 starts and iterations, and the pose itself; ``--compare`` reports every case whose status,
 method or start count differs, or whose FN or pose differs by more than 1e-9 relative.
@@ -104,12 +108,48 @@ def _cases() -> list[tuple[str, Any, Any, dict[str, Any]]]:
     return out
 
 
-def run(path: Path) -> None:
+def _row_cases() -> list[tuple[str, Any, Any, dict[str, Any]]]:
+    """Cases whose problems carry rows beyond the limits (``--rows``): obstacles, legs of
+    a radius (spatial self-leg rows, planar non-adjacent bodies' rows), force limits;
+    the kernels of the ``_rows`` families."""
+    from stackik import Capsule, PlatformGeometry, Sphere, Stack
+    from stackik.sampling import random_reachable_targets, random_spatial_targets
+
+    out: list[tuple[str, Any, Any, dict[str, Any]]] = []
+    st4 = Stack.reference(4)
+    sphere = Sphere(np.array([300.0, 0.0, 500.0]), 50.0)
+    truss = Capsule(np.array([-500.0, 200.0, 600.0]), np.array([500.0, 200.0, 600.0]), 20.0)
+    planar = random_reachable_targets(st4, 4, rng=41, phi=0.0)
+    spatial = random_spatial_targets(st4, 4, rng=np.random.default_rng(42))
+    for i, t in enumerate(planar):
+        out.append((f"rows/planar4/{i}/sphere", st4, t, {"obstacles": [sphere]}))
+        out.append((f"rows/planar4/{i}/sphere/sqp1", st4, t,
+                    {"obstacles": [sphere], "method": "sqp", "starts": 1}))  # fmt: skip
+    for i, t in enumerate(spatial):
+        out.append((f"rows/spatial4/{i}/truss", st4, t, {"obstacles": [truss]}))
+    legs = Stack.reference(4, leg_radius=12.0)
+    for i, t in enumerate(spatial):
+        out.append((f"rows/spatial4/{i}/legs12", legs, t, {}))
+        out.append((f"rows/spatial4/{i}/legs12/ip1", legs, t, {"method": "ip", "starts": 1}))
+    for n in (8, 16):
+        tall = Stack.reference(n, leg_radius=12.0)
+        for i, t in enumerate(random_reachable_targets(tall, 2, rng=43 + n, phi=0.3)):
+            out.append((f"rows/planar{n}/{i}/legs12", tall, t, {}))
+    g = PlatformGeometry.hexagonal(plate_mass=5.0, force_max=150.0)
+    limited = Stack.uniform(g, 4)
+    for i, t in enumerate(planar[:2]):
+        out.append((f"rows/planar4/{i}/force", limited, t, {}))
+    for i, t in enumerate(spatial[:2]):
+        out.append((f"rows/spatial4/{i}/force", limited, t, {}))
+    return out
+
+
+def run(path: Path, rows: bool = False) -> None:
     from stackik import solve_ik
 
     rec: dict[str, Any] = {}
     t0 = time.perf_counter()
-    for key, stack, target, kw in _cases():
+    for key, stack, target, kw in _cases() + (_row_cases() if rows else []):
         r = solve_ik(stack, target, **kw)
         rec[key] = {
             "status": r.status.value,
@@ -153,10 +193,11 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path)
     p.add_argument("--compare", nargs=2, type=Path)
+    p.add_argument("--rows", action="store_true", help="also the cases with rows beyond the limits")
     a = p.parse_args(argv)
     if a.compare:
         return compare(*a.compare)
-    run(a.out or Path("fingerprint.json"))
+    run(a.out or Path("fingerprint.json"), a.rows)
     return 0
 
 

@@ -13,7 +13,8 @@ import warnings
 from typing import Any
 
 import numpy as np
-from numba import njit, objmode
+from numba import njit, objmode, types
+from numba.extending import overload
 
 FloatArray = Any
 
@@ -37,6 +38,36 @@ _jit_inline = njit(cache=True, error_model="numpy", nogil=True, inline="always")
 warnings.filterwarnings(
     "ignore", message="Code running in object mode won't allow parallel execution"
 )
+
+#: The jit options of an implementation numba compiles in place of an overloaded stub
+#: (part of the cached kernel that calls it: :mod:`stackik._compiled.kernel`).
+_OVERLOAD: Any = {"error_model": "numpy", "nogil": True}
+
+
+def lean_type(P: Any) -> bool:
+    """Whether the numba type ``P`` of problem data (the ``NamedTuple`` type of
+    :class:`stackik._compiled.planar.PlanarData` or
+    :class:`stackik._compiled.spatial.SpatialData`) is the lean one: ``n_dense`` None, a
+    problem with no rows beyond the leg and joint limits (no dense rows:
+    :mod:`stackik._compiled.dense_rows`; no spatial self-leg rows). numba compiles the
+    kernels for it as a specialisation of their own; the overloads that carry those rows
+    (``dense_rows.with_dense_rows``, the spatial self-leg rows' calls) compile to nothing
+    for it, so a solve without such rows never compiles their code."""
+    return isinstance(P.types[P.fields.index("n_dense")], types.NoneType)
+
+
+def no_dense_rows(P: Any) -> bool:
+    """Whether the problem data ``P`` has no dense rows: ``P.n_dense`` None or 0; in
+    compiled code the constant True for the lean type (:func:`lean_type`)."""
+    return P.n_dense is None or P.n_dense == 0
+
+
+@overload(no_dense_rows, jit_options=_OVERLOAD)
+def _no_dense_rows(P):  # type: ignore[no-untyped-def]
+    if lean_type(P):
+        return lambda P: True
+    return lambda P: P.n_dense == 0
+
 
 #: The multi-start kernel (:func:`stackik._compiled.barrier.ip_multi`) stops when its
 #: first GIVE_UP_AFTER starts all end farther than GIVE_UP_VIOLATION (scaled) from

@@ -29,21 +29,17 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import objmode, types
+from numba import objmode
 from numba.extending import overload
 
 from stackik import families as _families
-from stackik._compiled.core import _jit
+from stackik._compiled.core import _OVERLOAD, _jit, lean_type, no_dense_rows
 from stackik._compiled.force_rows import force_rows
 from stackik._compiled.leg_pairs import segment_pair_rows
 from stackik._compiled.linalg import _AI_dot, _AIT_dot
 from stackik._compiled.obstacle_rows import obstacle_rows
 
 FloatArray = Any
-
-#: The jit options of an implementation compiled in place of its stub (part of the cached
-#: kernel that calls it; :mod:`stackik._compiled.kernel`).
-_OPTIONS: Any = {"error_model": "numpy", "nogil": True}
 
 
 @_jit
@@ -99,38 +95,16 @@ def with_dense_rows(u: FloatArray, P: Any, cI: FloatArray, D: FloatArray, planar
     empty ``JD`` when ``P`` has no dense rows. ``planar``, ``phi``: the mode's variables
     (:func:`dense_rows`; spatial: False, 0).
 
-    Resolved by numba at compile time from the type of ``P.n_dense`` (:func:`lean`): a
-    problem without dense rows (``n_dense`` None) compiles the first branch alone, so the
-    kernels of a problem with no obstacle, leg-pair, family or force rows hold none of
-    those rows' code (a first solve compiles about a third less); a problem with dense
-    rows (``n_dense`` their number) compiles the second."""
-    if lean(P):
+    Resolved by numba at compile time from the type of ``P``
+    (:func:`stackik._compiled.core.lean_type`): for the lean type (``n_dense`` None) the
+    first branch alone, so the kernels of a problem with no obstacle, leg-pair, family or
+    force rows hold none of those rows' code; with ``n_dense`` their number, the second."""
+    if no_dense_rows(P):
         return cI, (D, np.empty((0, u.size)))
     return _with_rows(u, P, cI, D, planar, phi)
 
 
-def lean(P: Any) -> bool:
-    """Whether the problem data ``P`` has no dense rows: ``P.n_dense`` None or 0. In
-    compiled code the constant True where ``P.n_dense`` is None (a constant of ``P``'s
-    type: numba compiles the kernels of a problem without dense rows as a specialisation
-    of their own, with none of the dense rows' code)."""
-    return P.n_dense is None or P.n_dense == 0
-
-
-def lean_type(P: Any) -> bool:
-    """Whether the numba type ``P`` of problem data (a ``NamedTuple`` type) has
-    ``n_dense`` None: no dense rows."""
-    return isinstance(P.types[P.fields.index("n_dense")], types.NoneType)
-
-
-@overload(lean, jit_options=_OPTIONS)
-def _lean(P):  # type: ignore[no-untyped-def]
-    if lean_type(P):
-        return lambda P: True
-    return lambda P: P.n_dense == 0
-
-
-@overload(with_dense_rows, jit_options=_OPTIONS)
+@overload(with_dense_rows, jit_options=_OVERLOAD)
 def _with_dense_rows(u, P, cI, D, planar, phi):  # type: ignore[no-untyped-def]
     if lean_type(P):
 

@@ -71,8 +71,8 @@ class PlanarData(NamedTuple):
     ob_phi: float  #: the plane angle [rad] of the obstacle rows (the target's plane)
     forces: Any  #: the force rows' kernel arrays (ForceLimits.kernel_args)
     leg_pairs: Any  #: non-adjacent leg-pair rows' kernel arguments (LegPairRows.kernel_args)
-    #: number of dense rows (:mod:`stackik._compiled.dense_rows`), None where there are none:
-    #: a type of its own, compiled without the dense rows' code (``dense_rows.lean``)
+    #: number of dense rows (:mod:`stackik._compiled.dense_rows`); None where the problem
+    #: has no rows beyond the limits: the lean type (:func:`stackik._compiled.core.lean_type`)
     n_dense: int | None
     families: int  #: token of the constraint families' rows (0: none; stackik.families)
 

@@ -19,8 +19,8 @@ from stackik._compiled.core import (
     _finite,
     _jit,
     _jit_inline,
+    no_dense_rows,
 )
-from stackik._compiled.dense_rows import lean
 from stackik._compiled.linalg import _AIT_dot, _lu_solve, min_norm_solve
 from stackik._compiled.path import (
     PC_CHANGES,
@@ -627,7 +627,7 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
                 # the polish and test of a barrier step; the step's own constraint
                 # values at xn when the polish would not move it (they have the block
                 # rows only: with dense rows, the polish and test see them too)
-                if lean(P) and polished(cEn, cIn, reach):
+                if no_dense_rows(P) and polished(cEn, cIn, reach):
                     good = _reaches_at(xn, x, cEn, cIn, es, jump, pos_tol, ang_tol)
                 else:
                     xn = polish(xn, P, 3, reach, margin)

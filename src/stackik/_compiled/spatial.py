@@ -39,12 +39,15 @@ import math
 from typing import Any, NamedTuple
 
 import numpy as np
+from numba.extending import overload
 
 from stackik._compiled import kernel
 from stackik._compiled.core import (
+    _OVERLOAD,
     _jit,
     _jit_inline,
     _limit_rows,
+    lean_type,
 )
 from stackik._compiled.dense_rows import (
     with_dense_rows,
@@ -61,6 +64,44 @@ from stackik._compiled.self_legs import self_leg_hessians, self_leg_rows
 from stackik._compiled.spatial_kinematics import spatial_parts
 
 FloatArray = Any
+
+
+def _self_leg_rows_of(P: Any, i: int, q: FloatArray, base: FloatArray, top: FloatArray,
+                      c: FloatArray, J: FloatArray) -> None:  # fmt: skip
+    """Platform ``i``'s self-leg rows ``c`` (m,) and Jacobian ``J`` (m, 6) in place
+    (:func:`stackik._compiled.self_legs.self_leg_rows`); nothing for the lean problem data
+    (:func:`stackik._compiled.core.lean_type`: no self-leg rows, never called)."""
+    self_leg_rows(q[i], base[i], top[i], P.pairs, P.rho[i], P.pair_scale[i], c, J)
+
+
+def _self_leg_hessians_of(P: Any, q: FloatArray, base: FloatArray, top: FloatArray,
+                          y: FloatArray) -> FloatArray:  # fmt: skip
+    """The self-leg rows' curvature (n, 6, 6) with multipliers ``y`` (n, m)
+    (:func:`stackik._compiled.self_legs.self_leg_hessians`); zeros for the lean problem
+    data (never called)."""
+    return self_leg_hessians(q, base, top, P.pairs, P.pair_scale, y)
+
+
+@overload(_self_leg_rows_of, jit_options=_OVERLOAD)
+def _ol_self_leg_rows_of(P, i, q, base, top, c, J):  # type: ignore[no-untyped-def]
+    if lean_type(P):
+        return lambda P, i, q, base, top, c, J: None
+
+    def rows(P, i, q, base, top, c, J):  # type: ignore[no-untyped-def]
+        self_leg_rows(q[i], base[i], top[i], P.pairs, P.rho[i], P.pair_scale[i], c, J)
+
+    return rows
+
+
+@overload(_self_leg_hessians_of, jit_options=_OVERLOAD)
+def _ol_self_leg_hessians_of(P, q, base, top, y):  # type: ignore[no-untyped-def]
+    if lean_type(P):
+        return lambda P, q, base, top, y: np.zeros((q.shape[0], 6, 6))
+
+    def curvature(P, q, base, top, y):  # type: ignore[no-untyped-def]
+        return self_leg_hessians(q, base, top, P.pairs, P.pair_scale, y)
+
+    return curvature
 
 
 class SpatialData(NamedTuple):
@@ -90,8 +131,8 @@ class SpatialData(NamedTuple):
     ob_L: float  #: the obstacle rows' length scale [mm]
     forces: Any  #: the force rows' kernel arrays (ForceLimits.kernel_args)
     leg_pairs: Any  #: non-adjacent leg-pair rows' kernel arguments (LegPairRows.kernel_args)
-    #: number of dense rows (:mod:`stackik._compiled.dense_rows`), None where there are none:
-    #: a type of its own, compiled without the dense rows' code (``dense_rows.lean``)
+    #: number of dense rows (:mod:`stackik._compiled.dense_rows`); None where the problem
+    #: has no rows beyond the limits: the lean type (:func:`stackik._compiled.core.lean_type`)
     n_dense: int | None
     families: int  #: token of the constraint families' rows (0: none; stackik.families)
 
@@ -330,7 +371,7 @@ def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
                 cI[R * i + rr] = c[i, rr] * cs[24 * i + rr]
                 for k in range(6):
                     D[i, rr, k] = Jc[i, rr, k] * cs[24 * i + rr] * xs[6 * i + k]
-            self_leg_rows(q[i], base[i], top[i], P.pairs, P.rho[i], P.pair_scale[i], cs_, Js)
+            _self_leg_rows_of(P, i, q, base, top, cs_, Js)
             for rr in range(mp):
                 cI[R * i + 24 + rr] = cs_[rr]
                 for k in range(6):
@@ -480,7 +521,7 @@ def _hessian(parts: Any, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
     else:
         zz = z.reshape(n, 24 + mp)
         Hb = limit_hessians(q, zz[:, :24] * cs.reshape(n, 24), top, base, sj)
-        Hb += self_leg_hessians(q, base, top, P.pairs, P.pair_scale, zz[:, 24:].copy())
+        Hb += _self_leg_hessians_of(P, q, base, top, zz[:, 24:].copy())
     return subtract_blocks_scaled(H, Hb, xs)
 
 

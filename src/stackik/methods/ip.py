@@ -80,7 +80,7 @@ def spatial_problem_arrays(prob: Any) -> SpatialData:
         float(np.max(st.leg_max)) if ob is None else ob.L,
         no_force_rows(st) if fr is None else fr.kernel_args,
         no_leg_pair_rows(st) if lp is None else lp.kernel_args,
-        n_dense(prob) or None,
+        None if sl is None and not n_dense(prob) else n_dense(prob),  # None: the lean type
         prob.family_token,
     )
 
@@ -133,7 +133,7 @@ def problem_arrays(prob: Any) -> PlanarData:
         float(tgt.phi),
         no_force_rows(prob.stack) if fr is None else fr.kernel_args,
         no_leg_pair_rows(prob.stack) if lp is None else lp.kernel_args,
-        n_dense(prob) or None,
+        n_dense(prob) or None,  # None: the lean type (stackik._compiled.core.lean_type)
         prob.family_token,
     )
 

@@ -92,14 +92,11 @@ def _dispatchers(kind: str) -> list[Any]:
                 _check._planar_check]  # fmt: skip
     # (the barrier method's entry points are both modes', compiled once for each)
     from stackik._compiled import barrier as _barrier
-    from stackik._compiled import check as _check
-    from stackik._compiled import self_legs as _self_legs
     from stackik._compiled import spatial as _spatial_ipm
     from stackik._compiled import spatial_kinematics as _spatial
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _barrier.ip_multi,
-            _spatial_ipm.evaluate, _spatial_ipm.lagrangian_hessian, _check._spatial_check,
-            _self_legs.self_leg_block]  # fmt: skip
+            _spatial_ipm.evaluate, _spatial_ipm.lagrangian_hessian]  # fmt: skip
 
 
 def _row_dispatchers(kind: str) -> list[Any]:
@@ -117,8 +114,12 @@ def _row_dispatchers(kind: str) -> list[Any]:
         return [_ipm_path.ip_path]
     if kind == "spatial_path_rows":
         return [_spatial_ipm_path.ip_path]
+    from stackik._compiled import self_legs as _self_legs
+
+    # (the spatial NumPy evaluation's self-leg rows for legs of a radius: spatial only)
+    own = [_self_legs.self_leg_block] if kind == "spatial_rows" else []
     return [_barrier.ip_multi, _obstacle_rows.obstacle_rows, _force_rows.force_rows,
-            _body.body_clearances, _force_rows.leg_force_jacobian]  # fmt: skip
+            _body.body_clearances, _force_rows.leg_force_jacobian, *own]  # fmt: skip
 
 
 def rows_needed(
@@ -246,7 +247,7 @@ def kernels_cached(kind: str) -> bool | None:
 
 def _rows_signature(sig: Any, planar: bool) -> bool:
     """Whether a compiled signature takes the mode's problem data with dense rows."""
-    from stackik._compiled.dense_rows import lean_type
+    from stackik._compiled.core import lean_type
     from stackik._compiled.planar import PlanarData
     from stackik._compiled.spatial import SpatialData
 
