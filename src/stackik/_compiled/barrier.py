@@ -50,7 +50,7 @@ from stackik._compiled.dense_rows import (
     AIT_dot,
     add_normal,
     block_part,
-    force_sr1,
+    force_update,
     ineq_row,
 )
 from stackik._compiled.linalg import min_norm_solve
@@ -304,7 +304,7 @@ def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
             zr = z[r] + a_z * dz[r]
             z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
         if n_force > 0:
-            force_sr1(B, alpha * dx, AI[1], AIt[1], z, n_force)
+            force_update(B, alpha * dx, AI, AIt, z, n_force)
         f, g, cE, AE, cI, AI, parts = ft, gt, cEt, AEt, cIt, AIt, parts_t
         yE = kernel.eq_multipliers(P, AE, g, AIT_dot(AI, z))
     return x, status, it + 1 if status != IP_SUCCESS else it, s, z / fs, yE / fs

@@ -9,7 +9,10 @@ the dense rows ``JD`` (rows, k n) in scaled variables, the row values ``c_I`` th
 then the dense ones. The products here take the pair; with no dense rows (``JD`` empty)
 they do exactly the block arithmetic of :mod:`stackik._compiled.linalg` (and, for
 :func:`add_normal`, of the planar and spatial barrier loops before the pair) and nothing
-else (the fingerprint is unchanged).
+else (the fingerprint is unchanged). For the lean problem data (no dense rows at all:
+:func:`stackik._compiled.core.lean_type`) ``A_I`` is the blocks ``D`` alone, and numba
+compiles each product (an overload resolved by the type of ``A_I``) as that block
+arithmetic only, with none of the dense rows' code.
 
 The rows themselves: the obstacle rows (:func:`stackik._compiled.obstacle_rows.obstacle_rows`),
 the rows of the bodies of non-adjacent platforms
@@ -29,11 +32,11 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import objmode
+from numba import objmode, types
 from numba.extending import overload
 
 from stackik import families as _families
-from stackik._compiled.core import _OVERLOAD, _jit, lean_type, no_dense_rows
+from stackik._compiled.core import _OVERLOAD, _jit, _jit_inline, lean_type
 from stackik._compiled.force_rows import force_rows
 from stackik._compiled.leg_pairs import segment_pair_rows
 from stackik._compiled.linalg import _AI_dot, _AIT_dot
@@ -90,28 +93,33 @@ def family_rows(token: int, q: FloatArray) -> tuple[FloatArray, FloatArray]:
 
 def with_dense_rows(u: FloatArray, P: Any, cI: FloatArray, D: FloatArray, planar: bool,
                     phi: float) -> tuple[Any, Any]:  # fmt: skip
-    """``c_I`` (block rows, then the dense rows) and the pair ``(D, JD)`` at the scaled
-    point ``u`` (k n,; ``k = D.shape[2]``), ``JD`` in scaled variables; ``cI`` itself and an
-    empty ``JD`` when ``P`` has no dense rows. ``planar``, ``phi``: the mode's variables
-    (:func:`dense_rows`; spatial: False, 0).
+    """``c_I`` (block rows, then the dense rows) and ``A_I`` at the scaled point ``u``
+    (k n,; ``k = D.shape[2]``): for problem data with dense rows the pair ``(D, JD)``, ``JD``
+    in scaled variables (empty when there are none); for the lean type
+    (:func:`stackik._compiled.core.lean_type`, ``n_dense`` None) ``cI`` and the blocks ``D``
+    themselves. ``planar``, ``phi``: the mode's variables (:func:`dense_rows`; spatial:
+    False, 0).
 
-    Resolved by numba at compile time from the type of ``P``
-    (:func:`stackik._compiled.core.lean_type`): for the lean type (``n_dense`` None) the
-    first branch alone, so the kernels of a problem with no obstacle, leg-pair, family or
-    force rows hold none of those rows' code; with ``n_dense`` their number, the second."""
-    if no_dense_rows(P):
-        return cI, (D, np.empty((0, u.size)))
-    return _with_rows(u, P, cI, D, planar, phi)
+    Resolved by numba at compile time from the type of ``P``, as are the products below
+    from the type of ``A_I`` (an array: the blocks alone; a pair: blocks and dense rows):
+    the kernels of a problem with no obstacle, leg-pair, family or force rows hold none of
+    those rows' code."""
+    return _unresolved()
+
+
+def _unresolved() -> Any:
+    raise NotImplementedError("resolved by numba in compiled code (stackik._compiled.dense_rows)")
+
+
+def _is_blocks(AI: Any) -> bool:
+    """Whether the numba type of ``A_I`` is the blocks alone (the lean problem data's)."""
+    return isinstance(AI, types.Array)
 
 
 @overload(with_dense_rows, jit_options=_OVERLOAD)
 def _with_dense_rows(u, P, cI, D, planar, phi):  # type: ignore[no-untyped-def]
     if lean_type(P):
-
-        def plain(u, P, cI, D, planar, phi):  # type: ignore[no-untyped-def]
-            return cI, (D, np.empty((0, u.size)))
-
-        return plain
+        return lambda u, P, cI, D, planar, phi: (cI, D)
 
     def rows(u, P, cI, D, planar, phi):  # type: ignore[no-untyped-def]
         return _with_rows(u, P, cI, D, planar, phi)
@@ -137,25 +145,61 @@ def _with_rows(u: FloatArray, P: Any, cI: FloatArray, D: FloatArray, planar: boo
     return np.concatenate((cI, cD)), (D, JD)
 
 
-@_jit
 def block_size(AI: Any) -> int:
-    """Number of block rows of ``AI = (D, JD)``."""
+    """Number of block rows of ``A_I`` (the blocks ``D`` (n, R, k), or the pair ``(D, JD)``)."""
+    return _unresolved()
+
+
+def block_part(z: FloatArray, AI: Any) -> FloatArray:
+    """The block rows' entries of ``z`` (the dense rows' last): ``z`` itself without dense
+    rows."""
+    return _unresolved()
+
+
+def AI_dot(AI: Any, dx: FloatArray) -> FloatArray:
+    """``A_I dx``: :func:`stackik._compiled.linalg._AI_dot` of the blocks, then ``JD dx``."""
+    return _unresolved()
+
+
+def AIT_dot(AI: Any, v: FloatArray) -> FloatArray:
+    """``A_I^T v`` (v: block rows, then dense rows)."""
+    return _unresolved()
+
+
+def add_normal(W: FloatArray, AI: Any, Sig: FloatArray) -> None:
+    """``W += A_I^T diag(Sig) A_I`` in place: the blocks on the diagonal, the dense rows
+    everywhere."""
+    return _unresolved()
+
+
+def ineq_row(AI: Any, r: int, out: FloatArray) -> None:
+    """Row ``r`` of ``A_I`` (block rows, then dense rows) into ``out`` (k n,)."""
+    return _unresolved()
+
+
+def force_update(B: FloatArray, sv: FloatArray, AI0: Any, AI1: Any, z: FloatArray,
+                 n_force: int) -> None:  # fmt: skip
+    """:func:`force_sr1` of ``B`` with the dense rows' Jacobians of ``A_I`` before and after
+    the step ``sv``; nothing without dense rows."""
+    return _unresolved()
+
+
+def _block_size_blocks(AI):  # type: ignore[no-untyped-def]
+    return AI.shape[0] * AI.shape[1]
+
+
+def _block_size_pair(AI):  # type: ignore[no-untyped-def]
     D = AI[0]
     return D.shape[0] * D.shape[1]
 
 
-@_jit
-def block_part(z: FloatArray, AI: Any) -> FloatArray:
-    """The block rows' entries of ``z`` (the dense rows' last): ``z`` itself without dense
-    rows."""
+def _block_part_pair(z, AI):  # type: ignore[no-untyped-def]
     if AI[1].shape[0] == 0:
         return z
     return z[: block_size(AI)].copy()
 
 
-@_jit
-def AI_dot(AI: Any, dx: FloatArray) -> FloatArray:
-    """``A_I dx``: :func:`stackik._compiled.linalg._AI_dot` of the blocks, then ``JD dx``."""
+def _AI_dot_pair(AI, dx):  # type: ignore[no-untyped-def]
     D, JD = AI
     out = _AI_dot(D, dx)
     if JD.shape[0] == 0:
@@ -163,9 +207,7 @@ def AI_dot(AI: Any, dx: FloatArray) -> FloatArray:
     return np.concatenate((out, JD @ dx))
 
 
-@_jit
-def AIT_dot(AI: Any, v: FloatArray) -> FloatArray:
-    """``A_I^T v`` (v: block rows, then dense rows)."""
+def _AIT_dot_pair(AI, v):  # type: ignore[no-untyped-def]
     D, JD = AI
     out = _AIT_dot(D, v)
     if JD.shape[0] == 0:
@@ -179,11 +221,9 @@ def AIT_dot(AI: Any, v: FloatArray) -> FloatArray:
     return out
 
 
-@_jit
-def add_normal(W: FloatArray, AI: Any, Sig: FloatArray) -> None:
-    """``W += A_I^T diag(Sig) A_I`` in place: the blocks on the diagonal, the dense rows
-    everywhere."""
-    D, JD = AI
+@_jit_inline
+def _add_blocks(W: FloatArray, D: FloatArray, Sig: FloatArray) -> None:
+    """``W += D^T diag(Sig) D`` of the blocks, on the diagonal."""
     n, R, k = D.shape[0], D.shape[1], D.shape[2]
     for i in range(n):
         for a in range(k):
@@ -192,9 +232,14 @@ def add_normal(W: FloatArray, AI: Any, Sig: FloatArray) -> None:
                 for r in range(R):
                     acc += D[i, r, a] * Sig[R * i + r] * D[i, r, b]
                 W[k * i + a, k * i + b] += acc
+
+
+def _add_normal_pair(W, AI, Sig):  # type: ignore[no-untyped-def]
+    D, JD = AI
+    _add_blocks(W, D, Sig)
     if JD.shape[0] == 0:
         return
-    mb = n * R
+    mb = D.shape[0] * D.shape[1]
     N = W.shape[0]
     nd = JD.shape[0]
     SJ = np.empty((N, nd))  # (diag(Sig) JD)^T: one matrix product (BLAS) for the dense rows
@@ -205,9 +250,14 @@ def add_normal(W: FloatArray, AI: Any, Sig: FloatArray) -> None:
     W += SJ @ JD
 
 
-@_jit
-def ineq_row(AI: Any, r: int, out: FloatArray) -> None:
-    """Row ``r`` of ``A_I`` (block rows, then dense rows) into ``out`` (k n,)."""
+def _ineq_row_blocks(AI, r, out):  # type: ignore[no-untyped-def]
+    R, k = AI.shape[1], AI.shape[2]
+    i = r // R
+    out[:] = 0.0
+    out[k * i : k * i + k] = AI[i, r % R]
+
+
+def _ineq_row_pair(AI, r, out):  # type: ignore[no-untyped-def]
     D, JD = AI
     R, k = D.shape[1], D.shape[2]
     mb = block_size(AI)
@@ -217,6 +267,49 @@ def ineq_row(AI: Any, r: int, out: FloatArray) -> None:
         out[k * i : k * i + k] = D[i, r % R]
     else:
         out[:] = JD[r - mb]
+
+
+def _force_update_pair(B, sv, AI0, AI1, z, n_force):  # type: ignore[no-untyped-def]
+    force_sr1(B, sv, AI0[1], AI1[1], z, n_force)
+
+
+# the implementations numba compiles in place of each stub, by the type of A_I (numba
+# compares the parameter names of the typing functions and the implementations)
+@overload(block_size, jit_options=_OVERLOAD)
+def _ol_block_size(AI):  # type: ignore[no-untyped-def]
+    return _block_size_blocks if _is_blocks(AI) else _block_size_pair
+
+
+@overload(block_part, jit_options=_OVERLOAD)
+def _ol_block_part(z, AI):  # type: ignore[no-untyped-def]
+    return (lambda z, AI: z) if _is_blocks(AI) else _block_part_pair
+
+
+@overload(AI_dot, jit_options=_OVERLOAD)
+def _ol_AI_dot(AI, dx):  # type: ignore[no-untyped-def]
+    return (lambda AI, dx: _AI_dot(AI, dx)) if _is_blocks(AI) else _AI_dot_pair
+
+
+@overload(AIT_dot, jit_options=_OVERLOAD)
+def _ol_AIT_dot(AI, v):  # type: ignore[no-untyped-def]
+    return (lambda AI, v: _AIT_dot(AI, v)) if _is_blocks(AI) else _AIT_dot_pair
+
+
+@overload(add_normal, jit_options=_OVERLOAD)
+def _ol_add_normal(W, AI, Sig):  # type: ignore[no-untyped-def]
+    return (lambda W, AI, Sig: _add_blocks(W, AI, Sig)) if _is_blocks(AI) else _add_normal_pair
+
+
+@overload(ineq_row, jit_options=_OVERLOAD)
+def _ol_ineq_row(AI, r, out):  # type: ignore[no-untyped-def]
+    return _ineq_row_blocks if _is_blocks(AI) else _ineq_row_pair
+
+
+@overload(force_update, jit_options=_OVERLOAD)
+def _ol_force_update(B, sv, AI0, AI1, z, n_force):  # type: ignore[no-untyped-def]
+    if _is_blocks(AI0):
+        return lambda B, sv, AI0, AI1, z, n_force: None
+    return _force_update_pair
 
 
 @_jit

@@ -396,8 +396,9 @@ def _evaluate_ip(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Floa
                  wq: float) -> tuple[Any, ...]:  # fmt: skip
     """:func:`_evaluate_ext` with the dense rows (:mod:`stackik._compiled.dense_rows`, the
     obstacle rows in the target's plane ``P.ob_phi``): ``c_I`` the block rows then the
-    dense rows, and the pair ``AI = (D, JD)`` in place of ``D``; without dense rows
-    :func:`_evaluate_ext`'s values and an empty ``JD``."""
+    dense rows, and the pair ``AI = (D, JD)`` in place of ``D``; for the lean problem data
+    (no dense rows: :func:`stackik._compiled.core.lean_type`) :func:`_evaluate_ext`'s
+    values themselves."""
     f, g, cE, AE, cI, D = _evaluate_ext(u, P, lo, hi, ug, wq)
     cA, AI = with_dense_rows(u, P, cI, D, True, P.ob_phi)
     return f, g, cE, AE, cA, AI

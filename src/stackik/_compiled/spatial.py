@@ -432,7 +432,7 @@ def _evaluate_ip(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Floa
                  wq: float) -> tuple[Any, ...]:  # fmt: skip
     """:func:`_evaluate_ext` with the dense rows (:mod:`stackik._compiled.dense_rows`):
     ``c_I`` the block rows then the dense rows, and the pair ``AI = (D, JD)`` in place of
-    ``D``."""
+    ``D`` (``D`` itself for the lean problem data: :func:`stackik._compiled.core.lean_type`)."""
     f, g, cE, AE, cI, D, parts = _evaluate_ext(u, P, lo, hi, ug, wq)
     cA, AI = with_dense_rows(u, P, cI, D, False, 0.0)
     return f, g, cE, AE, cA, AI, parts
