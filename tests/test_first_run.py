@@ -313,11 +313,35 @@ def test_rows_needed_names_every_source_of_dense_rows():
     assert not warmup.rows_needed(ref, clearance="bad")  # the request's validation says so
 
 
-def test_lean_is_the_absence_of_dense_rows():
-    from stackik._compiled.dense_rows import lean
+def test_no_dense_rows_is_none_or_zero_dense_rows():
+    from stackik._compiled.core import no_dense_rows
 
     class P:
         def __init__(self, n: int | None) -> None:
             self.n_dense = n
 
-    assert lean(P(None)) and lean(P(0)) and not lean(P(3))
+    assert no_dense_rows(P(None)) and no_dense_rows(P(0)) and not no_dense_rows(P(3))
+
+
+def test_the_lean_type_is_the_problem_data_without_rows_beyond_the_limits():
+    import numba
+    import numpy as np
+
+    from stackik._compiled.core import lean_type
+    from stackik.formulation import Problem
+    from stackik.methods.ip import problem_arrays, spatial_problem_arrays
+
+    st = sk.Stack.reference(3)
+    fat = sk.Stack.reference(3, leg_radius=12.0)
+    pt = sk.PlanarTarget(0.0, 900.0, 0.0)
+    sphere = sk.Sphere(np.array([0.0, 0.0, 500.0]), 20.0)
+
+    def lean(arrays, stack, target, **kw) -> bool:
+        return lean_type(numba.typeof(arrays(Problem(stack, target, "frobenius", None, **kw))))
+
+    assert lean(problem_arrays, st, pt)
+    assert not lean(problem_arrays, st, pt, obstacles=[sphere])
+    assert lean(spatial_problem_arrays, st, pt.to_spatial())
+    # self-leg rows alone (no dense row): not lean either
+    assert not lean(spatial_problem_arrays, fat, pt.to_spatial())
+    assert not lean(spatial_problem_arrays, st, pt.to_spatial(), obstacles=[sphere])
