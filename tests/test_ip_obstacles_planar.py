@@ -85,8 +85,8 @@ def test_kernel_dense_rows_are_the_problems_obstacle_rows(kind: str) -> None:
 
 
 def test_no_obstacle_rows_leave_the_kernel_data_empty() -> None:
-    """Without obstacles (or with one out of reach) the planar kernels see no dense row,
-    and the evaluation with the pair is exactly the one without."""
+    """Without obstacles (or with one out of reach) the planar kernels see no dense row:
+    the lean problem data, whose A_I is the blocks alone, exactly the evaluation's."""
     from stackik._compiled.planar import _evaluate
 
     t = _targets()[0]
@@ -96,9 +96,9 @@ def test_no_obstacle_rows_leave_the_kernel_data_empty() -> None:
         P = problem_arrays(prob)
         assert P.n_dense is None and P.obstacles[-1].size == 0 and not prob.rows_outside_ip
         u = prob.u_of(sk.paper_initial_guess(REF, t))
-        f, g, cE, AE, cI, (D, JD) = _evaluate_ip(u, P)
+        f, g, cE, AE, cI, D = _evaluate_ip(u, P)
         f0, g0, cE0, AE0, cI0, D0 = _evaluate(u, P)
-        assert JD.shape == (0, 3 * REF.n) and f == f0
+        assert D.shape == (REF.n, 24, 3) and f == f0
         for a, b in ((g, g0), (cE, cE0), (AE, AE0), (cI, cI0), (D, D0)):
             assert np.array_equal(a, b)
 
