@@ -36,16 +36,25 @@ def _what_first_calls_cost() -> dict[str, tuple[list[str], list[str]]]:
     """Runs in a fresh process: warm up, then record the numba compilations and the new
     modules of each first call (planar n = 4 paper target as the issue measured it,
     spatial, an unreachable spatial target, the SQP engine's first solves (its QP
-    backends imported by the warm-up), a scipy baseline's, a planar and a spatial path)."""
+    backends imported by the warm-up), a scipy baseline's, a planar and a spatial path;
+    then with rows beyond the limits: obstacles, a margin, force limits, legs of a
+    radius, in solves and paths)."""
     import sys
 
     from numba.core import event
+
+    from stackik.sampling import random_reachable_targets
 
     sk.warm_up()
     solve_path, interpolate = sk.solve_path, sk.interpolate_targets  # (lazy attributes)
     stack = sk.Stack.reference(4)
     fat = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 4)
     keys = [sk.PlanarTarget(0.0, 1000.0, 0.0), sk.PlanarTarget(150.0, 950.0, 0.2)]
+    paper = sk.PlanarTarget(600.0, 1000.0, -1.57)
+    sphere = sk.Sphere((300.0, 0.0, 500.0), 50.0)
+    limited = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(plate_mass=5.0, force_max=150.0), 4)
+    tall = sk.Stack.reference(8, leg_radius=12.0)
+    tall_target = random_reachable_targets(tall, 1, rng=51, phi=0.3)[0]
     calls = {
         "planar": lambda: sk.solve_ik(stack, sk.PlanarTarget(600.0, 1000.0, -1.57)),
         "spatial": lambda: sk.solve_ik(stack, _spatial_target(4)),
@@ -67,6 +76,21 @@ def _what_first_calls_cost() -> dict[str, tuple[list[str], list[str]]]:
         ),
         "spatial, an obstacle": lambda: sk.solve_ik(
             stack, _spatial_target(4), obstacles=[sk.Sphere((0.0, 0.0, 700.0), 20.0)]
+        ),
+        # the kernels for problem data with rows beyond the limits (the _rows families)
+        "planar, an obstacle": lambda: sk.solve_ik(stack, paper, obstacles=[sphere]),
+        "planar sqp, an obstacle": lambda: sk.solve_ik(
+            stack, paper, obstacles=[sphere], method="sqp", starts=1
+        ),
+        "planar, a margin": lambda: sk.solve_ik(stack, paper, clearance=5.0),
+        "planar, force limits": lambda: sk.solve_ik(limited, paper),
+        "spatial, force limits": lambda: sk.solve_ik(limited, _spatial_target(4)),
+        "planar n = 8, 12 mm legs": lambda: sk.solve_ik(tall, tall_target),
+        "planar path, an obstacle": lambda: solve_path(
+            stack, interpolate(keys, steps=3), obstacles=[sphere]
+        ),
+        "spatial path, 12 mm legs": lambda: solve_path(
+            fat, interpolate([t.to_spatial() for t in keys], steps=3)
         ),
     }
     out = {}
