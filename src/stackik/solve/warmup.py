@@ -40,10 +40,12 @@ __all__ = ["KERNEL_KINDS", "ensure_kernels", "kernels_cached", "rows_needed", "w
 #: path families hold the continuation steps and the batch checks of
 #: :func:`stackik.solve_path`: about 30 % of a mode's compile time, paid on the first
 #: path instead of the first solve). Each family has a ``_rows`` twin: the same kernels
-#: compiled for problems with dense rows (obstacle, non-adjacent body, constraint-family
-#: or leg-force rows: :mod:`stackik._compiled.dense_rows`), which numba compiles as a
-#: specialisation of their own (the problem data's ``n_dense`` is None without them), so a
-#: solve without such rows compiles none of their code (:func:`rows_needed`).
+#: compiled for problems with rows beyond the leg and joint limits (obstacle, non-adjacent
+#: body, constraint-family or leg-force rows: :mod:`stackik._compiled.dense_rows`; spatial
+#: self-leg rows). The problem data without them are a type of their own
+#: (:func:`stackik._compiled.core.lean_type`), compiled without their code, so a solve
+#: without such rows compiles none of it; a request that can carry them loads the twins
+#: (:func:`rows_needed`).
 KERNEL_KINDS: tuple[str, ...] = (
     "planar", "spatial", "planar_path", "spatial_path",
     "planar_rows", "spatial_rows", "planar_path_rows", "spatial_path_rows",
@@ -131,10 +133,11 @@ def rows_needed(
     objective: Any = "frobenius",
 ) -> bool:
     """Whether a request on ``stack`` with these arguments (those of
-    :func:`stackik.solve_ik`) can carry dense rows, so that it needs the ``_rows`` kernel
-    families: obstacles, a clearance margin, legs or plates with a size (the non-adjacent
-    bodies' rows a folded pose gets), constraint families, finite force limits or a force
-    term. Arguments the request's validation will refuse count as none."""
+    :func:`stackik.solve_ik`) can carry rows beyond the leg and joint limits, so that it
+    needs the ``_rows`` kernel families: obstacles, a clearance margin, legs or plates with
+    a size (the spatial self-leg rows; the non-adjacent bodies' rows a folded pose gets),
+    constraint families, finite force limits or a force term. Arguments the request's
+    validation will refuse count as none (it reports them)."""
     from stackik.clearance import needs_clearances
     from stackik.formulation.forces import force_limited
 
@@ -246,7 +249,8 @@ def kernels_cached(kind: str) -> bool | None:
 
 
 def _rows_signature(sig: Any, planar: bool) -> bool:
-    """Whether a compiled signature takes the mode's problem data with dense rows."""
+    """Whether a compiled signature takes the mode's problem data of the rows' type (not
+    the lean one)."""
     from stackik._compiled.core import lean_type
     from stackik._compiled.planar import PlanarData
     from stackik._compiled.spatial import SpatialData
