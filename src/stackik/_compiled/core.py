@@ -39,9 +39,16 @@ warnings.filterwarnings(
     "ignore", message="Code running in object mode won't allow parallel execution"
 )
 
-#: The jit options of an implementation numba compiles in place of an overloaded stub
-#: (part of the cached kernel that calls it: :mod:`stackik._compiled.kernel`).
+#: The jit options of an implementation numba compiles in place of an overloaded stub (the
+#: kernels'; not cached by itself: it is part of the cached kernel that calls it).
 _OVERLOAD: Any = {"error_model": "numpy", "nogil": True}
+
+
+def unresolved() -> Any:
+    """The body of an overloaded stub (:mod:`stackik._compiled.kernel`,
+    :mod:`stackik._compiled.dense_rows`): numba compiles an implementation in its place,
+    chosen by the argument types; called from Python, it raises."""
+    raise NotImplementedError("resolved by numba in compiled code (stackik._compiled)")
 
 
 def lean_type(P: Any) -> bool:

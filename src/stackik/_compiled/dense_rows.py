@@ -36,7 +36,7 @@ from numba import objmode, types
 from numba.extending import overload
 
 from stackik import families as _families
-from stackik._compiled.core import _OVERLOAD, _jit, _jit_inline, lean_type
+from stackik._compiled.core import _OVERLOAD, _jit, _jit_inline, lean_type, unresolved
 from stackik._compiled.force_rows import force_rows
 from stackik._compiled.leg_pairs import segment_pair_rows
 from stackik._compiled.linalg import _AI_dot, _AIT_dot
@@ -104,11 +104,7 @@ def with_dense_rows(u: FloatArray, P: Any, cI: FloatArray, D: FloatArray, planar
     from the type of ``A_I`` (an array: the blocks alone; a pair: blocks and dense rows):
     the kernels of a problem with no obstacle, leg-pair, family or force rows hold none of
     those rows' code."""
-    return _unresolved()
-
-
-def _unresolved() -> Any:
-    raise NotImplementedError("resolved by numba in compiled code (stackik._compiled.dense_rows)")
+    return unresolved()
 
 
 def _is_blocks(AI: Any) -> bool:
@@ -147,50 +143,45 @@ def _with_rows(u: FloatArray, P: Any, cI: FloatArray, D: FloatArray, planar: boo
 
 def block_size(AI: Any) -> int:
     """Number of block rows of ``A_I`` (the blocks ``D`` (n, R, k), or the pair ``(D, JD)``)."""
-    return _unresolved()
+    return unresolved()
 
 
 def block_part(z: FloatArray, AI: Any) -> FloatArray:
     """The block rows' entries of ``z`` (the dense rows' last): ``z`` itself without dense
     rows."""
-    return _unresolved()
+    return unresolved()
 
 
 def AI_dot(AI: Any, dx: FloatArray) -> FloatArray:
     """``A_I dx``: :func:`stackik._compiled.linalg._AI_dot` of the blocks, then ``JD dx``."""
-    return _unresolved()
+    return unresolved()
 
 
 def AIT_dot(AI: Any, v: FloatArray) -> FloatArray:
     """``A_I^T v`` (v: block rows, then dense rows)."""
-    return _unresolved()
+    return unresolved()
 
 
 def add_normal(W: FloatArray, AI: Any, Sig: FloatArray) -> None:
     """``W += A_I^T diag(Sig) A_I`` in place: the blocks on the diagonal, the dense rows
     everywhere."""
-    return _unresolved()
+    return unresolved()
 
 
 def ineq_row(AI: Any, r: int, out: FloatArray) -> None:
     """Row ``r`` of ``A_I`` (block rows, then dense rows) into ``out`` (k n,)."""
-    return _unresolved()
+    return unresolved()
 
 
 def force_update(B: FloatArray, sv: FloatArray, AI0: Any, AI1: Any, z: FloatArray,
                  n_force: int) -> None:  # fmt: skip
     """:func:`force_sr1` of ``B`` with the dense rows' Jacobians of ``A_I`` before and after
     the step ``sv``; nothing without dense rows."""
-    return _unresolved()
+    return unresolved()
 
 
 def _block_size_blocks(AI):  # type: ignore[no-untyped-def]
     return AI.shape[0] * AI.shape[1]
-
-
-def _block_size_pair(AI):  # type: ignore[no-untyped-def]
-    D = AI[0]
-    return D.shape[0] * D.shape[1]
 
 
 def _block_part_pair(z, AI):  # type: ignore[no-untyped-def]
@@ -239,7 +230,7 @@ def _add_normal_pair(W, AI, Sig):  # type: ignore[no-untyped-def]
     _add_blocks(W, D, Sig)
     if JD.shape[0] == 0:
         return
-    mb = D.shape[0] * D.shape[1]
+    mb = block_size(AI)
     N = W.shape[0]
     nd = JD.shape[0]
     SJ = np.empty((N, nd))  # (diag(Sig) JD)^T: one matrix product (BLAS) for the dense rows
@@ -250,21 +241,20 @@ def _add_normal_pair(W, AI, Sig):  # type: ignore[no-untyped-def]
     W += SJ @ JD
 
 
-def _ineq_row_blocks(AI, r, out):  # type: ignore[no-untyped-def]
-    R, k = AI.shape[1], AI.shape[2]
+@_jit_inline
+def _block_row(D: FloatArray, r: int, out: FloatArray) -> None:
+    """Block row ``r`` of the blocks ``D`` (n, R, k) into ``out`` (k n,)."""
+    R, k = D.shape[1], D.shape[2]
     i = r // R
     out[:] = 0.0
-    out[k * i : k * i + k] = AI[i, r % R]
+    out[k * i : k * i + k] = D[i, r % R]
 
 
 def _ineq_row_pair(AI, r, out):  # type: ignore[no-untyped-def]
     D, JD = AI
-    R, k = D.shape[1], D.shape[2]
     mb = block_size(AI)
     if r < mb:
-        i = r // R
-        out[:] = 0.0
-        out[k * i : k * i + k] = D[i, r % R]
+        _block_row(D, r, out)
     else:
         out[:] = JD[r - mb]
 
@@ -277,7 +267,7 @@ def _force_update_pair(B, sv, AI0, AI1, z, n_force):  # type: ignore[no-untyped-
 # compares the parameter names of the typing functions and the implementations)
 @overload(block_size, jit_options=_OVERLOAD)
 def _ol_block_size(AI):  # type: ignore[no-untyped-def]
-    return _block_size_blocks if _is_blocks(AI) else _block_size_pair
+    return _block_size_blocks if _is_blocks(AI) else (lambda AI: block_size(AI[0]))
 
 
 @overload(block_part, jit_options=_OVERLOAD)
@@ -302,7 +292,7 @@ def _ol_add_normal(W, AI, Sig):  # type: ignore[no-untyped-def]
 
 @overload(ineq_row, jit_options=_OVERLOAD)
 def _ol_ineq_row(AI, r, out):  # type: ignore[no-untyped-def]
-    return _ineq_row_blocks if _is_blocks(AI) else _ineq_row_pair
+    return (lambda AI, r, out: _block_row(AI, r, out)) if _is_blocks(AI) else _ineq_row_pair
 
 
 @overload(force_update, jit_options=_OVERLOAD)

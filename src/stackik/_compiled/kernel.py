@@ -26,6 +26,8 @@ from typing import Any
 from numba.core.errors import TypingError
 from numba.extending import overload
 
+from stackik._compiled.core import _OVERLOAD, unresolved
+
 __all__ = [
     "clock_period",
     "eq_multipliers",
@@ -41,9 +43,6 @@ __all__ = [
 _REGISTRY: dict[type, dict[str, Any]] = {}
 #: The stubs' names; :func:`register` wants exactly these.
 _HOOKS: list[str] = []
-#: The jit options of an implementation compiled in place of its stub (the kernels'; not
-#: cached by itself: it is part of the cached kernel that calls it).
-_OPTIONS: Any = {"error_model": "numpy", "nogil": True}
 
 
 def register(data_class: type, **implementations: Any) -> None:
@@ -85,24 +84,20 @@ def _implementation(name: str, P: Any) -> Any:
     return bare
 
 
-def _unresolved() -> Any:
-    raise NotImplementedError("resolved by numba in compiled code (stackik._compiled.kernel)")
-
-
 def evaluate(u: Any, P: Any, lo: Any, hi: Any, ug: Any, wq: float) -> Any:
     """``f, g, cE, AE, cI, AI, parts`` at ``u`` (N,): the scaled objective and gradient
     (N,), equalities (E,) and their Jacobian (E, N), inequality rows (m,) and their
     Jacobian as the pair ``AI = (blocks, dense rows)``, and whatever :func:`hessian` reuses
     (``parts``). ``lo``/``hi`` (N,; empty: none) add the box ``lo <= u <= hi`` as block rows
     and ``wq |u - ug|^2`` is added to the objective (a path step's extensions)."""
-    return _unresolved()
+    return unresolved()
 
 
 def hessian(parts: Any, yE: Any, z: Any, P: Any, wq: float) -> Any:
     """Hessian (N, N) of ``f - yE.cE - z.cI`` at the point :func:`evaluate` returned
     ``parts`` for, ``z`` the block rows' multipliers (the dense rows have no exact
     curvature); ``2 wq I`` for the distance term."""
-    return _unresolved()
+    return unresolved()
 
 
 def kkt_step(P: Any, W: Any, AE: Any, cE: Any, rhs: Any, last_shift: float,
@@ -111,28 +106,28 @@ def kkt_step(P: Any, W: Any, AE: Any, cE: Any, rhs: Any, last_shift: float,
     reduced Hessian made positive definite by the smallest shift ``delta I`` that does it
     (inertia correction; ``last_shift`` the last nonzero shift, 0: none yet; the unshifted
     matrix tried first only when ``try_plain``, i.e. the previous step needed none)."""
-    return _unresolved()
+    return unresolved()
 
 
 def eq_multipliers(P: Any, AE: Any, g: Any, AItz: Any) -> Any:
     """Least-squares equality multipliers (E,): ``argmin |g - AI^T z - AE^T y|``."""
-    return _unresolved()
+    return unresolved()
 
 
 def eq_transpose_dot(P: Any, AE: Any, y: Any) -> Any:
     """``AE^T y`` (N,)."""
-    return _unresolved()
+    return unresolved()
 
 
 def with_fscale(P0: Any, fscale: float) -> Any:
     """``P0`` with the objective scale ``fscale``."""
-    return _unresolved()
+    return unresolved()
 
 
 def clock_period(P: Any) -> Any:
     """Iterations between two reads of the clock (a read takes the GIL): more where an
     iteration is cheap."""
-    return _unresolved()
+    return unresolved()
 
 
 # the typing functions: the parameters of their stubs (numba compares the names), each the
@@ -143,36 +138,36 @@ _HOOKS.extend(
 )  # fmt: skip
 
 
-@overload(evaluate, jit_options=_OPTIONS)
+@overload(evaluate, jit_options=_OVERLOAD)
 def _evaluate(u, P, lo, hi, ug, wq):  # type: ignore[no-untyped-def]
     return _implementation("evaluate", P)
 
 
-@overload(hessian, jit_options=_OPTIONS)
+@overload(hessian, jit_options=_OVERLOAD)
 def _hessian(parts, yE, z, P, wq):  # type: ignore[no-untyped-def]
     return _implementation("hessian", P)
 
 
-@overload(kkt_step, jit_options=_OPTIONS)
+@overload(kkt_step, jit_options=_OVERLOAD)
 def _kkt_step(P, W, AE, cE, rhs, last_shift, try_plain):  # type: ignore[no-untyped-def]
     return _implementation("kkt_step", P)
 
 
-@overload(eq_multipliers, jit_options=_OPTIONS)
+@overload(eq_multipliers, jit_options=_OVERLOAD)
 def _eq_multipliers(P, AE, g, AItz):  # type: ignore[no-untyped-def]
     return _implementation("eq_multipliers", P)
 
 
-@overload(eq_transpose_dot, jit_options=_OPTIONS)
+@overload(eq_transpose_dot, jit_options=_OVERLOAD)
 def _eq_transpose_dot(P, AE, y):  # type: ignore[no-untyped-def]
     return _implementation("eq_transpose_dot", P)
 
 
-@overload(with_fscale, jit_options=_OPTIONS)
+@overload(with_fscale, jit_options=_OVERLOAD)
 def _with_fscale(P0, fscale):  # type: ignore[no-untyped-def]
     return _implementation("with_fscale", P0)
 
 
-@overload(clock_period, jit_options=_OPTIONS)
+@overload(clock_period, jit_options=_OVERLOAD)
 def _clock_period(P):  # type: ignore[no-untyped-def]
     return _implementation("clock_period", P)

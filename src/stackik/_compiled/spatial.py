@@ -48,6 +48,7 @@ from stackik._compiled.core import (
     _jit_inline,
     _limit_rows,
     lean_type,
+    unresolved,
 )
 from stackik._compiled.dense_rows import (
     with_dense_rows,
@@ -71,7 +72,7 @@ def _self_leg_rows_of(P: Any, i: int, q: FloatArray, base: FloatArray, top: Floa
     """Platform ``i``'s self-leg rows ``c`` (m,) and Jacobian ``J`` (m, 6) in place
     (:func:`stackik._compiled.self_legs.self_leg_rows`); nothing for the lean problem data
     (:func:`stackik._compiled.core.lean_type`: no self-leg rows, never called)."""
-    self_leg_rows(q[i], base[i], top[i], P.pairs, P.rho[i], P.pair_scale[i], c, J)
+    return unresolved()
 
 
 def _self_leg_hessians_of(P: Any, q: FloatArray, base: FloatArray, top: FloatArray,
@@ -79,7 +80,7 @@ def _self_leg_hessians_of(P: Any, q: FloatArray, base: FloatArray, top: FloatArr
     """The self-leg rows' curvature (n, 6, 6) with multipliers ``y`` (n, m)
     (:func:`stackik._compiled.self_legs.self_leg_hessians`); zeros for the lean problem
     data (never called)."""
-    return self_leg_hessians(q, base, top, P.pairs, P.pair_scale, y)
+    return unresolved()
 
 
 @overload(_self_leg_rows_of, jit_options=_OVERLOAD)

@@ -224,7 +224,7 @@ def _load_before_clock(planar: bool, rows: bool = False) -> bool:
     compiled kernels (the path kernels among them: tens of milliseconds to load from
     numba's cache on first use) and the BLAS controller (threadpoolctl scans the loaded
     libraries, ~10 ms); with ``rows`` (:func:`stackik.solve.warmup.rows_needed`) the
-    path family's twin for problems with dense rows. Whether anything was loaded (the
+    path family's twin for problems with rows beyond the limits. Whether anything was loaded (the
     clock restarts then)."""
     from stackik.solve.blas import _BLAS, _blas_controller
     from stackik.solve.warmup import ensure_kernels

@@ -213,7 +213,7 @@ def _kernels_needed(stack: object, target: object, rows: bool = False) -> tuple[
     later loads the planar set then, off the clock (:meth:`Request.load_kernels`): a
     first spatial solve compiles no planar kernel (it used to compile both sets). With
     ``rows`` (:func:`stackik.solve.warmup.rows_needed`), each set's ``_rows`` twin too: the
-    kernels for problem data with dense rows."""
+    kernels for problem data with rows beyond the limits."""
     if not isinstance(stack, Stack) or not isinstance(target, PlanarTarget | SpatialTarget):
         return ()  # the request's validation reports it
     if isinstance(target, PlanarTarget):

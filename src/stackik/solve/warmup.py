@@ -103,7 +103,7 @@ def _dispatchers(kind: str) -> list[Any]:
 
 def _row_dispatchers(kind: str) -> list[Any]:
     """The entry points of a ``_rows`` family: its plain twin's main kernel (compiled
-    again for problem data with dense rows) and, for the solver families, the rows'
+    again for problem data with rows beyond the limits) and, for the solver families, the rows'
     kernels the NumPy evaluation calls (shared by both modes)."""
     from stackik._compiled import barrier as _barrier
     from stackik._compiled import body_distances as _body
@@ -322,11 +322,11 @@ def _compile_opt() -> Iterator[None]:
 
 
 def _label(kind: str) -> str:
-    """``"planar solver"``, ``"spatial path"``, ``"planar solver (dense rows)"``, ...: the
-    family in a progress line."""
+    """``"planar solver"``, ``"spatial path"``, ``"planar solver (with rows)"``, ...: the
+    family in a progress line (``_rows``: for rows beyond the limits)."""
     base, rows = kind.removesuffix("_rows"), kind.endswith("_rows")
     mode, _, part = base.partition("_")
-    return f"{mode} {part or 'solver'}" + (" (dense rows)" if rows else "")
+    return f"{mode} {part or 'solver'}" + (" (with rows)" if rows else "")
 
 
 class _Progress:
