@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from stackik.families import ConstraintFamily
 from stackik.geometry import Stack
 from stackik.kinematics import lift_planar, planar_jacobian, spatial_chain
 from stackik.rotations import euler_zyx, rotation_angle, slerp
@@ -101,6 +102,16 @@ class Mode:
         """FN of the end-effector Jacobian at ``q``."""
         raise NotImplementedError
 
+    def fold_rows(
+        self, stack: Stack, target: Target, q: FloatArray, margin: float, screen: float
+    ) -> ConstraintFamily | None:
+        """Rows that keep the fold of the folded pose ``q`` from curling back on itself
+        (:mod:`stackik.formulation.fold_band`; the fold: the pairs of bodies of
+        non-adjacent platforms within ``screen`` [mm] of their least distance, ``margin``
+        [mm] included), or None: no fold, or none of this kind's (spatial folds have no
+        such rows)."""
+        return None
+
 
 @dataclass(frozen=True)
 class PlanarMode(Mode):
@@ -133,6 +144,15 @@ class PlanarMode(Mode):
 
     def frobenius(self, q: FloatArray) -> float:
         return float(np.sqrt(np.sum(planar_jacobian(q) ** 2)))
+
+    def fold_rows(
+        self, stack: Stack, target: Target, q: FloatArray, margin: float, screen: float
+    ) -> ConstraintFamily | None:
+        from stackik.formulation.fold_band import FOLD_BAND, FOLD_TILT, FoldBand, fold_platforms
+
+        assert isinstance(target, PlanarTarget)
+        fold = fold_platforms(stack, q, margin, target.phi, screen)
+        return None if fold is None else FoldBand(fold, FOLD_BAND, FOLD_TILT, target.theta)
 
 
 @dataclass(frozen=True)

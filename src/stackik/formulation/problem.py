@@ -279,6 +279,15 @@ class Problem:
         out.clearance = dataclasses.replace(self.clearance, leg_pairs=rows if rows.size else None)
         return out
 
+    def with_families(self, extra: tuple[Any, ...]) -> Problem:
+        """This problem with the constraint families ``extra`` after its own (a shallow
+        copy, its own evaluation caches). Its :meth:`check` enforces them too: a solve
+        that adds rows of its own re-checks the pose on the problem without them."""
+        out = self._variant()
+        phi = self.mode.phi(self.target)
+        out.families = FamilyRows(self.stack, self.constraints + tuple(extra), phi)
+        return out
+
     @property
     def dense_families(self) -> tuple[Any, ...]:
         """The row families after the per-platform blocks, in the order every engine

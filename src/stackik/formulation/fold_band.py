@@ -1,0 +1,120 @@
+"""A planar fold kept from curling back on itself: rows that make the bodies of
+non-adjacent platforms clear by construction (docs/clearance.md, "Taller stacks").
+
+The least-FN planar pose of a tall stack reaches toward the target with its lower
+platforms and packs the surplus ones into a *fold* below the end effector; on legs of a
+size the fold's platforms pass through each other, and the interior point with the
+non-adjacent bodies' rows (:func:`stackik.solve.stages._unfold`) often ends folded again
+from n = 32 on. The rows here keep each fold platform's plate nearly parallel to the end
+effector's: for every platform ``i`` of the fold
+
+    band - |Theta_i - theta_t| >= 0   and   tilt - |theta_i| >= 0   [rad]
+
+with ``Theta_i`` the plate's absolute angle in the plane (the sum of the relative turns
+``theta_0 + ... + theta_i``), ``theta_t`` the target's and ``theta_i`` the platform's
+own turn. Plates that are nearly parallel are stacked along their common normal, each
+platform at least its least height above the one below (125 mm on the reference
+geometry), so two platforms with a third between them are separated by that platform,
+and the fold cannot come back on itself: the pose is clear unless ``band`` is too wide
+for the plates' size. The check's exact distances decide; the rows are a start, not a
+guarantee, and they are never part of the user's problem: the solve re-checks the pose on
+the problem without them.
+
+``fold_platforms`` finds the fold of a pose: every platform that stands on the lowest
+plate of a pair of bodies of non-adjacent platforms within
+:data:`~stackik.solve.policy.UNFOLD_SCREEN_MM` of their least distance, and every
+platform above it.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from stackik.families import ConstraintFamily
+
+if TYPE_CHECKING:
+    from stackik.geometry import Stack
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: When no run of a planar batch passes and its runs folded into themselves, the lowest
+#: folded run's fold is kept within this band [rad] of the end effector's angle and each
+#: of its platforms turns at most FOLD_TILT [rad]
+#: (:class:`FoldBand`, :func:`stackik.solve.stages._fold_band`).
+#: On the 12 mm reference stacks (seed 8461, 5 targets each at n = 16, 32 and 64) 0.35 and
+#: 0.3 gave a clear pose on all 15 from the paper's guess and the folded pose; a band of
+#: 0.4 without the tilt rows (and the fold one platform higher) left 2 of 5 at n = 16 and
+#: 1 of 3 at n = 64 folded, and wider bands more (docs/clearance.md,
+#: ``benchmarks/tall_clear_probe.py``).
+FOLD_BAND = 0.35
+#: ... (see FOLD_BAND)
+FOLD_TILT = 0.3
+
+
+class FoldBand(ConstraintFamily):
+    """The fold's rows (module doc), planar only: ``4 m`` rows for the ``m`` platforms
+    ``fold`` (indices, ascending), values in rad.
+
+    Parameters
+    ----------
+    fold : sequence of int
+        The fold's platforms (0-based).
+    band : float
+        Largest ``|Theta_i - theta_t|`` [rad].
+    tilt : float
+        Largest ``|theta_i|`` [rad].
+    theta_t : float
+        The target's angle in the plane [rad].
+    """
+
+    name = "fold_band"
+
+    def __init__(self, fold: Any, band: float, tilt: float, theta_t: float) -> None:
+        self.fold = np.asarray(fold, dtype=np.int64)
+        if self.fold.ndim != 1 or self.fold.size == 0:
+            raise ValueError("fold: expected a non-empty sequence of platform indices")
+        self.band, self.tilt, self.theta_t = float(band), float(tilt), float(theta_t)
+
+    def planar_rows(self, stack: Stack, q: FloatArray, phi: float) -> tuple[FloatArray, FloatArray]:
+        """Values (4 m,) [rad] and their Jacobian (4 m, 3 n) against the pose ``q`` (n, 3):
+        ``band -+ (Theta_i - theta_t)`` then ``tilt -+ theta_i``, each block in the order
+        of ``fold``."""
+        q = np.asarray(q, dtype=float).reshape(-1, 3)
+        m, n = self.fold.size, q.shape[0]
+        absolute = np.cumsum(q[:, 2])[self.fold] - self.theta_t
+        own = q[self.fold, 2]
+        c = np.concatenate([self.band - absolute, self.band + absolute,
+                            self.tilt - own, self.tilt + own])  # fmt: skip
+        J = np.zeros((4 * m, 3 * n))
+        for r, i in enumerate(self.fold):
+            J[r, 2 : 3 * (i + 1) : 3] = -1.0  # d Theta_i / d theta_j = 1 for j <= i
+            J[m + r, 2 : 3 * (i + 1) : 3] = 1.0
+            J[2 * m + r, 3 * i + 2] = -1.0
+            J[3 * m + r, 3 * i + 2] = 1.0
+        return c, J
+
+    def row_scale(self, stack: Stack) -> float:
+        """The rows are angles [rad]: unscaled."""
+        return 1.0
+
+
+def fold_platforms(
+    stack: Stack, q: FloatArray, margin: float, phi: float, screen: float
+) -> IntArray | None:
+    """The fold of the planar pose ``q`` (n, 3): the platform standing on the lowest plate
+    (plate ``j`` is the base of platform ``j``) of a pair of bodies of non-adjacent
+    platforms within ``screen`` [mm] of their least distance (``margin`` [mm] included),
+    and every platform above it (int64, ascending), or None when no pair comes that
+    close."""
+    from stackik.formulation.leg_pairs import close_pairs, pair_table
+
+    near = close_pairs(stack, [np.asarray(q, dtype=float).reshape(-1, 3)], margin, phi, screen)
+    if near.size == 0:
+        return None
+    table = pair_table(stack)
+    lowest = int(table.plates[table.pairs[near]].min())
+    return np.arange(min(lowest, stack.n - 1), stack.n, dtype=np.int64)
