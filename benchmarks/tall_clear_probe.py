@@ -18,8 +18,8 @@ seed + n``, as ``bench_nonadj.py``) on ``Stack.reference(n, leg_radius=12)``:
    of the end effector's) and ``|theta_i| <= tilt`` (its relative turn): the fold's plates
    stay nearly parallel, so non-adjacent platforms are separated by the platforms between
    them (at least 125 mm high on the reference geometry), clear by construction (the
-   default's last resort, :func:`stackik.solve.stages._fold_band`, with
-   ``FOLD_BAND`` and ``FOLD_TILT``);
+   default's last resort, :func:`stackik.solve.stages._fold_band`, tries the pairs of
+   ``FOLD_BANDS``; the defaults here are its narrowest);
 3. with ``--unfold``, the solve with the non-adjacent rows from the band pose, as
    :func:`stackik.solve.stages._unfold` makes it (rows of the pairs within 20 mm at the band
    and zero-radius poses, more after each folded round, up to 8 rounds).
@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from stackik import Stack, solve_ik
-from stackik.formulation.fold_band import FOLD_BAND, FOLD_TILT, FoldBand, fold_platforms
+from stackik.formulation.fold_band import FOLD_BANDS, FoldBand, fold_platforms
 from stackik.formulation.leg_pairs import close_pairs
 from stackik.formulation.problem import Problem
 from stackik.methods.ip import ip_starts
@@ -59,8 +59,8 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=32)
     ap.add_argument("--seed", type=int, default=8461)
     ap.add_argument("--count", type=int, default=5)
-    ap.add_argument("--band", type=float, default=FOLD_BAND)
-    ap.add_argument("--tilt", type=float, default=FOLD_TILT)
+    ap.add_argument("--band", type=float, default=FOLD_BANDS[-1][0])
+    ap.add_argument("--tilt", type=float, default=FOLD_BANDS[-1][1])
     ap.add_argument("--unfold", action="store_true")
     a = ap.parse_args()
     BlasLimit(1).apply()  # as a solve does: threaded BLAS on the rows' products is slow

@@ -12,7 +12,7 @@ import pytest
 import stackik as sk
 from stackik.check import FEAS_TOL
 from stackik.formulation import Problem
-from stackik.formulation.fold_band import FoldBand, fold_platforms
+from stackik.formulation.fold_band import FOLD_BANDS, FoldBand, fold_platforms
 from stackik.methods.ip import IPMethod
 from stackik.sampling import random_reachable_targets
 from stackik.solve import stages
@@ -93,7 +93,7 @@ def test_a_batch_whose_unfolds_find_nothing_gets_the_folds_clear_pose(
     monkeypatch.setattr(stages, "_unfold", lambda *a, **k: None)
     res = sk.solve_ik(FAT16, FOLDED)
     assert res.success and res.method == "ip"
-    assert banded.count(True) == 1  # one run with the fold's rows
+    assert 1 <= banded.count(True) <= len(FOLD_BANDS)  # runs with the fold's rows
     assert sk.clearances(FAT16, res.q, phi=FOLDED.phi).minimum >= -FEAS_TOL
     check = sk.check_pose(FAT16, FOLDED, res.q)
     assert check.ok and check.family_violation == 0.0

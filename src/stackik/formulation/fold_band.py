@@ -42,17 +42,16 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 #: When no run of a planar batch passes and its runs folded into themselves, the lowest
-#: folded run's fold is kept within this band [rad] of the end effector's angle and each
-#: of its platforms turns at most FOLD_TILT [rad]
-#: (:class:`FoldBand`, :func:`stackik.solve.stages._fold_band`).
-#: On the 12 mm reference stacks (seed 8461, 5 targets each at n = 16, 32 and 64) 0.35 and
-#: 0.3 gave a clear pose on all 15 from the paper's guess and the folded pose; a band of
-#: 0.4 without the tilt rows (and the fold one platform higher) left 2 of 5 at n = 16 and
-#: 1 of 3 at n = 64 folded, and wider bands more (docs/clearance.md,
+#: folded run's fold is kept within a band [rad] of the end effector's angle with each of
+#: its platforms turning at most a tilt [rad] (:class:`FoldBand`,
+#: :func:`stackik.solve.stages._fold_band`): these ``(band, tilt)`` pairs, tried in this
+#: order until one gives a clear pose (a wider band, a lower FN; a narrower one, clear
+#: more often). On the 12 mm reference stacks (seed 8461, 5 targets each at n = 16, 32
+#: and 64, from the paper's guess and the folded pose): (0.5, 0.4) clear on 5, 5 and 2
+#: of them, 0.3-4.4 % above the zero-radius FN, (0.35, 0.3) on all 15, 0.3-30 % above;
+#: (0.6, 0.4) on none at n = 64, (0.7, 0.5) on none at n = 32 (docs/clearance.md,
 #: ``benchmarks/tall_clear_probe.py``).
-FOLD_BAND = 0.35
-#: ... (see FOLD_BAND)
-FOLD_TILT = 0.3
+FOLD_BANDS = ((0.5, 0.4), (0.35, 0.3))
 
 
 class FoldBand(ConstraintFamily):

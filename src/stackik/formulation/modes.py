@@ -104,13 +104,13 @@ class Mode:
 
     def fold_rows(
         self, stack: Stack, target: Target, q: FloatArray, margin: float, screen: float
-    ) -> ConstraintFamily | None:
+    ) -> list[ConstraintFamily]:
         """Rows that keep the fold of the folded pose ``q`` from curling back on itself
         (:mod:`stackik.formulation.fold_band`; the fold: the pairs of bodies of
         non-adjacent platforms within ``screen`` [mm] of their least distance, ``margin``
-        [mm] included), or None: no fold, or none of this kind's (spatial folds have no
-        such rows)."""
-        return None
+        [mm] included), widest first; empty: no fold, or none of this kind's (spatial
+        folds have no such rows)."""
+        return []
 
 
 @dataclass(frozen=True)
@@ -147,12 +147,14 @@ class PlanarMode(Mode):
 
     def fold_rows(
         self, stack: Stack, target: Target, q: FloatArray, margin: float, screen: float
-    ) -> ConstraintFamily | None:
-        from stackik.formulation.fold_band import FOLD_BAND, FOLD_TILT, FoldBand, fold_platforms
+    ) -> list[ConstraintFamily]:
+        from stackik.formulation.fold_band import FOLD_BANDS, FoldBand, fold_platforms
 
         assert isinstance(target, PlanarTarget)
         fold = fold_platforms(stack, q, margin, target.phi, screen)
-        return None if fold is None else FoldBand(fold, FOLD_BAND, FOLD_TILT, target.theta)
+        if fold is None:
+            return []
+        return [FoldBand(fold, band, tilt, target.theta) for band, tilt in FOLD_BANDS]
 
 
 @dataclass(frozen=True)

@@ -629,13 +629,13 @@ def _fold_band(
     """No run passed, and the batch's runs folded into themselves: the lowest folded
     pose's fold is kept from curling back on itself (the mode's
     :meth:`~stackik.formulation.modes.Mode.fold_rows`; planar:
-    :class:`~stackik.formulation.fold_band.FoldBand`, within
-    :data:`~stackik.formulation.fold_band.FOLD_BAND` of the end effector's angle, each platform
-    turning at most :data:`~stackik.formulation.fold_band.FOLD_TILT`; spatial: none), from the
-    paper's guess and from the folded pose; a pose that then
-    passes the check of the request's problem (without those rows) becomes
-    ``batch.best`` and starts one more :func:`_unfold` (rows for the pairs close at it and
-    at the folded pose), whose pose replaces it when it passes at a lower objective.
+    :class:`~stackik.formulation.fold_band.FoldBand`, within a band of the end effector's
+    angle, each platform turning at most a tilt, for each pair of
+    :data:`~stackik.formulation.fold_band.FOLD_BANDS` until one gives a pose; spatial:
+    none), from the paper's guess and from the folded pose. The first pose that passes
+    the check of the request's problem (without those rows) becomes ``batch.best`` and
+    starts one more :func:`_unfold` (rows for the pairs close at it and at the folded
+    pose), whose pose replaces it when it passes at a lower objective.
 
     Why: from n = 32 on, the unfolds from the batch's raw starts often end folded again
     (12 mm legs, seed 8461: 3 of 5 targets solved at n = 32, none of 3 at n = 64, where
@@ -644,20 +644,20 @@ def _fold_band(
     within 0.15-0.4 % on some (docs/clearance.md, "Taller stacks")."""
     prob = req.problem
     run, _ = batch.folded[0]
-    band = prob.mode.fold_rows(
+    bands = prob.mode.fold_rows(
         prob.stack, req.target, run.q, prob.clearance.margin, UNFOLD_SCREEN_MM
     )
-    if band is None:
+    for band in bands:
+        if req.out_of_time():
+            return
+        left = req.time_left(time.perf_counter())
+        got = method.run_many(prob.with_families((band,)), [req.q0, run.q], req.options, left)
+        batch.nit += got.nit
+        if got.best is not None and (check := prob.check(got.best.q)).ok:
+            batch.best = dataclasses.replace(got.best, check=check)
+            break
+    if batch.best is None:
         return
-    left = req.time_left(time.perf_counter())
-    got = method.run_many(prob.with_families((band,)), [req.q0, run.q], req.options, left)
-    batch.nit += got.nit
-    if got.best is None:
-        return
-    check = prob.check(got.best.q)
-    if not check.ok:
-        return
-    batch.best = dataclasses.replace(got.best, check=check)
     again = _unfold(req, run, batch.best.q, solve, UNFOLD_PLATE_ROWS)
     if again is not None and again.ok and _lower(again, batch.best):
         batch.best = again
