@@ -3,7 +3,8 @@
 Every place that used to branch on ``isinstance(target, PlanarTarget)`` asks the target's
 mode instead: variables per platform, the random-start perturbation, the fold axes of the
 structured starts, the end-effector position, the plane, the target as a 6-DOF one, the
-interpolation and step size of a path, the lift to 3D, the FN. Each kind is a subclass of
+interpolation and step size of a path, the lift to 3D, the FN, the rows that keep a
+folded pose's fold from curling back. Each kind is a subclass of
 :class:`Mode` that implements these (:class:`PlanarMode`, :class:`SpatialMode`); a new
 target kind is a new subclass plus one entry in :func:`mode_of`.
 """
