@@ -153,8 +153,10 @@ def test_explicit_starts_and_rows_outside_the_ip_keep_one_call(
 ) -> None:
     # the start plan's batch alone: the runs that fold into themselves (at n = N_BIG with
     # 1 mm legs some do) are made again one by one after it (stages._unfold_batch,
-    # tests/test_leg_pairs.py); here none is
+    # tests/test_leg_pairs.py), and when none passes the fold band runs
+    # (stages._fold_band, tests/test_fold_band.py); here neither does
     monkeypatch.setattr(stages, "UNFOLD_STARTS", 0)
+    monkeypatch.setattr(stages, "_fold_band", lambda *a, **k: None)
     stack, target = Stack.reference(N_BIG), _target(N_BIG)
     solve_ik(stack, target, method="ip", starts=3)
     assert _counts(spy) == [3]
