@@ -4,14 +4,15 @@ default: it measures whether a pose whose fold is kept from curling back on itse
 seed the solve with the non-adjacent bodies' rows.
 
 Run: ``python benchmarks/tall_clear_probe.py [--n 32] [--seed 8461] [--count 5]
-[--band 0.35] [--tilt 0.3] [--unfold]``.
+[--band 0.35] [--tilt 0.3] [--fold-screen 0] [--unfold]``.
 
 For each planar target (``random_reachable_targets`` in the plane ``phi = 0.3``, ``rng =
 seed + n``, as ``bench_nonadj.py``) on ``Stack.reference(n, leg_radius=12)``:
 
 1. the zero-radius default pose (``Stack.reference(n)``); its *fold* is every platform
-   from the lowest plate of a non-adjacent pair within 20 mm at 12 mm (the pairs of
-   :func:`stackik.formulation.leg_pairs.close_pairs`) up to the top;
+   from the lowest plate of a non-adjacent pair within ``--fold-screen`` mm at 12 mm
+   (default ``FOLD_SCREEN_MM``: the pairs that collide;
+   :func:`stackik.formulation.fold_band.fold_platforms`) up to the top;
 2. the *band* pose: the interior point from the paper's guess and from the zero-radius pose
    with :class:`stackik.formulation.fold_band.FoldBand`'s rows on the fold,
    ``|Theta_i - theta_target| <= band`` (the plate's absolute angle within ``band`` [rad]
@@ -37,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from stackik import Stack, solve_ik
-from stackik.formulation.fold_band import FOLD_BANDS, FoldBand, fold_platforms
+from stackik.formulation.fold_band import FOLD_BANDS, FOLD_SCREEN_MM, FoldBand, fold_platforms
 from stackik.formulation.leg_pairs import close_pairs
 from stackik.formulation.problem import Problem
 from stackik.methods.ip import ip_starts
@@ -62,6 +63,8 @@ def main() -> None:
     ap.add_argument("--band", type=float, default=FOLD_BANDS[-1][0])
     ap.add_argument("--tilt", type=float, default=FOLD_BANDS[-1][1])
     ap.add_argument("--unfold", action="store_true")
+    ap.add_argument("--fold-screen", type=float, default=FOLD_SCREEN_MM,
+                    help="the fold: pairs within this [mm] of their least distance")  # fmt: skip
     a = ap.parse_args()
     BlasLimit(1).apply()  # as a solve does: threaded BLAS on the rows' products is slow
     n = a.n
@@ -74,7 +77,7 @@ def main() -> None:
     for k, t in enumerate(targets):
         r0 = solve_ik(zero, t)
         q = r0.q.reshape(-1, 3)
-        fold = fold_platforms(fat, q, 0.0, PHI, SCREEN)
+        fold = fold_platforms(fat, q, 0.0, PHI, a.fold_screen)
         if fold is None:
             print(f"| {k} | none | - | - |")
             continue

@@ -12,11 +12,10 @@ import pytest
 import stackik as sk
 from stackik.check import FEAS_TOL
 from stackik.formulation import Problem
-from stackik.formulation.fold_band import FOLD_BANDS, FoldBand, fold_platforms
+from stackik.formulation.fold_band import FOLD_BANDS, FOLD_SCREEN_MM, FoldBand, fold_platforms
 from stackik.methods.ip import IPMethod
 from stackik.sampling import random_reachable_targets
 from stackik.solve import stages
-from stackik.solve.policy import UNFOLD_SCREEN_MM
 from tests import fd
 
 REF16 = sk.Stack.reference(16)
@@ -52,11 +51,11 @@ def test_bad_fold_is_refused() -> None:
 
 def test_fold_of_a_folded_pose_and_of_an_upright_one() -> None:
     q = sk.solve_ik(REF16, FOLDED).q  # the zero-radius pose: it folds with 12 mm legs
-    fold = fold_platforms(FAT16, q, 0.0, FOLDED.phi, UNFOLD_SCREEN_MM)
+    fold = fold_platforms(FAT16, q, 0.0, FOLDED.phi, FOLD_SCREEN_MM)
     assert fold is not None
     assert fold[-1] == FAT16.n - 1 and np.all(np.diff(fold) == 1)
     upright = np.tile([0.0, 300.0, 0.0], (FAT16.n, 1))
-    assert fold_platforms(FAT16, upright, 0.0, FOLDED.phi, UNFOLD_SCREEN_MM) is None
+    assert fold_platforms(FAT16, upright, 0.0, FOLDED.phi, FOLD_SCREEN_MM) is None
 
 
 def test_with_families_checks_the_extra_rows() -> None:

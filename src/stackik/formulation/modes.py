@@ -104,13 +104,12 @@ class Mode:
         raise NotImplementedError
 
     def fold_rows(
-        self, stack: Stack, target: Target, q: FloatArray, margin: float, screen: float
+        self, stack: Stack, target: Target, q: FloatArray, margin: float
     ) -> list[ConstraintFamily]:
         """Rows that keep the fold of the folded pose ``q`` from curling back on itself
-        (:mod:`stackik.formulation.fold_band`; the fold: the pairs of bodies of
-        non-adjacent platforms within ``screen`` [mm] of their least distance, ``margin``
-        [mm] included), widest first; empty: no fold, or none of this kind's (spatial
-        folds have no such rows)."""
+        (:mod:`stackik.formulation.fold_band`; ``margin`` [mm]: the clearance margin),
+        widest first; empty: no fold, or none of this kind's (spatial folds have no such
+        rows)."""
         return []
 
 
@@ -147,12 +146,17 @@ class PlanarMode(Mode):
         return float(np.sqrt(np.sum(planar_jacobian(q) ** 2)))
 
     def fold_rows(
-        self, stack: Stack, target: Target, q: FloatArray, margin: float, screen: float
+        self, stack: Stack, target: Target, q: FloatArray, margin: float
     ) -> list[ConstraintFamily]:
-        from stackik.formulation.fold_band import FOLD_BANDS, FoldBand, fold_platforms
+        from stackik.formulation.fold_band import (
+            FOLD_BANDS,
+            FOLD_SCREEN_MM,
+            FoldBand,
+            fold_platforms,
+        )
 
         assert isinstance(target, PlanarTarget)
-        fold = fold_platforms(stack, q, margin, target.phi, screen)
+        fold = fold_platforms(stack, q, margin, target.phi, FOLD_SCREEN_MM)
         if fold is None:
             return []
         return [FoldBand(fold, band, tilt, target.theta) for band, tilt in FOLD_BANDS]

@@ -644,9 +644,7 @@ def _fold_band(
     within 0.15-0.4 % on some (docs/clearance.md, "Taller stacks")."""
     prob = req.problem
     run, _ = batch.folded[0]
-    bands = prob.mode.fold_rows(
-        prob.stack, req.target, run.q, prob.clearance.margin, UNFOLD_SCREEN_MM
-    )
+    bands = prob.mode.fold_rows(prob.stack, req.target, run.q, prob.clearance.margin)
     for band in bands:
         if req.out_of_time():
             return
