@@ -637,11 +637,12 @@ def _fold_band(
     starts one more :func:`_unfold` (rows for the pairs close at it and at the folded
     pose), whose pose replaces it when it passes at a lower objective.
 
-    Why: from n = 32 on, the unfolds from the batch's raw starts often end folded again
-    (12 mm legs, seed 8461: 3 of 5 targets solved at n = 32, none of 3 at n = 64, where
-    the SQP engine then took up to the whole time budget); the fold's rows give a clear
-    pose in 0.05-0.3 s, 1-9 % above the zero-radius FN, and the unfold from it comes
-    within 0.15-0.4 % on some (docs/clearance.md, "Taller stacks")."""
+    Why: from n = 32 on, the unfolds from the batch's raw starts often end folded again,
+    and the SQP engine's hand-over then took up to the whole time budget (12 mm legs,
+    seeds 9461 and 10461, n = 32 and 64: 8 of 16 targets clear before, 16 of 16 with
+    this, the longest solve 57 s against 138 s; FN mostly 0.2-6 % above the zero-radius
+    pose, two answers higher than the hand-over's; docs/clearance.md, "Taller
+    stacks")."""
     prob = req.problem
     run, _ = batch.folded[0]
     bands = prob.mode.fold_rows(prob.stack, req.target, run.q, prob.clearance.margin)
