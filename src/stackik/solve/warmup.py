@@ -98,7 +98,7 @@ def _dispatchers(kind: str) -> list[Any]:
     from stackik._compiled import spatial_kinematics as _spatial
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _barrier.ip_multi,
-            _spatial_ipm.evaluate, _spatial_ipm.lagrangian_hessian]  # fmt: skip
+            _spatial_ipm._evaluate, _spatial_ipm._hessian]  # fmt: skip
 
 
 def _row_dispatchers(kind: str) -> list[Any]:
