@@ -45,15 +45,25 @@ _HOOKS: list[str] = []
 
 def register(data_class: type, **implementations: Any) -> None:
     """Register a mode: ``implementations`` maps every stub's name to the mode's jitted
-    function with the stub's parameters (same names, same order; numba checks) or, for
-    :func:`clock_period`, an int. Raises ``ValueError`` when a stub is missing or a name is
-    not a stub."""
+    function with the stub's parameters (same names, same order) or those without the
+    first, the problem data (then one specialisation serves every problem-data type) or,
+    for :func:`clock_period`, an int. Raises ``ValueError`` when a stub is missing, a name
+    is not a stub or a function's parameters are not the stub's."""
     missing = sorted(set(_HOOKS) - set(implementations))
     unknown = sorted(set(implementations) - set(_HOOKS))
     if missing or unknown:
         raise ValueError(
             f"kernel.register({data_class.__name__}): missing {missing}, unknown {unknown}"
         )
+    for name, impl in implementations.items():
+        if isinstance(impl, int):
+            continue
+        code = impl.py_func.__code__
+        if code.co_varnames[: code.co_argcount] not in (_PARAMETERS[name], _PARAMETERS[name][1:]):
+            raise ValueError(
+                f"kernel.register({data_class.__name__}): {name} takes "
+                f"{code.co_varnames[: code.co_argcount]}, not {_PARAMETERS[name]}"
+            )
     _REGISTRY[data_class] = dict(implementations)
 
 
@@ -81,14 +91,20 @@ def _direct_call(typingctx: Any, name: str, P: Any, args: tuple[Any, ...]) -> An
             return context.get_constant(nbtypes.int64, value)
 
         return nbtypes.int64(*args), constant
+    # an implementation that does not need the problem data leaves it out (its first
+    # parameter): then one specialisation serves every problem-data type (the lean and
+    # the rows' kernel families, :func:`stackik._compiled.core.lean_type`)
+    code = impl.py_func.__code__
+    keep = 0 if code.co_varnames[: code.co_argcount] == _PARAMETERS[name] else 1
     disp = nbtypes.Dispatcher(impl)
-    target = disp.get_call_type(typingctx, args, {})
+    target = disp.get_call_type(typingctx, args[keep:], {})
     if target is None:
         raise TypingError(f"stackik._compiled.kernel.{name}: {impl} takes no {args}")
 
     def call(context: Any, builder: Any, sig: Any, llargs: Any) -> Any:
         values = [context.cast(builder, v, a, b)
-                  for v, a, b in zip(llargs, sig.args, target.args, strict=True)]  # fmt: skip
+                  for v, a, b in zip(llargs[keep:], sig.args[keep:], target.args,
+                                     strict=True)]  # fmt: skip
         return context.get_function(disp, target)(builder, values)
 
     return target.return_type(*args), call
@@ -162,8 +178,12 @@ def _clock_period_call(typingctx: Any, P: Any) -> Any:
 clock_period: Any = intrinsic(_clock_period_call)
 
 
-# the stubs' names; register wants exactly these
-_HOOKS.extend(
-    ["evaluate", "hessian", "kkt_step", "eq_multipliers", "eq_transpose_dot", "with_fscale",
-     "clock_period"]
-)  # fmt: skip
+#: The stubs' parameters by name (of their typing functions, ``typingctx`` left out).
+_PARAMETERS: dict[str, tuple[str, ...]] = {
+    name: fn.__code__.co_varnames[1 : fn.__code__.co_argcount]
+    for name, fn in (("evaluate", _evaluate_call), ("hessian", _hessian_call),
+                     ("kkt_step", _kkt_step_call), ("eq_multipliers", _eq_multipliers_call),
+                     ("eq_transpose_dot", _eq_transpose_dot_call),
+                     ("with_fscale", _with_fscale_call), ("clock_period", _clock_period_call))
+}  # fmt: skip
+_HOOKS.extend(_PARAMETERS)

@@ -406,7 +406,7 @@ def _evaluate_ip(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Floa
 
 
 @_jit
-def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
+def _lagrangian_hessian(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
                         wq: float = 0.0) -> FloatArray:  # fmt: skip
     """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (N, N), at the scaled
     point ``u`` (the parts :func:`_kernel_evaluate` returns); of :func:`_evaluate_ext`'s
@@ -418,6 +418,7 @@ def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
     bz, ls, sj, feasible = P.bz, P.ls0, P.sj, P.feasible
     n = tf.shape[0]
     N = 3 * n
+    u = parts
     z = _limit_rows(z, n)
     q = (u * xs).reshape(n, 3)
     c, s, y, J, d = _kinematics(q)
@@ -590,7 +591,7 @@ def _kernel_evaluate(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: 
 
 
 @_jit_internal
-def _kernel_kkt_step(P: Any, W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
+def _kernel_kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
                      last_shift: float, try_plain: bool) -> tuple[FloatArray, float]:  # fmt: skip
     """:func:`_kkt_step`'s step and shift."""
     dx, _, _, shift = _kkt_step(W, AE, cE, rhs, last_shift, try_plain)
@@ -598,13 +599,13 @@ def _kernel_kkt_step(P: Any, W: FloatArray, AE: FloatArray, cE: FloatArray, rhs:
 
 
 @_jit_internal
-def _kernel_eq_multipliers(P: Any, AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArray:
+def _kernel_eq_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArray:
     """:func:`_ls_multipliers`."""
     return _ls_multipliers(AE, g, AItz)
 
 
 @_jit_internal
-def _kernel_eq_transpose_dot(P: Any, AE: FloatArray, y: FloatArray) -> FloatArray:
+def _kernel_eq_transpose_dot(AE: FloatArray, y: FloatArray) -> FloatArray:
     """:func:`_AET_dot`."""
     return _AET_dot(AE, y)
 

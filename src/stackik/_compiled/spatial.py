@@ -667,20 +667,20 @@ def _with_target(P0: Any, position: Any, rotation: Any) -> Any:
 # The barrier method's kernel interface (stackik._compiled.kernel; the loop: barrier.py)
 # =========================================================================================
 @_jit_internal
-def _kernel_kkt_step(P: Any, W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
+def _kernel_kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
                      last_shift: float, try_plain: bool) -> tuple[FloatArray, float]:  # fmt: skip
     """:func:`_kkt_step`."""
     return _kkt_step(W, AE, cE, rhs, last_shift, try_plain)
 
 
 @_jit_internal
-def _kernel_eq_multipliers(P: Any, AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArray:
+def _kernel_eq_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArray:
     """:func:`_ls_multipliers`."""
     return _ls_multipliers(AE, g, AItz)
 
 
 @_jit_internal
-def _kernel_eq_transpose_dot(P: Any, AE: FloatArray, y: FloatArray) -> FloatArray:
+def _kernel_eq_transpose_dot(AE: FloatArray, y: FloatArray) -> FloatArray:
     """``AE^T y`` by BLAS (the (6, N) equality Jacobian)."""
     return AE.T @ y
 
