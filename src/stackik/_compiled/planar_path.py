@@ -556,7 +556,10 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
     X = np.empty((m, N))
     how = np.zeros(m, dtype=np.int64)
     none = np.empty(0)
-    mu0a = np.array([mu0])  # the barrier solve of one start (ip_multi)
+    # the barrier solve of one start (ip_multi; no polish, no ranking: the arguments typed
+    # as from Python, int64 and bool, not literals, so that the solver's specialisation
+    # serves)
+    mu0a = np.array([mu0])
     far = np.full(N, np.inf)
     x = u0.copy()
     have = have0  # the state of u0 (multipliers, active set) when it is a solved point
@@ -643,8 +646,8 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
                     pcrun += 1
                     continue
         Xn, stn, _, _, _, s1, z1, yE1 = ip_multi(
-            x.copy().reshape(1, -1), P, tol, constr_tol, mu0a, max_iter, 1e300, 0, reach, margin,
-            none, none, none, 0.0, False,
+            x.copy().reshape(1, -1), P, tol, constr_tol, mu0a, max_iter, 1e300, np.int64(0), reach,
+            margin, none, none, none, 0.0, np.bool_(False),
         )  # fmt: skip
         xn, st = Xn[0], stn[0]
         if st == IP_NONFINITE or not _finite(xn):

@@ -236,7 +236,10 @@ def ip_path(u0: FloatArray, pos: FloatArray, rot: FloatArray, P0: Any, jump: Flo
     X = np.empty((m, N))
     how = np.zeros(m, dtype=np.int64)
     none = np.empty(0)
-    mu0a = np.array([mu0])  # the barrier solve of one start (ip_multi)
+    # the barrier solve of one start (ip_multi; no polish, no ranking: the arguments typed
+    # as from Python, int64 and bool, not literals, so that the solver's specialisation
+    # serves)
+    mu0a = np.array([mu0])
     x = u0.copy()
     have = have0  # the state of u0 (multipliers, active set) when it is a solved point
     yE = yE0.copy()
@@ -256,8 +259,8 @@ def ip_path(u0: FloatArray, pos: FloatArray, rot: FloatArray, P0: Any, jump: Flo
                     x, yE, z, active = xn, yE1, z1, act1
                     continue
         Xn, stn, _, _, _, s1, z1, yE1 = ip_multi(
-            x.copy().reshape(1, -1), P, tol, constr_tol, mu0a, max_iter, 1e300, 0, reach, margin,
-            none, none, none, 0.0, False,
+            x.copy().reshape(1, -1), P, tol, constr_tol, mu0a, max_iter, 1e300, np.int64(0), reach,
+            margin, none, none, none, 0.0, np.bool_(False),
         )  # fmt: skip
         xn, st = Xn[0], stn[0]
         if st == IP_NONFINITE or not np.all(np.isfinite(xn)):

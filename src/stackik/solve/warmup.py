@@ -17,7 +17,7 @@ the cache (the interior point's object-mode clock) and creates the BLAS controll
 that a first solve after it pays nothing a later one does not.
 
 A compilation shows its progress on stderr, per kernel family: on a terminal a bar that
-ticks per entry point compiled (``stackik: planar kernels 3/8 [00:41, ip_loop]``: the
+ticks per entry point compiled (``stackik: planar kernels 3/8 [00:41, ip_multi]``: the
 elapsed time and the function numba compiles now); otherwise (a log, a pipe) one line
 when it starts and one when it ends, with the seconds it took.
 """
