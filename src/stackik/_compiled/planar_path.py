@@ -646,8 +646,9 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
                     pcrun += 1
                     continue
         Xn, stn, _, _, _, s1, z1, yE1 = ip_multi(
-            x.copy().reshape(1, -1), P, tol, constr_tol, mu0a, max_iter, 1e300, np.int64(0), reach,
-            margin, none, none, none, 0.0, np.bool_(False),
+            x.copy().reshape(1, -1), P, tol, constr_tol, mu0a, max_iter, 1e300,
+            np.int64(0), reach, margin, none, none, none, 0.0,  # type: ignore[arg-type]
+            np.bool_(False),  # type: ignore[arg-type]
         )  # fmt: skip
         xn, st = Xn[0], stn[0]
         if st == IP_NONFINITE or not _finite(xn):

@@ -64,7 +64,6 @@ class CompiledNLP:
             self._evaluate = _spatial_ipm._evaluate
             self._hessian = _spatial_ipm._hessian
             self.P = spatial_problem_arrays(prob)
-        self.planar = prob.planar
         n, k = prob.n, prob.k
         self.n, self.k = n, k
         # rows a platform: the 24 limits, then (spatial) its self-leg rows
@@ -77,7 +76,7 @@ class CompiledNLP:
         self.indices = self.indices.astype(np.int32)
         self._u: FloatArray | None = None
         self._out: tuple[Any, ...] = ()
-        # spatial: the point of the last compiled evaluation, bytes, and its parts
+        # the point of the last compiled evaluation, bytes, and what the Hessian takes there
         self._at: bytes | None = None
         self._parts: Any = None
 
@@ -85,28 +84,31 @@ class CompiledNLP:
         if self._u is not None and np.array_equal(u, self._u):
             return self._out
         uc = np.ascontiguousarray(u, dtype=float)
-        if self.planar:
-            f, g, cE, AE, cI, D = self._evaluate(uc, self.P)
-        else:
-            f, g, cE, AE, cI, D, self._parts = self._evaluate(uc, self.P)
-            self._at = uc.tobytes()
+        out = self._evaluate(uc, self.P)
+        f, g, cE, AE, cI, D = out[:6]
+        self._at, self._parts = uc.tobytes(), self._parts_of(uc, out)
         n, k = self.n, self.k
         J = csc(D.transpose(0, 2, 1).ravel(), self.indices, self.indptr, (self.R * n, k * n))
         self._u = np.array(u, dtype=float)
         self._out = (float(f), g, cE, AE, cI, J)
         return self._out
 
+    @staticmethod
+    def _parts_of(u: FloatArray, out: tuple[Any, ...]) -> Any:
+        """What the Hessian takes for the point ``u`` from its evaluation ``out``: the
+        spatial kinematic parts (the evaluation's last value), the planar point itself (a
+        copy: the caller's array may change)."""
+        return out[6] if len(out) > 6 else u.copy()
+
     def hessian(self, u: FloatArray, y_eq: FloatArray, y_in: FloatArray) -> FloatArray:
         """Exact Hessian of ``f - y_eq'c_E - y_in'c_I`` (dense, ``kn x kn``); spatial: from
         the kinematic parts of the evaluation at ``u`` (the last one's when it was at
         ``u``, bit for bit)."""
         uc = np.ascontiguousarray(u, dtype=float)
-        if self.planar:
-            parts: Any = uc
-        elif self._at is not None and uc.tobytes() == self._at:
+        if self._at is not None and uc.tobytes() == self._at:
             parts = self._parts
         else:
-            parts = self._evaluate(uc, self.P)[6]
+            parts = self._parts_of(uc, self._evaluate(uc, self.P))
         H: FloatArray = self._hessian(
             parts,
             np.ascontiguousarray(y_eq, dtype=float),
