@@ -139,7 +139,7 @@ def test_ip_box_stays_in_its_box_and_ip_path_repeats_the_one_start_solve():
     for j in range(reached):
         Pj = problem_arrays(Problem(stack, pts[j + 1], "frobenius", None))
         Xj = _barrier.ip_multi(np.atleast_2d(u), Pj, 1e-7, 1e-9, np.array([1e-3]), 300, 1e300,
-                              3, POLISH_REACH, POLISH_MARGIN, *_NO_BOX)[0]  # fmt: skip
+                              3, POLISH_REACH, POLISH_MARGIN, *_NO_BOX, True)[0]  # fmt: skip
         np.testing.assert_array_equal(X[j], Xj[0])
         u = Xj[0]
     # a box around q0 for the next target: the converged solve lies inside it (an
@@ -207,7 +207,8 @@ def test_ip_path_continuation_steps_are_verified_kkt_points_near_the_barrier_sol
         Pj = problem_arrays(prob_j)
         if how[j]:
             Xj = _barrier.ip_multi(np.atleast_2d(u), Pj, 1e-7, 1e-9, np.array([1e-3]), 300,
-                                  1e300, 3, POLISH_REACH, POLISH_MARGIN, *_NO_BOX)  # fmt: skip
+                                  1e300, 3, POLISH_REACH, POLISH_MARGIN, *_NO_BOX,
+                                  True)  # fmt: skip
             # where the barrier solve finds a pose (it may not: at n = 4, seed 5, one
             # step's barrier point violates a limit by 9 mm, where the continuation step
             # reaches a vertex of its limits, positive multipliers), the same local

@@ -157,160 +157,6 @@ def _trial_measures(cEt: FloatArray, cIt: FloatArray, st: FloatArray) -> tuple[f
 
 
 @_jit
-def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
-            max_iter: int, deadline: float, lo: FloatArray, hi: FloatArray, ug: FloatArray,
-            wq: float) -> tuple[Any, ...]:  # fmt: skip
-    """The barrier method from ``u0``; ``lo``/``hi`` (empty: none) add the box
-    ``lo <= u <= hi`` as block rows and ``wq |u - ug|^2`` is added to the objective (a path
-    step's extensions, :func:`kernel.evaluate`). Returns the point, the status, the
-    iteration count and the final slacks ``s`` and multipliers ``z``, ``yE`` (multipliers
-    of the problem as ``P0`` states it, i.e. without the objective scaling the loop
-    applies: a continuation step starts from them, the path kernels' ``_pc_step``)."""
-    x = u0.copy()
-    f, g, cE, AE, cI, AI, parts = kernel.evaluate(x, P0, lo, hi, ug, wq)
-    m = cI.size
-    if not (_finite(cI) and _finite(cE) and math.isfinite(f)):
-        return x, IP_NONFINITE, 0, cI, np.ones(m), np.zeros(cE.size)
-    # objective scaling as IPOPT's gradient-based rule: max |grad f(x0)| <= OBJ_MAX_GRAD
-    gmax = np.abs(g).max()
-    fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
-    P = kernel.with_fscale(P0, P0.fscale / fs)
-    f, g = f * fs, g * fs
-    wq = wq * fs
-    mu = mu0
-    mu_min = min(tol, constr_tol) / 10.0
-    s = np.maximum(cI, 1e-2)
-    z = np.ones(m)  # bound multipliers start at 1, as IPOPT's
-    yE = kernel.eq_multipliers(P, AE, g, AIT_dot(AI, z))
-    last_shift = prev_shift = 0.0  # the last nonzero shift; the previous step's
-    logsum = np.log(s).sum()
-    theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
-    theta_max = 1e4 * max(1.0, theta0)
-    theta_min = 1e-4 * max(1.0, theta0)
-    filt = np.empty((max_iter + 1, 2))
-    nfilt = 0
-    status = IP_MAX_ITER
-    fails = 0
-    it = 0
-    period = kernel.clock_period(P)
-    # the leg-force rows' curvature (the last n_force dense rows): an SR1 estimate
-    n_force = 12 * P0.forces[9].size
-    N = x.size
-    B = np.zeros((N, N)) if n_force > 0 else np.zeros((0, 0))
-    for it in range(max_iter):
-        if it % period == period - 1 and _now() > deadline:
-            status = IP_MAX_TIME
-            break
-        AEty = kernel.eq_transpose_dot(P, AE, yE)
-        AItz = AIT_dot(AI, z)
-        e_du, e_pr, comp, sd = _errors(g, AEty, AItz, cE, cI, s, z, yE)
-        if max(e_du, comp / sd) <= tol and e_pr <= constr_tol:
-            status = IP_SUCCESS
-            break
-        mu_next = _next_mu(mu, mu_min, e_du, e_pr, sd, s, z)
-        if mu_next != mu:
-            mu = mu_next
-            nfilt = 0
-        # --- Newton step -----------------------------------------------------------
-        W = kernel.hessian(parts, yE, block_part(z, AI), P, wq)
-        if not (_finite(W) and _finite(g) and _finite(AE)):
-            status = IP_NONFINITE
-            break
-        if n_force > 0:
-            W += B
-        Sig = z / s
-        add_normal(W, AI, Sig)  # the blocks' J^T Sigma J (and the dense rows', everywhere)
-        v = np.empty(m)
-        for r in range(m):
-            v[r] = mu / s[r] - Sig[r] * (cI[r] - s[r])
-        AIv = AIT_dot(AI, v)
-        rhs = np.empty(N)
-        for a in range(N):
-            rhs[a] = -g[a] + AEty[a] + AIv[a]
-        dx, shift = kernel.kkt_step(P, W, AE, cE, rhs, last_shift, prev_shift == 0.0)
-        if not _finite(dx):
-            status = IP_NONFINITE
-            break
-        prev_shift = shift
-        if shift > 0.0:
-            last_shift = shift
-        AIdx = AI_dot(AI, dx)
-        ds = np.empty(m)
-        dz = np.empty(m)
-        for r in range(m):
-            ds[r] = AIdx[r] + cI[r] - s[r]
-            dz[r] = -z[r] + mu / s[r] - Sig[r] * ds[r]
-        a_s, a_z = _to_boundary(s, z, ds, dz, mu)
-        # --- filter line search -----------------------------------------------------
-        theta = 0.0
-        for k in range(cE.size):
-            theta += abs(cE[k])
-        dsum = 0.0
-        for r in range(m):
-            theta += abs(cI[r] - s[r])
-            dsum += ds[r] / s[r]
-        gdx = 0.0
-        for a in range(N):
-            gdx += g[a] * dx[a]
-        phi = f - mu * logsum
-        gphi = gdx - mu * dsum
-        # backtracking from the fraction to the boundary until the filter accepts
-        alpha = a_s
-        accepted = by_f = False
-        xt, st, logsum_t = x, s, logsum
-        ft, gt, cEt, AEt, cIt, AIt, parts_t = f, g, cE, AE, cI, AI, parts
-        for _ in range(_LS_TRIES):
-            xt = x + alpha * dx
-            st = s + alpha * ds
-            ft, gt, cEt, AEt, cIt, AIt, parts_t = kernel.evaluate(xt, P, lo, hi, ug, wq)
-            theta_t, logsum_t = _trial_measures(cEt, cIt, st)
-            if math.isfinite(ft) and math.isfinite(theta_t):  # NaN/inf anywhere shows here
-                accepted, by_f = _filter_accepts(theta, phi, gphi, alpha, theta_t,
-                                                 ft - mu * logsum_t, theta_max, theta_min,
-                                                 filt, nfilt)  # fmt: skip
-                if accepted:
-                    break
-            alpha *= 0.5
-            if alpha < 1e-12:
-                break
-        if accepted and not by_f and nfilt < filt.shape[0]:
-            filt[nfilt, 0] = (1.0 - 1e-5) * theta
-            filt[nfilt, 1] = phi - 1e-8 * theta
-            nfilt += 1
-        if not accepted:
-            fails += 1
-            if fails >= 3:
-                status = IP_STALLED
-                break
-            # a tiny step keeps the iteration going; the barrier will be re-centred
-            nfilt = 0
-            alpha = min(alpha, 1e-8)
-            xt = x + alpha * dx
-            st = s + alpha * ds
-            ft, gt, cEt, AEt, cIt, AIt, parts_t = kernel.evaluate(xt, P, lo, hi, ug, wq)
-            if not (math.isfinite(ft) and _finite(cIt)):
-                status = IP_NONFINITE
-                break
-        else:
-            fails = 0
-        x = xt
-        # slack reset: a slack below its constraint value only adds violation
-        s = st
-        logsum = logsum_t if accepted else np.log(s).sum()
-        for r in range(m):
-            if cIt[r] > s[r]:
-                logsum += math.log(cIt[r]) - math.log(s[r])
-                s[r] = cIt[r]
-            zr = z[r] + a_z * dz[r]
-            z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
-        if n_force > 0:
-            force_update(B, alpha * dx, AI, AIt, z, n_force)
-        f, g, cE, AE, cI, AI, parts = ft, gt, cEt, AEt, cIt, AIt, parts_t
-        yE = kernel.eq_multipliers(P, AE, g, AIT_dot(AI, z))
-    return x, status, it + 1 if status != IP_SUCCESS else it, s, z / fs, yE / fs
-
-
-@_jit
 def polished(cE: FloatArray, cI: FloatArray, reach: float) -> bool:
     """Whether :func:`polish` leaves a point with these constraint values as it is."""
     if not np.abs(cE).max() < 1e-13:
@@ -357,44 +203,214 @@ def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> Fl
 def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatArray,
              max_iter: int, deadline: float, polish_iters: int, reach: float,
              margin: float, lo: FloatArray, hi: FloatArray, ug: FloatArray,
-             wq: float) -> tuple[Any, ...]:  # fmt: skip
-    """:func:`ip_loop` from each row of ``U0`` (k, N), each followed by ``polish_iters``
-    steps of :func:`polish` (0: none, the caller polishes).
+             wq: float, rank: bool) -> tuple[Any, ...]:  # fmt: skip
+    """The barrier method from each row of ``U0`` (k, N), each run followed by
+    ``polish_iters`` steps of :func:`polish` (0: none, the caller polishes).
 
-    ``mu0[j]`` is the initial barrier parameter of start j; ``lo``, ``hi`` (N,; empty:
-    none), ``ug`` (N,) and ``wq`` are :func:`ip_loop`'s path-step extensions (writable
-    arrays: one compiled specialisation of the loop). Returns the points (k, N),
-    statuses, iteration counts, scaled objective values and the worst scaled violation of
-    each (equalities and rows, without the extensions), for ranking; the caller re-checks
-    the pose it returns.
+    ``mu0[j]`` is the initial barrier parameter of start j; ``lo``/``hi`` (N,; empty:
+    none) add the box ``lo <= u <= hi`` as block rows and ``wq |u - ug|^2`` is added to the
+    objective (a path step's extensions, :func:`kernel.evaluate`; writable arrays: one
+    compiled specialisation). Returns the points (k, N), statuses, iteration counts and,
+    with ``rank``, the scaled objective values and the worst scaled violation of each
+    (equalities and rows, without the extensions; else inf), for ranking; then the last
+    run's final slacks ``s`` and multipliers ``z``, ``yE`` (of the problem as ``P`` states
+    it, i.e. without the objective scaling the loop applies: a path's continuation step
+    starts from them, the path kernels' ``_pc_step``). The caller re-checks the pose it
+    returns.
+
+    One compiled function holds the loop and the starts: numba finishes every compiled
+    function as a library with its callees linked in, so a loop of its own would be
+    optimised and turned into machine code twice (as itself, and inside this kernel).
     """
-    k, N = U0.shape
-    X = np.empty((k, N))
-    status = np.full(k, IP_SKIPPED)
-    nit = np.zeros(k, dtype=np.int64)
-    obj = np.full(k, np.inf)
-    viol = np.full(k, np.inf)
+    ns, N = U0.shape
+    X = np.empty((ns, N))
+    statuses = np.full(ns, IP_SKIPPED)
+    nit = np.zeros(ns, dtype=np.int64)
+    obj = np.full(ns, np.inf)
+    viol = np.full(ns, np.inf)
     none = np.empty(0)
-    for j in range(k):
+    s_last = z_last = yE_last = none
+    for j in range(ns):
         X[j] = U0[j]
         if j > 0 and _now() > deadline:
             break
-        x, st, it, _, _, _ = ip_loop(
-            U0[j], P, tol, constr_tol, mu0[j], max_iter, deadline, lo, hi, ug, wq
-        )
-        if st == IP_NONFINITE or not _finite(x):
+        x = U0[j].copy()
+        f, g, cE, AE, cI, AI, parts = kernel.evaluate(x, P, lo, hi, ug, wq)
+        m = cI.size
+        if not (_finite(cI) and _finite(cE) and math.isfinite(f)):
+            # a start of non-finite values: no run, multipliers of 1 and 0
+            stj, it, fs = IP_NONFINITE, 0, 1.0
+            s, z, yE = cI, np.ones(m), np.zeros(cE.size)
+        else:
+            # objective scaling as IPOPT's gradient-based rule: max |grad f(x0)| <= OBJ_MAX_GRAD
+            gmax = np.abs(g).max()
+            fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
+            Ps = kernel.with_fscale(P, P.fscale / fs)
+            f, g = f * fs, g * fs
+            wqs = wq * fs
+            mu = mu0[j]
+            mu_min = min(tol, constr_tol) / 10.0
+            s = np.maximum(cI, 1e-2)
+            z = np.ones(m)  # bound multipliers start at 1, as IPOPT's
+            yE = kernel.eq_multipliers(Ps, AE, g, AIT_dot(AI, z))
+            last_shift = prev_shift = 0.0  # the last nonzero shift; the previous step's
+            logsum = np.log(s).sum()
+            theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
+            theta_max = 1e4 * max(1.0, theta0)
+            theta_min = 1e-4 * max(1.0, theta0)
+            filt = np.empty((max_iter + 1, 2))
+            nfilt = 0
+            status = IP_MAX_ITER
+            fails = 0
+            it = 0
+            period = kernel.clock_period(Ps)
+            # the leg-force rows' curvature (the last n_force dense rows): an SR1 estimate
+            n_force = 12 * P.forces[9].size
+            N = x.size
+            B = np.zeros((N, N)) if n_force > 0 else np.zeros((0, 0))
+            for it in range(max_iter):
+                if it % period == period - 1 and _now() > deadline:
+                    status = IP_MAX_TIME
+                    break
+                AEty = kernel.eq_transpose_dot(Ps, AE, yE)
+                AItz = AIT_dot(AI, z)
+                e_du, e_pr, comp, sd = _errors(g, AEty, AItz, cE, cI, s, z, yE)
+                if max(e_du, comp / sd) <= tol and e_pr <= constr_tol:
+                    status = IP_SUCCESS
+                    break
+                mu_next = _next_mu(mu, mu_min, e_du, e_pr, sd, s, z)
+                if mu_next != mu:
+                    mu = mu_next
+                    nfilt = 0
+                # --- Newton step -----------------------------------------------------------
+                W = kernel.hessian(parts, yE, block_part(z, AI), Ps, wqs)
+                if not (_finite(W) and _finite(g) and _finite(AE)):
+                    status = IP_NONFINITE
+                    break
+                if n_force > 0:
+                    W += B
+                Sig = z / s
+                add_normal(W, AI, Sig)  # the blocks' J^T Sigma J (and the dense rows', everywhere)
+                v = np.empty(m)
+                for r in range(m):
+                    v[r] = mu / s[r] - Sig[r] * (cI[r] - s[r])
+                AIv = AIT_dot(AI, v)
+                rhs = np.empty(N)
+                for a in range(N):
+                    rhs[a] = -g[a] + AEty[a] + AIv[a]
+                dx, shift = kernel.kkt_step(Ps, W, AE, cE, rhs, last_shift, prev_shift == 0.0)
+                if not _finite(dx):
+                    status = IP_NONFINITE
+                    break
+                prev_shift = shift
+                if shift > 0.0:
+                    last_shift = shift
+                AIdx = AI_dot(AI, dx)
+                ds = np.empty(m)
+                dz = np.empty(m)
+                for r in range(m):
+                    ds[r] = AIdx[r] + cI[r] - s[r]
+                    dz[r] = -z[r] + mu / s[r] - Sig[r] * ds[r]
+                a_s, a_z = _to_boundary(s, z, ds, dz, mu)
+                # --- filter line search -----------------------------------------------------
+                theta = 0.0
+                for k in range(cE.size):
+                    theta += abs(cE[k])
+                dsum = 0.0
+                for r in range(m):
+                    theta += abs(cI[r] - s[r])
+                    dsum += ds[r] / s[r]
+                gdx = 0.0
+                for a in range(N):
+                    gdx += g[a] * dx[a]
+                phi = f - mu * logsum
+                gphi = gdx - mu * dsum
+                # backtracking from the fraction to the boundary until the filter accepts
+                alpha = a_s
+                accepted = by_f = False
+                xt, st, logsum_t = x, s, logsum
+                ft, gt, cEt, AEt, cIt, AIt, parts_t = f, g, cE, AE, cI, AI, parts
+                for _ in range(_LS_TRIES):
+                    xt = x + alpha * dx
+                    st = s + alpha * ds
+                    ft, gt, cEt, AEt, cIt, AIt, parts_t = kernel.evaluate(xt, Ps, lo, hi, ug, wqs)
+                    theta_t, logsum_t = _trial_measures(cEt, cIt, st)
+                    if math.isfinite(ft) and math.isfinite(theta_t):  # NaN/inf anywhere shows here
+                        accepted, by_f = _filter_accepts(theta, phi, gphi, alpha, theta_t,
+                                                         ft - mu * logsum_t, theta_max, theta_min,
+                                                         filt, nfilt)  # fmt: skip
+                        if accepted:
+                            break
+                    alpha *= 0.5
+                    if alpha < 1e-12:
+                        break
+                if accepted and not by_f and nfilt < filt.shape[0]:
+                    filt[nfilt, 0] = (1.0 - 1e-5) * theta
+                    filt[nfilt, 1] = phi - 1e-8 * theta
+                    nfilt += 1
+                if not accepted:
+                    fails += 1
+                    if fails >= 3:
+                        status = IP_STALLED
+                        break
+                    # a tiny step keeps the iteration going; the barrier will be re-centred
+                    nfilt = 0
+                    alpha = min(alpha, 1e-8)
+                    xt = x + alpha * dx
+                    st = s + alpha * ds
+                    ft, gt, cEt, AEt, cIt, AIt, parts_t = kernel.evaluate(xt, Ps, lo, hi, ug, wqs)
+                    if not (math.isfinite(ft) and _finite(cIt)):
+                        status = IP_NONFINITE
+                        break
+                else:
+                    fails = 0
+                x = xt
+                # slack reset: a slack below its constraint value only adds violation
+                s = st
+                logsum = logsum_t if accepted else np.log(s).sum()
+                for r in range(m):
+                    if cIt[r] > s[r]:
+                        logsum += math.log(cIt[r]) - math.log(s[r])
+                        s[r] = cIt[r]
+                    zr = z[r] + a_z * dz[r]
+                    z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
+                if n_force > 0:
+                    force_update(B, alpha * dx, AI, AIt, z, n_force)
+                f, g, cE, AE, cI, AI, parts = ft, gt, cEt, AEt, cIt, AIt, parts_t
+                yE = kernel.eq_multipliers(Ps, AE, g, AIT_dot(AI, z))
+            stj = status
+            if status != IP_SUCCESS:
+                it += 1
+        s_last, z_last, yE_last = s, z / fs, yE / fs
+        if stj == IP_NONFINITE or not _finite(x):
             x = U0[j].copy()
-            st = IP_NONFINITE
+            stj = IP_NONFINITE
         x = polish(x, P, polish_iters, reach, margin)
         X[j] = x
-        status[j] = st
+        statuses[j] = stj
         nit[j] = it
+        if not rank:
+            continue
         f, g, cE, AE, cI, _, _ = kernel.evaluate(x, P, none, none, none, 0.0)
         obj[j] = f
         viol[j] = max(np.abs(cE).max(), max(0.0, -cI.min()))
         if j + 1 == GIVE_UP_AFTER and viol[: j + 1].min() > GIVE_UP_VIOLATION:
             break  # likely unreachable: the caller's SQP fallback decides, quickly
-    return X, status, nit, obj, viol
+    return X, statuses, nit, obj, viol, s_last, z_last, yE_last
+
+
+def ip_loop(u0: FloatArray, P0: Any, tol: float, constr_tol: float, mu0: float,
+            max_iter: int, deadline: float, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+            wq: float) -> tuple[Any, ...]:  # fmt: skip
+    """The barrier method from ``u0`` alone (:func:`ip_multi` with one start, no polish,
+    no ranking): the point, the status, the iteration count and the final slacks ``s``
+    and multipliers ``z``, ``yE`` (of the problem as ``P0`` states it)."""
+    X, st, nit, _, _, s, z, yE = ip_multi(
+        np.array(u0, dtype=float).reshape(1, -1), P0, tol, constr_tol,
+        np.array([float(mu0)]), max_iter, deadline, 0, 0.0, 0.0, np.array(lo, dtype=float),
+        np.array(hi, dtype=float), np.array(ug, dtype=float), float(wq), False,
+    )  # fmt: skip
+    return X[0], int(st[0]), int(nit[0]), s, z, yE
 
 
 def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray, wq: float,
@@ -408,10 +424,10 @@ def ip_box(u0: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArra
     pose and the box."""
     # copies: the compiled loop sees writable arrays whatever the caller passes
     U0 = np.array(u0, dtype=float).reshape(1, -1)
-    X, st, nit, _, _ = ip_multi(U0, P, tol, constr_tol, np.array([float(mu0)]), max_iter,
-                                1e300, 3, reach, margin, np.array(lo, dtype=float),
-                                np.array(hi, dtype=float), np.array(ug, dtype=float),
-                                float(wq))  # fmt: skip
+    X, st, nit, _, _, _, _, _ = ip_multi(U0, P, tol, constr_tol, np.array([float(mu0)]),
+                                         max_iter, 1e300, 3, reach, margin,
+                                         np.array(lo, dtype=float), np.array(hi, dtype=float),
+                                         np.array(ug, dtype=float), float(wq), False)  # fmt: skip
     if st[0] == IP_NONFINITE:
         return np.array(u0, dtype=float), IP_NONFINITE, int(nit[0])
     return X[0], int(st[0]), int(nit[0])

@@ -35,6 +35,13 @@ _jit = njit(cache=True, error_model="numpy", nogil=True)
 #: its callees once more. Large functions stay compiled: numba's inlining and LLVM's
 #: function passes on the inlined whole cost more than the library they save.
 _jit_inline = njit(cache=True, error_model="numpy", nogil=True, inline="always")
+#: The same, for a function only compiled code calls (the implementations of the kernel
+#: interface, :mod:`stackik._compiled.kernel`, that nothing calls from Python): without the
+#: CPython wrapper numba otherwise generates for every compiled function (unboxing and
+#: boxing the problem data, a tuple of some thirty arrays, is more code than many of
+#: these functions' own). Called from Python, such a function crashes.
+_NO_WRAPPER: Any = {"no_cpython_wrapper": True}  # (a flag numba's type stubs do not list)
+_jit_internal = njit(cache=True, error_model="numpy", nogil=True, **_NO_WRAPPER)
 warnings.filterwarnings(
     "ignore", message="Code running in object mode won't allow parallel execution"
 )

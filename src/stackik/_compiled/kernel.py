@@ -6,10 +6,10 @@ planar :class:`stackik._compiled.planar.PlanarData`, the spatial
 :class:`stackik._compiled.spatial.SpatialData`). Each function below is a stub whose first
 argument is that problem data ``P``; at compile time numba resolves the call to the
 implementation the mode registered for ``type(P)`` (:func:`register`, called by the mode's
-module right after its data type), so the mode-specific code is inlined where the loop
-calls it and nothing is dispatched at run time. The compiled kernels are cached like every
-other (the package stamp, :mod:`stackik._compiled`), so an edited implementation
-recompiles the loop that inlined it.
+module right after its data type) and calls it directly: nothing is dispatched at run
+time, and no function is compiled in between (:func:`_direct_call`). The compiled kernels
+are cached like every other (the package stamp, :mod:`stackik._compiled`), so an edited
+implementation recompiles the loop that calls it.
 
 Every implementation takes the stub's arguments in the stub's order, ``P`` first, and
 works in the scaled variables ``u = q / xs`` of ``P`` (:class:`stackik.formulation.Problem`'s
@@ -20,13 +20,11 @@ path step's box rows, then the dense rows: :mod:`stackik._compiled.dense_rows`).
 
 from __future__ import annotations
 
-import types
 from typing import Any
 
+from numba.core import types as nbtypes
 from numba.core.errors import TypingError
-from numba.extending import overload
-
-from stackik._compiled.core import _OVERLOAD, unresolved
+from numba.extending import intrinsic
 
 __all__ = [
     "clock_period",
@@ -47,127 +45,145 @@ _HOOKS: list[str] = []
 
 def register(data_class: type, **implementations: Any) -> None:
     """Register a mode: ``implementations`` maps every stub's name to the mode's jitted
-    function with the stub's parameters (same names, same order; numba checks) or, for
-    :func:`clock_period`, an int. Raises ``ValueError`` when a stub is missing or a name is
-    not a stub."""
+    function with the stub's parameters (same names, same order) or those without the
+    first, the problem data (then one specialisation serves every problem-data type) or,
+    for :func:`clock_period`, an int. Raises ``ValueError`` when a stub is missing, a name
+    is not a stub or a function's parameters are not the stub's."""
     missing = sorted(set(_HOOKS) - set(implementations))
     unknown = sorted(set(implementations) - set(_HOOKS))
     if missing or unknown:
         raise ValueError(
             f"kernel.register({data_class.__name__}): missing {missing}, unknown {unknown}"
         )
+    for name, impl in implementations.items():
+        if isinstance(impl, int):
+            continue
+        code = impl.py_func.__code__
+        if code.co_varnames[: code.co_argcount] not in (_PARAMETERS[name], _PARAMETERS[name][1:]):
+            raise ValueError(
+                f"kernel.register({data_class.__name__}): {name} takes "
+                f"{code.co_varnames[: code.co_argcount]}, not {_PARAMETERS[name]}"
+            )
     _REGISTRY[data_class] = dict(implementations)
 
 
-def _implementation(name: str, P: Any) -> Any:
-    """The Python function numba compiles in place of the stub ``name`` for the problem
-    data type ``P``: the registered function's own source, so that the call costs what a
-    direct call of it costs (a forwarding layer would pass ``P``, a tuple of some thirty
-    arrays, once more)."""
+def _registered(name: str, P: Any) -> Any:
+    """The function (or int) the mode of the problem data type ``P`` registered as ``name``."""
     cls = getattr(P, "instance_class", None)
     if cls not in _REGISTRY:
         raise TypingError(f"stackik._compiled.kernel.{name}: no mode registered for {P}")
-    impl = _REGISTRY[cls][name]
+    return _REGISTRY[cls][name]
+
+
+def _direct_call(typingctx: Any, name: str, P: Any, args: tuple[Any, ...]) -> Any:
+    """The typing of a stub's call (an intrinsic, below): the signature and the code of a
+    direct call of the function the mode of ``P`` registered (a constant for an int). No
+    function of its own is compiled in between: numba makes every compiled function a
+    library and finishes it with its callees linked in, so a layer (an ``@overload``'s
+    implementation, even one numba inlines) would compile its callee's code once more
+    in every kernel family; the registered function is one library, shared with its
+    callers elsewhere (the SQP method calls the evaluation and the Hessian itself)."""
+    impl = _registered(name, P)
     if isinstance(impl, int):
         value = impl
 
-        def constant(P):  # type: ignore[no-untyped-def]
-            return value
+        def constant(context: Any, builder: Any, sig: Any, llargs: Any) -> Any:
+            return context.get_constant(nbtypes.int64, value)
 
-        return constant
-    # the function's own code, without its annotations: numba requires the parameters of
-    # the typing function (below: names only) and of the implementation to be equal
-    fn = impl.py_func
-    bare = types.FunctionType(fn.__code__, fn.__globals__, fn.__name__, fn.__defaults__,
-                              fn.__closure__)  # fmt: skip
-    bare.__annotations__ = {}
-    return bare
+        return nbtypes.int64(*args), constant
+    # an implementation that does not need the problem data leaves it out (its first
+    # parameter): then one specialisation serves every problem-data type (the lean and
+    # the rows' kernel families, :func:`stackik._compiled.core.lean_type`)
+    code = impl.py_func.__code__
+    keep = 0 if code.co_varnames[: code.co_argcount] == _PARAMETERS[name] else 1
+    disp = nbtypes.Dispatcher(impl)
+    target = disp.get_call_type(typingctx, args[keep:], {})
+    if target is None:
+        raise TypingError(f"stackik._compiled.kernel.{name}: {impl} takes no {args}")
+
+    def call(context: Any, builder: Any, sig: Any, llargs: Any) -> Any:
+        values = [context.cast(builder, v, a, b)
+                  for v, a, b in zip(llargs[keep:], sig.args[keep:], target.args,
+                                     strict=True)]  # fmt: skip
+        return context.get_function(disp, target)(builder, values)
+
+    return target.return_type(*args), call
 
 
-def evaluate(u: Any, P: Any, lo: Any, hi: Any, ug: Any, wq: float) -> Any:
+def _evaluate_call(typingctx: Any, u: Any, P: Any, lo: Any, hi: Any, ug: Any, wq: Any) -> Any:
     """``f, g, cE, AE, cI, AI, parts`` at ``u`` (N,): the scaled objective and gradient
     (N,), equalities (E,) and their Jacobian (E, N), inequality rows (m,) and their
     Jacobian as the pair ``AI = (blocks, dense rows)``, and whatever :func:`hessian` reuses
     (``parts``). ``lo``/``hi`` (N,; empty: none) add the box ``lo <= u <= hi`` as block rows
     and ``wq |u - ug|^2`` is added to the objective (a path step's extensions)."""
-    return unresolved()
+    return _direct_call(typingctx, "evaluate", P, (u, P, lo, hi, ug, wq))
 
 
-def hessian(parts: Any, yE: Any, z: Any, P: Any, wq: float) -> Any:
+evaluate: Any = intrinsic(_evaluate_call)
+
+
+def _hessian_call(typingctx: Any, parts: Any, yE: Any, z: Any, P: Any, wq: Any) -> Any:
     """Hessian (N, N) of ``f - yE.cE - z.cI`` at the point :func:`evaluate` returned
     ``parts`` for, ``z`` the block rows' multipliers (the dense rows have no exact
     curvature); ``2 wq I`` for the distance term."""
-    return unresolved()
+    return _direct_call(typingctx, "hessian", P, (parts, yE, z, P, wq))
 
 
-def kkt_step(P: Any, W: Any, AE: Any, cE: Any, rhs: Any, last_shift: float,
-             try_plain: bool) -> Any:  # fmt: skip
+hessian: Any = intrinsic(_hessian_call)
+
+
+def _kkt_step_call(typingctx: Any, P: Any, W: Any, AE: Any, cE: Any, rhs: Any,
+                   last_shift: Any, try_plain: Any) -> Any:  # fmt: skip
     """``dx, shift``: the Newton step of ``[W AE^T; AE 0] [dx; -y] = [rhs; -cE]`` with the
     reduced Hessian made positive definite by the smallest shift ``delta I`` that does it
     (inertia correction; ``last_shift`` the last nonzero shift, 0: none yet; the unshifted
     matrix tried first only when ``try_plain``, i.e. the previous step needed none)."""
-    return unresolved()
+    return _direct_call(typingctx, "kkt_step", P,
+                        (P, W, AE, cE, rhs, last_shift, try_plain))  # fmt: skip
 
 
-def eq_multipliers(P: Any, AE: Any, g: Any, AItz: Any) -> Any:
+kkt_step: Any = intrinsic(_kkt_step_call)
+
+
+def _eq_multipliers_call(typingctx: Any, P: Any, AE: Any, g: Any, AItz: Any) -> Any:
     """Least-squares equality multipliers (E,): ``argmin |g - AI^T z - AE^T y|``."""
-    return unresolved()
+    return _direct_call(typingctx, "eq_multipliers", P, (P, AE, g, AItz))
 
 
-def eq_transpose_dot(P: Any, AE: Any, y: Any) -> Any:
+eq_multipliers: Any = intrinsic(_eq_multipliers_call)
+
+
+def _eq_transpose_dot_call(typingctx: Any, P: Any, AE: Any, y: Any) -> Any:
     """``AE^T y`` (N,)."""
-    return unresolved()
+    return _direct_call(typingctx, "eq_transpose_dot", P, (P, AE, y))
 
 
-def with_fscale(P0: Any, fscale: float) -> Any:
+eq_transpose_dot: Any = intrinsic(_eq_transpose_dot_call)
+
+
+def _with_fscale_call(typingctx: Any, P0: Any, fscale: Any) -> Any:
     """``P0`` with the objective scale ``fscale``."""
-    return unresolved()
+    return _direct_call(typingctx, "with_fscale", P0, (P0, fscale))
 
 
-def clock_period(P: Any) -> Any:
+with_fscale: Any = intrinsic(_with_fscale_call)
+
+
+def _clock_period_call(typingctx: Any, P: Any) -> Any:
     """Iterations between two reads of the clock (a read takes the GIL): more where an
     iteration is cheap."""
-    return unresolved()
+    return _direct_call(typingctx, "clock_period", P, (P,))
 
 
-# the typing functions: the parameters of their stubs (numba compares the names), each the
-# registered implementation for the problem data's type
-_HOOKS.extend(
-    ["evaluate", "hessian", "kkt_step", "eq_multipliers", "eq_transpose_dot", "with_fscale",
-     "clock_period"]
-)  # fmt: skip
+clock_period: Any = intrinsic(_clock_period_call)
 
 
-@overload(evaluate, jit_options=_OVERLOAD)
-def _evaluate(u, P, lo, hi, ug, wq):  # type: ignore[no-untyped-def]
-    return _implementation("evaluate", P)
-
-
-@overload(hessian, jit_options=_OVERLOAD)
-def _hessian(parts, yE, z, P, wq):  # type: ignore[no-untyped-def]
-    return _implementation("hessian", P)
-
-
-@overload(kkt_step, jit_options=_OVERLOAD)
-def _kkt_step(P, W, AE, cE, rhs, last_shift, try_plain):  # type: ignore[no-untyped-def]
-    return _implementation("kkt_step", P)
-
-
-@overload(eq_multipliers, jit_options=_OVERLOAD)
-def _eq_multipliers(P, AE, g, AItz):  # type: ignore[no-untyped-def]
-    return _implementation("eq_multipliers", P)
-
-
-@overload(eq_transpose_dot, jit_options=_OVERLOAD)
-def _eq_transpose_dot(P, AE, y):  # type: ignore[no-untyped-def]
-    return _implementation("eq_transpose_dot", P)
-
-
-@overload(with_fscale, jit_options=_OVERLOAD)
-def _with_fscale(P0, fscale):  # type: ignore[no-untyped-def]
-    return _implementation("with_fscale", P0)
-
-
-@overload(clock_period, jit_options=_OVERLOAD)
-def _clock_period(P):  # type: ignore[no-untyped-def]
-    return _implementation("clock_period", P)
+#: The stubs' parameters by name (of their typing functions, ``typingctx`` left out).
+_PARAMETERS: dict[str, tuple[str, ...]] = {
+    name: fn.__code__.co_varnames[1 : fn.__code__.co_argcount]
+    for name, fn in (("evaluate", _evaluate_call), ("hessian", _hessian_call),
+                     ("kkt_step", _kkt_step_call), ("eq_multipliers", _eq_multipliers_call),
+                     ("eq_transpose_dot", _eq_transpose_dot_call),
+                     ("with_fscale", _with_fscale_call), ("clock_period", _clock_period_call))
+}  # fmt: skip
+_HOOKS.extend(_PARAMETERS)

@@ -30,6 +30,7 @@ from stackik._compiled import kernel
 from stackik._compiled.core import (
     _jit,
     _jit_inline,
+    _jit_internal,
     _limit_rows,
 )
 from stackik._compiled.dense_rows import (
@@ -77,7 +78,7 @@ class PlanarData(NamedTuple):
     families: int  #: token of the constraint families' rows (0: none; stackik.families)
 
 
-@_jit
+@_jit_internal
 def _with_fscale(P0: Any, fscale: float) -> Any:
     """``P0`` with the objective scale ``fscale``."""
     return PlanarData(P0.xs, P0.cs, P0.es, P0.target, fscale, P0.c0, P0.w, P0.tf, P0.tz, P0.bf,
@@ -405,25 +406,20 @@ def _evaluate_ip(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Floa
 
 
 @_jit
-def _lagrangian_hessian_ext(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
-                            wq: float) -> FloatArray:  # fmt: skip
-    """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem at ``parts``, the
-    scaled point ``u`` (``z``: 24 n or, with a box, 30 n multipliers): the box rows are
-    linear, the distance term adds ``2 wq I``."""
-    H = _lagrangian_hessian(parts, yE, _limit_rows(z, P.tf.shape[0]), P)
-    if wq > 0.0:
-        for a in range(H.shape[0]):
-            H[a, a] += 2.0 * wq
-    return H
-
-
-@_jit
-def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
-    """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (N, N)."""
+def _lagrangian_hessian(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
+                        wq: float = 0.0) -> FloatArray:  # fmt: skip
+    """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (N, N), at the scaled
+    point ``u`` (the parts :func:`_kernel_evaluate` returns); of :func:`_evaluate_ext`'s
+    problem too: ``z`` then has 30 n multipliers with a box (its rows are linear) and the
+    distance term adds ``2 wq I``. One compiled function for the barrier loop (the kernel
+    interface's Hessian), the SQP method and the path kernels (each passes ``wq``: one
+    specialisation): a thin layer of its own would compile it again."""
     xs, cs, es, fscale, w, tf, tz, bf = P.xs, P.cs, P.es, P.fscale, P.w, P.tf, P.tz, P.bf
     bz, ls, sj, feasible = P.bz, P.ls0, P.sj, P.feasible
     n = tf.shape[0]
     N = 3 * n
+    u = parts
+    z = _limit_rows(z, n)
     q = (u * xs).reshape(n, 3)
     c, s, y, J, d = _kinematics(q)
     if feasible:
@@ -440,7 +436,15 @@ def _lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) ->
             H[a, b] -= v[b]
             H[b, a] -= v[b]
     Hb = _constraint_hessian(q, z * cs, tf, tz, bf, bz, ls, sj)
-    return subtract_blocks_scaled(H, Hb, xs)
+    H = subtract_blocks_scaled(H, Hb, xs)
+    if wq > 0.0:
+        for a in range(N):
+            H[a, a] += 2.0 * wq
+    return H
+
+
+#: The Hessian with a path step's extensions (the name the tests use): the same function.
+_lagrangian_hessian_ext = _lagrangian_hessian
 
 
 @_jit_inline
@@ -577,7 +581,7 @@ def _ls_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArr
 # =========================================================================================
 # The barrier method's kernel interface (stackik._compiled.kernel; the loop: barrier.py)
 # =========================================================================================
-@_jit
+@_jit_internal
 def _kernel_evaluate(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
                      wq: float) -> tuple[Any, ...]:  # fmt: skip
     """:func:`_evaluate_ip`'s values and the point itself (what the Hessian needs)."""
@@ -586,22 +590,22 @@ def _kernel_evaluate(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: 
     return f, g, cE, AE, cA, AI, u
 
 
-@_jit
-def _kernel_kkt_step(P: Any, W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
+@_jit_internal
+def _kernel_kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
                      last_shift: float, try_plain: bool) -> tuple[FloatArray, float]:  # fmt: skip
     """:func:`_kkt_step`'s step and shift."""
     dx, _, _, shift = _kkt_step(W, AE, cE, rhs, last_shift, try_plain)
     return dx, shift
 
 
-@_jit
-def _kernel_eq_multipliers(P: Any, AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArray:
+@_jit_internal
+def _kernel_eq_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArray:
     """:func:`_ls_multipliers`."""
     return _ls_multipliers(AE, g, AItz)
 
 
-@_jit
-def _kernel_eq_transpose_dot(P: Any, AE: FloatArray, y: FloatArray) -> FloatArray:
+@_jit_internal
+def _kernel_eq_transpose_dot(AE: FloatArray, y: FloatArray) -> FloatArray:
     """:func:`_AET_dot`."""
     return _AET_dot(AE, y)
 
@@ -609,7 +613,7 @@ def _kernel_eq_transpose_dot(P: Any, AE: FloatArray, y: FloatArray) -> FloatArra
 kernel.register(
     PlanarData,
     evaluate=_kernel_evaluate,
-    hessian=_lagrangian_hessian_ext,
+    hessian=_lagrangian_hessian,
     kkt_step=_kernel_kkt_step,
     eq_multipliers=_kernel_eq_multipliers,
     eq_transpose_dot=_kernel_eq_transpose_dot,

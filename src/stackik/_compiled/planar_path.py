@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from stackik._compiled import kernel
-from stackik._compiled.barrier import ip_loop, polish, polished
+from stackik._compiled.barrier import ip_multi, polish, polished
 from stackik._compiled.core import (
     IP_NONFINITE,
     IP_SUCCESS,
@@ -418,7 +418,7 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             err_prev = err
             inner += 1
             it += 1
-            W = _lagrangian_hessian(x, yE, zf, P)
+            W = _lagrangian_hessian(x, yE, zf, P, 0.0)
             if not _finite(W):
                 break
             rA = np.empty(na)
@@ -556,6 +556,10 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
     X = np.empty((m, N))
     how = np.zeros(m, dtype=np.int64)
     none = np.empty(0)
+    # the barrier solve of one start (ip_multi; no polish, no ranking: the arguments typed
+    # as from Python, int64 and bool, not literals, so that the solver's specialisation
+    # serves)
+    mu0a = np.array([mu0])
     far = np.full(N, np.inf)
     x = u0.copy()
     have = have0  # the state of u0 (multipliers, active set) when it is a solved point
@@ -641,9 +645,12 @@ def ip_path(u0: FloatArray, targets: FloatArray, P0: Any, jump: FloatArray, tol:
                     x, yE, z, active, have = xn, yE1, z1, act1, True
                     pcrun += 1
                     continue
-        xn, st, _, s1, z1, yE1 = ip_loop(
-            x, P, tol, constr_tol, mu0, max_iter, 1e300, none, none, none, 0.0
-        )
+        Xn, stn, _, _, _, s1, z1, yE1 = ip_multi(
+            x.copy().reshape(1, -1), P, tol, constr_tol, mu0a, max_iter, 1e300,
+            np.int64(0), reach, margin, none, none, none, 0.0,  # type: ignore[arg-type]
+            np.bool_(False),  # type: ignore[arg-type]
+        )  # fmt: skip
+        xn, st = Xn[0], stn[0]
         if st == IP_NONFINITE or not _finite(xn):
             hist = _hist(known, cur_ok, xprev, yprev, ycur, known2, x2, y2, pcrun, yEp, zp,
                          actp, yE2, z2, act2)  # fmt: skip

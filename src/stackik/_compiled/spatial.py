@@ -46,6 +46,7 @@ from stackik._compiled.core import (
     _OVERLOAD,
     _jit,
     _jit_inline,
+    _jit_internal,
     _limit_rows,
     lean_type,
     unresolved,
@@ -428,9 +429,9 @@ def _evaluate_ext(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Flo
     return f, g, cE, AE, cB, DB, parts
 
 
-@_jit
-def _evaluate_ip(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
-                 wq: float) -> tuple[Any, ...]:  # fmt: skip
+@_jit_internal
+def _kernel_evaluate(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+                     wq: float) -> tuple[Any, ...]:  # fmt: skip
     """:func:`_evaluate_ext` with the dense rows (:mod:`stackik._compiled.dense_rows`):
     ``c_I`` the block rows then the dense rows, and the pair ``AI = (D, JD)`` in place of
     ``D`` (``D`` itself for the lean problem data: :func:`stackik._compiled.core.lean_type`)."""
@@ -440,41 +441,40 @@ def _evaluate_ip(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Floa
 
 
 @_jit
-def _hessian_ext(parts: Any, yE: FloatArray, z: FloatArray, P: Any, wq: float) -> FloatArray:
-    """Hessian of the Lagrangian of :func:`_evaluate_ext`'s problem from its kinematic
-    parts (``z``: ``R n`` multipliers, the box's 12 rows a platform last): the box rows are
-    linear, the distance term adds ``2 wq I``."""
-    n = P.top.shape[0]
-    H = _hessian(parts, yE, _limit_rows(z, n, 24 + P.pairs.shape[0]), P)
-    if wq > 0.0:
-        for a in range(H.shape[0]):
-            H[a, a] += 2.0 * wq
-    return H
+def _evaluate_ip(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+                 wq: float) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`_kernel_evaluate` called from Python (the tests)."""
+    return _kernel_evaluate(u, P, lo, hi, ug, wq)
 
 
 @_jit
 def lagrangian_hessian_ext(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
                            lo: FloatArray, hi: FloatArray, ug: FloatArray,
                            wq: float) -> FloatArray:  # fmt: skip
-    """:func:`_hessian_ext` at ``u`` (for the tests)."""
-    return _hessian_ext(_evaluate_ext(u, P, lo, hi, ug, wq)[6], yE, z, P, wq)
+    """:func:`_hessian` at ``u`` with a path step's extensions (for the tests)."""
+    return _hessian(_evaluate_ext(u, P, lo, hi, ug, wq)[6], yE, z, P, wq)
 
 
 @_jit
 def lagrangian_hessian(u: FloatArray, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
     """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (6n, 6n); ``z`` has
     :func:`evaluate`'s rows (24 limits, then the self-leg rows, per platform)."""
-    return _hessian(_evaluate(u, P)[6], yE, z, P)
+    return _hessian(_evaluate(u, P)[6], yE, z, P, 0.0)
 
 
 @_jit
-def _hessian(parts: Any, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
-    """:func:`lagrangian_hessian` from the kinematic parts of :func:`_evaluate`."""
+def _hessian(parts: Any, yE: FloatArray, z: FloatArray, P: Any, wq: float) -> FloatArray:
+    """:func:`lagrangian_hessian` from the kinematic parts of :func:`_evaluate` (or of
+    :func:`_evaluate_ext`: ``z`` then has ``R n`` multipliers, the box's 12 rows a platform
+    last; they are linear, and the distance term adds ``2 wq I``). One compiled function
+    for the barrier loop (the kernel interface's Hessian), the SQP method and the path
+    kernels: a thin layer of its own would compile it again."""
+    n = P.top.shape[0]
+    z = _limit_rows(z, n, 24 + P.pairs.shape[0])
     xs, cs, es, R_t = P.xs, P.cs, P.es, P.rotation
     fscale, wa, feasible = P.fscale, P.w, P.feasible
     top, base, sj = P.top, P.base, P.sin_joint
     q, Ree, Jp, w, r, Jr = parts
-    n = top.shape[0]
     N = 6 * n
     if feasible:
         H = np.zeros((N, N))
@@ -523,7 +523,11 @@ def _hessian(parts: Any, yE: FloatArray, z: FloatArray, P: Any) -> FloatArray:
         zz = z.reshape(n, 24 + mp)
         Hb = limit_hessians(q, zz[:, :24] * cs.reshape(n, 24), top, base, sj)
         Hb += _self_leg_hessians_of(P, q, base, top, zz[:, 24:].copy())
-    return subtract_blocks_scaled(H, Hb, xs)
+    H = subtract_blocks_scaled(H, Hb, xs)
+    if wq > 0.0:
+        for a in range(N):
+            H[a, a] += 2.0 * wq
+    return H
 
 
 # =========================================================================================
@@ -639,7 +643,7 @@ def _ls_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArr
 # =========================================================================================
 # The problem data with another objective scale or target
 # =========================================================================================
-@_jit
+@_jit_internal
 def _with_fscale(P0: Any, fscale: float) -> Any:
     """``P0`` with the objective scale ``fscale``."""
     return SpatialData(P0.xs, P0.cs, P0.es, P0.position, P0.rotation, fscale, P0.c0, P0.w,
@@ -662,29 +666,29 @@ def _with_target(P0: Any, position: Any, rotation: Any) -> Any:
 # =========================================================================================
 # The barrier method's kernel interface (stackik._compiled.kernel; the loop: barrier.py)
 # =========================================================================================
-@_jit
-def _kernel_kkt_step(P: Any, W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
+@_jit_internal
+def _kernel_kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
                      last_shift: float, try_plain: bool) -> tuple[FloatArray, float]:  # fmt: skip
     """:func:`_kkt_step`."""
     return _kkt_step(W, AE, cE, rhs, last_shift, try_plain)
 
 
-@_jit
-def _kernel_eq_multipliers(P: Any, AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArray:
+@_jit_internal
+def _kernel_eq_multipliers(AE: FloatArray, g: FloatArray, AItz: FloatArray) -> FloatArray:
     """:func:`_ls_multipliers`."""
     return _ls_multipliers(AE, g, AItz)
 
 
-@_jit
-def _kernel_eq_transpose_dot(P: Any, AE: FloatArray, y: FloatArray) -> FloatArray:
+@_jit_internal
+def _kernel_eq_transpose_dot(AE: FloatArray, y: FloatArray) -> FloatArray:
     """``AE^T y`` by BLAS (the (6, N) equality Jacobian)."""
     return AE.T @ y
 
 
 kernel.register(
     SpatialData,
-    evaluate=_evaluate_ip,
-    hessian=_hessian_ext,
+    evaluate=_kernel_evaluate,
+    hessian=_hessian,
     kkt_step=_kernel_kkt_step,
     eq_multipliers=_kernel_eq_multipliers,
     eq_transpose_dot=_kernel_eq_transpose_dot,

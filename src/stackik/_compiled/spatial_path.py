@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from stackik._compiled import kernel
-from stackik._compiled.barrier import ip_loop, polish
+from stackik._compiled.barrier import ip_multi, polish
 from stackik._compiled.core import IP_NONFINITE, IP_SUCCESS, _jit, _jit_inline
 from stackik._compiled.linalg import _AIT_dot
 from stackik._compiled.path import (
@@ -27,11 +27,7 @@ from stackik._compiled.path import (
     _pc_verdict,
     _release,
 )
-from stackik._compiled.spatial import (
-    _with_target,
-    evaluate,
-    lagrangian_hessian,
-)
+from stackik._compiled.spatial import _evaluate, _hessian, _with_target
 
 FloatArray = Any
 
@@ -116,7 +112,8 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
     (:func:`_weakest`). Returns ``(x, ok, yE, z, active, iterations)``."""
     n = P0.top.shape[0]
     N = 6 * n
-    f, g, cE, AE, cI, D = evaluate(x0, P0)
+    # (the kinematic parts: the Hessian at x reuses those of its evaluation)
+    f, g, cE, AE, cI, D, parts = _evaluate(x0, P0)
     R = D.shape[1]  # rows a platform: the 24 limits and the self-leg rows
     m = R * n
     fs, P, g, x, yE, zf, act, new = _pc_start(x0, P0, g, yE0, z0, active, m)
@@ -161,7 +158,7 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
             err_prev = err
             inner += 1
             it += 1
-            W = lagrangian_hessian(x, yE, zf, P)
+            W = _hessian(parts, yE, zf, P, 0.0)
             K[:] = 0.0
             K[:N, :N] = W
             for a in range(N):
@@ -190,7 +187,7 @@ def _pc_step(x0: FloatArray, P0: Any, yE0: FloatArray, z0: FloatArray, active: F
                 yE[r] += sol[N + r]
             for j in range(na):
                 zA[j] += sol[N + 6 + j]
-            f, g, cE, AE, cI, D = evaluate(x, P)
+            f, g, cE, AE, cI, D, parts = _evaluate(x, P)
         if not conv:
             break
         ok, changed = _pc_change(act, new, zf, parent, idx, zA, cI, m, changes, max_changes)
@@ -239,6 +236,10 @@ def ip_path(u0: FloatArray, pos: FloatArray, rot: FloatArray, P0: Any, jump: Flo
     X = np.empty((m, N))
     how = np.zeros(m, dtype=np.int64)
     none = np.empty(0)
+    # the barrier solve of one start (ip_multi; no polish, no ranking: the arguments typed
+    # as from Python, int64 and bool, not literals, so that the solver's specialisation
+    # serves)
+    mu0a = np.array([mu0])
     x = u0.copy()
     have = have0  # the state of u0 (multipliers, active set) when it is a solved point
     yE = yE0.copy()
@@ -257,8 +258,12 @@ def ip_path(u0: FloatArray, pos: FloatArray, rot: FloatArray, P0: Any, jump: Flo
                     how[k] = 1
                     x, yE, z, active = xn, yE1, z1, act1
                     continue
-        xn, st, _, s1, z1, yE1 = ip_loop(x, P, tol, constr_tol, mu0, max_iter, 1e300, none,
-                                         none, none, 0.0)  # fmt: skip
+        Xn, stn, _, _, _, s1, z1, yE1 = ip_multi(
+            x.copy().reshape(1, -1), P, tol, constr_tol, mu0a, max_iter, 1e300,
+            np.int64(0), reach, margin, none, none, none, 0.0,  # type: ignore[arg-type]
+            np.bool_(False),  # type: ignore[arg-type]
+        )  # fmt: skip
+        xn, st = Xn[0], stn[0]
         if st == IP_NONFINITE or not np.all(np.isfinite(xn)):
             return X, k, how, yE, z, active, have
         xn = polish(xn, P, 3, reach, margin)

@@ -9,8 +9,8 @@ each from one compiled call:
   :func:`stackik._compiled.planar._lagrangian_hessian`): the values of
   :class:`stackik.formulation.structured.ReducedPlanarNLP`, ~0.1 ms less per evaluation at
   n = 4 .. 16 (benchmarks/results/sqp_profile.md);
-* spatial (:func:`stackik._compiled.spatial.evaluate`,
-  :func:`stackik._compiled.spatial.lagrangian_hessian`): the spatial interior point's problem,
+* spatial (:func:`stackik._compiled.spatial._evaluate`,
+  :func:`stackik._compiled.spatial._hessian`): the spatial interior point's problem,
   whose orientation equality is ``vee(skew(R_target' R_ee)) = 0`` (the rotation-vector
   form of :meth:`stackik.formulation.Problem.evaluate` has no closed-form second
   derivatives there). Exact second derivatives instead of damped BFGS.
@@ -59,8 +59,10 @@ class CompiledNLP:
         else:
             from stackik._compiled import spatial as _spatial_ipm
 
-            self._evaluate = _spatial_ipm.evaluate
-            self._hessian = _spatial_ipm.lagrangian_hessian
+            # the interior point's own compiled functions (no layer of their own to
+            # compile): the evaluation with its kinematic parts, the Hessian from them
+            self._evaluate = _spatial_ipm._evaluate
+            self._hessian = _spatial_ipm._hessian
             self.P = spatial_problem_arrays(prob)
         n, k = prob.n, prob.k
         self.n, self.k = n, k
@@ -74,23 +76,44 @@ class CompiledNLP:
         self.indices = self.indices.astype(np.int32)
         self._u: FloatArray | None = None
         self._out: tuple[Any, ...] = ()
+        # the point of the last compiled evaluation, bytes, and what the Hessian takes there
+        self._at: bytes | None = None
+        self._parts: Any = None
 
     def evaluate(self, u: FloatArray) -> tuple[Any, ...]:
         if self._u is not None and np.array_equal(u, self._u):
             return self._out
-        f, g, cE, AE, cI, D = self._evaluate(np.ascontiguousarray(u, dtype=float), self.P)
+        uc = np.ascontiguousarray(u, dtype=float)
+        out = self._evaluate(uc, self.P)
+        f, g, cE, AE, cI, D = out[:6]
+        self._at, self._parts = uc.tobytes(), self._parts_of(uc, out)
         n, k = self.n, self.k
         J = csc(D.transpose(0, 2, 1).ravel(), self.indices, self.indptr, (self.R * n, k * n))
         self._u = np.array(u, dtype=float)
         self._out = (float(f), g, cE, AE, cI, J)
         return self._out
 
+    @staticmethod
+    def _parts_of(u: FloatArray, out: tuple[Any, ...]) -> Any:
+        """What the Hessian takes for the point ``u`` from its evaluation ``out``: the
+        spatial kinematic parts (the evaluation's last value), the planar point itself (a
+        copy: the caller's array may change)."""
+        return out[6] if len(out) > 6 else u.copy()
+
     def hessian(self, u: FloatArray, y_eq: FloatArray, y_in: FloatArray) -> FloatArray:
-        """Exact Hessian of ``f - y_eq'c_E - y_in'c_I`` (dense, ``kn x kn``)."""
+        """Exact Hessian of ``f - y_eq'c_E - y_in'c_I`` (dense, ``kn x kn``); spatial: from
+        the kinematic parts of the evaluation at ``u`` (the last one's when it was at
+        ``u``, bit for bit)."""
+        uc = np.ascontiguousarray(u, dtype=float)
+        if self._at is not None and uc.tobytes() == self._at:
+            parts = self._parts
+        else:
+            parts = self._parts_of(uc, self._evaluate(uc, self.P))
         H: FloatArray = self._hessian(
-            np.ascontiguousarray(u, dtype=float),
+            parts,
             np.ascontiguousarray(y_eq, dtype=float),
             np.ascontiguousarray(y_in, dtype=float),
             self.P,
+            0.0,
         )
         return H

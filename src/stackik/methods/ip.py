@@ -210,7 +210,7 @@ def ip_multi(
         (problem_arrays(prob), 3) if prob.planar else (spatial_problem_arrays(prob), 0)
     )
     none = np.empty(0)  # no box, no distance term (a path step's extensions)
-    X, st, nit, obj, viol = barrier.ip_multi(
+    X, st, nit, obj, viol, _, _, _ = barrier.ip_multi(
         U,
         P,
         float(opts["tol"]),
@@ -225,6 +225,7 @@ def ip_multi(
         none,
         none,
         0.0,
+        True,  # the objective values and violations, for ranking
     )
     return X, [IP_STATUS[int(s)] for s in st], nit, obj, viol
 

@@ -83,7 +83,7 @@ def _transit_terms(prob: Problem, q_prev: FloatArray, goal: FloatArray,
     else:
         from stackik._compiled import spatial as _spatial_ipm
 
-        f = float(_spatial_ipm.evaluate(u_prev, P)[0])
+        f = float(_spatial_ipm._evaluate(u_prev, P)[0])
     f0 = max(f, 1e-12)
     d0 = max(float(np.sum((u_prev - ug) ** 2)), 1e-12) / TRANSIT_WEIGHT
     return f0, d0, ug

@@ -17,7 +17,7 @@ the cache (the interior point's object-mode clock) and creates the BLAS controll
 that a first solve after it pays nothing a later one does not.
 
 A compilation shows its progress on stderr, per kernel family: on a terminal a bar that
-ticks per entry point compiled (``stackik: planar kernels 3/8 [00:41, ip_loop]``: the
+ticks per entry point compiled (``stackik: planar kernels 3/8 [00:41, ip_multi]``: the
 elapsed time and the function numba compiles now); otherwise (a log, a pipe) one line
 when it starts and one when it ends, with the seconds it took.
 """
@@ -98,7 +98,7 @@ def _dispatchers(kind: str) -> list[Any]:
     from stackik._compiled import spatial_kinematics as _spatial
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _barrier.ip_multi,
-            _spatial_ipm.evaluate, _spatial_ipm.lagrangian_hessian]  # fmt: skip
+            _spatial_ipm._evaluate, _spatial_ipm._hessian]  # fmt: skip
 
 
 def _row_dispatchers(kind: str) -> list[Any]:
