@@ -156,6 +156,126 @@ def _trial_measures(cEt: FloatArray, cIt: FloatArray, st: FloatArray) -> tuple[f
     return theta_t, logsum_t
 
 
+@_jit_inline
+def _objective_scale(g: FloatArray) -> float:
+    """The objective's scale factor by IPOPT's gradient-based rule: ``max |grad f(x0)|
+    <= OBJ_MAX_GRAD``."""
+    gmax = np.abs(g).max()
+    return OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
+
+
+@_jit_inline
+def _filter_bounds(cE: FloatArray, cI: FloatArray, s: FloatArray) -> tuple[float, float]:
+    """The filter's upper and lower bounds on the infeasibility, from the start's."""
+    theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
+    return 1e4 * max(1.0, theta0), 1e-4 * max(1.0, theta0)
+
+
+@_jit_inline
+def _filter_add(filt: FloatArray, nfilt: int, theta: float, phi: float) -> int:
+    """Adds the current point's margins to the filter (while it has room); returns the
+    new entry count."""
+    if nfilt < filt.shape[0]:
+        filt[nfilt, 0] = (1.0 - 1e-5) * theta
+        filt[nfilt, 1] = phi - 1e-8 * theta
+        nfilt += 1
+    return nfilt
+
+
+@_jit_inline
+def _backtrack(x: FloatArray, s: FloatArray, dx: FloatArray, ds: FloatArray, alpha: float,
+               P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray, wq: float,
+               mu: float, theta: float, phi: float, gphi: float, theta_max: float,
+               theta_min: float, filt: FloatArray, nfilt: int, logsum: float,
+               here: Any) -> tuple[Any, ...]:  # fmt: skip
+    """Backtracking from the step length ``alpha`` (the fraction to the boundary) until
+    the filter accepts, at most :data:`_LS_TRIES` halvings down to 1e-12. Returns whether
+    a trial point was accepted and whether by the objective's test, the last step length,
+    the trial point, its slacks, their log-barrier sum and the evaluation there
+    (:func:`kernel.evaluate`'s tuple; ``here``, the current point's, if none was made)."""
+    accepted = by_f = False
+    xt, st, logsum_t, ev = x, s, logsum, here
+    for _ in range(_LS_TRIES):
+        xt = x + alpha * dx
+        st = s + alpha * ds
+        ev = kernel.evaluate(xt, P, lo, hi, ug, wq)
+        theta_t, logsum_t = _trial_measures(ev[2], ev[4], st)
+        if math.isfinite(ev[0]) and math.isfinite(theta_t):  # NaN/inf anywhere shows here
+            accepted, by_f = _filter_accepts(theta, phi, gphi, alpha, theta_t,
+                                             ev[0] - mu * logsum_t, theta_max, theta_min,
+                                             filt, nfilt)  # fmt: skip
+            if accepted:
+                break
+        alpha *= 0.5
+        if alpha < 1e-12:
+            break
+    return accepted, by_f, alpha, xt, st, logsum_t, ev
+
+
+@_jit_inline
+def _newton_rhs(g: FloatArray, AEty: FloatArray, AI: Any, cI: FloatArray, s: FloatArray,
+                Sig: FloatArray, mu: float) -> FloatArray:  # fmt: skip
+    """The right-hand side of the KKT step: ``-g + AE^T yE + AI^T v`` with the barrier
+    term ``v = mu / s - Sigma (c_I - s)``."""
+    m, N = s.size, g.size
+    v = np.empty(m)
+    for r in range(m):
+        v[r] = mu / s[r] - Sig[r] * (cI[r] - s[r])
+    AIv = AIT_dot(AI, v)
+    rhs = np.empty(N)
+    for a in range(N):
+        rhs[a] = -g[a] + AEty[a] + AIv[a]
+    return rhs
+
+
+@_jit_inline
+def _slack_steps(AIdx: FloatArray, cI: FloatArray, s: FloatArray, z: FloatArray,
+                 Sig: FloatArray, mu: float) -> tuple[FloatArray, FloatArray]:  # fmt: skip
+    """The slacks' and the multipliers' steps of a KKT step ``dx`` (``AIdx = AI dx``)."""
+    m = s.size
+    ds = np.empty(m)
+    dz = np.empty(m)
+    for r in range(m):
+        ds[r] = AIdx[r] + cI[r] - s[r]
+        dz[r] = -z[r] + mu / s[r] - Sig[r] * ds[r]
+    return ds, dz
+
+
+@_jit_inline
+def _merit(f: float, g: FloatArray, cE: FloatArray, cI: FloatArray, s: FloatArray,
+           ds: FloatArray, dx: FloatArray, mu: float,
+           logsum: float) -> tuple[float, float, float]:  # fmt: skip
+    """The line search's measures at the current point: the infeasibility
+    ``|c_E|_1 + |c_I - s|_1``, the barrier function and its slope along the step."""
+    theta = 0.0
+    for k in range(cE.size):
+        theta += abs(cE[k])
+    dsum = 0.0
+    for r in range(s.size):
+        theta += abs(cI[r] - s[r])
+        dsum += ds[r] / s[r]
+    gdx = 0.0
+    for a in range(g.size):
+        gdx += g[a] * dx[a]
+    return theta, f - mu * logsum, gdx - mu * dsum
+
+
+@_jit_inline
+def _reset_slacks(s: FloatArray, z: FloatArray, cIt: FloatArray, dz: FloatArray, a_z: float,
+                  mu: float, logsum: float) -> float:  # fmt: skip
+    """After a step (in place): a slack below its constraint value is reset to it (it
+    only adds violation), the multipliers take their step, kept within a factor 1e10 of
+    ``mu / s``; returns the log-barrier sum of the new slacks (from ``logsum``, theirs
+    before the reset)."""
+    for r in range(s.size):
+        if cIt[r] > s[r]:
+            logsum += math.log(cIt[r]) - math.log(s[r])
+            s[r] = cIt[r]
+        zr = z[r] + a_z * dz[r]
+        z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
+    return logsum
+
+
 @_jit
 def polished(cE: FloatArray, cI: FloatArray, reach: float) -> bool:
     """Whether :func:`polish` leaves a point with these constraint values as it is."""
@@ -242,9 +362,7 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
             stj, it, fs = IP_NONFINITE, 0, 1.0
             s, z, yE = cI, np.ones(m), np.zeros(cE.size)
         else:
-            # objective scaling as IPOPT's gradient-based rule: max |grad f(x0)| <= OBJ_MAX_GRAD
-            gmax = np.abs(g).max()
-            fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
+            fs = _objective_scale(g)
             Ps = kernel.with_fscale(P, P.fscale / fs)
             f, g = f * fs, g * fs
             wqs = wq * fs
@@ -255,9 +373,7 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
             yE = kernel.eq_multipliers(Ps, AE, g, AIT_dot(AI, z))
             last_shift = prev_shift = 0.0  # the last nonzero shift; the previous step's
             logsum = np.log(s).sum()
-            theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
-            theta_max = 1e4 * max(1.0, theta0)
-            theta_min = 1e-4 * max(1.0, theta0)
+            theta_max, theta_min = _filter_bounds(cE, cI, s)
             filt = np.empty((max_iter + 1, 2))
             nfilt = 0
             status = IP_MAX_ITER
@@ -266,7 +382,6 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
             period = kernel.clock_period(Ps)
             # the leg-force rows' curvature (the last n_force dense rows): an SR1 estimate
             n_force = 12 * P.forces[9].size
-            N = x.size
             B = np.zeros((N, N)) if n_force > 0 else np.zeros((0, 0))
             for it in range(max_iter):
                 if it % period == period - 1 and _now() > deadline:
@@ -291,13 +406,7 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
                     W += B
                 Sig = z / s
                 add_normal(W, AI, Sig)  # the blocks' J^T Sigma J (and the dense rows', everywhere)
-                v = np.empty(m)
-                for r in range(m):
-                    v[r] = mu / s[r] - Sig[r] * (cI[r] - s[r])
-                AIv = AIT_dot(AI, v)
-                rhs = np.empty(N)
-                for a in range(N):
-                    rhs[a] = -g[a] + AEty[a] + AIv[a]
+                rhs = _newton_rhs(g, AEty, AI, cI, s, Sig, mu)
                 dx, shift = kernel.kkt_step(Ps, W, AE, cE, rhs, last_shift, prev_shift == 0.0)
                 if not _finite(dx):
                     status = IP_NONFINITE
@@ -305,49 +414,18 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
                 prev_shift = shift
                 if shift > 0.0:
                     last_shift = shift
-                AIdx = AI_dot(AI, dx)
-                ds = np.empty(m)
-                dz = np.empty(m)
-                for r in range(m):
-                    ds[r] = AIdx[r] + cI[r] - s[r]
-                    dz[r] = -z[r] + mu / s[r] - Sig[r] * ds[r]
+                ds, dz = _slack_steps(AI_dot(AI, dx), cI, s, z, Sig, mu)
                 a_s, a_z = _to_boundary(s, z, ds, dz, mu)
                 # --- filter line search -----------------------------------------------------
-                theta = 0.0
-                for k in range(cE.size):
-                    theta += abs(cE[k])
-                dsum = 0.0
-                for r in range(m):
-                    theta += abs(cI[r] - s[r])
-                    dsum += ds[r] / s[r]
-                gdx = 0.0
-                for a in range(N):
-                    gdx += g[a] * dx[a]
-                phi = f - mu * logsum
-                gphi = gdx - mu * dsum
+                theta, phi, gphi = _merit(f, g, cE, cI, s, ds, dx, mu, logsum)
                 # backtracking from the fraction to the boundary until the filter accepts
-                alpha = a_s
-                accepted = by_f = False
-                xt, st, logsum_t = x, s, logsum
-                ft, gt, cEt, AEt, cIt, AIt, parts_t = f, g, cE, AE, cI, AI, parts
-                for _ in range(_LS_TRIES):
-                    xt = x + alpha * dx
-                    st = s + alpha * ds
-                    ft, gt, cEt, AEt, cIt, AIt, parts_t = kernel.evaluate(xt, Ps, lo, hi, ug, wqs)
-                    theta_t, logsum_t = _trial_measures(cEt, cIt, st)
-                    if math.isfinite(ft) and math.isfinite(theta_t):  # NaN/inf anywhere shows here
-                        accepted, by_f = _filter_accepts(theta, phi, gphi, alpha, theta_t,
-                                                         ft - mu * logsum_t, theta_max, theta_min,
-                                                         filt, nfilt)  # fmt: skip
-                        if accepted:
-                            break
-                    alpha *= 0.5
-                    if alpha < 1e-12:
-                        break
-                if accepted and not by_f and nfilt < filt.shape[0]:
-                    filt[nfilt, 0] = (1.0 - 1e-5) * theta
-                    filt[nfilt, 1] = phi - 1e-8 * theta
-                    nfilt += 1
+                accepted, by_f, alpha, xt, st, logsum_t, ev = _backtrack(
+                    x, s, dx, ds, a_s, Ps, lo, hi, ug, wqs, mu, theta, phi, gphi, theta_max,
+                    theta_min, filt, nfilt, logsum, (f, g, cE, AE, cI, AI, parts),
+                )  # fmt: skip
+                ft, gt, cEt, AEt, cIt, AIt, parts_t = ev
+                if accepted and not by_f:
+                    nfilt = _filter_add(filt, nfilt, theta, phi)
                 if not accepted:
                     fails += 1
                     if fails >= 3:
@@ -368,12 +446,7 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
                 # slack reset: a slack below its constraint value only adds violation
                 s = st
                 logsum = logsum_t if accepted else np.log(s).sum()
-                for r in range(m):
-                    if cIt[r] > s[r]:
-                        logsum += math.log(cIt[r]) - math.log(s[r])
-                        s[r] = cIt[r]
-                    zr = z[r] + a_z * dz[r]
-                    z[r] = min(max(zr, mu / (1e10 * s[r])), 1e10 * mu / s[r])
+                logsum = _reset_slacks(s, z, cIt, dz, a_z, mu, logsum)
                 if n_force > 0:
                     force_update(B, alpha * dx, AI, AIt, z, n_force)
                 f, g, cE, AE, cI, AI, parts = ft, gt, cEt, AEt, cIt, AIt, parts_t
