@@ -40,6 +40,8 @@ from stackik._compiled.core import (
     IP_STALLED,
     IP_SUCCESS,
     OBJ_MAX_GRAD,
+    _abs_max,
+    _amin,
     _finite,
     _jit,
     _jit_inline,
@@ -160,7 +162,7 @@ def _trial_measures(cEt: FloatArray, cIt: FloatArray, st: FloatArray) -> tuple[f
 def _objective_scale(g: FloatArray) -> float:
     """The objective's scale factor by IPOPT's gradient-based rule: ``max |grad f(x0)|
     <= OBJ_MAX_GRAD``."""
-    gmax = np.abs(g).max()
+    gmax = _abs_max(g)
     return OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
 
 
@@ -279,7 +281,7 @@ def _reset_slacks(s: FloatArray, z: FloatArray, cIt: FloatArray, dz: FloatArray,
 @_jit
 def polished(cE: FloatArray, cI: FloatArray, reach: float) -> bool:
     """Whether :func:`polish` leaves a point with these constraint values as it is."""
-    if not np.abs(cE).max() < 1e-13:
+    if not _abs_max(cE) < 1e-13:
         return False
     for r in range(cI.size):
         if -reach < cI[r] < 0.0:
@@ -305,8 +307,10 @@ def polish(u: FloatArray, P: Any, iters: int, reach: float, margin: float) -> Fl
         E = cE.size
         A = np.zeros((E + nv, u.size))
         rr = np.empty(E + nv)
-        A[:E] = AE
-        rr[:E] = cE
+        for r in range(E):  # loops, not slice assignments: see ip_multi
+            rr[r] = cE[r]
+            for k in range(u.size):
+                A[r, k] = AE[r, k]
         k = E
         for r in range(cI.size):
             if -reach < cI[r] < 0.0:
@@ -351,7 +355,8 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
     none = np.empty(0)
     s_last = z_last = yE_last = none
     for j in range(ns):
-        X[j] = U0[j]
+        for k in range(N):  # loops: an array assigned to a slice compiles numba's
+            X[j, k] = U0[j, k]  # shape-mismatch message (string formatting) into the kernel
         if j > 0 and _now() > deadline:
             break
         x = U0[j].copy()
@@ -459,15 +464,16 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
             x = U0[j].copy()
             stj = IP_NONFINITE
         x = polish(x, P, polish_iters, reach, margin)
-        X[j] = x
+        for k in range(N):
+            X[j, k] = x[k]
         statuses[j] = stj
         nit[j] = it
         if not rank:
             continue
         f, g, cE, AE, cI, _, _ = kernel.evaluate(x, P, none, none, none, 0.0)
         obj[j] = f
-        viol[j] = max(np.abs(cE).max(), max(0.0, -cI.min()))
-        if j + 1 == GIVE_UP_AFTER and viol[: j + 1].min() > GIVE_UP_VIOLATION:
+        viol[j] = max(_abs_max(cE), max(0.0, -_amin(cI)))
+        if j + 1 == GIVE_UP_AFTER and _amin(viol[: j + 1]) > GIVE_UP_VIOLATION:
             break  # likely unreachable: the caller's SQP fallback decides, quickly
     return X, statuses, nit, obj, viol, s_last, z_last, yE_last
 

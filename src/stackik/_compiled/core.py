@@ -115,6 +115,38 @@ def _finite(a: FloatArray) -> bool:
     return True
 
 
+@_jit_inline
+def _abs_max(a: FloatArray) -> float:
+    """``np.abs(a).max()``, as numpy gives it (the first NaN if there is one; ValueError
+    when empty), without the temporary: numba's reduction is written over ``np.nditer``
+    and compiles to far more code than this loop."""
+    if a.size == 0:
+        raise ValueError("zero-size array to reduction operation maximum")
+    m = 0.0
+    for v in a.flat:
+        av = abs(v)
+        if math.isnan(av):
+            return av
+        if av > m:
+            m = av
+    return m
+
+
+@_jit_inline
+def _amin(a: FloatArray) -> float:
+    """``a.min()`` of a 1-D array, as numpy gives it (the first NaN if there is one;
+    ValueError when empty), by a loop (see :func:`_abs_max`)."""
+    if a.size == 0:
+        raise ValueError("zero-size array to reduction operation minimum")
+    m = a[0]
+    for v in a:
+        if math.isnan(v):
+            return v
+        if v < m:
+            m = v
+    return m
+
+
 @_jit
 def _now() -> float:
     with objmode(t="float64"):

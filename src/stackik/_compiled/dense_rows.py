@@ -247,7 +247,8 @@ def _block_row(D: FloatArray, r: int, out: FloatArray) -> None:
     R, k = D.shape[1], D.shape[2]
     i = r // R
     out[:] = 0.0
-    out[k * i : k * i + k] = D[i, r % R]
+    for j in range(k):  # a loop: a slice assignment compiles numba's shape-mismatch message
+        out[k * i + j] = D[i, r % R, j]
 
 
 def _ineq_row_pair(AI, r, out):  # type: ignore[no-untyped-def]

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from stackik._compiled.core import _jit, _jit_inline
+from stackik._compiled.core import _abs_max, _jit, _jit_inline
 
 FloatArray = Any
 
@@ -116,7 +116,7 @@ def _solve6(B: FloatArray) -> tuple[FloatArray, bool]:
     ``ok`` False when a pivot is below 1e-10 of the largest entry."""
     A = B.copy()
     inv = np.eye(6)
-    big = np.abs(A).max()
+    big = _abs_max(A)
     for c in range(6):
         p = c
         for r in range(c + 1, 6):

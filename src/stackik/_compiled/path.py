@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from stackik._compiled import kernel
-from stackik._compiled.core import OBJ_MAX_GRAD, _jit, _jit_inline
+from stackik._compiled.core import OBJ_MAX_GRAD, _abs_max, _jit, _jit_inline
 
 FloatArray = Any
 
@@ -86,7 +86,7 @@ def _pc_start(x0: FloatArray, P0: Any, g: FloatArray, yE0: FloatArray, z0: Float
     factor, ``P0`` with the scaled objective, ``g`` scaled, a copy of ``x0``, the
     multipliers ``yE0`` (E,) and ``z0`` (m,) scaled, a copy of the active mask ``active``
     (m,) and the mask of the limits the last change added (m,; none yet)."""
-    gmax = np.abs(g).max()
+    gmax = _abs_max(g)
     fs = OBJ_MAX_GRAD / gmax if gmax > OBJ_MAX_GRAD else 1.0
     P = kernel.with_fscale(P0, P0.fscale / fs)
     new = np.zeros(m, dtype=np.bool_)
@@ -124,7 +124,7 @@ def _pc_errors(rd: FloatArray, yE: FloatArray, zA: FloatArray, cE: FloatArray,
     for j in range(zA.size):
         sd_acc += abs(zA[j])
     sd = max(100.0, sd_acc / (m + yE.size)) / 100.0
-    e_du = np.abs(rd).max() / sd
+    e_du = _abs_max(rd) / sd
     e_pr = 0.0
     for k in range(cE.size):
         e_pr = max(e_pr, abs(cE[k]))

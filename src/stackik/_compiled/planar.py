@@ -531,7 +531,8 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, la
         for a in range(K):
             acc += E[i, a] * w[a]
         dx[i] = acc
-    dx[3:] = w
+    for a in range(K):
+        dx[3 + a] = w[a]
     Wdx = np.empty(N)
     curv = 0.0
     for i in range(N):

@@ -16,6 +16,7 @@ from stackik._compiled.barrier import ip_multi, polish, polished
 from stackik._compiled.core import (
     IP_NONFINITE,
     IP_SUCCESS,
+    _amin,
     _finite,
     _jit,
     _jit_inline,
@@ -461,7 +462,7 @@ def _reaches_at(xn: FloatArray, x: FloatArray, cE: FloatArray, cI: FloatArray,
     """:func:`_reaches` with the constraint values at ``xn`` given (``es``: the
     equalities' scales)."""
     if not (math.hypot(cE[0] / es[0], cE[1] / es[1]) <= pos_tol
-            and abs(cE[2] / es[2]) <= ang_tol and cI.min() >= -1e-12):  # fmt: skip
+            and abs(cE[2] / es[2]) <= ang_tol and _amin(cI) >= -1e-12):  # fmt: skip
         return False
     for a in range(x.size):
         if not abs(xn[a] - x[a]) <= jump[a]:

@@ -281,7 +281,9 @@ def fn2_hessian(Jp: FloatArray, w: FloatArray, r: FloatArray, Jr: FloatArray,
     M = np.zeros((N, 3, 3))
     Macc = np.zeros((3, 3))
     for c in range(N - 1, -1, -1):
-        M[c] = Macc
+        for k in range(3):
+            for m in range(3):
+                M[c, k, m] = Macc[k, m]
         if c % 6 >= 3:
             wt = wa[c // 6]
             for k in range(3):

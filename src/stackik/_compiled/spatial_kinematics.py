@@ -28,22 +28,31 @@ _jit = njit(cache=True, error_model="numpy", nogil=True)
 
 @_jit
 def _euler(a: float, b: float, c: float) -> tuple[Any, Any]:
-    """``R = Rz(a) Ry(b) Rx(c)`` and its derivatives ``D[k] = dR / d(a, b, c)[k]``."""
+    """``R = Rz(a) Ry(b) Rx(c)`` and its derivatives ``D[k] = dR / d(a, b, c)[k]``.
+
+    Written out element by element (the products ``(Rz Ry) Rx``, ``(dRz Ry) Rx``,
+    ``(Rz dRy) Rx`` and ``(Rz Ry) dRx`` with their zero terms left out, each product in
+    the order a 3 x 3 matrix product takes it): BLAS for so small a matrix costs more than
+    the arithmetic, fused multiply-adds made its rounding depend on the CPU, and the
+    compiled code of a matrix product is far larger than these lines."""
     ca, sa = math.cos(a), math.sin(a)
     cb, sb = math.cos(b), math.sin(b)
     cc, sc = math.cos(c), math.sin(c)
-    Rz = np.array([[ca, -sa, 0.0], [sa, ca, 0.0], [0.0, 0.0, 1.0]])
-    Ry = np.array([[cb, 0.0, sb], [0.0, 1.0, 0.0], [-sb, 0.0, cb]])
-    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cc, -sc], [0.0, sc, cc]])
-    dRz = np.array([[-sa, -ca, 0.0], [ca, -sa, 0.0], [0.0, 0.0, 0.0]])
-    dRy = np.array([[-sb, 0.0, cb], [0.0, 0.0, 0.0], [-cb, 0.0, -sb]])
-    dRx = np.array([[0.0, 0.0, 0.0], [0.0, -sc, -cc], [0.0, cc, -sc]])
-    RzRy = Rz @ Ry
-    R = RzRy @ Rx
-    D = np.empty((3, 3, 3))
-    D[0] = dRz @ Ry @ Rx
-    D[1] = Rz @ dRy @ Rx
-    D[2] = RzRy @ dRx
+    # Rz Ry, and its derivatives by a (dRz Ry) and by b (Rz dRy)
+    casb, sasb, cacb, sacb = ca * sb, sa * sb, ca * cb, sa * cb
+    R = np.empty((3, 3))
+    R[0, 0], R[0, 1], R[0, 2] = cacb, -sa * cc + casb * sc, sa * sc + casb * cc
+    R[1, 0], R[1, 1], R[1, 2] = sacb, ca * cc + sasb * sc, -ca * sc + sasb * cc
+    R[2, 0], R[2, 1], R[2, 2] = -sb, cb * sc, cb * cc
+    D = np.zeros((3, 3, 3))
+    D[0, 0, 0], D[0, 0, 1], D[0, 0, 2] = -sacb, -ca * cc + -sasb * sc, ca * sc + -sasb * cc
+    D[0, 1, 0], D[0, 1, 1], D[0, 1, 2] = cacb, -sa * cc + casb * sc, sa * sc + casb * cc
+    D[1, 0, 0], D[1, 0, 1], D[1, 0, 2] = -casb, cacb * sc, cacb * cc
+    D[1, 1, 0], D[1, 1, 1], D[1, 1, 2] = -sasb, sacb * sc, sacb * cc
+    D[1, 2, 0], D[1, 2, 1], D[1, 2, 2] = -cb, -sb * sc, -sb * cc
+    for r in range(3):  # (Rz Ry) dRx: the columns of R turned by a quarter about x
+        D[2, r, 1] = R[r, 2]
+        D[2, r, 2] = -R[r, 1]
     return R, D
 
 
@@ -78,9 +87,9 @@ def spatial_parts(
     """
     n = q.shape[0]
     N = 6 * n
-    A = np.empty((n + 1, 3, 3))
+    A = np.zeros((n + 1, 3, 3))
     O = np.zeros((n + 1, 3))
-    A[0] = np.eye(3)
+    A[0, 0, 0] = A[0, 1, 1] = A[0, 2, 2] = 1.0
     w = np.zeros((N, 3))
     c = np.empty((n, 24))
     Jc = np.zeros((n, 24, 6))
@@ -91,7 +100,11 @@ def spatial_parts(
             O[i + 1, r_] = O[i, r_] + (
                 Ai[r_, 0] * q[i, 0] + Ai[r_, 1] * q[i, 1] + Ai[r_, 2] * q[i, 2]
             )
-        A[i + 1] = Ai @ R
+        for r_ in range(3):
+            for c_ in range(3):
+                A[i + 1, r_, c_] = (
+                    Ai[r_, 0] * R[0, c_] + Ai[r_, 1] * R[1, c_] + Ai[r_, 2] * R[2, c_]
+                )
         cy, sy = math.cos(q[i, 3]), math.sin(q[i, 3])
         cp, sp = math.cos(q[i, 4]), math.sin(q[i, 4])
         local = np.array([[0.0, 0.0, 1.0], [-sy, cy, 0.0], [cy * cp, sy * cp, -sp]])

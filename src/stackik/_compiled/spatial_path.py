@@ -13,7 +13,7 @@ import numpy as np
 
 from stackik._compiled import kernel
 from stackik._compiled.barrier import ip_multi, polish
-from stackik._compiled.core import IP_NONFINITE, IP_SUCCESS, _jit, _jit_inline
+from stackik._compiled.core import IP_NONFINITE, IP_SUCCESS, _amin, _jit, _jit_inline
 from stackik._compiled.linalg import _AIT_dot
 from stackik._compiled.path import (
     PC_CHANGES,
@@ -209,7 +209,7 @@ def _reaches(xn: FloatArray, x: FloatArray, P: Any, jump: FloatArray, pos_tol: f
     f, g, cE, AE, cI, _, _ = kernel.evaluate(xn, P, none, none, none, 0.0)
     pe = math.sqrt((cE[0] / es[0]) ** 2 + (cE[1] / es[1]) ** 2 + (cE[2] / es[2]) ** 2)
     ae = math.sqrt((cE[3] / es[3]) ** 2 + (cE[4] / es[4]) ** 2 + (cE[5] / es[5]) ** 2)
-    if not (pe <= pos_tol and ae <= ang_tol and cI.min() >= -1e-12):
+    if not (pe <= pos_tol and ae <= ang_tol and _amin(cI) >= -1e-12):
         return False
     for a in range(x.size):
         if not abs(xn[a] - x[a]) <= jump[a]:
