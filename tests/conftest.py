@@ -5,7 +5,10 @@ import pytest
 
 @pytest.fixture(scope="session", autouse=True)
 def _compiled_kernels():
-    """Load or compile stackik's numba kernels once, before any test measures a time."""
+    """Load or compile stackik's numba kernels once, before any test measures a time (on
+    an empty cache the two modes' families compile in two processes at once)."""
+    import os
+
     from stackik.solve.warmup import warm_up
 
-    warm_up()
+    warm_up(jobs=min(2, os.cpu_count() or 1))

@@ -201,6 +201,41 @@ def test_a_path_family_loads_its_modes_solver_family_first(monkeypatch):
         warmup.ensure_kernels("paths")
 
 
+def test_warm_up_with_jobs_compiles_each_modes_families_in_a_child_then_loads_them(monkeypatch):
+    groups_seen: list[list[tuple[str, ...]]] = []
+    loaded: list[str] = []
+    monkeypatch.setattr(warmup, "_READY", {"spatial"})  # this process has it already
+    monkeypatch.setattr(warmup, "kernels_cached", lambda kind: kind == "planar_rows")
+    monkeypatch.setattr(warmup, "_compile_apart", lambda g, jobs, notice: groups_seen.append(g))
+    monkeypatch.setattr(warmup, "_warm", loaded.append)
+    kinds = ("planar", "spatial", "planar_rows", "spatial_path", "planar_path")
+    warmup.warm_up(kinds, jobs=2, notice=False)
+    # the uncached families by mode, in the order asked; then all loaded here
+    assert groups_seen == [[("planar", "planar_path"), ("spatial_path",)]]
+    assert loaded == ["planar", "planar_rows", "spatial_path", "planar_path"]
+    monkeypatch.setattr(warmup, "_READY", set())
+    warmup.warm_up(("planar",), jobs=1, notice=False)  # one job: no child
+    assert len(groups_seen) == 1
+
+
+@pytest.mark.parametrize("jobs", [0, -1, 1.5, True, "2"])
+def test_warm_up_refuses_a_bad_jobs_or_kind(jobs):
+    with pytest.raises(ValueError, match="jobs"):
+        warmup.warm_up(("planar",), jobs=jobs)
+    with pytest.raises(ValueError, match="unknown 'paths'"):
+        warmup.warm_up(("planar", "paths"), jobs=2)
+
+
+def test_the_children_of_a_parallel_warm_up_load_or_compile_and_report(capfd):
+    # the session's warm-up filled the cache, so the children only load (a few seconds)
+    codes = warmup._compile_apart([("planar",), ("spatial",)], 2, notice=True)
+    assert codes == [0, 0]
+    assert warmup._compile_apart([("planar",)], 2, notice=True) == []  # one group: here
+    bad = warmup._compile_apart([("planar",), ("no such kind",)], 2, notice=True)
+    assert sorted(bad) == [0, 1]  # a failing child is reported, not raised
+    assert "unknown 'no such kind'" in capfd.readouterr().err
+
+
 def test_the_warm_up_compiles_at_its_own_opt_level_unless_the_user_set_one(monkeypatch):
     from numba.core import config
 

@@ -1,5 +1,6 @@
 """What every compiled interior point shares: the jit options, the status codes, the
-give-up rule of a multi-start call, the objective scaling, the clock and two array tests.
+give-up rule of a multi-start call, the objective scaling, the clock, two array tests and
+two reductions (``max |x|``, ``min x``) written as loops.
 
 The planar (:mod:`stackik._compiled.planar`) and spatial (:mod:`stackik._compiled.spatial`)
 barrier methods and their path kernels take these from here, one definition each.

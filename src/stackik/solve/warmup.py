@@ -439,18 +439,80 @@ def ensure_kernels(kind: str, *, notice: bool = True) -> float:
         return spent + time.perf_counter() - t0
 
 
-def warm_up(kinds: tuple[str, ...] = KERNEL_KINDS, *, notice: bool = True) -> float:
+def warm_up(kinds: tuple[str, ...] = KERNEL_KINDS, *, notice: bool = True, jobs: int = 1) -> float:
     """Load or compile every kernel set in ``kinds`` now (e.g. in a worker process before
     it takes work), and import the SQP engine's QP backends and :mod:`scipy.optimize`
     (the scipy baselines'): their first import (~0.2 s and ~0.3 s) would otherwise land
-    in the first such solve's time; returns the seconds spent."""
+    in the first such solve's time; returns the seconds spent.
+
+    ``jobs`` > 1 compiles the planar and the spatial families (those of ``kinds`` not in
+    the cache yet) in that many child processes at once, each mode's in one child (a
+    family compiles its mode's solver family first), then loads them from the cache here:
+    on a machine with two or more free cores a first warm-up of both modes takes about
+    the time of the slower mode instead of the sum. The machine code is the same as
+    compiled here (the same compiler and settings; numba's cache is per machine). A
+    child that fails leaves its families to this process, which compiles them."""
+    if not isinstance(jobs, int) or isinstance(jobs, bool) or jobs < 1:
+        raise ValueError(f"jobs: expected an integer >= 1, got {jobs!r}")
+    for kind in kinds:
+        if kind not in KERNEL_KINDS:
+            raise ValueError(f"kind: unknown {kind!r}; choose one of {KERNEL_KINDS}")
     t0 = time.perf_counter()
+    if jobs > 1:
+        _compile_apart(_uncached_by_mode(kinds), jobs, notice)
     for kind in kinds:
         ensure_kernels(kind, notice=notice)
     _import_qp_backends()
     import scipy.optimize  # noqa: F401 - the import is the point
 
     return time.perf_counter() - t0
+
+
+def _uncached_by_mode(kinds: tuple[str, ...]) -> list[tuple[str, ...]]:
+    """The families of ``kinds`` that this process has not loaded and numba's cache does
+    not hold (or cannot tell), grouped by mode (planar, spatial), in ``kinds``' order;
+    empty groups left out."""
+    groups: dict[str, list[str]] = {"planar": [], "spatial": []}
+    for kind in kinds:
+        if kind not in _READY and kernels_cached(kind) is not True:
+            groups["planar" if kind.startswith("planar") else "spatial"].append(kind)
+    return [tuple(g) for g in groups.values() if g]
+
+
+def _compile_apart(groups: list[tuple[str, ...]], jobs: int, notice: bool) -> list[int]:
+    """Compile each group of families (:func:`_uncached_by_mode`) in a child process of
+    this interpreter, at most ``jobs`` at once, and wait for them. Nothing to gain from
+    one group (it compiles here as fast). A child's progress lines (the one-line form: it
+    writes to a file) reach this process's stderr when it ends; its failure is not an
+    error (the caller compiles what is missing). Returns the children's exit codes, in
+    the order they ended."""
+    import subprocess
+    import tempfile
+
+    if len(groups) < 2:
+        return []
+    code = "import sys; from stackik.solve.warmup import ensure_kernels\n" + (
+        "for k in sys.argv[2:]: ensure_kernels(k, notice=sys.argv[1] == '1')"
+    )
+    waiting = list(groups)
+    running: list[tuple[subprocess.Popen[bytes], IO[bytes]]] = []
+    codes: list[int] = []
+    while waiting or running:
+        while waiting and len(running) < jobs:
+            args = [sys.executable, "-c", code, "1" if notice else "0", *waiting.pop(0)]
+            out = tempfile.TemporaryFile()
+            child = subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=out, stderr=out)
+            running.append((child, out))
+        running[0][0].wait()
+        for child, log in [r for r in running if r[0].poll() is not None]:
+            codes.append(child.returncode)
+            log.seek(0)
+            text = log.read().decode(errors="replace")
+            log.close()
+            if notice and text:
+                print(text, end="", file=sys.stderr, flush=True)
+        running = [r for r in running if r[0].poll() is None]
+    return codes
 
 
 def _import_qp_backends() -> None:
