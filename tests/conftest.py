@@ -11,4 +11,5 @@ def _compiled_kernels():
 
     from stackik.solve.warmup import warm_up
 
-    warm_up(jobs=min(2, os.cpu_count() or 1))
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    warm_up(jobs=min(2, cores or 1))

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import io
 import multiprocessing as mp
+import sys
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
@@ -216,6 +217,9 @@ def test_warm_up_with_jobs_compiles_each_modes_families_in_a_child_then_loads_th
     monkeypatch.setattr(warmup, "_READY", set())
     warmup.warm_up(("planar",), jobs=1, notice=False)  # one job: no child
     assert len(groups_seen) == 1
+    monkeypatch.setattr(warmup, "_READY", set())
+    warmup.warm_up(("planar",), jobs=np.int64(2), notice=False)  # any integer type
+    assert groups_seen[1] == [("planar",)]
 
 
 @pytest.mark.parametrize("jobs", [0, -1, 1.5, True, "2"])
@@ -226,6 +230,7 @@ def test_warm_up_refuses_a_bad_jobs_or_kind(jobs):
         warmup.warm_up(("planar", "paths"), jobs=2)
 
 
+@pytest.mark.skipif(sys.platform == "win32", reason="the children need POSIX file locks")
 def test_the_children_of_a_parallel_warm_up_load_or_compile_and_report(capfd):
     # the session's warm-up filled the cache, so the children only load (a few seconds)
     codes = warmup._compile_apart([("planar",), ("spatial",)], 2, notice=True)
@@ -234,6 +239,9 @@ def test_the_children_of_a_parallel_warm_up_load_or_compile_and_report(capfd):
     bad = warmup._compile_apart([("planar",), ("no such kind",)], 2, notice=True)
     assert sorted(bad) == [0, 1]  # a failing child is reported, not raised
     assert "unknown 'no such kind'" in capfd.readouterr().err
+    # a child past its time is stopped (a signal: a negative code), not waited for
+    late = warmup._compile_apart([("planar",), ("spatial",)], 2, notice=False, timeout=0.0)
+    assert len(late) == 2 and all(code < 0 for code in late)
 
 
 def test_the_warm_up_compiles_at_its_own_opt_level_unless_the_user_set_one(monkeypatch):

@@ -25,6 +25,7 @@ when it starts and one when it ends, with the seconds it took.
 from __future__ import annotations
 
 import math
+import operator
 import os
 import sys
 import threading
@@ -445,21 +446,29 @@ def warm_up(kinds: tuple[str, ...] = KERNEL_KINDS, *, notice: bool = True, jobs:
     (the scipy baselines'): their first import (~0.2 s and ~0.3 s) would otherwise land
     in the first such solve's time; returns the seconds spent.
 
-    ``jobs`` > 1 compiles the planar and the spatial families (those of ``kinds`` not in
-    the cache yet) in that many child processes at once, each mode's in one child (a
-    family compiles its mode's solver family first), then loads them from the cache here:
-    on a machine with two or more free cores a first warm-up of both modes takes about
-    the time of the slower mode instead of the sum. The machine code is the same as
-    compiled here (the same compiler and settings; numba's cache is per machine). A
-    child that fails leaves its families to this process, which compiles them."""
-    if not isinstance(jobs, int) or isinstance(jobs, bool) or jobs < 1:
+    ``jobs`` > 1 compiles the planar and the spatial families (those of ``kinds`` the
+    cache does not hold yet) in that many child processes at once, each mode's in one
+    child (a family compiles its mode's solver family first), then loads them from the
+    cache here: on a machine with two or more free cores a first warm-up of both modes
+    takes about the time of the slower mode instead of the sum. The machine code is the
+    same as compiled here (the same compiler and settings; numba's cache is per
+    machine). The children take turns to write the cache (a file lock: two writes of
+    one function's cache index at once could pair an entry with the other's code), so
+    this needs POSIX file locks; elsewhere, and in a frozen application, ``jobs`` is
+    ignored. A child that fails or runs longer than :data:`CHILD_TIMEOUT` is stopped and
+    leaves its families to this process, which compiles them."""
+    try:
+        count = -1 if isinstance(jobs, bool) else operator.index(jobs)
+    except TypeError:
+        count = -1
+    if count < 1:
         raise ValueError(f"jobs: expected an integer >= 1, got {jobs!r}")
     for kind in kinds:
         if kind not in KERNEL_KINDS:
             raise ValueError(f"kind: unknown {kind!r}; choose one of {KERNEL_KINDS}")
     t0 = time.perf_counter()
-    if jobs > 1:
-        _compile_apart(_uncached_by_mode(kinds), jobs, notice)
+    if count > 1:
+        _compile_apart(_uncached_by_mode(kinds), count, notice)
     for kind in kinds:
         ensure_kernels(kind, notice=notice)
     _import_qp_backends()
@@ -468,50 +477,108 @@ def warm_up(kinds: tuple[str, ...] = KERNEL_KINDS, *, notice: bool = True, jobs:
     return time.perf_counter() - t0
 
 
+#: How long :func:`warm_up` with ``jobs`` > 1 waits for a child's compilation [s] before
+#: it stops the child and compiles that child's families itself (a mode's families take
+#: 2-4 minutes on a 2-core machine).
+CHILD_TIMEOUT = 1800.0
+
+# A child of _compile_apart: numba's cache writes under an exclusive lock on the file
+# argv[2], then the families argv[3:] (argv[1]: "1" to show progress).
+_CHILD = """
+import fcntl, sys
+from numba.core import caching
+
+_save = caching.IndexDataCacheFile.save
+
+
+def save(self, key, data):
+    with open(sys.argv[2], "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            _save(self, key, data)
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+caching.IndexDataCacheFile.save = save
+from stackik.solve.warmup import ensure_kernels
+
+for kind in sys.argv[3:]:
+    ensure_kernels(kind, notice=sys.argv[1] == "1")
+"""
+
+
 def _uncached_by_mode(kinds: tuple[str, ...]) -> list[tuple[str, ...]]:
     """The families of ``kinds`` that this process has not loaded and numba's cache does
-    not hold (or cannot tell), grouped by mode (planar, spatial), in ``kinds``' order;
-    empty groups left out."""
+    not hold (those :func:`kernels_cached` cannot tell about are left to this process),
+    grouped by mode (planar, spatial), in ``kinds``' order; empty groups left out."""
     groups: dict[str, list[str]] = {"planar": [], "spatial": []}
     for kind in kinds:
-        if kind not in _READY and kernels_cached(kind) is not True:
+        if kind not in _READY and kernels_cached(kind) is False:
             groups["planar" if kind.startswith("planar") else "spatial"].append(kind)
     return [tuple(g) for g in groups.values() if g]
 
 
-def _compile_apart(groups: list[tuple[str, ...]], jobs: int, notice: bool) -> list[int]:
+def _compile_apart(
+    groups: list[tuple[str, ...]], jobs: int, notice: bool, timeout: float | None = None
+) -> list[int]:
     """Compile each group of families (:func:`_uncached_by_mode`) in a child process of
-    this interpreter, at most ``jobs`` at once, and wait for them. Nothing to gain from
-    one group (it compiles here as fast). A child's progress lines (the one-line form: it
-    writes to a file) reach this process's stderr when it ends; its failure is not an
-    error (the caller compiles what is missing). Returns the children's exit codes, in
-    the order they ended."""
+    this interpreter (its ``sys.path`` passed on), at most ``jobs`` at once, and wait for
+    them. Nothing to gain from one group (it compiles here as fast). A child's progress
+    lines (the one-line form: it writes to a file) reach this process's stderr when it
+    ends. A child that fails to start, fails or outlives ``timeout`` (default
+    :data:`CHILD_TIMEOUT`) is not an error (the caller compiles what is missing); a child
+    still running when this returns or raises is stopped. Returns the exit codes of the
+    children that ran (negative: stopped by a signal), in the order they were collected."""
     import subprocess
     import tempfile
 
-    if len(groups) < 2:
+    try:
+        import fcntl  # noqa: F401 - the children lock the cache with it
+    except ImportError:  # no POSIX file locks: the caller compiles, one mode after the other
         return []
-    code = "import sys; from stackik.solve.warmup import ensure_kernels\n" + (
-        "for k in sys.argv[2:]: ensure_kernels(k, notice=sys.argv[1] == '1')"
-    )
+    if len(groups) < 2 or getattr(sys, "frozen", False):
+        return []
+    limit = CHILD_TIMEOUT if timeout is None else timeout
+    lock = os.path.join(tempfile.gettempdir(), "stackik-numba-cache.lock")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
     waiting = list(groups)
-    running: list[tuple[subprocess.Popen[bytes], IO[bytes]]] = []
+    running: list[tuple[subprocess.Popen[bytes], IO[bytes], float]] = []
     codes: list[int] = []
-    while waiting or running:
-        while waiting and len(running) < jobs:
-            args = [sys.executable, "-c", code, "1" if notice else "0", *waiting.pop(0)]
-            out = tempfile.TemporaryFile()
-            child = subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=out, stderr=out)
-            running.append((child, out))
-        running[0][0].wait()
-        for child, log in [r for r in running if r[0].poll() is not None]:
-            codes.append(child.returncode)
-            log.seek(0)
-            text = log.read().decode(errors="replace")
+    try:
+        while waiting or running:
+            while waiting and len(running) < jobs:
+                group = waiting.pop(0)
+                out = tempfile.TemporaryFile()
+                args = [sys.executable, "-c", _CHILD, "1" if notice else "0", lock, *group]
+                try:
+                    child = subprocess.Popen(
+                        args, stdin=subprocess.DEVNULL, stdout=out, stderr=out, env=env
+                    )
+                except OSError:  # (the caller compiles the group)
+                    out.close()
+                    continue
+                running.append((child, out, time.monotonic() + limit))
+            if not running:
+                break
+            time.sleep(0.2)
+            done = [r for r in running if r[0].poll() is not None or time.monotonic() > r[2]]
+            running = [r for r in running if r not in done]
+            for child, log, _ in done:
+                if child.poll() is None:  # past its time: stopped
+                    child.kill()
+                    child.wait()
+                codes.append(child.returncode)
+                log.seek(0)
+                text = log.read().decode(errors="replace")
+                log.close()
+                if notice and text:
+                    print(text, end="", file=sys.stderr, flush=True)
+    finally:
+        for child, log, _ in running:
+            child.kill()
+            child.wait()
             log.close()
-            if notice and text:
-                print(text, end="", file=sys.stderr, flush=True)
-        running = [r for r in running if r[0].poll() is None]
     return codes
 
 
