@@ -146,16 +146,24 @@ def _filter_accepts(theta: float, phi: float, gphi: float, alpha: float, theta_t
 
 @_jit_inline
 def _trial_measures(cEt: FloatArray, cIt: FloatArray, st: FloatArray) -> tuple[float, float]:
-    """The infeasibility ``|c_E|_1 + |c_I - s|_1`` and the log-barrier sum of a trial
+    """The infeasibility (:func:`_infeasibility`) and the log-barrier sum of a trial
     point (slacks ``st``)."""
-    theta_t = 0.0
-    for k in range(cEt.size):
-        theta_t += abs(cEt[k])
     logsum_t = 0.0
     for r in range(st.size):
-        theta_t += abs(cIt[r] - st[r])
         logsum_t += math.log(st[r])
-    return theta_t, logsum_t
+    return _infeasibility(cEt, cIt, st), logsum_t
+
+
+@_jit_inline
+def _infeasibility(cE: FloatArray, cI: FloatArray, s: FloatArray) -> float:
+    """The filter's infeasibility ``|c_E|_1 + |c_I - s|_1`` (slacks ``s``), summed in
+    index order, ``c_E`` first."""
+    theta = 0.0
+    for k in range(cE.size):
+        theta += abs(cE[k])
+    for r in range(s.size):
+        theta += abs(cI[r] - s[r])
+    return theta
 
 
 @_jit_inline
@@ -169,7 +177,7 @@ def _objective_scale(g: FloatArray) -> float:
 @_jit_inline
 def _filter_bounds(cE: FloatArray, cI: FloatArray, s: FloatArray) -> tuple[float, float]:
     """The filter's upper and lower bounds on the infeasibility, from the start's."""
-    theta0 = np.abs(cE).sum() + np.abs(cI - s).sum()
+    theta0 = _infeasibility(cE, cI, s)
     return 1e4 * max(1.0, theta0), 1e-4 * max(1.0, theta0)
 
 
@@ -248,18 +256,14 @@ def _merit(f: float, g: FloatArray, cE: FloatArray, cI: FloatArray, s: FloatArra
            ds: FloatArray, dx: FloatArray, mu: float,
            logsum: float) -> tuple[float, float, float]:  # fmt: skip
     """The line search's measures at the current point: the infeasibility
-    ``|c_E|_1 + |c_I - s|_1``, the barrier function and its slope along the step."""
-    theta = 0.0
-    for k in range(cE.size):
-        theta += abs(cE[k])
+    (:func:`_infeasibility`), the barrier function and its slope along the step."""
     dsum = 0.0
     for r in range(s.size):
-        theta += abs(cI[r] - s[r])
         dsum += ds[r] / s[r]
     gdx = 0.0
     for a in range(g.size):
         gdx += g[a] * dx[a]
-    return theta, f - mu * logsum, gdx - mu * dsum
+    return _infeasibility(cE, cI, s), f - mu * logsum, gdx - mu * dsum
 
 
 @_jit_inline
