@@ -4,12 +4,28 @@ import pytest
 
 
 @pytest.fixture(scope="session", autouse=True)
-def _compiled_kernels():
+def _compiled_kernels(tmp_path_factory: pytest.TempPathFactory) -> None:
     """Load or compile stackik's numba kernels once, before any test measures a time (on
-    an empty cache the two modes' families compile in two processes at once)."""
+    an empty cache the two modes' families compile in two processes at once). Under
+    pytest-xdist's workers one worker compiles while the others wait on a file lock, then
+    load what it cached."""
     import os
 
     from stackik.solve.warmup import warm_up
 
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    warm_up(jobs=min(2, cores or 1))
+    jobs = min(2, cores or 1)
+    try:
+        import fcntl
+    except ImportError:  # no POSIX locks: each worker loads or compiles on its own
+        fcntl = None  # type: ignore[assignment]
+    if os.environ.get("PYTEST_XDIST_WORKER") is None or fcntl is None:
+        warm_up(jobs=jobs)
+        return
+    lock = tmp_path_factory.getbasetemp().parent / "stackik-warm-up.lock"
+    with open(lock, "w") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            warm_up(jobs=jobs)
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
