@@ -17,7 +17,8 @@ def _compiled_kernels(tmp_path_factory: pytest.TempPathFactory) -> None:
     jobs = min(2, cores or 1)
     try:
         import fcntl
-    except ImportError:  # no POSIX locks: each worker loads or compiles on its own
+    except ImportError:  # no POSIX locks (Windows): each worker loads or compiles on its
+        # own (docs/guide/start.md: a first session on an empty cache with -n 0)
         fcntl = None  # type: ignore[assignment]
     if os.environ.get("PYTEST_XDIST_WORKER") is None or fcntl is None:
         warm_up(jobs=jobs)
