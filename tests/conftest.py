@@ -15,12 +15,13 @@ def _compiled_kernels(tmp_path_factory: pytest.TempPathFactory) -> None:
 
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     jobs = min(2, cores or 1)
+    if os.environ.get("PYTEST_XDIST_WORKER") is None:
+        warm_up(jobs=jobs)
+        return
     try:
         import fcntl
     except ImportError:  # no POSIX locks (Windows): each worker loads or compiles on its
         # own (docs/guide/start.md: a first session on an empty cache with -n 0)
-        fcntl = None  # type: ignore[assignment]
-    if os.environ.get("PYTEST_XDIST_WORKER") is None or fcntl is None:
         warm_up(jobs=jobs)
         return
     lock = tmp_path_factory.getbasetemp().parent / "stackik-warm-up.lock"
