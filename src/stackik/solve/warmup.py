@@ -63,10 +63,17 @@ _NEEDS: dict[str, tuple[str, ...]] = {
 }
 
 #: numba's LLVM IR optimisation level (``NUMBA_OPT``) for stackik's kernels: 1 instead of
-#: numba's default 3 compiles a family about 15 % faster on an empty cache
-#: (``benchmarks/compile_profile.py``) and solves 1-1.5 % slower, with the same poses
-#: (``docs/benchmarks.md``). A ``NUMBA_OPT`` in the environment takes precedence.
+#: numba's default 3 compiles a family about 20 % faster on an empty cache (planar and
+#: spatial solver families 32 s instead of 40 s each on a 2-core machine) for the same
+#: poses, and solves 1-2 % slower at n <= 8 (``docs/benchmarks.md``). A ``NUMBA_OPT`` in
+#: the environment takes precedence over this and :data:`FAST_KINDS`.
 COMPILE_OPT = 1
+
+#: The families compiled at numba's level 3 all the same: the planar solver's dense
+#: O(n^2) loops (its reduced Hessian, the FN's Gauss-Newton part) run 5-6 % faster there at
+#: n = 16-64 (``benchmarks/paired_trees.py``, docs/benchmarks.md), for about 8 s more of a
+#: first planar solve's compile.
+FAST_KINDS: frozenset[str] = frozenset({"planar"})
 
 _READY: set[str] = set()
 _LOCK = threading.Lock()
@@ -303,11 +310,12 @@ def _warm_row_evaluations(prob: Any, q0: Any, planar: bool) -> None:
 
 
 @contextmanager
-def _compile_opt() -> Iterator[None]:
-    """numba's LLVM IR optimisation level at :data:`COMPILE_OPT` while in the block (the
-    warm-up's compilation), unless the user chose one (``NUMBA_OPT`` in the environment:
-    then that one); restored afterwards, so that the user's own numba code keeps its own.
-    Machine-code generation keeps numba's level (fixed when numba starts)."""
+def _compile_opt(kind: str) -> Iterator[None]:
+    """numba's LLVM IR optimisation level while in the block (the warm-up's compilation of
+    ``kind``): 3 for :data:`FAST_KINDS`, else :data:`COMPILE_OPT`, unless the user chose
+    one (``NUMBA_OPT`` in the environment: then that one); restored afterwards, so that the
+    user's own numba code keeps its own. Machine-code generation keeps numba's level
+    (fixed when numba starts)."""
     from numba.core import config as numba_config
 
     config: Any = numba_config  # its settings are set at import time: mypy sees none
@@ -315,7 +323,7 @@ def _compile_opt() -> Iterator[None]:
         yield
         return
     before = config.OPT
-    config.OPT = config._OptLevel(COMPILE_OPT)
+    config.OPT = config._OptLevel(3 if kind in FAST_KINDS else COMPILE_OPT)
     try:
         yield
     finally:
@@ -430,7 +438,7 @@ def ensure_kernels(kind: str, *, notice: bool = True) -> float:
         if kind in _READY:
             return spent
         t0 = time.perf_counter()
-        with _compile_opt():
+        with _compile_opt(kind):
             if notice and kernels_cached(kind) is False:
                 with _progress(kind):
                     _warm(kind)
