@@ -20,6 +20,30 @@ def test_min_norm_solve_ignores_rounding_sized_singular_values() -> None:
     assert np.allclose(x, ref, rtol=1e-8, atol=1e-18)
 
 
+def test_cholesky_factor_and_solve_in_both_branches() -> None:
+    """``A + shift I = R^T R`` with ``R`` upper triangular, from the loops (below 24 rows)
+    and from LAPACK (24 on), and the solve with it; an indefinite matrix is refused, and
+    its returned ``R`` is ``A + shift I`` itself (lower triangle as upper), as before."""
+    from stackik._compiled.linalg import _cho_solve, _cholesky
+
+    rng = np.random.default_rng(6)
+    for k in (5, 23, 24, 60):
+        X = rng.normal(size=(k, k))
+        A = X @ X.T + k * np.eye(k)
+        for shift in (0.0, 0.25):
+            R, ok = _cholesky(A, shift)
+            S = A + shift * np.eye(k)
+            assert ok and np.array_equal(R, np.triu(R))
+            np.testing.assert_allclose(R, np.linalg.cholesky(S).T, rtol=1e-12, atol=1e-12)
+            b = rng.normal(size=k)
+            np.testing.assert_allclose(_cho_solve(R, b), np.linalg.solve(S, b), rtol=1e-9)
+        bad = A - 2.0 * np.abs(np.linalg.eigvalsh(A)).max() * np.eye(k)
+        R, ok = _cholesky(bad, 0.5)
+        assert not ok
+        if k >= 24:  # LAPACK's refusal returns the matrix, as numba's copy was returned
+            np.testing.assert_array_equal(R, np.triu(bad + 0.5 * np.eye(k)))
+
+
 def test_cholesky_reads_only_the_lower_triangle() -> None:
     """The planar KKT step forms only the lower triangle of its reduced Hessian."""
     from stackik._compiled.linalg import _cholesky

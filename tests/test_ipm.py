@@ -115,11 +115,11 @@ def test_cholesky_and_kkt_step():
     rng = np.random.default_rng(4)
     A = rng.standard_normal((6, 6))
     S = A @ A.T + 0.1 * np.eye(6)
-    L, ok = _ip_linalg._cholesky(S, 0.0)
-    assert ok
-    np.testing.assert_allclose(L @ L.T, S, atol=1e-12)
+    R, ok = _ip_linalg._cholesky(S, 0.0)
+    assert ok and np.array_equal(R, np.triu(R))  # S = R^T R, R upper triangular
+    np.testing.assert_allclose(R.T @ R, S, atol=1e-12)
     b = rng.standard_normal(6)
-    np.testing.assert_allclose(_ip_linalg._cho_solve(L, b), np.linalg.solve(S, b), rtol=1e-10)
+    np.testing.assert_allclose(_ip_linalg._cho_solve(R, b), np.linalg.solve(S, b), rtol=1e-10)
     assert not _ip_linalg._cholesky(S - 10.0 * np.eye(6), 0.0)[1]
     big = rng.standard_normal((40, 40))
     assert _ip_linalg._cholesky(big @ big.T + np.eye(40), 0.0)[1]  # the LAPACK branch

