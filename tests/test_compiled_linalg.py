@@ -44,6 +44,29 @@ def test_cholesky_factor_and_solve_in_both_branches() -> None:
             np.testing.assert_array_equal(R, np.triu(bad + 0.5 * np.eye(k)))
 
 
+def test_cholesky_plus_is_the_factor_of_the_sum() -> None:
+    """``_cholesky_plus(A, D, t)`` is ``_cholesky(A + t * D, 0.0)`` bit for bit, refusals
+    and their returned matrix included, reading only the two lower triangles."""
+    from stackik._compiled.linalg import _cholesky, _cholesky_plus
+
+    rng = np.random.default_rng(7)
+    for k in (6, 30, 100):
+        X = rng.normal(size=(k, k))
+        A = X @ X.T - 0.5 * k * np.eye(k)  # indefinite: small t refused, large t accepted
+        Y = rng.normal(size=(3, k))
+        D = Y.T @ Y + np.eye(k)
+        upper = np.triu_indices(k, 1)
+        A_lower, D_lower = A.copy(), D.copy()
+        A_lower[upper] = np.nan
+        D_lower[upper] = np.nan
+        for t in (1e-4, 0.37, 1e2, 1e4):
+            R, ok = _cholesky(A + t * D, 0.0)
+            R2, ok2 = _cholesky_plus(A, D, t)
+            assert ok == ok2 and np.array_equal(R, R2)
+            if k >= 24:
+                assert np.array_equal(R, _cholesky_plus(A_lower, D_lower, t)[0])
+
+
 def test_cholesky_reads_only_the_lower_triangle() -> None:
     """The planar KKT step forms only the lower triangle of its reduced Hessian."""
     from stackik._compiled.linalg import _cholesky

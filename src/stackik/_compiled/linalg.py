@@ -77,15 +77,59 @@ def _cholesky(A: FloatArray, shift: float) -> tuple[FloatArray, bool]:
     numba's ``np.linalg.cholesky``, which asks for ``'U'`` on a C-order copy: 174 against
     250 us at 189 rows on one core; the factor agrees to rounding); below it the loops,
     whose arithmetic is the same in either layout."""
+    if A.shape[0] >= 24:  # LAPACK pays off beyond small sizes
+        return _potrf(A, A, 0.0, shift, False)
+    return _cholesky_loops(A, shift)
+
+
+@_jit
+def _cholesky_plus(A: FloatArray, D: FloatArray, t: float) -> tuple[FloatArray, bool]:
+    """:func:`_cholesky` of ``A + t D`` (the inertia correction's shifted matrices), built
+    into the factor's buffer from the two lower triangles, not as a matrix of its own: the
+    same numbers as ``_cholesky(A + t * D, 0.0)``."""
+    if A.shape[0] >= 24:
+        return _potrf(A, D, t, 0.0, True)
+    return _cholesky_loops(A + t * D, 0.0)
+
+
+@_jit_inline
+def _potrf(A: FloatArray, D: FloatArray, t: float, shift: float,
+           plus: bool) -> tuple[FloatArray, bool]:  # fmt: skip
+    """LAPACK's factor of ``S = A (+ t D when plus) + shift I`` (lower triangles read),
+    refused below a pivot of ``1e-7 sqrt|S_ii|``; when LAPACK refuses, ``S`` itself."""
     k = A.shape[0]
-    if k >= 24:  # LAPACK pays off beyond small sizes
-        R = _lower_to_upper(A, shift)
-        if _POTRF(_DOUBLE, _LOWER, k, R.ctypes, k) != 0:
-            return _lower_to_upper(A, shift), False  # not a factor: A + shift I as R
-        for i in range(k):
-            if not R[i, i] > 1e-7 * math.sqrt(abs(A[i, i] + shift) + 1e-300):
-                return R, False
-        return R, True
+    R = _upper_of(A, D, t, shift, plus)
+    if _POTRF(_DOUBLE, _LOWER, k, R.ctypes, k) != 0:
+        return _upper_of(A, D, t, shift, plus), False  # not a factor: S as R
+    for i in range(k):
+        sii = A[i, i] + t * D[i, i] if plus else A[i, i]
+        if not R[i, i] > 1e-7 * math.sqrt(abs(sii + shift) + 1e-300):
+            return R, False
+    return R, True
+
+
+@_jit_inline
+def _upper_of(A: FloatArray, D: FloatArray, t: float, shift: float, plus: bool) -> FloatArray:
+    """The lower triangle of ``A (+ t D when plus)``, its diagonal plus ``shift``, as the
+    upper triangle of a new C-order matrix, zeros below."""
+    k = A.shape[0]
+    R = np.zeros((k, k))
+    for j in range(k):
+        if plus:
+            R[j, j] = A[j, j] + t * D[j, j] + shift
+            for i in range(j + 1, k):
+                R[j, i] = A[i, j] + t * D[i, j]
+        else:
+            R[j, j] = A[j, j] + shift
+            for i in range(j + 1, k):
+                R[j, i] = A[i, j]
+    return R
+
+
+@_jit_inline
+def _cholesky_loops(A: FloatArray, shift: float) -> tuple[FloatArray, bool]:
+    """:func:`_cholesky` by loops (below 24 rows, where LAPACK's call costs more)."""
+    k = A.shape[0]
     R = np.zeros((k, k))
     dmax = 0.0
     for i in range(k):
@@ -103,19 +147,6 @@ def _cholesky(A: FloatArray, shift: float) -> tuple[FloatArray, bool]:
                 acc -= R[p, i] * R[p, j]
             R[j, i] = acc / R[j, j]
     return R, True
-
-
-@_jit_inline
-def _lower_to_upper(A: FloatArray, shift: float) -> FloatArray:
-    """``A``'s lower triangle (its diagonal plus ``shift``) as the upper triangle of a new
-    C-order matrix, zeros below."""
-    k = A.shape[0]
-    R = np.zeros((k, k))
-    for j in range(k):
-        R[j, j] = A[j, j] + shift
-        for i in range(j + 1, k):
-            R[j, i] = A[i, j]
-    return R
 
 
 @_jit

@@ -39,6 +39,7 @@ from stackik._compiled.dense_rows import (
 from stackik._compiled.linalg import (
     _cho_solve,
     _cholesky,
+    _cholesky_plus,
     _inv3,
     add_distance_term,
     subtract_blocks_scaled,
@@ -518,7 +519,7 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, la
         shift = max(last_shift / 3.0, 1e-4) if last_shift > 0.0 else 1e-4
         grow = 8.0 if last_shift > 0.0 else 100.0
         for _ in range(60):  # bounded: NaN entries never factor
-            L, ok = _cholesky(Hz + shift * ZtZ, 0.0)
+            L, ok = _cholesky_plus(Hz, ZtZ, shift)
             if ok or not shift <= 1e20 * (1.0 + scale):
                 break
             shift *= grow
