@@ -70,9 +70,9 @@ _NEEDS: dict[str, tuple[str, ...]] = {
 COMPILE_OPT = 1
 
 #: The families compiled at numba's level 3 all the same: the planar solver's dense
-#: O(n^2) loops (its reduced Hessian, the FN's Gauss-Newton part) run 5-6 % faster there at
-#: n = 16-64 (``benchmarks/paired_trees.py``, docs/benchmarks.md), for about 8 s more of a
-#: first planar solve's compile.
+#: O(n^2) loops (its reduced Hessian, the FN's Gauss-Newton part) run 4-9 % faster there at
+#: n = 16-64 (``benchmarks/paired_trees.py``, docs/benchmarks.md), for about 8-10 s more of
+#: a first planar solve's compile.
 FAST_KINDS: frozenset[str] = frozenset({"planar"})
 
 _READY: set[str] = set()
