@@ -475,7 +475,7 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, la
     # Hz = Z^T W Z = E^T M[:3] + M[3:] with M = W Z (N, K) = W[:, :3] E + W[:, 3:]: its
     # first three rows stored, the others formed where Hz needs them, and only Hz's lower
     # triangle (what the Cholesky factor reads): the same numbers, 10 instead of 16 us at
-    # n = 64, where the factor itself costs 0.3 ms (benchmarks/profile_planar.py)
+    # n = 64, where one factorisation costs about 17 times that (docs/benchmarks.md)
     M3 = np.empty((3, K))
     for i in range(3):
         w0 = W[i, 0]
