@@ -61,6 +61,10 @@ FloatArray = Any
 
 #: Line-search halvings before a step counts as rejected.
 _LS_TRIES = 40
+#: Second-order corrections after a rejected full step, at most (IPOPT's ``max_soc``) ...
+_SOC_MAX = 4
+#: ... each while it cuts the infeasibility by this factor (IPOPT's ``kappa_soc``).
+_SOC_KAPPA = 0.99
 
 
 @_jit_inline
@@ -197,15 +201,15 @@ def _backtrack(x: FloatArray, s: FloatArray, dx: FloatArray, ds: FloatArray, alp
                P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray, wq: float,
                mu: float, theta: float, phi: float, gphi: float, theta_max: float,
                theta_min: float, filt: FloatArray, nfilt: int, logsum: float,
-               here: Any) -> tuple[Any, ...]:  # fmt: skip
-    """Backtracking from the step length ``alpha`` (the fraction to the boundary) until
-    the filter accepts, at most :data:`_LS_TRIES` halvings down to 1e-12. Returns whether
-    a trial point was accepted and whether by the objective's test, the last step length,
-    the trial point, its slacks, their log-barrier sum and the evaluation there
-    (:func:`kernel.evaluate`'s tuple; ``here``, the current point's, if none was made)."""
+               here: Any, tries: int) -> tuple[Any, ...]:  # fmt: skip
+    """Backtracking from the step length ``alpha`` until the filter accepts, at most
+    ``tries`` trial points, halving down to 1e-12. Returns whether a trial point was
+    accepted and whether by the objective's test, the last step length, the trial point,
+    its slacks, their log-barrier sum and the evaluation there (:func:`kernel.evaluate`'s
+    tuple; ``here``, the current point's, if none was made)."""
     accepted = by_f = False
     xt, st, logsum_t, ev = x, s, logsum, here
-    for _ in range(_LS_TRIES):
+    for _ in range(tries):
         xt = x + alpha * dx
         st = s + alpha * ds
         ev = kernel.evaluate(xt, P, lo, hi, ug, wq)
@@ -220,6 +224,67 @@ def _backtrack(x: FloatArray, s: FloatArray, dx: FloatArray, ds: FloatArray, alp
         if alpha < 1e-12:
             break
     return accepted, by_f, alpha, xt, st, logsum_t, ev
+
+
+@_jit_inline
+def _more_infeasible(ev: Any, st: FloatArray, theta: float) -> bool:
+    """Whether a trial point (evaluation ``ev``, slacks ``st``) is finite and no less
+    infeasible than ``theta`` (:func:`_infeasibility`)."""
+    theta_t = _infeasibility(ev[2], ev[4], st)
+    return theta <= theta_t < math.inf
+
+
+@_jit_inline
+def _second_order(x: FloatArray, s: FloatArray, z: FloatArray, a_s: float, st: FloatArray,
+                  ev: Any, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+                  wq: float, mu: float, theta: float, phi: float, gphi: float,
+                  theta_max: float, theta_min: float, filt: FloatArray, nfilt: int,
+                  W: FloatArray, AE: FloatArray, AEty: FloatArray, cE: FloatArray,
+                  cI: FloatArray, AI: Any, g: FloatArray, Sig: FloatArray, fac: Any,
+                  shift: float) -> tuple[Any, ...]:  # fmt: skip
+    """Second-order corrections of a rejected full step (IPOPT's, Waechter & Biegler 2006,
+    A-5.5 to A-5.9): the step's constraint residuals (``c_E`` and ``c_I - s``) at the
+    rejected trial point ``x + a_s dx`` (slacks ``st``, evaluation ``ev``) are corrected by
+    a KKT step with the same matrix (``W``, its factor ``fac`` and shift ``shift``:
+    :func:`kernel.kkt_solve`, no new factorisation) and the accumulated residuals
+    ``a c(x) + c(x_trial)`` in place of ``c(x)``; the corrected point, cut to the boundary,
+    goes to the filter with the full step's length and slope; at most :data:`_SOC_MAX`
+    corrections, each while the infeasibility falls by :data:`_SOC_KAPPA`. Without it the
+    curvature of the rows stops full steps near a solution of a tall stack (Maratos effect:
+    planar n = 64 ran up to the iteration limit in steps of 1e-2; docs/benchmarks.md).
+    Returns whether a corrected point was accepted, whether by the objective's test, the
+    point, its slacks, their log-barrier sum, its evaluation, the step ``dx`` and step
+    length that reached it, and the multipliers' step and its length."""
+    m = s.size
+    theta_old = _infeasibility(ev[2], ev[4], st)
+    cEs = a_s * cE + ev[2]
+    rIs = np.empty(m)  # the accumulated c_I - s, as the row values c_I of the step's rhs
+    for r in range(m):
+        rIs[r] = s[r] + a_s * (cI[r] - s[r]) + (ev[4][r] - st[r])
+    for _ in range(_SOC_MAX):
+        rhs = _newton_rhs(g, AEty, AI, rIs, s, Sig, mu)
+        dxc = kernel.kkt_solve(P, fac, W, AE, cEs, rhs, shift)
+        if not _finite(dxc):
+            break
+        dsc, dzc = _slack_steps(AI_dot(AI, dxc), rIs, s, z, Sig, mu)
+        a_sc, a_zc = _to_boundary(s, z, dsc, dzc, mu)
+        xc = x + a_sc * dxc
+        sc = s + a_sc * dsc
+        evc = kernel.evaluate(xc, P, lo, hi, ug, wq)
+        theta_c, logsum_c = _trial_measures(evc[2], evc[4], sc)
+        if not (math.isfinite(evc[0]) and math.isfinite(theta_c)):
+            break
+        accepted, by_f = _filter_accepts(theta, phi, gphi, a_s, theta_c, evc[0] - mu * logsum_c,
+                                         theta_max, theta_min, filt, nfilt)  # fmt: skip
+        if accepted:
+            return True, by_f, xc, sc, logsum_c, evc, dxc, a_sc, dzc, a_zc
+        if theta_c > _SOC_KAPPA * theta_old:
+            break
+        theta_old = theta_c
+        cEs = a_sc * cEs + evc[2]
+        for r in range(m):
+            rIs[r] = s[r] + a_sc * (rIs[r] - s[r]) + (evc[4][r] - sc[r])
+    return False, False, x, s, 0.0, ev, x, 0.0, z, 0.0
 
 
 @_jit_inline
@@ -416,7 +481,8 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
                 Sig = z / s
                 add_normal(W, AI, Sig)  # the blocks' J^T Sigma J (and the dense rows', everywhere)
                 rhs = _newton_rhs(g, AEty, AI, cI, s, Sig, mu)
-                dx, shift = kernel.kkt_step(Ps, W, AE, cE, rhs, last_shift, prev_shift == 0.0)
+                fac, shift = kernel.kkt_factor(Ps, W, AE, last_shift, prev_shift == 0.0)
+                dx = kernel.kkt_solve(Ps, fac, W, AE, cE, rhs, shift)
                 if not _finite(dx):
                     status = IP_NONFINITE
                     break
@@ -427,11 +493,27 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
                 a_s, a_z = _to_boundary(s, z, ds, dz, mu)
                 # --- filter line search -----------------------------------------------------
                 theta, phi, gphi = _merit(f, g, cE, cI, s, ds, dx, mu, logsum)
-                # backtracking from the fraction to the boundary until the filter accepts
+                # the full step (the fraction to the boundary) ...
+                here = (f, g, cE, AE, cI, AI, parts)
                 accepted, by_f, alpha, xt, st, logsum_t, ev = _backtrack(
                     x, s, dx, ds, a_s, Ps, lo, hi, ug, wqs, mu, theta, phi, gphi, theta_max,
-                    theta_min, filt, nfilt, logsum, (f, g, cE, AE, cI, AI, parts),
+                    theta_min, filt, nfilt, logsum, here, 1,
                 )  # fmt: skip
+                if not accepted and math.isfinite(ev[0]) and _more_infeasible(ev, st, theta):
+                    # ... rejected with more infeasibility: second-order corrections ...
+                    accepted, by_f, xc, sc, logsum_c, evc, dxc, a_sc, dzc, a_zc = _second_order(
+                        x, s, z, a_s, st, ev, Ps, lo, hi, ug, wqs, mu, theta, phi, gphi,
+                        theta_max, theta_min, filt, nfilt, W, AE, AEty, cE, cI, AI, g, Sig,
+                        fac, shift,
+                    )  # fmt: skip
+                    if accepted:
+                        xt, st, logsum_t, ev = xc, sc, logsum_c, evc
+                        dx, alpha, dz, a_z = dxc, a_sc, dzc, a_zc
+                if not accepted and alpha >= 1e-12:  # ... then backtracking (alpha = a_s / 2)
+                    accepted, by_f, alpha, xt, st, logsum_t, ev = _backtrack(
+                        x, s, dx, ds, alpha, Ps, lo, hi, ug, wqs, mu, theta, phi, gphi,
+                        theta_max, theta_min, filt, nfilt, logsum, here, _LS_TRIES - 1,
+                    )  # fmt: skip
                 ft, gt, cEt, AEt, cIt, AIt, parts_t = ev
                 if accepted and not by_f:
                     nfilt = _filter_add(filt, nfilt, theta, phi)

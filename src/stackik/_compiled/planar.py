@@ -449,26 +449,19 @@ _lagrangian_hessian_ext = _lagrangian_hessian
 
 
 @_jit_inline
-def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, last_shift: float,
-              try_plain: bool) -> tuple[FloatArray, FloatArray, float, float]:  # fmt: skip
-    """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` by a null-space method.
-
-    The null-space basis ``Z = [-B^-1 C; I]`` uses the first platform's three columns
-    ``B`` of ``AE = [B C]`` (always invertible: a rotation and a unit angle row). When the
-    reduced Hessian ``Z^T W Z`` is not positive definite, a multiple of the identity is
-    added until it is (the shift), so that ``dx`` is a descent direction of the merit
-    function; after a shifted step (``try_plain`` False) from ``last_shift / 3`` on, with no
-    unshifted attempt. Returns ``dx``, ``dy``, the curvature ``dx^T W dx`` and the shift used.
-    """
+def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
+                try_plain: bool) -> tuple[Any, float]:  # fmt: skip
+    """The factor of :func:`_kkt_step`'s null-space method: ``(Binv, E, Et, L)`` (the
+    inverse of ``AE``'s first three columns, the dependent part of ``Z`` and its
+    transpose, the reduced Hessian's Cholesky factor) and the shift; every step with the
+    same ``W`` and ``AE`` is then :func:`_kkt_solve`."""
     N = W.shape[0]
     K = N - 3
     Binv = _inv3(AE[:, :3])
-    # E = -B^-1 C (3, K): dependent part of Z; dxp = -B^-1 cE. Explicit loops: the inner
-    # dimension is 3, where BLAS calls cost more than the arithmetic.
+    # E = -B^-1 C (3, K): dependent part of Z. Explicit loops: the inner dimension is 3,
+    # where BLAS calls cost more than the arithmetic.
     E = np.empty((3, K))
-    dxp = np.empty(3)
     for i in range(3):
-        dxp[i] = -(Binv[i, 0] * cE[0] + Binv[i, 1] * cE[1] + Binv[i, 2] * cE[2])
         for a in range(K):
             E[i, a] = -(Binv[i, 0] * AE[0, 3 + a] + Binv[i, 1] * AE[1, 3 + a]
                         + Binv[i, 2] * AE[2, 3 + a])  # fmt: skip
@@ -494,13 +487,6 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, la
         for b in range(a + 1):
             m = w0 * E[0, b] + w1 * E[1, b] + w2 * E[2, b] + W[3 + a, 3 + b]
             Hz[a, b] = e0 * M3[0, b] + e1 * M3[1, b] + e2 * M3[2, b] + m
-    # rz = Z^T (rhs - W[:, :3] dxp)
-    res = np.empty(N)
-    for i in range(N):
-        res[i] = rhs[i] - (W[i, 0] * dxp[0] + W[i, 1] * dxp[1] + W[i, 2] * dxp[2])
-    rz = np.empty(K)
-    for a in range(K):
-        rz[a] = E[0, a] * res[0] + E[1, a] * res[1] + E[2, a] * res[2] + res[3 + a]
     Et = E.T.copy()
     # inertia correction as in IPOPT: the smallest shift (tried in factors of 8, from a third
     # of the last one) making the reduced Hessian positive definite; unlike IPOPT, no
@@ -523,6 +509,27 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, la
             if ok or not shift <= 1e20 * (1.0 + scale):
                 break
             shift *= grow
+    return (Binv, E, Et, L), shift
+
+
+@_jit_inline
+def _kkt_solve(fac: Any, W: FloatArray, cE: FloatArray, rhs: FloatArray,
+               shift: float) -> FloatArray:  # fmt: skip
+    """``dx`` of ``[W + shift I, -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` from
+    :func:`_kkt_factor`'s factor ``fac`` (of ``W`` and ``AE``) and shift."""
+    Binv, E, Et, L = fac
+    N = W.shape[0]
+    K = N - 3
+    dxp = np.empty(3)  # the particular part: -B^-1 cE
+    for i in range(3):
+        dxp[i] = -(Binv[i, 0] * cE[0] + Binv[i, 1] * cE[1] + Binv[i, 2] * cE[2])
+    # rz = Z^T (rhs - W[:, :3] dxp)
+    res = np.empty(N)
+    for i in range(N):
+        res[i] = rhs[i] - (W[i, 0] * dxp[0] + W[i, 1] * dxp[1] + W[i, 2] * dxp[2])
+    rz = np.empty(K)
+    for a in range(K):
+        rz[a] = E[0, a] * res[0] + E[1, a] * res[1] + E[2, a] * res[2] + res[3 + a]
     if shift > 0.0:  # the particular part sees the shifted Hessian too
         rz -= shift * (Et @ dxp)
     w = _cho_solve(L, rz)
@@ -534,6 +541,26 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, la
         dx[i] = acc
     for a in range(K):
         dx[3 + a] = w[a]
+    return dx
+
+
+@_jit_inline
+def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, last_shift: float,
+              try_plain: bool) -> tuple[FloatArray, FloatArray, float, float]:  # fmt: skip
+    """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` by a null-space method
+    (:func:`_kkt_factor`, then :func:`_kkt_solve`).
+
+    The null-space basis ``Z = [-B^-1 C; I]`` uses the first platform's three columns
+    ``B`` of ``AE = [B C]`` (always invertible: a rotation and a unit angle row). When the
+    reduced Hessian ``Z^T W Z`` is not positive definite, a multiple of the identity is
+    added until it is (the shift), so that ``dx`` is a descent direction of the merit
+    function; after a shifted step (``try_plain`` False) from ``last_shift / 3`` on, with no
+    unshifted attempt. Returns ``dx``, ``dy``, the curvature ``dx^T W dx`` and the shift used.
+    """
+    N = W.shape[0]
+    fac, shift = _kkt_factor(W, AE, last_shift, try_plain)
+    dx = _kkt_solve(fac, W, cE, rhs, shift)
+    Binv = fac[0]
     Wdx = np.empty(N)
     curv = 0.0
     for i in range(N):
@@ -593,11 +620,17 @@ def _kernel_evaluate(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: 
 
 
 @_jit_internal
-def _kernel_kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
-                     last_shift: float, try_plain: bool) -> tuple[FloatArray, float]:  # fmt: skip
-    """:func:`_kkt_step`'s step and shift."""
-    dx, _, _, shift = _kkt_step(W, AE, cE, rhs, last_shift, try_plain)
-    return dx, shift
+def _kernel_kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
+                       try_plain: bool) -> tuple[Any, float]:  # fmt: skip
+    """:func:`_kkt_factor`."""
+    return _kkt_factor(W, AE, last_shift, try_plain)
+
+
+@_jit_internal
+def _kernel_kkt_solve(fac: Any, W: FloatArray, AE: FloatArray, cE: FloatArray,
+                      rhs: FloatArray, shift: float) -> FloatArray:  # fmt: skip
+    """:func:`_kkt_solve`."""
+    return _kkt_solve(fac, W, cE, rhs, shift)
 
 
 @_jit_internal
@@ -616,7 +649,8 @@ kernel.register(
     PlanarData,
     evaluate=_kernel_evaluate,
     hessian=_lagrangian_hessian,
-    kkt_step=_kernel_kkt_step,
+    kkt_factor=_kernel_kkt_factor,
+    kkt_solve=_kernel_kkt_solve,
     eq_multipliers=_kernel_eq_multipliers,
     eq_transpose_dot=_kernel_eq_transpose_dot,
     with_fscale=_with_fscale,

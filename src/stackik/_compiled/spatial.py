@@ -539,22 +539,19 @@ def _hessian(parts: Any, yE: FloatArray, z: FloatArray, P: Any, wq: float) -> Fl
 
 
 @_jit
-def _basis(AE: FloatArray, cE: FloatArray) -> tuple[FloatArray, FloatArray, bool]:
-    """A null-space basis ``Z`` (N, K) of the 6 x N equality Jacobian and the particular
-    step ``dxp`` with ``AE dxp = -cE``: ``Z = [-B^-1 C; I]`` from the first platform's six
-    columns ``B`` (a translation block and three rotation axes: invertible away from
-    gimbal lock; ``structured`` True), else an orthonormal basis from the SVD."""
+def _basis(AE: FloatArray) -> tuple[Any, ...]:
+    """A null-space basis ``Z`` (N, K) of the 6 x N equality Jacobian: ``Z = [-B^-1 C; I]``
+    from the first platform's six columns ``B`` (a translation block and three rotation
+    axes: invertible away from gimbal lock; ``structured`` True), else an orthonormal basis
+    from the SVD. Returns ``Z, Binv, U, S, Vt, rank, structured`` (``B^-1`` or the SVD of
+    ``AE`` and its rank, what :func:`_particular` needs; the other part empty)."""
     N = AE.shape[1]
     K = N - 6
     Binv, ok = _solve6(AE[:, :6].copy())
+    none = np.empty((0, 0))
     if ok:
         Z = np.zeros((N, K))
-        dxp = np.zeros(N)
         for i in range(6):
-            acc = 0.0
-            for j in range(6):
-                acc -= Binv[i, j] * cE[j]
-            dxp[i] = acc
             for a in range(K):
                 acc = 0.0
                 for j in range(6):
@@ -562,31 +559,47 @@ def _basis(AE: FloatArray, cE: FloatArray) -> tuple[FloatArray, FloatArray, bool
                 Z[i, a] = acc
         for a in range(K):
             Z[6 + a, a] = 1.0
-        return Z, dxp, True
+        return Z, Binv, none, np.empty(0), none, 0, True
     U, S, Vt = np.linalg.svd(AE)
     rank = 0
     for k in range(6):
         if S[k] > 1e-10 * S[0]:
             rank += 1
+    return Vt[rank:].T.copy(), Binv, U, S, Vt, rank, False
+
+
+@_jit_inline
+def _particular(fac: Any, cE: FloatArray, N: int) -> FloatArray:
+    """The particular step ``dxp`` (N,) with ``AE dxp = -cE`` of :func:`_basis`'s data
+    (in ``fac``, :func:`_kkt_factor`'s): ``-B^-1 cE`` in the first six coordinates, else
+    the least-norm solution from the SVD."""
+    _, _, Binv, U, S, Vt, rank, structured = fac
     dxp = np.zeros(N)
+    if structured:
+        for i in range(6):
+            acc = 0.0
+            for j in range(6):
+                acc -= Binv[i, j] * cE[j]
+            dxp[i] = acc
+        return dxp
     for k in range(rank):
         coef = -(U[:, k] @ cE) / S[k]
         for a in range(N):
             dxp[a] += coef * Vt[k, a]
-    return Vt[rank:].T.copy(), dxp, False
+    return dxp
 
 
 @_jit_inline
-def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
-              last_shift: float, try_plain: bool) -> tuple[FloatArray, float]:  # fmt: skip
-    """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` for ``dx`` by a null-space method
-    (:func:`_basis`), adding ``delta I`` to ``W`` until the reduced Hessian is positive
-    definite (IPOPT's inertia correction; ``try_plain`` False: the previous step needed a
-    shift, the unshifted factorisation is skipped, as in the planar kernel's
-    :func:`stackik._compiled.planar._kkt_step`)."""
-    Z, dxp, structured = _basis(AE, cE)
+def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
+                try_plain: bool) -> tuple[Any, float]:  # fmt: skip
+    """The factor of :func:`_kkt_step`'s null-space method (:func:`_basis`): ``(Z, L,
+    Binv, U, S, Vt, rank, structured)`` with the reduced Hessian's Cholesky factor ``L``,
+    made positive definite by adding ``delta I`` to ``W`` (IPOPT's inertia correction;
+    ``try_plain`` False: the previous step needed a shift, the unshifted factorisation is
+    skipped, as in the planar kernel's :func:`stackik._compiled.planar._kkt_factor`), and
+    the shift; every step with the same ``W`` and ``AE`` is then :func:`_kkt_solve`."""
+    Z, Binv, U, S, Vt, rank, structured = _basis(AE)
     N = W.shape[0]
-    res = rhs - W @ dxp
     if structured:  # Z = [E; I]: products in O(N^2 6) instead of O(N^3)
         K = N - 6
         E = Z[:6]
@@ -598,18 +611,15 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
                     for a in range(K):
                         WZ[i, a] += wij * E[j, a]
         Hz = WZ[6:].copy()
-        rz = res[6:].copy()
         for j in range(6):
             for a in range(K):
                 ea = E[j, a]
                 if ea != 0.0:
-                    rz[a] += ea * res[j]
                     for b in range(K):
                         Hz[a, b] += ea * WZ[j, b]
     else:
         WZ = W @ Z
         Hz = Z.T @ WZ
-        rz = Z.T @ res
     K = Hz.shape[0]
     shift = 0.0
     ok = False
@@ -627,11 +637,41 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
             if ok or not shift <= 1e20 * (1.0 + scale):
                 break
             shift *= grow
+    return (Z, L, Binv, U, S, Vt, rank, structured), shift
+
+
+@_jit_inline
+def _kkt_solve(fac: Any, W: FloatArray, cE: FloatArray, rhs: FloatArray,
+               shift: float) -> FloatArray:  # fmt: skip
+    """``dx`` of ``[W + shift I, -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` from
+    :func:`_kkt_factor`'s factor ``fac`` (of ``W`` and ``AE``) and shift."""
+    Z, L = fac[0], fac[1]
+    N = W.shape[0]
+    dxp = _particular(fac, cE, N)
+    res = rhs - W @ dxp
+    if fac[7]:  # structured, Z = [E; I]
+        K = N - 6
+        rz = res[6:].copy()
+        for j in range(6):
+            for a in range(K):
+                ea = Z[j, a]
+                if ea != 0.0:
+                    rz[a] += ea * res[j]
+    else:
+        rz = Z.T @ res
     if shift > 0.0:  # the particular part sees the shifted Hessian too
         rz -= shift * (Z.T @ dxp)
     wz = _cho_solve(L, rz)
-    dx = dxp + Z @ wz
-    return dx, shift
+    return dxp + Z @ wz
+
+
+@_jit_inline
+def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
+              last_shift: float, try_plain: bool) -> tuple[FloatArray, float]:  # fmt: skip
+    """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` for ``dx`` by a null-space method
+    (:func:`_kkt_factor`, then :func:`_kkt_solve`); returns ``dx`` and the shift."""
+    fac, shift = _kkt_factor(W, AE, last_shift, try_plain)
+    return _kkt_solve(fac, W, cE, rhs, shift), shift
 
 
 @_jit_inline
@@ -670,10 +710,17 @@ def _with_target(P0: Any, position: Any, rotation: Any) -> Any:
 # The barrier method's kernel interface (stackik._compiled.kernel; the loop: barrier.py)
 # =========================================================================================
 @_jit_internal
-def _kernel_kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
-                     last_shift: float, try_plain: bool) -> tuple[FloatArray, float]:  # fmt: skip
-    """:func:`_kkt_step`."""
-    return _kkt_step(W, AE, cE, rhs, last_shift, try_plain)
+def _kernel_kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
+                       try_plain: bool) -> tuple[Any, float]:  # fmt: skip
+    """:func:`_kkt_factor`."""
+    return _kkt_factor(W, AE, last_shift, try_plain)
+
+
+@_jit_internal
+def _kernel_kkt_solve(fac: Any, W: FloatArray, AE: FloatArray, cE: FloatArray,
+                      rhs: FloatArray, shift: float) -> FloatArray:  # fmt: skip
+    """:func:`_kkt_solve`."""
+    return _kkt_solve(fac, W, cE, rhs, shift)
 
 
 @_jit_internal
@@ -692,7 +739,8 @@ kernel.register(
     SpatialData,
     evaluate=_kernel_evaluate,
     hessian=_hessian,
-    kkt_step=_kernel_kkt_step,
+    kkt_factor=_kernel_kkt_factor,
+    kkt_solve=_kernel_kkt_solve,
     eq_multipliers=_kernel_eq_multipliers,
     eq_transpose_dot=_kernel_eq_transpose_dot,
     with_fscale=_with_fscale,
