@@ -63,8 +63,12 @@ FloatArray = Any
 _LS_TRIES = 40
 #: Second-order corrections after a rejected full step, at most (IPOPT's ``max_soc``) ...
 _SOC_MAX = 4
-#: ... each while it cuts the infeasibility by this factor (IPOPT's ``kappa_soc``).
+#: ... each while it cuts the infeasibility by this factor (IPOPT's ``kappa_soc``) ...
 _SOC_KAPPA = 0.99
+#: ... in problems of at least this many variables: below it (planar n = 4) the
+#: corrections saved 3 % of the iterations and cost about 4 % more time (paired runs,
+#: docs/benchmarks.md); from planar n = 8 and spatial n = 4 on they pay or cost nothing.
+_SOC_MIN_N = 24
 
 
 @_jit_inline
@@ -231,7 +235,7 @@ def _more_infeasible(ev: Any, st: FloatArray, theta: float) -> bool:
     """Whether a trial point (evaluation ``ev``, slacks ``st``) is finite and no less
     infeasible than ``theta`` (:func:`_infeasibility`)."""
     theta_t = _infeasibility(ev[2], ev[4], st)
-    return theta <= theta_t < math.inf
+    return math.isfinite(ev[0]) and theta <= theta_t < math.inf
 
 
 @_jit_inline
@@ -423,6 +427,7 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
     viol = np.full(ns, np.inf)
     none = np.empty(0)
     s_last = z_last = yE_last = none
+    soc = N >= _SOC_MIN_N  # second-order corrections (:func:`_second_order`)
     for j in range(ns):
         for k in range(N):  # loops: an array assigned to a slice compiles numba's
             X[j, k] = U0[j, k]  # shape-mismatch message (string formatting) into the kernel
@@ -481,8 +486,7 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
                 Sig = z / s
                 add_normal(W, AI, Sig)  # the blocks' J^T Sigma J (and the dense rows', everywhere)
                 rhs = _newton_rhs(g, AEty, AI, cI, s, Sig, mu)
-                fac, shift = kernel.kkt_factor(Ps, W, AE, last_shift, prev_shift == 0.0)
-                dx = kernel.kkt_solve(Ps, fac, W, AE, cE, rhs, shift)
+                dx, shift, fac = kernel.kkt_step(Ps, W, AE, cE, rhs, last_shift, prev_shift == 0.0)
                 if not _finite(dx):
                     status = IP_NONFINITE
                     break
@@ -499,7 +503,7 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
                     x, s, dx, ds, a_s, Ps, lo, hi, ug, wqs, mu, theta, phi, gphi, theta_max,
                     theta_min, filt, nfilt, logsum, here, 1,
                 )  # fmt: skip
-                if not accepted and math.isfinite(ev[0]) and _more_infeasible(ev, st, theta):
+                if soc and not accepted and _more_infeasible(ev, st, theta):
                     # ... rejected with more infeasibility: second-order corrections ...
                     accepted, by_f, xc, sc, logsum_c, evc, dxc, a_sc, dzc, a_zc = _second_order(
                         x, s, z, a_s, st, ev, Ps, lo, hi, ug, wqs, mu, theta, phi, gphi,

@@ -32,7 +32,7 @@ __all__ = [
     "eq_transpose_dot",
     "evaluate",
     "hessian",
-    "kkt_factor",
+    "kkt_step",
     "kkt_solve",
     "register",
     "with_fscale",
@@ -133,23 +133,24 @@ def _hessian_call(typingctx: Any, parts: Any, yE: Any, z: Any, P: Any, wq: Any) 
 hessian: Any = intrinsic(_hessian_call)
 
 
-def _kkt_factor_call(typingctx: Any, P: Any, W: Any, AE: Any, last_shift: Any,
-                     try_plain: Any) -> Any:  # fmt: skip
-    """``fac, shift``: the factor of the Newton step's matrix ``[W AE^T; AE 0]`` (a
-    mode's own tuple, for :func:`kkt_solve`) with the reduced Hessian made positive
-    definite by the smallest shift ``delta I`` that does it (inertia correction;
-    ``last_shift`` the last nonzero shift, 0: none yet; the unshifted matrix tried first
-    only when ``try_plain``, i.e. the previous step needed none)."""
-    return _direct_call(typingctx, "kkt_factor", P, (P, W, AE, last_shift, try_plain))
+def _kkt_step_call(typingctx: Any, P: Any, W: Any, AE: Any, cE: Any, rhs: Any,
+                   last_shift: Any, try_plain: Any) -> Any:  # fmt: skip
+    """``dx, shift, fac``: the Newton step of ``[W AE^T; AE 0] [dx; -y] = [rhs; -cE]`` with
+    the reduced Hessian made positive definite by the smallest shift ``delta I`` that does
+    it (inertia correction; ``last_shift`` the last nonzero shift, 0: none yet; the
+    unshifted matrix tried first only when ``try_plain``, i.e. the previous step needed
+    none), and the factor (a mode's own tuple) for :func:`kkt_solve`."""
+    return _direct_call(typingctx, "kkt_step", P,
+                        (P, W, AE, cE, rhs, last_shift, try_plain))  # fmt: skip
 
 
-kkt_factor: Any = intrinsic(_kkt_factor_call)
+kkt_step: Any = intrinsic(_kkt_step_call)
 
 
 def _kkt_solve_call(typingctx: Any, P: Any, fac: Any, W: Any, AE: Any, cE: Any, rhs: Any,
                     shift: Any) -> Any:  # fmt: skip
     """``dx`` (N,): the step of ``[W + shift I, AE^T; AE 0] [dx; -y] = [rhs; -cE]`` from
-    :func:`kkt_factor`'s factor of ``W`` and ``AE``: the Newton step, and with other
+    :func:`kkt_step`'s factor of ``W`` and ``AE``: the Newton step, and with other
     ``cE`` and ``rhs`` its second-order corrections (no new factorisation)."""
     return _direct_call(typingctx, "kkt_solve", P, (P, fac, W, AE, cE, rhs, shift))
 
@@ -194,7 +195,7 @@ clock_period: Any = intrinsic(_clock_period_call)
 _PARAMETERS: dict[str, tuple[str, ...]] = {
     name: fn.__code__.co_varnames[1 : fn.__code__.co_argcount]
     for name, fn in (("evaluate", _evaluate_call), ("hessian", _hessian_call),
-                     ("kkt_factor", _kkt_factor_call), ("kkt_solve", _kkt_solve_call),
+                     ("kkt_step", _kkt_step_call), ("kkt_solve", _kkt_solve_call),
                      ("eq_multipliers", _eq_multipliers_call),
                      ("eq_transpose_dot", _eq_transpose_dot_call),
                      ("with_fscale", _with_fscale_call), ("clock_period", _clock_period_call))

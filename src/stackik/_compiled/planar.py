@@ -620,10 +620,11 @@ def _kernel_evaluate(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: 
 
 
 @_jit_internal
-def _kernel_kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
-                       try_plain: bool) -> tuple[Any, float]:  # fmt: skip
-    """:func:`_kkt_factor`."""
-    return _kkt_factor(W, AE, last_shift, try_plain)
+def _kernel_kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
+                     last_shift: float, try_plain: bool) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`_kkt_factor`, then :func:`_kkt_solve`: the step, the shift and the factor."""
+    fac, shift = _kkt_factor(W, AE, last_shift, try_plain)
+    return _kkt_solve(fac, W, cE, rhs, shift), shift, fac
 
 
 @_jit_internal
@@ -649,7 +650,7 @@ kernel.register(
     PlanarData,
     evaluate=_kernel_evaluate,
     hessian=_lagrangian_hessian,
-    kkt_factor=_kernel_kkt_factor,
+    kkt_step=_kernel_kkt_step,
     kkt_solve=_kernel_kkt_solve,
     eq_multipliers=_kernel_eq_multipliers,
     eq_transpose_dot=_kernel_eq_transpose_dot,
