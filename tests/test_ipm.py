@@ -152,6 +152,55 @@ def test_cholesky_and_kkt_step():
     assert _ipm._kkt_step(W, Aeq, c, r, 0.0, False)[3] == 0.0
 
 
+def test_kkt_factor_serves_other_right_hand_sides():
+    """The factor the step returns (``_kkt_factor``) solves the system with another ``cE``
+    and ``rhs`` (a second-order correction) exactly as a fresh step would, planar and
+    spatial, shifted or not; the spatial SVD basis (first six columns singular) too."""
+    from stackik._compiled import spatial as _sp
+
+    rng = np.random.default_rng(7)
+    for mod, E, N in ((_ipm, 3, 12), (_sp, 6, 24)):
+        W = rng.standard_normal((N, N))
+        W = W @ W.T + np.eye(N)
+        AE = rng.standard_normal((E, N))
+        for sign in (1.0, -1.0):  # positive definite, then indefinite (a shift)
+            fac, shift = mod._kkt_factor(sign * W, AE, 0.0, True)
+            assert (shift > 0.0) == (sign < 0.0)
+            c2, r2 = rng.standard_normal(E), rng.standard_normal(N)
+            dx = mod._kkt_solve(fac, sign * W, c2, r2, shift)
+            np.testing.assert_array_equal(dx, mod._kkt_step(sign * W, AE, c2, r2, 0.0, True)[0])
+            np.testing.assert_allclose(AE @ dx, -c2, atol=1e-10)
+            # W dx + shift dx - rhs lies in the range of AE^T
+            res = sign * W @ dx + shift * dx - r2
+            y = np.linalg.lstsq(AE.T, res, rcond=None)[0]
+            np.testing.assert_allclose(AE.T @ y, res, atol=1e-8 * (1.0 + shift))
+    AE = rng.standard_normal((6, 24))
+    AE[:, 5] = AE[:, 4]  # B singular: the orthonormal basis from the SVD
+    W = rng.standard_normal((24, 24))
+    W = W @ W.T + np.eye(24)
+    fac, shift = _sp._kkt_factor(W, AE, 0.0, True)
+    assert not fac[-1] and shift == 0.0
+    c, r = rng.standard_normal(6), rng.standard_normal(24)
+    dx = _sp._kkt_solve(fac, W, c, r, shift)
+    np.testing.assert_allclose(AE @ dx, -c, atol=1e-10)
+    res = W @ dx - r
+    np.testing.assert_allclose(AE.T @ np.linalg.lstsq(AE.T, res, rcond=None)[0], res, atol=1e-8)
+
+
+def test_second_order_corrections_finish_a_tall_stack():
+    """Planar n = 64 from the paper's guess toward a far target: without the barrier
+    method's second-order corrections the run crawled in backtracked steps (the rows'
+    curvature raised the infeasibility of every full step) to the 300-iteration limit;
+    with them it converges in about 60 (docs/benchmarks.md, 2026-12-06)."""
+    stack = Stack.reference(64)
+    t = sk.PlanarTarget(12532.055335141049, 13229.59741863084, -1.309481835825551,
+                        4.39822971502571)  # fmt: skip
+    prob = Problem(stack, t, "frobenius", None)
+    u, nit, status = ip_method.ip_solve(prob, prob.u_of(paper_initial_guess(stack, t)))
+    assert status == "success" and nit < 150
+    assert check_pose(stack, t, prob.q_of(u)).ok
+
+
 def test_ip_solve_reaches_the_paper_optimum():
     t = sk.PlanarTarget(*PAPER_TARGETS[0])
     prob = Problem(STACK4, t, "frobenius", None)

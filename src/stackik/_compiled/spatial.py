@@ -543,8 +543,9 @@ def _basis(AE: FloatArray) -> tuple[Any, ...]:
     """A null-space basis ``Z`` (N, K) of the 6 x N equality Jacobian: ``Z = [-B^-1 C; I]``
     from the first platform's six columns ``B`` (a translation block and three rotation
     axes: invertible away from gimbal lock; ``structured`` True), else an orthonormal basis
-    from the SVD. Returns ``Z, Binv, U, S, Vt, rank, structured`` (``B^-1`` or the SVD of
-    ``AE`` and its rank, what :func:`_particular` needs; the other part empty)."""
+    from the SVD. Returns ``Z, Binv, Ut, S, Vt, rank, structured`` (``B^-1`` or the SVD
+    of ``AE``, ``U`` transposed, and its rank: what :func:`_particular` needs; the other
+    part empty)."""
     N = AE.shape[1]
     K = N - 6
     Binv, ok = _solve6(AE[:, :6].copy())
@@ -565,7 +566,16 @@ def _basis(AE: FloatArray) -> tuple[Any, ...]:
     for k in range(6):
         if S[k] > 1e-10 * S[0]:
             rank += 1
-    return Vt[rank:].T.copy(), Binv, U, S, Vt, rank, False
+    # C order (one array type for both returns): ``Ut[k]`` is ``U``'s column k, contiguous
+    return (
+        Vt[rank:].T.copy(),
+        Binv,
+        np.ascontiguousarray(U.T),
+        S,
+        np.ascontiguousarray(Vt),
+        rank,
+        False,
+    )
 
 
 @_jit_inline
@@ -573,7 +583,7 @@ def _particular(fac: Any, cE: FloatArray, N: int) -> FloatArray:
     """The particular step ``dxp`` (N,) with ``AE dxp = -cE`` of :func:`_basis`'s data
     (in ``fac``, :func:`_kkt_factor`'s): ``-B^-1 cE`` in the first six coordinates, else
     the least-norm solution from the SVD."""
-    _, _, Binv, U, S, Vt, rank, structured = fac
+    _, _, Binv, Ut, S, Vt, rank, structured = fac
     dxp = np.zeros(N)
     if structured:
         for i in range(6):
@@ -583,7 +593,7 @@ def _particular(fac: Any, cE: FloatArray, N: int) -> FloatArray:
             dxp[i] = acc
         return dxp
     for k in range(rank):
-        coef = -(U[:, k] @ cE) / S[k]
+        coef = -(Ut[k] @ cE) / S[k]
         for a in range(N):
             dxp[a] += coef * Vt[k, a]
     return dxp
@@ -593,12 +603,12 @@ def _particular(fac: Any, cE: FloatArray, N: int) -> FloatArray:
 def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
                 try_plain: bool) -> tuple[Any, float]:  # fmt: skip
     """The factor of :func:`_kkt_step`'s null-space method (:func:`_basis`): ``(Z, L,
-    Binv, U, S, Vt, rank, structured)`` with the reduced Hessian's Cholesky factor ``L``,
+    Binv, Ut, S, Vt, rank, structured)`` with the reduced Hessian's Cholesky factor ``L``,
     made positive definite by adding ``delta I`` to ``W`` (IPOPT's inertia correction;
     ``try_plain`` False: the previous step needed a shift, the unshifted factorisation is
     skipped, as in the planar kernel's :func:`stackik._compiled.planar._kkt_factor`), and
     the shift; every step with the same ``W`` and ``AE`` is then :func:`_kkt_solve`."""
-    Z, Binv, U, S, Vt, rank, structured = _basis(AE)
+    Z, Binv, Ut, S, Vt, rank, structured = _basis(AE)
     N = W.shape[0]
     if structured:  # Z = [E; I]: products in O(N^2 6) instead of O(N^3)
         K = N - 6
@@ -637,7 +647,7 @@ def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
             if ok or not shift <= 1e20 * (1.0 + scale):
                 break
             shift *= grow
-    return (Z, L, Binv, U, S, Vt, rank, structured), shift
+    return (Z, L, Binv, Ut, S, Vt, rank, structured), shift
 
 
 @_jit_inline
