@@ -292,6 +292,47 @@ def _second_order(x: FloatArray, s: FloatArray, z: FloatArray, a_s: float, st: F
 
 
 @_jit_inline
+def _line_search(x: FloatArray, s: FloatArray, z: FloatArray, dx: FloatArray, ds: FloatArray,
+                 dz: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
+                 wq: float, mu: float, theta_max: float, theta_min: float, filt: FloatArray,
+                 nfilt: int, logsum: float, here: Any, soc: bool, W: FloatArray,
+                 AEty: FloatArray, Sig: FloatArray, fac: Any,
+                 shift: float) -> tuple[Any, ...]:  # fmt: skip
+    """The filter line search of a step ``dx`` (slacks ``ds``, multipliers ``dz``) from the
+    current point (evaluation ``here``): the full step (the fraction to the boundary);
+    when it is rejected with no less infeasibility, and ``soc``, the second-order
+    corrections (:func:`_second_order`); then backtracking from half the step. An
+    acceptance by the infeasibility adds the point's margins to the filter. Returns
+    whether a point was accepted, the step length, the point, its slacks, their
+    log-barrier sum, its evaluation, the step, the multipliers' step and its length that
+    reached it (``dx``, ``dz`` themselves unless a correction did) and the filter's new
+    entry count."""
+    f, g, cE, AE, cI, AI, _ = here
+    a_s, a_z = _to_boundary(s, z, ds, dz, mu)
+    theta, phi, gphi = _merit(f, g, cE, cI, s, ds, dx, mu, logsum)
+    accepted, by_f, alpha, xt, st, logsum_t, ev = _backtrack(
+        x, s, dx, ds, a_s, P, lo, hi, ug, wq, mu, theta, phi, gphi, theta_max, theta_min,
+        filt, nfilt, logsum, here, 1,
+    )  # fmt: skip
+    if soc and not accepted and _more_infeasible(ev, st, theta):
+        accepted, by_f, xc, sc, logsum_c, evc, dxc, a_sc, dzc, a_zc = _second_order(
+            x, s, z, a_s, st, ev, P, lo, hi, ug, wq, mu, theta, phi, gphi, theta_max,
+            theta_min, filt, nfilt, W, AE, AEty, cE, cI, AI, g, Sig, fac, shift,
+        )  # fmt: skip
+        if accepted:
+            xt, st, logsum_t, ev = xc, sc, logsum_c, evc
+            alpha, dx, dz, a_z = a_sc, dxc, dzc, a_zc
+    if not accepted and alpha >= 1e-12:  # backtracking (alpha = a_s / 2)
+        accepted, by_f, alpha, xt, st, logsum_t, ev = _backtrack(
+            x, s, dx, ds, alpha, P, lo, hi, ug, wq, mu, theta, phi, gphi, theta_max,
+            theta_min, filt, nfilt, logsum, here, _LS_TRIES - 1,
+        )  # fmt: skip
+    if accepted and not by_f:
+        nfilt = _filter_add(filt, nfilt, theta, phi)
+    return accepted, alpha, xt, st, logsum_t, ev, dx, dz, a_z, nfilt
+
+
+@_jit_inline
 def _newton_rhs(g: FloatArray, AEty: FloatArray, AI: Any, cI: FloatArray, s: FloatArray,
                 Sig: FloatArray, mu: float) -> FloatArray:  # fmt: skip
     """The right-hand side of the KKT step: ``-g + AE^T yE + AI^T v`` with the barrier
@@ -494,33 +535,12 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
                 if shift > 0.0:
                     last_shift = shift
                 ds, dz = _slack_steps(AI_dot(AI, dx), cI, s, z, Sig, mu)
-                a_s, a_z = _to_boundary(s, z, ds, dz, mu)
                 # --- filter line search -----------------------------------------------------
-                theta, phi, gphi = _merit(f, g, cE, cI, s, ds, dx, mu, logsum)
-                # the full step (the fraction to the boundary) ...
-                here = (f, g, cE, AE, cI, AI, parts)
-                accepted, by_f, alpha, xt, st, logsum_t, ev = _backtrack(
-                    x, s, dx, ds, a_s, Ps, lo, hi, ug, wqs, mu, theta, phi, gphi, theta_max,
-                    theta_min, filt, nfilt, logsum, here, 1,
+                accepted, alpha, xt, st, logsum_t, ev, dx, dz, a_z, nfilt = _line_search(
+                    x, s, z, dx, ds, dz, Ps, lo, hi, ug, wqs, mu, theta_max, theta_min, filt,
+                    nfilt, logsum, (f, g, cE, AE, cI, AI, parts), soc, W, AEty, Sig, fac, shift,
                 )  # fmt: skip
-                if soc and not accepted and _more_infeasible(ev, st, theta):
-                    # ... rejected with more infeasibility: second-order corrections ...
-                    accepted, by_f, xc, sc, logsum_c, evc, dxc, a_sc, dzc, a_zc = _second_order(
-                        x, s, z, a_s, st, ev, Ps, lo, hi, ug, wqs, mu, theta, phi, gphi,
-                        theta_max, theta_min, filt, nfilt, W, AE, AEty, cE, cI, AI, g, Sig,
-                        fac, shift,
-                    )  # fmt: skip
-                    if accepted:
-                        xt, st, logsum_t, ev = xc, sc, logsum_c, evc
-                        dx, alpha, dz, a_z = dxc, a_sc, dzc, a_zc
-                if not accepted and alpha >= 1e-12:  # ... then backtracking (alpha = a_s / 2)
-                    accepted, by_f, alpha, xt, st, logsum_t, ev = _backtrack(
-                        x, s, dx, ds, alpha, Ps, lo, hi, ug, wqs, mu, theta, phi, gphi,
-                        theta_max, theta_min, filt, nfilt, logsum, here, _LS_TRIES - 1,
-                    )  # fmt: skip
                 ft, gt, cEt, AEt, cIt, AIt, parts_t = ev
-                if accepted and not by_f:
-                    nfilt = _filter_add(filt, nfilt, theta, phi)
                 if not accepted:
                     fails += 1
                     if fails >= 3:
