@@ -231,23 +231,16 @@ def _backtrack(x: FloatArray, s: FloatArray, dx: FloatArray, ds: FloatArray, alp
 
 
 @_jit_inline
-def _more_infeasible(ev: Any, st: FloatArray, theta: float) -> bool:
-    """Whether a trial point (evaluation ``ev``, slacks ``st``) is finite and no less
-    infeasible than ``theta`` (:func:`_infeasibility`)."""
-    theta_t = _infeasibility(ev[2], ev[4], st)
-    return math.isfinite(ev[0]) and theta <= theta_t < math.inf
-
-
-@_jit_inline
 def _second_order(x: FloatArray, s: FloatArray, z: FloatArray, a_s: float, st: FloatArray,
                   ev: Any, P: Any, lo: FloatArray, hi: FloatArray, ug: FloatArray,
                   wq: float, mu: float, theta: float, phi: float, gphi: float,
                   theta_max: float, theta_min: float, filt: FloatArray, nfilt: int,
-                  W: FloatArray, AE: FloatArray, AEty: FloatArray, cE: FloatArray,
-                  cI: FloatArray, AI: Any, g: FloatArray, Sig: FloatArray, fac: Any,
+                  W: FloatArray, AEty: FloatArray, cE: FloatArray, cI: FloatArray,
+                  AI: Any, g: FloatArray, Sig: FloatArray, fac: Any,
                   shift: float) -> tuple[Any, ...]:  # fmt: skip
     """Second-order corrections of a rejected full step (IPOPT's, Waechter & Biegler 2006,
-    A-5.5 to A-5.9): the step's constraint residuals (``c_E`` and ``c_I - s``) at the
+    A-5.5 to A-5.9), when its trial point is finite and no less infeasible than the current
+    point (``theta``): the step's constraint residuals (``c_E`` and ``c_I - s``) at the
     rejected trial point ``x + a_s dx`` (slacks ``st``, evaluation ``ev``) are corrected by
     a KKT step with the same matrix (``W``, its factor ``fac`` and shift ``shift``:
     :func:`kernel.kkt_solve`, no new factorisation) and the accumulated residuals
@@ -261,13 +254,15 @@ def _second_order(x: FloatArray, s: FloatArray, z: FloatArray, a_s: float, st: F
     length that reached it, and the multipliers' step and its length."""
     m = s.size
     theta_old = _infeasibility(ev[2], ev[4], st)
+    if not (math.isfinite(ev[0]) and theta <= theta_old < math.inf):
+        return False, False, x, s, 0.0, ev, x, 0.0, z, 0.0
     cEs = a_s * cE + ev[2]
     rIs = np.empty(m)  # the accumulated c_I - s, as the row values c_I of the step's rhs
     for r in range(m):
         rIs[r] = s[r] + a_s * (cI[r] - s[r]) + (ev[4][r] - st[r])
     for _ in range(_SOC_MAX):
         rhs = _newton_rhs(g, AEty, AI, rIs, s, Sig, mu)
-        dxc = kernel.kkt_solve(P, fac, W, AE, cEs, rhs, shift)
+        dxc = kernel.kkt_solve(P, fac, W, cEs, rhs, shift)
         if not _finite(dxc):
             break
         dsc, dzc = _slack_steps(AI_dot(AI, dxc), rIs, s, z, Sig, mu)
@@ -300,24 +295,24 @@ def _line_search(x: FloatArray, s: FloatArray, z: FloatArray, dx: FloatArray, ds
                  shift: float) -> tuple[Any, ...]:  # fmt: skip
     """The filter line search of a step ``dx`` (slacks ``ds``, multipliers ``dz``) from the
     current point (evaluation ``here``): the full step (the fraction to the boundary);
-    when it is rejected with no less infeasibility, and ``soc``, the second-order
-    corrections (:func:`_second_order`); then backtracking from half the step. An
+    when it is rejected, and ``soc``, the second-order corrections (:func:`_second_order`,
+    if the trial point is no less infeasible); then backtracking from half the step. An
     acceptance by the infeasibility adds the point's margins to the filter. Returns
     whether a point was accepted, the step length, the point, its slacks, their
     log-barrier sum, its evaluation, the step, the multipliers' step and its length that
     reached it (``dx``, ``dz`` themselves unless a correction did) and the filter's new
     entry count."""
-    f, g, cE, AE, cI, AI, _ = here
+    f, g, cE, _, cI, AI, _ = here
     a_s, a_z = _to_boundary(s, z, ds, dz, mu)
     theta, phi, gphi = _merit(f, g, cE, cI, s, ds, dx, mu, logsum)
     accepted, by_f, alpha, xt, st, logsum_t, ev = _backtrack(
         x, s, dx, ds, a_s, P, lo, hi, ug, wq, mu, theta, phi, gphi, theta_max, theta_min,
         filt, nfilt, logsum, here, 1,
     )  # fmt: skip
-    if soc and not accepted and _more_infeasible(ev, st, theta):
+    if soc and not accepted:
         accepted, by_f, xc, sc, logsum_c, evc, dxc, a_sc, dzc, a_zc = _second_order(
             x, s, z, a_s, st, ev, P, lo, hi, ug, wq, mu, theta, phi, gphi, theta_max,
-            theta_min, filt, nfilt, W, AE, AEty, cE, cI, AI, g, Sig, fac, shift,
+            theta_min, filt, nfilt, W, AEty, cE, cI, AI, g, Sig, fac, shift,
         )  # fmt: skip
         if accepted:
             xt, st, logsum_t, ev = xc, sc, logsum_c, evc

@@ -147,12 +147,12 @@ def _kkt_step_call(typingctx: Any, P: Any, W: Any, AE: Any, cE: Any, rhs: Any,
 kkt_step: Any = intrinsic(_kkt_step_call)
 
 
-def _kkt_solve_call(typingctx: Any, P: Any, fac: Any, W: Any, AE: Any, cE: Any, rhs: Any,
+def _kkt_solve_call(typingctx: Any, P: Any, fac: Any, W: Any, cE: Any, rhs: Any,
                     shift: Any) -> Any:  # fmt: skip
     """``dx`` (N,): the step of ``[W + shift I, AE^T; AE 0] [dx; -y] = [rhs; -cE]`` from
     :func:`kkt_step`'s factor of ``W`` and ``AE``: the Newton step, and with other
     ``cE`` and ``rhs`` its second-order corrections (no new factorisation)."""
-    return _direct_call(typingctx, "kkt_solve", P, (P, fac, W, AE, cE, rhs, shift))
+    return _direct_call(typingctx, "kkt_solve", P, (P, fac, W, cE, rhs, shift))
 
 
 kkt_solve: Any = intrinsic(_kkt_solve_call)

@@ -628,8 +628,8 @@ def _kernel_kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatAr
 
 
 @_jit_internal
-def _kernel_kkt_solve(fac: Any, W: FloatArray, AE: FloatArray, cE: FloatArray,
-                      rhs: FloatArray, shift: float) -> FloatArray:  # fmt: skip
+def _kernel_kkt_solve(fac: Any, W: FloatArray, cE: FloatArray, rhs: FloatArray,
+                      shift: float) -> FloatArray:  # fmt: skip
     """:func:`_kkt_solve`."""
     return _kkt_solve(fac, W, cE, rhs, shift)
 

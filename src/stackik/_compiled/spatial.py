@@ -677,11 +677,12 @@ def _kkt_solve(fac: Any, W: FloatArray, cE: FloatArray, rhs: FloatArray,
 
 @_jit_inline
 def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
-              last_shift: float, try_plain: bool) -> tuple[FloatArray, float]:  # fmt: skip
+              last_shift: float, try_plain: bool) -> tuple[Any, ...]:  # fmt: skip
     """Solve ``[W -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` for ``dx`` by a null-space method
-    (:func:`_kkt_factor`, then :func:`_kkt_solve`); returns ``dx`` and the shift."""
+    (:func:`_kkt_factor`, then :func:`_kkt_solve`); returns ``dx``, the shift and the
+    factor (for :func:`_kkt_solve` with other ``cE`` and ``rhs``)."""
     fac, shift = _kkt_factor(W, AE, last_shift, try_plain)
-    return _kkt_solve(fac, W, cE, rhs, shift), shift
+    return _kkt_solve(fac, W, cE, rhs, shift), shift, fac
 
 
 @_jit_inline
@@ -722,14 +723,13 @@ def _with_target(P0: Any, position: Any, rotation: Any) -> Any:
 @_jit_internal
 def _kernel_kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
                      last_shift: float, try_plain: bool) -> tuple[Any, ...]:  # fmt: skip
-    """:func:`_kkt_factor`, then :func:`_kkt_solve`: the step, the shift and the factor."""
-    fac, shift = _kkt_factor(W, AE, last_shift, try_plain)
-    return _kkt_solve(fac, W, cE, rhs, shift), shift, fac
+    """:func:`_kkt_step`."""
+    return _kkt_step(W, AE, cE, rhs, last_shift, try_plain)
 
 
 @_jit_internal
-def _kernel_kkt_solve(fac: Any, W: FloatArray, AE: FloatArray, cE: FloatArray,
-                      rhs: FloatArray, shift: float) -> FloatArray:  # fmt: skip
+def _kernel_kkt_solve(fac: Any, W: FloatArray, cE: FloatArray, rhs: FloatArray,
+                      shift: float) -> FloatArray:  # fmt: skip
     """:func:`_kkt_solve`."""
     return _kkt_solve(fac, W, cE, rhs, shift)
 
