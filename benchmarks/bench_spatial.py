@@ -7,7 +7,7 @@ solve in ``spatial_bench.jsonl``.
 Targets: :func:`stackik.sampling.random_spatial_targets` on the reference stack of each n,
 seed ``SEED + n`` (``SEED`` = 60617, used nowhere else; ``--seed`` draws other targets,
 for an outside check on targets the defaults were not tuned on). Methods (:data:`METHODS`): the
-default, the default's ``starts=1``, the SQP engine from one start, IPOPT (CasADi, exact
+default (on the machine's threads, and on one: ``threads=1``), the default's ``starts=1``, the SQP engine from one start, IPOPT (CasADi, exact
 Hessian by AD) from the paper's guess and from eight starts (five structured, three
 random). The reference ("best known") of a target is the least FN of every method above
 and of IPOPT from ``--ref-starts`` starts (five structured, the rest random, another
@@ -48,6 +48,7 @@ REF = "ipopt, {k} starts (reference)"
 #: (name, solve_ik keywords); the reference method is added from ``--ref-starts``.
 METHODS: list[tuple[str, dict[str, Any]]] = [
     (DEFAULT, {}),
+    ("stackik default, 1 thread", {"threads": 1}),
     ("stackik starts=1", {"starts": 1}),
     ("sqp, 1 start", {"method": "sqp", "starts": 1}),
     ("sqp, 12 starts (previous default)", {"method": "sqp"}),

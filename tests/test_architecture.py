@@ -36,6 +36,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
         "stackik.distance",
         "stackik._compiled",
         "stackik.batch",
+        "stackik._threads",
         "stackik._io",
         "stackik._version",
         "stackik._arrays",
@@ -52,7 +53,9 @@ ENGINE_RULES: dict[str, tuple[str, ...]] = {
     "stackik.families": (),
     # the compiled twin of the acceptance rule: shares no code with the solvers it checks
     "stackik._compiled.check": ("stackik.check", "stackik._arrays"),
-    "stackik.batch": (),
+    # a batch worker runs each solve on one thread (stackik._threads imports nothing)
+    "stackik.batch": ("stackik._threads",),
+    "stackik._threads": (),
     "stackik.distance": (),
 }
 

@@ -43,6 +43,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
+from stackik._threads import batch_threads
+
 __all__ = [
     "BatchStats",
     "checkpointed_map",
@@ -156,7 +158,8 @@ def _run_chunk(fn: Callable[[Any], Any], items: list[Any]) -> tuple[list[Any], f
     if callable(prepare):
         prepare()
     t0, c0 = time.perf_counter(), time.process_time()
-    out = [fn(x) for x in items]
+    with batch_threads(1):  # the workers run solves side by side: one thread a solve
+        out = [fn(x) for x in items]
     return out, time.perf_counter() - t0, time.process_time() - c0
 
 

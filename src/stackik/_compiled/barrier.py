@@ -456,7 +456,7 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
     optimised and turned into machine code twice (as itself, and inside this kernel).
     """
     ns, N = U0.shape
-    X = np.empty((ns, N))
+    X = U0.copy()  # a start skipped past the deadline keeps its start
     statuses = np.full(ns, IP_SKIPPED)
     nit = np.zeros(ns, dtype=np.int64)
     obj = np.full(ns, np.inf)
@@ -465,8 +465,6 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
     s_last = z_last = yE_last = none
     soc = N >= _SOC_MIN_N  # second-order corrections (:func:`_second_order`)
     for j in range(ns):
-        for k in range(N):  # loops: an array assigned to a slice compiles numba's
-            X[j, k] = U0[j, k]  # shape-mismatch message (string formatting) into the kernel
         if j > 0 and _now() > deadline:
             break
         x = U0[j].copy()

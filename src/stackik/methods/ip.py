@@ -3,9 +3,10 @@ planar (:mod:`stackik._compiled.planar`) and spatial (:mod:`stackik._compiled.sp
 derivatives in closed form).
 
 This module turns a :class:`~stackik.formulation.Problem` into the arrays the compiled
-kernels take, parses the method's options, runs every start in one compiled call and
-checks the poses with the independent check (planar: its compiled twin; spatial:
-:func:`stackik.check.check_pose` after the polish of :func:`stackik.formulation.polish`).
+kernels take, parses the method's options, runs every start of a batch in one compiled
+call (or on the solve's threads, :mod:`stackik._threads`) and checks the poses with the
+independent check (planar: its compiled twin; spatial: :func:`stackik.check.check_pose`
+after the polish of :func:`stackik.formulation.polish`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from stackik._arrays import readonly
+from stackik._threads import THREAD_MIN_N, map_in_threads
+from stackik._threads import current as current_threads
 from stackik.families import FamilyError
 from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem, polish
 from stackik.methods.base import FloatArray, Method, Run, RunStatus, run_status
@@ -210,24 +213,80 @@ def ip_multi(
         (problem_arrays(prob), 3) if prob.planar else (spatial_problem_arrays(prob), 0)
     )
     none = np.empty(0)  # no box, no distance term (a path step's extensions)
-    X, st, nit, obj, viol, _, _, _ = barrier.ip_multi(
-        U,
-        P,
-        float(opts["tol"]),
-        float(opts["constr_tol"]),
-        np.ascontiguousarray(mus),
-        int(opts["max_iter"]),
-        deadline if math.isfinite(deadline) else 1e300,
-        polish_iters,
-        POLISH_REACH,
-        POLISH_MARGIN,
-        none,
-        none,
-        none,
-        0.0,
-        True,  # the objective values and violations, for ranking
-    )
+    stop = deadline if math.isfinite(deadline) else 1e300
+
+    def run(rows: slice) -> tuple[Any, ...]:
+        return barrier.ip_multi(  # type: ignore[no-any-return]
+            U[rows],
+            P,
+            float(opts["tol"]),
+            float(opts["constr_tol"]),
+            np.ascontiguousarray(mus[rows]),
+            int(opts["max_iter"]),
+            stop,
+            polish_iters,
+            POLISH_REACH,
+            POLISH_MARGIN,
+            none,
+            none,
+            none,
+            0.0,
+            True,  # the objective values and violations, for ranking
+        )
+
+    threads = min(current_threads(), U.shape[0])
+    if threads > 1 and U.shape[1] >= THREAD_MIN_N:
+        X, st, nit, obj, viol = _side_by_side(run, U, deadline, threads)
+    else:
+        X, st, nit, obj, viol, _, _, _ = run(slice(None))
     return X, [IP_STATUS[int(s)] for s in st], nit, obj, viol
+
+
+def _side_by_side(
+    run: Any, U: FloatArray, deadline: float, threads: int
+) -> tuple[FloatArray, Any, Any, FloatArray, FloatArray]:
+    """The kernel's batch from each row of ``U`` on ``threads`` threads
+    (:func:`stackik._threads.map_in_threads`): each start runs alone
+    (``run(slice(j, j + 1))``), and the batch's rules across starts are applied here as
+    the kernel applies them, so the results are those of one compiled call over every
+    start: a start after the first is skipped once ``deadline`` (``time.perf_counter``)
+    has passed (decided in the starts' order), and when the first ``GIVE_UP_AFTER`` runs
+    all end farther than ``GIVE_UP_VIOLATION`` from feasible, every later start is
+    skipped (one already under way is discarded)."""
+    import threading
+
+    from stackik._compiled.core import GIVE_UP_AFTER, GIVE_UP_VIOLATION, IP_SKIPPED
+
+    ns = U.shape[0]
+    X = U.copy()
+    st = np.full(ns, IP_SKIPPED, dtype=np.int64)
+    nit = np.zeros(ns, dtype=np.int64)
+    obj = np.full(ns, np.inf)
+    viol = np.full(ns, np.inf)
+    ran = np.zeros(ns, dtype=bool)
+    late = [False]  # the deadline passed when a start was taken: every later one skips
+    lock = threading.Lock()
+
+    def gave_up() -> bool:
+        first = slice(0, GIVE_UP_AFTER)
+        far = ran[first].all() and viol[first].min() > GIVE_UP_VIOLATION
+        return ns > GIVE_UP_AFTER and bool(far)
+
+    def one(j: int) -> None:
+        with lock:
+            late[0] = late[0] or (j > 0 and time.perf_counter() > deadline)
+            if late[0] or (j >= GIVE_UP_AFTER and gave_up()):
+                return
+        out = run(slice(j, j + 1))
+        X[j], st[j], nit[j], obj[j], viol[j] = (part[0] for part in out[:5])
+        ran[j] = True
+
+    map_in_threads(one, ns, threads)
+    if gave_up():
+        X[GIVE_UP_AFTER:] = U[GIVE_UP_AFTER:]
+        st[GIVE_UP_AFTER:], nit[GIVE_UP_AFTER:] = IP_SKIPPED, 0
+        obj[GIVE_UP_AFTER:] = viol[GIVE_UP_AFTER:] = np.inf
+    return X, st, nit, obj, viol
 
 
 @dataclass

@@ -15,6 +15,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from stackik._threads import batch_threads
+from stackik._threads import resolve as resolve_threads
 from stackik.formulation import mode_of, reach_bound
 from stackik.geometry import Stack
 from stackik.loads import Load, statics
@@ -49,6 +51,7 @@ def solve_ik(
     start: Literal["paper", "convex"] = "paper",
     max_time: float | None = None,
     blas_threads: int | None = 1,
+    threads: int | None = None,
     load: Load | None = None,
     obstacles: Any = (),
     clearance: float = 0.0,
@@ -171,6 +174,13 @@ def solve_ik(
         BLAS threads during the solve (default 1: the matrices are small and threads only
         contend, 5x slower at n = 32 on a loaded 2-core machine); None leaves the process
         setting alone.
+    threads : int or None
+        Threads that run the interior point's batches of starts side by side (the
+        spatial default's structured starts and hops; planar from 8 platforms on):
+        default None, the CPUs this process may use (at most 8), or 1 inside the workers
+        of :func:`solve_many` and the other batch runners, which already run solves side
+        by side; 1 runs them one after another. The pose does not depend on it: every
+        start's run is the same, and the best is chosen in the starts' order.
 
     Returns
     -------
@@ -182,6 +192,7 @@ def solve_ik(
     rows = rows_needed(stack, obstacles, clearance, constraints, force_weight, objective)
     for kind in _kernels_needed(stack, target, rows):
         ensure_kernels(kind)  # load or compile before the clock starts
+    n_threads = resolve_threads(threads)
     t_start = time.perf_counter()
     blas = BlasLimit(blas_threads)
     try:
@@ -192,7 +203,8 @@ def solve_ik(
             blas=blas, load=load, obstacles=obstacles, clearance=clearance,
             force_weight=force_weight, constraints=constraints,
         )  # fmt: skip
-        return _result(req, _run(req))
+        with batch_threads(n_threads):
+            return _result(req, _run(req))
     finally:
         blas.restore()
 

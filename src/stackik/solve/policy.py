@@ -44,6 +44,7 @@ __all__ = [
     "SHARED_OPTIONS",
     "SPATIAL_GIVE_UP",
     "SPATIAL_GIVE_UP_MM",
+    "SPATIAL_MAX_ITER",
     "UNFOLD_MU0",
     "UNFOLD_PLATE_ROWS",
     "UNFOLD_ROUNDS",
@@ -140,6 +141,14 @@ ADAPTIVE_RTOL = 5e-4
 COMPACT_REACH = 0.4
 COMPACT_HOPS = 8
 
+#: Spatial default (:attr:`StartPlan.max_iter`): the iteration limit of the interior
+#: point's runs from its structured starts and hops, unless the caller set ``max_iter``.
+#: On 20 + 10 random targets at n = 8 and 16 (seed 91500) no run that converged took more
+#: than 100 iterations, while the 3.5-4.5 % of runs that reached the method's 300 crawled
+#: near feasibility (objective falling 0.1-1 % over 200 iterations) and took a quarter
+#: of the iterations; with 150 every pose was the same, 9-12 % fewer iterations.
+SPATIAL_MAX_ITER = 150
+
 #: Spatial ``starts=1`` from the paper's guess: initial barriers of the interior point's
 #: runs from its own pose after the first (:func:`stackik.solve.stages.ip_stage`).
 RECENTRE_MU0 = (0.1, 1.0)
@@ -201,6 +210,9 @@ class StartPlan:
     compact : bool
         The planar structured default of a tall stack (``n >= ADAPTIVE_N``) toward a
         compact target (:data:`COMPACT_REACH`): arcs in the batch, no early stop, hops.
+    max_iter : int or None
+        The iteration limit of the interior point's runs from the plan's starts and hops
+        when the caller set none (:data:`SPATIAL_MAX_ITER`); None: the method's.
     """
 
     queue: list[FloatArray]
@@ -208,6 +220,13 @@ class StartPlan:
     starts: int | None
     spatial_default: bool
     compact: bool = False
+    max_iter: int | None = None
+
+    def run_options(self, options: dict[str, Any]) -> dict[str, Any]:
+        """``options`` with the plan's :attr:`max_iter` unless they set ``max_iter``."""
+        if self.max_iter is None or "max_iter" in options:
+            return options
+        return {**options, "max_iter": self.max_iter}
 
     def batch(self, sampler: Any, structured: bool, n: int) -> list[FloatArray]:
         """The starts of a one-call batch method (the interior point): the planned ones,
@@ -251,7 +270,7 @@ def plan_starts(req: Any) -> StartPlan:
         queue = spatial_starts(req.stack, req.q0, math.atan2(pos[1], pos[0]))
         if starts is None:
             k = min(len(queue), spatial_start_count(req.stack.n))
-            return StartPlan(queue, k, k, True)
+            return StartPlan(queue, k, k, True, max_iter=SPATIAL_MAX_ITER)
     else:  # (the planar structured starts are not built for the spatial plan above)
         queue = initial_starts(req.stack, req.target, req.q0, structured=req.structured)
     if starts is None and not req.mode.planar and req.stack.n >= 2 and req.structured:

@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from stackik._threads import THREAD_MIN_N, map_in_threads
+from stackik._threads import current as current_threads
 from stackik.check import FEAS_TOL, FORCE_TOL, pose_ok
 from stackik.methods import Method, Run, RunStatus, get_method
 from stackik.result import IKStatus
@@ -212,7 +214,8 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         batch, n_run = _adaptive_batch(req, method, starts, first)
     else:
         left = req.time_left(time.perf_counter())
-        batch, n_run = method.run_many(req.problem, starts, req.options, left), len(starts)
+        opts = plan.run_options(req.options)
+        batch, n_run = method.run_many(req.problem, starts, opts, left), len(starts)
     batch.nit += nit0  # (the search of _free_first, and its pose)
     n_run += tried0
     if found is not None and (batch.best is None or _lower(found, batch.best)):
@@ -224,7 +227,7 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     if batch.best is not None:
         best, nit, tried = batch.best, batch.nit, n_run
         if plan.spatial_default:
-            best, nit, tried = _hop(req, method, best, nit, tried)
+            best, nit, tried = _hop(req, method, best, nit, tried, plan.run_options(req.options))
         elif plan.compact:
             best, nit, tried = _compact_hops(req, method, best, nit, tried)
         elif plan.starts == 1 and req.structured and _recentres(req):
@@ -279,15 +282,20 @@ def _adaptive_batch(
     req: Request, method: IPMethod, starts: list[FloatArray], first: list[int]
 ) -> tuple[IPBatch, int]:
     """The adaptive plan (:data:`stackik.solve.policy.ADAPTIVE_N`): each of the starts
-    ``first`` (indices into ``starts``) alone; when they all pass and :func:`agree`, they
+    ``first`` (indices into ``starts``) alone (side by side on the solve's threads,
+    :mod:`stackik._threads`); when they all pass and :func:`agree`, they
     found the same basin and the solve stops with the better of them; otherwise the other
     starts run in one call and the best pose over all is kept (merged by :func:`_merge`,
     the same rule as one call: the lowest objective that passes, ties to the earlier
     call). Returns the merged batch and how many starts ran (``len(first)`` or all)."""
-    parts = []
-    for j in first:
+    prob = req.problem
+
+    def alone(k: int) -> IPBatch:
         left = req.time_left(time.perf_counter())
-        parts.append(method.run_many(req.problem, [starts[j]], req.options, left))
+        return method.run_many(prob, [starts[first[k]]], req.options, left)
+
+    threads = current_threads() if prob.n * prob.k >= THREAD_MIN_N else 1
+    parts = map_in_threads(alone, len(first), threads)  # side by side: the same runs
     if agree([p.best for p in parts], ADAPTIVE_RTOL) or req.out_of_time():
         return _merge(parts), len(first)
     rest = [qs for j, qs in enumerate(starts) if j not in first]
@@ -512,24 +520,33 @@ def _over_limits(prob: Problem, q: FloatArray) -> bool:
     return not bool(np.all(c >= -100.0 * FORCE_TOL))
 
 
-def _hop(req: Request, method: IPMethod, best: Run, nit: int, tried: int) -> tuple[Run, int, int]:
+def _hop(
+    req: Request, method: IPMethod, best: Run, nit: int, tried: int, options: dict[str, Any]
+) -> tuple[Run, int, int]:
     """The spatial default's hops from its best pose (:func:`stackik.starts.spatial_hops`):
-    one more compiled batch (within what is left of ``max_time``); a passing run with a
-    lower FN replaces ``best``. ``tried`` counts the hops that ran."""
+    one more compiled batch with ``options`` (within what is left of ``max_time``); a
+    passing run with a lower FN replaces ``best``. ``tried`` counts the hops that ran."""
     hops = spatial_hops(req.stack, best.q)[: spatial_hop_count(req.stack.n)]
     if not hops or req.out_of_time():
         return best, nit, tried
-    return _best_of(req, method, hops, best, nit, tried)
+    return _best_of(req, method, hops, best, nit, tried, options)
 
 
 def _best_of(
-    req: Request, method: IPMethod, starts: list[Any], best: Run, nit: int, tried: int
+    req: Request,
+    method: IPMethod,
+    starts: list[Any],
+    best: Run,
+    nit: int,
+    tried: int,
+    options: dict[str, Any] | None = None,
 ) -> tuple[Run, int, int]:
-    """``starts`` in one compiled batch within what is left of ``max_time``: its best run
-    replaces ``best`` when it passes with a lower FN; the batch's iterations and runs
-    counted into ``nit`` and ``tried``."""
+    """``starts`` in one compiled batch (with ``options``, default the request's) within
+    what is left of ``max_time``: its best run replaces ``best`` when it passes with a
+    lower FN; the batch's iterations and runs counted into ``nit`` and ``tried``."""
     left = req.time_left(time.perf_counter())
-    batch = method.run_many(req.problem, starts, req.options, left)
+    opts = req.options if options is None else options
+    batch = method.run_many(req.problem, starts, opts, left)
     if batch.best is not None and _lower(batch.best, best):
         best = batch.best
     ran = sum(st is not RunStatus.SKIPPED for st in batch.statuses)
