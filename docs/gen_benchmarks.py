@@ -108,7 +108,8 @@ def headline(results: Path = RESULTS) -> str:
         f"{fast['waypoints']} waypoints, fast mode {fast['complete']}/{fast['paths']} "
         f"complete, mean FN {fast['fn_ratio_mean']:.4f} x that of independent solves, "
         f"{fast['speedup']:.1f}x their speed, no step above `max_jump`. Timings are from a "
-        "shared 2-core VM: compare ratios.",
+        "shared 2-core VM (the spatial default runs its starts on both cores, IPOPT's "
+        "starts run in turn): compare ratios.",
     ]
     return "\n".join(lines)
 

@@ -126,3 +126,17 @@ def test_batch_workers_run_one_thread_a_solve():
             _threads_in_force, list(range(4)), key=str, encode=int, decode=int, executor=pool
         )
     assert got == [1, 1, 1, 1]
+
+
+def test_solves_side_by_side_share_the_pool_and_keep_their_poses():
+    """Two solves at once, each on two threads (one pool of helpers between them): no
+    wait on each other's batches that never ends, and each pose is its serial one."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    stack = sk.Stack.reference(4)
+    targets = random_spatial_targets(stack, 4, 21)
+    serial = [sk.solve_ik(stack, t, threads=1).q for t in targets]
+    with ThreadPoolExecutor(2) as pool:
+        got = list(pool.map(lambda t: sk.solve_ik(stack, t, threads=2).q, targets))
+    for a, b in zip(serial, got):
+        np.testing.assert_array_equal(a, b)

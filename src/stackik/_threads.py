@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import threading
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
@@ -80,13 +81,17 @@ def batch_threads(threads: int) -> Iterator[None]:
 
 
 _POOLS: dict[int, ThreadPoolExecutor] = {}
+_POOLS_LOCK = threading.Lock()
 
 
 def _pool(workers: int) -> ThreadPoolExecutor:
-    """A process-wide pool of ``workers`` threads (made on first need, kept)."""
-    if workers not in _POOLS:
-        _POOLS[workers] = ThreadPoolExecutor(workers, thread_name_prefix="stackik-batch")
-    return _POOLS[workers]
+    """A process-wide pool of ``workers`` threads (made on first need, kept). Solves
+    running at once share it: a solve's own thread works through its batch while its
+    helpers wait their turn, so none waits on another's batch to start its own."""
+    with _POOLS_LOCK:
+        if workers not in _POOLS:
+            _POOLS[workers] = ThreadPoolExecutor(workers, thread_name_prefix="stackik-batch")
+        return _POOLS[workers]
 
 
 def map_in_threads(fn: Callable[[int], R], count: int, threads: int) -> list[R]:

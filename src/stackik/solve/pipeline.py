@@ -179,7 +179,8 @@ def solve_ik(
         spatial default's structured starts and hops; planar from 8 platforms on):
         default None, the CPUs this process may use (at most 8), or 1 inside the workers
         of :func:`solve_many` and the other batch runners, which already run solves side
-        by side; 1 runs them one after another. The pose does not depend on it: every
+        by side; 1 runs them one after another (pass 1 when your own threads or
+        processes run solves side by side). The pose does not depend on it: every
         start's run is the same, and the best is chosen in the starts' order.
 
     Returns
