@@ -6,11 +6,12 @@ solve in ``spatial_bench.jsonl``.
 
 Targets: :func:`stackik.sampling.random_spatial_targets` on the reference stack of each n,
 seed ``SEED + n`` (``SEED`` = 60617, used nowhere else; ``--seed`` draws other targets,
-for an outside check on targets the defaults were not tuned on). Methods (:data:`METHODS`): the
-default (on the machine's threads, and on one: ``threads=1``), the default's ``starts=1``, the SQP engine from one start, IPOPT (CasADi, exact
-Hessian by AD) from the paper's guess and from eight starts (five structured, three
-random). The reference ("best known") of a target is the least FN of every method above
-and of IPOPT from ``--ref-starts`` starts (five structured, the rest random, another
+for an outside check on targets the defaults were not tuned on). Methods
+(:data:`METHODS`): the default (on the machine's threads, and on one: ``threads=1``),
+the default's ``starts=1``, the SQP engine from one start, IPOPT (CasADi, exact Hessian
+by AD) from the paper's guess and from eight starts (five structured, three random).
+The reference ("best known") of a target is the least FN of every method above and of
+IPOPT from ``--ref-starts`` starts (five structured, the rest random, another
 seed). A method's run counts "within 0.1 %" when it passes the independent check and
 its FN is at most 1.001 times the best known. Times are wall-clock per ``solve_ik`` call
 after a warm-up (kernels compiled, IPOPT solvers built), medians per method and n; the
