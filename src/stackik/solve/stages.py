@@ -51,7 +51,7 @@ from stackik.solve.policy import (
     StartPlan,
 )
 from stackik.solve.request import Request
-from stackik.starts import spatial_hop_count, spatial_hops
+from stackik.starts import spatial_hop_count, spatial_hop_plan, spatial_hops
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -526,7 +526,8 @@ def _hop(
     """The spatial default's hops from its best pose (:func:`stackik.starts.spatial_hops`):
     one more compiled batch with ``options`` (within what is left of ``max_time``); a
     passing run with a lower FN replaces ``best``. ``tried`` counts the hops that ran."""
-    hops = spatial_hops(req.stack, best.q)[: spatial_hop_count(req.stack.n)]
+    every = spatial_hops(req.stack, best.q)
+    hops = [every[i] for i in spatial_hop_plan(req.stack.n)]
     if not hops or req.out_of_time():
         return best, nit, tried
     return _best_of(req, method, hops, best, nit, tried, options)
