@@ -203,7 +203,7 @@ def test_spatial_hops_turn_the_top_platforms_only() -> None:
     q = np.arange(36.0).reshape(6, 6)
     hops = spatial_hops(stack, q)
     assert len(hops) == len(SPATIAL_HOPS) == spatial_hop_count(6)
-    assert spatial_hop_count(4) == 0  # the rules' searches: none at n = 4
+    assert spatial_hop_count(4) == len(SPATIAL_HOPS_N4) == 6
     assert spatial_hop_plan(6) == tuple(range(len(SPATIAL_HOPS)))
     assert spatial_hop_plan(4) == SPATIAL_HOPS_N4 and spatial_hop_plan(3) == ()
     assert len(spatial_hops(Stack.reference(4), q[:4])) == len(SPATIAL_HOPS)

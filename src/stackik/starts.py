@@ -341,10 +341,10 @@ def spatial_hops(stack: Stack, q: FloatArray) -> list[FloatArray]:
 
 
 def spatial_hop_count(n: int) -> int:
-    """Hops from the best pose of the spatial searches without rows (the obstacle and
-    force rules' first search, :func:`stackik.solve.stages._rows_first`): none up to
-    n = 4, all 12 from n = 5. The default's own hops: :func:`spatial_hop_plan`."""
-    return 0 if n <= 4 else len(SPATIAL_HOPS)
+    """How many hops the spatial default runs from its best pose (and the obstacle and
+    force rules' search without rows, :func:`stackik.solve.stages._rows_first`): none up
+    to n = 3, 6 at n = 4, all 12 from n = 5 (:func:`spatial_hop_plan` says which)."""
+    return len(spatial_hop_plan(n))
 
 
 #: The hops (indices into :data:`SPATIAL_HOPS`) of the spatial default at n = 4: the top

@@ -51,7 +51,7 @@ from stackik.solve.policy import (
     StartPlan,
 )
 from stackik.solve.request import Request
-from stackik.starts import spatial_hop_count, spatial_hop_plan, spatial_hops
+from stackik.starts import spatial_hop_plan, spatial_hops
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -200,7 +200,9 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         else None
     )  # fmt: skip
     if rule is not None:
-        found, nit0, tried0, settled = rule(req, method, starts)
+        # the search without the rows is the default's: its iteration limit too
+        capped = dataclasses.replace(req, options=plan.run_options(req.options))
+        found, nit0, tried0, settled = rule(capped, method, starts)
         if settled:
             return Verdict(found, IKStatus.SUCCESS, nit0, tried0, "ip")
         if req.out_of_time():  # no batch past the budget: the best found, or none
@@ -385,7 +387,7 @@ def _rows_first(
     unchecked: Callable[[FloatArray], bool] | None = None,
 ) -> tuple[Run | None, int, int, bool]:
     """The default's search without some of the request's rows (``free``: the batch and,
-    spatial from n = 5, the hops from its best pose, as the default without those rows
+    spatial from n = 4, the hops from its best pose, as the default without those rows
     runs them). When its best pose passes the request's check, it is the answer (the rows
     do not bind: the default's pose without them, bit for bit). Otherwise runs with the
     rows start from those basins' minima (:func:`_from_basins`, initial barrier ``mu0``,
@@ -413,10 +415,11 @@ def _rows_first(
 
     q = pose(basins)
     first = checked(basins, q)
-    hops_n = 0 if planar else spatial_hop_count(req.stack.n)
-    if hops_n and not req.out_of_time():
+    hop_plan = () if planar else spatial_hop_plan(req.stack.n)
+    if hop_plan and not req.out_of_time():
         # the hops of the default (_hop), from the batch's best pose
-        hops = spatial_hops(req.stack, q)[:hops_n]
+        every = spatial_hops(req.stack, q)
+        hops = [every[i] for i in hop_plan]
         left = req.time_left(time.perf_counter())
         more = ip_basins(free, hops, req.options, left)
         tried += sum(st is not RunStatus.SKIPPED for st in more.statuses)
