@@ -29,6 +29,7 @@ __all__ = [
     "available_cpus",
     "batch_threads",
     "current",
+    "for_problem",
     "map_in_threads",
     "resolve",
 ]
@@ -68,6 +69,12 @@ def current() -> int:
     """The thread count in force for a batch (1 outside any solve)."""
     value = _CURRENT.get()
     return 1 if value is None else value
+
+
+def for_problem(n_vars: int) -> int:
+    """The threads a batch of a problem of ``n_vars`` variables runs on: :func:`current`
+    from :data:`THREAD_MIN_N` variables on, else 1."""
+    return current() if n_vars >= THREAD_MIN_N else 1
 
 
 @contextmanager

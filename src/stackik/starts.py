@@ -32,6 +32,7 @@ __all__ = [
     "nominal_height",
     "paper_initial_guess",
     "reach_fraction",
+    "spatial_default_hops",
     "spatial_hop_count",
     "spatial_hop_plan",
     "spatial_hops",
@@ -338,6 +339,13 @@ def spatial_hops(stack: Stack, q: FloatArray) -> list[FloatArray]:
             h[n - top, 3] += yaw if k == 0 else -yaw
         out.append(h)
     return out
+
+
+def spatial_default_hops(stack: Stack, q: FloatArray) -> list[FloatArray]:
+    """The spatial default's hops from its best pose ``q``: those of
+    :func:`spatial_hop_plan` among :func:`spatial_hops`."""
+    every = spatial_hops(stack, q)
+    return [every[i] for i in spatial_hop_plan(stack.n)]
 
 
 def spatial_hop_count(n: int) -> int:

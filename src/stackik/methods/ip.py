@@ -12,6 +12,7 @@ after the polish of :func:`stackik.formulation.polish`).
 from __future__ import annotations
 
 import math
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -19,8 +20,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from stackik._arrays import readonly
-from stackik._threads import THREAD_MIN_N, map_in_threads
-from stackik._threads import current as current_threads
+from stackik._threads import for_problem, map_in_threads
 from stackik.families import FamilyError
 from stackik.formulation import POLISH_MARGIN, POLISH_REACH, Problem, polish
 from stackik.methods.base import FloatArray, Method, Run, RunStatus, run_status
@@ -234,8 +234,8 @@ def ip_multi(
             True,  # the objective values and violations, for ranking
         )
 
-    threads = min(current_threads(), U.shape[0])
-    if threads > 1 and U.shape[1] >= THREAD_MIN_N:
+    threads = min(for_problem(U.shape[1]), U.shape[0])
+    if threads > 1:
         X, st, nit, obj, viol = _side_by_side(run, U, deadline, threads)
     else:
         X, st, nit, obj, viol, _, _, _ = run(slice(None))
@@ -253,8 +253,6 @@ def _side_by_side(
     has passed (decided in the starts' order), and when the first ``GIVE_UP_AFTER`` runs
     all end farther than ``GIVE_UP_VIOLATION`` from feasible, every later start is
     skipped (one already under way is discarded)."""
-    import threading
-
     from stackik._compiled.core import GIVE_UP_AFTER, GIVE_UP_VIOLATION, IP_SKIPPED
 
     ns = U.shape[0]
@@ -264,7 +262,7 @@ def _side_by_side(
     obj = np.full(ns, np.inf)
     viol = np.full(ns, np.inf)
     ran = np.zeros(ns, dtype=bool)
-    late = [False]  # the deadline passed when a start was taken: every later one skips
+    late = False  # the deadline passed when a start was taken: every later one skips
     lock = threading.Lock()
 
     def gave_up() -> bool:
@@ -273,9 +271,10 @@ def _side_by_side(
         return ns > GIVE_UP_AFTER and bool(far)
 
     def one(j: int) -> None:
+        nonlocal late
         with lock:
-            late[0] = late[0] or (j > 0 and time.perf_counter() > deadline)
-            if late[0] or (j >= GIVE_UP_AFTER and gave_up()):
+            late = late or (j > 0 and time.perf_counter() > deadline)
+            if late or (j >= GIVE_UP_AFTER and gave_up()):
                 return
         out = run(slice(j, j + 1))
         X[j], st[j], nit[j], obj[j], viol[j] = (part[0] for part in out[:5])

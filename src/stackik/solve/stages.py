@@ -16,8 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from stackik._threads import THREAD_MIN_N, map_in_threads
-from stackik._threads import current as current_threads
+from stackik._threads import for_problem, map_in_threads
 from stackik.check import FEAS_TOL, FORCE_TOL, pose_ok
 from stackik.methods import Method, Run, RunStatus, get_method
 from stackik.result import IKStatus
@@ -51,7 +50,7 @@ from stackik.solve.policy import (
     StartPlan,
 )
 from stackik.solve.request import Request
-from stackik.starts import spatial_hop_plan, spatial_hops
+from stackik.starts import spatial_default_hops
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -192,6 +191,11 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         # (3n)^2 from n = 48 on, where OpenBLAS starts threads (CPU 2x wall at n = 48-64),
         # and on the dense rows' normal matrix (:func:`_unfold_batch`)
         req.blas.apply()
+    # the runs from the plan's starts and hops, with the plan's iteration limit (the
+    # rules' search without their rows is the default's: with it too); hand-overs keep
+    # the caller's options
+    opts = plan.run_options(req.options)
+    run_req = req if opts is req.options else dataclasses.replace(req, options=opts)
     nit0 = tried0 = 0
     found: Run | None = None
     rule = (
@@ -200,9 +204,7 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         else None
     )  # fmt: skip
     if rule is not None:
-        # the search without the rows is the default's: its iteration limit too
-        capped = dataclasses.replace(req, options=plan.run_options(req.options))
-        found, nit0, tried0, settled = rule(capped, method, starts)
+        found, nit0, tried0, settled = rule(run_req, method, starts)
         if settled:
             return Verdict(found, IKStatus.SUCCESS, nit0, tried0, "ip")
         if req.out_of_time():  # no batch past the budget: the best found, or none
@@ -216,7 +218,6 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
         batch, n_run = _adaptive_batch(req, method, starts, first)
     else:
         left = req.time_left(time.perf_counter())
-        opts = plan.run_options(req.options)
         batch, n_run = method.run_many(req.problem, starts, opts, left), len(starts)
     batch.nit += nit0  # (the search of _free_first, and its pose)
     n_run += tried0
@@ -229,7 +230,7 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     if batch.best is not None:
         best, nit, tried = batch.best, batch.nit, n_run
         if plan.spatial_default:
-            best, nit, tried = _hop(req, method, best, nit, tried, plan.run_options(req.options))
+            best, nit, tried = _hop(run_req, method, best, nit, tried)
         elif plan.compact:
             best, nit, tried = _compact_hops(req, method, best, nit, tried)
         elif plan.starts == 1 and req.structured and _recentres(req):
@@ -296,8 +297,8 @@ def _adaptive_batch(
         left = req.time_left(time.perf_counter())
         return method.run_many(prob, [starts[first[k]]], req.options, left)
 
-    threads = current_threads() if prob.n * prob.k >= THREAD_MIN_N else 1
-    parts = map_in_threads(alone, len(first), threads)  # side by side: the same runs
+    # side by side on the solve's threads: the same runs as one after another
+    parts = map_in_threads(alone, len(first), for_problem(prob.n * prob.k))
     if agree([p.best for p in parts], ADAPTIVE_RTOL) or req.out_of_time():
         return _merge(parts), len(first)
     rest = [qs for j, qs in enumerate(starts) if j not in first]
@@ -415,11 +416,9 @@ def _rows_first(
 
     q = pose(basins)
     first = checked(basins, q)
-    hop_plan = () if planar else spatial_hop_plan(req.stack.n)
-    if hop_plan and not req.out_of_time():
+    hops = [] if planar else spatial_default_hops(req.stack, q)
+    if hops and not req.out_of_time():
         # the hops of the default (_hop), from the batch's best pose
-        every = spatial_hops(req.stack, q)
-        hops = [every[i] for i in hop_plan]
         left = req.time_left(time.perf_counter())
         more = ip_basins(free, hops, req.options, left)
         tried += sum(st is not RunStatus.SKIPPED for st in more.statuses)
@@ -523,34 +522,25 @@ def _over_limits(prob: Problem, q: FloatArray) -> bool:
     return not bool(np.all(c >= -100.0 * FORCE_TOL))
 
 
-def _hop(
-    req: Request, method: IPMethod, best: Run, nit: int, tried: int, options: dict[str, Any]
-) -> tuple[Run, int, int]:
-    """The spatial default's hops from its best pose (:func:`stackik.starts.spatial_hops`):
-    one more compiled batch with ``options`` (within what is left of ``max_time``); a
-    passing run with a lower FN replaces ``best``. ``tried`` counts the hops that ran."""
-    every = spatial_hops(req.stack, best.q)
-    hops = [every[i] for i in spatial_hop_plan(req.stack.n)]
+def _hop(req: Request, method: IPMethod, best: Run, nit: int, tried: int) -> tuple[Run, int, int]:
+    """The spatial default's hops from its best pose
+    (:func:`stackik.starts.spatial_default_hops`): one more compiled batch (within what is
+    left of ``max_time``); a passing run with a lower FN replaces ``best``. ``tried``
+    counts the hops that ran."""
+    hops = spatial_default_hops(req.stack, best.q)
     if not hops or req.out_of_time():
         return best, nit, tried
-    return _best_of(req, method, hops, best, nit, tried, options)
+    return _best_of(req, method, hops, best, nit, tried)
 
 
 def _best_of(
-    req: Request,
-    method: IPMethod,
-    starts: list[Any],
-    best: Run,
-    nit: int,
-    tried: int,
-    options: dict[str, Any] | None = None,
+    req: Request, method: IPMethod, starts: list[Any], best: Run, nit: int, tried: int
 ) -> tuple[Run, int, int]:
-    """``starts`` in one compiled batch (with ``options``, default the request's) within
-    what is left of ``max_time``: its best run replaces ``best`` when it passes with a
-    lower FN; the batch's iterations and runs counted into ``nit`` and ``tried``."""
+    """``starts`` in one compiled batch within what is left of ``max_time``: its best run
+    replaces ``best`` when it passes with a lower FN; the batch's iterations and runs
+    counted into ``nit`` and ``tried``."""
     left = req.time_left(time.perf_counter())
-    opts = req.options if options is None else options
-    batch = method.run_many(req.problem, starts, opts, left)
+    batch = method.run_many(req.problem, starts, req.options, left)
     if batch.best is not None and _lower(batch.best, best):
         best = batch.best
     ran = sum(st is not RunStatus.SKIPPED for st in batch.statuses)
