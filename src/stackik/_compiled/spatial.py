@@ -64,7 +64,7 @@ from stackik._compiled.linalg import (
     subtract_blocks_scaled,
 )
 from stackik._compiled.self_legs import self_leg_hessians, self_leg_rows
-from stackik._compiled.spatial_kinematics import spatial_parts
+from stackik._compiled.spatial_kinematics import spatial_kinematics
 
 FloatArray = Any
 
@@ -251,75 +251,56 @@ def _skew_vee(M: FloatArray) -> FloatArray:
 
 
 @_jit
-def fn2_hessian(Jp: FloatArray, w: FloatArray, r: FloatArray, Jr: FloatArray,
-                wa: FloatArray) -> FloatArray:  # fmt: skip
+def fn2_hessian(Jp: FloatArray, w: FloatArray, wa: FloatArray) -> FloatArray:
     """Exact Hessian of ``sum_a wa[platform(a)] |Jp[:, a]|^2`` over the angle columns a
     (raw variables), shape (6n, 6n), from the outputs of
-    :func:`stackik._compiled.spatial_kinematics.spatial_parts`."""
+    :func:`stackik._compiled.spatial_kinematics.spatial_parts`.
+
+    For ``b <= c`` it is ``2 v_b . Jp_c`` with
+
+        v_b = A_b Jp_b + [b an angle] S_b x w_b,
+        A_b = sum_{a <= b} wt_a (|w_a|^2 I - w_a w_a^T),   S_b = sum_{a <= b} wt_a Jp_a x w_a
+
+    (sums over the angle columns a, ``wt_a`` its platform's weight): with the serial-chain
+    rules ``d Jp_a / dx_b = w_lo x Jp_hi`` (zero when ``lo = min(a, b)`` translates) and
+    ``d^2 Jp_a / dx_b dx_c`` (``w_i x (w_j x Jp_k)`` for sorted ``i <= j <= k``, ``i, j``
+    angles), the Gauss-Newton part ``sum_a wt_a (d Jp_a / dx_b) . (d Jp_a / dx_c)`` and the
+    curvature part ``sum_a wt_a Jp_a . d^2 Jp_a / dx_b dx_c`` cancel for every ``a > b``
+    (``Jp_a`` is orthogonal to ``w_a``), which leaves the ``a <= b`` terms above. O(N^2),
+    against the O(N^3) product ``Jr^T W Jr`` of the residuals' Jacobian."""
     N = Jp.shape[1]
-    n = N // 6
-    Wr = np.empty((9 * n, N))
-    for m in range(9 * n):
-        wt = wa[m // 9]
-        for b in range(N):
-            Wr[m, b] = Jr[m, b] * wt
-    H = Wr.T @ Jr  # Gauss-Newton part Jr^T W Jr
-    # curvature part H2[b, c] = sum_a wt_a Jp_a . T[sorted(a, b, c)] (a an angle), with
-    # T[i, j, k] = w_i x (w_j x Jp_k) (i, j angles), in O(N^2) for b <= c by where a
-    # falls (Jp_a is orthogonal to w_a):
-    #   a <= b:      (w_b x Jp_c) . S[b],  S[b] = sum_{a <= b} wt_a Jp_a x w_a
-    #   b < a <= c:  -w_b . sum_{b < a <= c} wt_a w_a (Jp_a . Jp_c)
-    #   c < a:       w_c^T M[c] w_b - (w_b . w_c) tr M[c],  M[c] = sum_{a > c} wt_a Jp_a Jp_a^T
-    S = np.zeros((N, 3))
-    acc0 = acc1 = acc2 = 0.0
-    for a in range(N):
-        if a % 6 >= 3:
-            wt = wa[a // 6]
-            acc0 += wt * (Jp[1, a] * w[a, 2] - Jp[2, a] * w[a, 1])
-            acc1 += wt * (Jp[2, a] * w[a, 0] - Jp[0, a] * w[a, 2])
-            acc2 += wt * (Jp[0, a] * w[a, 1] - Jp[1, a] * w[a, 0])
-        S[a, 0], S[a, 1], S[a, 2] = acc0, acc1, acc2
-    M = np.zeros((N, 3, 3))
-    Macc = np.zeros((3, 3))
-    for c in range(N - 1, -1, -1):
-        for k in range(3):
-            for m in range(3):
-                M[c, k, m] = Macc[k, m]
-        if c % 6 >= 3:
-            wt = wa[c // 6]
-            for k in range(3):
-                for m in range(3):
-                    Macc[k, m] += wt * Jp[k, c] * Jp[m, c]
-    acc = np.zeros(3)
-    for c in range(N):
-        acc[:] = 0.0
-        for b in range(c, -1, -1):  # acc = sum_{b < a <= c} wt_a w_a (Jp_a . Jp_c)
-            if b % 6 >= 3:
-                val = (
-                    (w[b, 1] * Jp[2, c] - w[b, 2] * Jp[1, c]) * S[b, 0]
-                    + (w[b, 2] * Jp[0, c] - w[b, 0] * Jp[2, c]) * S[b, 1]
-                    + (w[b, 0] * Jp[1, c] - w[b, 1] * Jp[0, c]) * S[b, 2]
-                    - (w[b, 0] * acc[0] + w[b, 1] * acc[1] + w[b, 2] * acc[2])
-                )
-                if c % 6 >= 3:
-                    Mc = M[c]
-                    wMw = 0.0
-                    for k in range(3):
-                        wMw += w[c, k] * (
-                            Mc[k, 0] * w[b, 0] + Mc[k, 1] * w[b, 1] + Mc[k, 2] * w[b, 2]
-                        )
-                    tr = Mc[0, 0] + Mc[1, 1] + Mc[2, 2]
-                    wbwc = w[b, 0] * w[c, 0] + w[b, 1] * w[c, 1] + w[b, 2] * w[c, 2]
-                    val += wMw - wbwc * tr
-                H[b, c] += val
-                if c != b:
-                    H[c, b] += val
-                wt = wa[b // 6]
-                dot = Jp[0, b] * Jp[0, c] + Jp[1, b] * Jp[1, c] + Jp[2, b] * Jp[2, c]
-                acc[0] += wt * w[b, 0] * dot
-                acc[1] += wt * w[b, 1] * dot
-                acc[2] += wt * w[b, 2] * dot
-    return 2.0 * H
+    H = np.empty((N, N))
+    A00 = A01 = A02 = A11 = A12 = A22 = 0.0
+    S0 = S1 = S2 = 0.0
+    for b in range(N):
+        j0, j1, j2 = Jp[0, b], Jp[1, b], Jp[2, b]
+        angle = b % 6 >= 3
+        if angle:
+            wt = wa[b // 6]
+            w0, w1, w2 = w[b, 0], w[b, 1], w[b, 2]
+            ww = w0 * w0 + w1 * w1 + w2 * w2
+            A00 += wt * (ww - w0 * w0)
+            A11 += wt * (ww - w1 * w1)
+            A22 += wt * (ww - w2 * w2)
+            A01 -= wt * w0 * w1
+            A02 -= wt * w0 * w2
+            A12 -= wt * w1 * w2
+            S0 += wt * (j1 * w2 - j2 * w1)
+            S1 += wt * (j2 * w0 - j0 * w2)
+            S2 += wt * (j0 * w1 - j1 * w0)
+        v0 = A00 * j0 + A01 * j1 + A02 * j2
+        v1 = A01 * j0 + A11 * j1 + A12 * j2
+        v2 = A02 * j0 + A12 * j1 + A22 * j2
+        if angle:
+            v0 += S1 * w2 - S2 * w1
+            v1 += S2 * w0 - S0 * w2
+            v2 += S0 * w1 - S1 * w0
+        v0, v1, v2 = 2.0 * v0, 2.0 * v1, 2.0 * v2
+        for c in range(b, N):
+            val = v0 * Jp[0, c] + v1 * Jp[1, c] + v2 * Jp[2, c]
+            H[b, c] = val
+            H[c, b] = val
+    return H
 
 
 # =========================================================================================
@@ -335,7 +316,7 @@ def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
     n = top.shape[0]
     N = 6 * n
     q = (u * xs).reshape(n, 6)
-    Pee, Ree, Jp, w, c, Jc, r, Jr = spatial_parts(q, top, base, lmin, lmax, sj)
+    Pee, Ree, Jp, w, c, Jc = spatial_kinematics(q, top, base, lmin, lmax, sj)
     E = _mm3(R_t.T.copy(), Ree)
     cE = np.empty(6)
     sk = _skew_vee(E)
@@ -382,17 +363,25 @@ def _evaluate(u: FloatArray, P: Any) -> tuple[Any, ...]:
                 for k in range(6):
                     D[i, 24 + rr, k] = Js[rr, k] * xs[6 * i + k]
     g = np.zeros(N)
-    parts = (q, Ree, Jp, w, r, Jr)
+    parts = (q, Ree, Jp, w)
     if feasible:
         return 0.0, g, cE, AE, cI, D, parts
+    # FN^2 = sum over the angle columns a of wt_a |Jp_a|^2, its gradient
+    # 2 Jp_b . S_b with S_b = sum_{a <= b} wt_a Jp_a x w_a (d Jp_a / dx_b = w_a x Jp_b for
+    # a <= b; for a > b it is w_b x Jp_a, orthogonal to Jp_a: :func:`fn2_hessian`)
     acc = 0.0
-    for m in range(9 * n):
-        wt = wa[m // 9]
-        acc += wt * r[m] * r[m]
-        for b in range(N):
-            g[b] += 2.0 * wt * r[m] * Jr[m, b]
+    S0 = S1 = S2 = 0.0
     for b in range(N):
-        g[b] *= xs[b] / fscale
+        j0, j1, j2 = Jp[0, b], Jp[1, b], Jp[2, b]
+        if b % 6 >= 3:
+            wt = wa[b // 6]
+            acc += wt * j0 * j0
+            acc += wt * j1 * j1
+            acc += wt * j2 * j2
+            S0 += wt * (j1 * w[b, 2] - j2 * w[b, 1])
+            S1 += wt * (j2 * w[b, 0] - j0 * w[b, 2])
+            S2 += wt * (j0 * w[b, 1] - j1 * w[b, 0])
+        g[b] = 2.0 * (j0 * S0 + j1 * S1 + j2 * S2) * xs[b] / fscale
     return (c0 + acc) / fscale, g, cE, AE, cI, D, parts
 
 
@@ -477,12 +466,12 @@ def _hessian(parts: Any, yE: FloatArray, z: FloatArray, P: Any, wq: float) -> Fl
     xs, cs, es, R_t = P.xs, P.cs, P.es, P.rotation
     fscale, wa, feasible = P.fscale, P.w, P.feasible
     top, base, sj = P.top, P.base, P.sin_joint
-    q, Ree, Jp, w, r, Jr = parts
+    q, Ree, Jp, w = parts
     N = 6 * n
     if feasible:
         H = np.zeros((N, N))
     else:
-        H = fn2_hessian(Jp, w, r, Jr, wa) / fscale
+        H = fn2_hessian(Jp, w, wa) / fscale
     E = _mm3(R_t.T.copy(), Ree)
     yp = yE[:3] * es[:3]
     yo = yE[3:] * es[3:]
@@ -639,7 +628,19 @@ def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
         scale = 0.0
         for i in range(K):
             scale = max(scale, abs(Hz[i, i]))
-        ZtZ = Z.T @ Z  # the shift is delta I in x-space: Z^T (W + delta I) Z
+        # the shift is delta I in x-space: Z^T (W + delta I) Z
+        if structured:  # Z^T Z = E^T E + I (lower triangle: all the factor reads)
+            E = Z[:6]
+            ZtZ = np.zeros((K, K))
+            for a in range(K):
+                ZtZ[a, a] = 1.0
+                for b in range(a + 1):
+                    acc = 0.0
+                    for j in range(6):
+                        acc += E[j, a] * E[j, b]
+                    ZtZ[a, b] += acc
+        else:
+            ZtZ = Z.T @ Z
         shift = max(last_shift / 3.0, 1e-4) if last_shift > 0.0 else 1e-4
         grow = 8.0 if last_shift > 0.0 else 100.0
         for _ in range(60):

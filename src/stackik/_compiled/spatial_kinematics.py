@@ -85,6 +85,22 @@ def spatial_parts(
     r : (9n,) FN^2 residuals ``Jp[:, angle columns]`` (platform-major, 3 per angle) and
     Jr : (9n, 6n) their Jacobian (unweighted, unscaled)
     """
+    Pee, Ree, Jp, w, c, Jc = spatial_kinematics(q, top, base, leg_min, leg_max, sin_joint)
+    r, Jr = fn2_residuals(Jp, w)
+    return Pee, Ree, Jp, w, c, Jc, r, Jr
+
+
+@_jit
+def spatial_kinematics(
+    q: FloatArray,
+    top: FloatArray,
+    base: FloatArray,
+    leg_min: FloatArray,
+    leg_max: FloatArray,
+    sin_joint: FloatArray,
+) -> tuple[Any, ...]:
+    """:func:`spatial_parts` without the FN^2 residuals: ``Pee, Ree, Jp, w, c, Jc`` (the
+    interior point's evaluation, whose FN^2 terms need ``Jp`` and ``w`` alone)."""
     n = q.shape[0]
     N = 6 * n
     A = np.zeros((n + 1, 3, 3))
@@ -165,7 +181,16 @@ def spatial_parts(
             x = _cross(w[6 * i + 3 + j], d)
             for r_ in range(3):
                 Jp[r_, 6 * i + 3 + j] = x[r_]
-    # --- FN^2 residuals: the angle columns of Jp and their derivatives -------------------
+    return Pee, Ree, Jp, w, c, Jc
+
+
+@_jit
+def fn2_residuals(Jp: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The FN^2 residuals ``r`` (9n,) and their Jacobian ``Jr`` (9n, 6n) of
+    :func:`spatial_parts` from its ``Jp`` and ``w``."""
+    N = Jp.shape[1]
+    n = N // 6
+    # the angle columns of Jp and their derivatives:
     # d Jp[:, a] / dx_b = w[min(a, b)] x Jp[:, max(a, b)] (zero when min(a, b) translates)
     r = np.empty(9 * n)
     Jr = np.zeros((9 * n, N))
@@ -185,7 +210,7 @@ def spatial_parts(
                 Jr[3 * m, b] = w1 * j2 - w2 * j1
                 Jr[3 * m + 1, b] = w2 * j0 - w0 * j2
                 Jr[3 * m + 2, b] = w0 * j1 - w1 * j0
-    return Pee, Ree, Jp, w, c, Jc, r, Jr
+    return r, Jr
 
 
 @_jit
