@@ -791,8 +791,8 @@ def test_spatial_fast_mode_reanchors_by_default_and_keeps_fn_within_3_percent(st
 
 
 def test_spatial_default_reanchoring_up_to_four_platforms():
-    # a spatial check costs ~20 warm steps at n = 4; from n = 5 (18 starts and 12 hops)
-    # 40-70, and on the benchmark's n = 8 paths it found no better path: off
+    # a spatial check costs ~20 warm steps at n = 4; from n = 5 (then 18 starts and 12
+    # hops) 40-70, and on the benchmark's n = 8 paths it found no better path: off
     from stackik.paths.request import _request
 
     for n, every in ((2, 20), (4, 20), (5, 0), (8, 0), (16, 0)):

@@ -1,7 +1,7 @@
 """Threads of one solve's interior-point batches (:func:`stackik.solve_ik`'s ``threads``).
 
-A solve runs its interior-point starts in batches (the spatial default: 18 structured
-starts, then 12 hops; the planar default at scale: its random and structured starts).
+A solve runs its interior-point starts in batches (the spatial default: 12 structured
+starts, then 6 hops; the planar default at scale: its random and structured starts).
 Each start's run is independent of the others, so a batch can run on several threads
 (the compiled kernels release the GIL) and give the same runs, in the same order, as one
 after another: the pose a solve returns does not depend on the thread count.
@@ -36,7 +36,7 @@ __all__ = [
 
 R = TypeVar("R")
 
-#: The most threads a solve uses by default (a batch has at most 18 starts).
+#: The most threads a solve uses by default (a spatial default's batch has 6-12 starts).
 MAX_THREADS = 8
 #: Problems of at least this many variables (spatial from 4 platforms, planar from 8)
 #: run a batch's starts on several threads: below, a run costs about what handing it to

@@ -23,6 +23,7 @@ __all__ = [
     "SPATIAL_STARTS",
     "SPATIAL_HOPS",
     "SPATIAL_HOPS_N4",
+    "SPATIAL_HOPS_N5",
     "SPATIAL_START_ORDER",
     "StartSampler",
     "arc_starts",
@@ -303,12 +304,17 @@ def _lean(q0: FloatArray, phi: float, shift: float) -> FloatArray:
 
 def spatial_start_count(n: int) -> int:
     """Structured starts the spatial default runs (the first of :func:`spatial_starts`):
-    8 up to n = 4, 18 from n = 5 (measured as :func:`spatial_starts` says; the time goal
-    at n = 4 is 10x IPOPT from eight starts, beyond it only faster than IPOPT)."""
-    return 8 if n <= 4 else 18
+    8 up to n = 4, 12 from n = 5 (measured as :func:`spatial_starts` says and below).
+
+    From n = 5 the first 12 and the hops of :data:`SPATIAL_HOPS_N5` replaced the first 18
+    and all 12 hops: on 100 design targets at n = 6 and at n = 8 and 50 at n = 16 (seeds
+    74200, 76300, 77300, 79300, 91500; best known from IPOPT from 32 starts and every
+    method of those runs) within 0.1 % on 97 / 94 / 47 (was 99 / 100 / 49) at 59 / 57 /
+    66 % of the iterations (docs/benchmarks.md, 2026-12-06)."""
+    return 8 if n <= 4 else 12
 
 
-#: Hops from the best pose of the spatial default's starts (n >= 5): the yaw of the top
+#: Hops from the best pose of the spatial default's starts (n >= 4): the yaw of the top
 #: platforms changed, ``(platforms from the top, yaw [rad])``: ``(1, 2)`` turns the top
 #: two in opposite directions, ``(2,)`` only the second from the top, ``(1,)`` only the
 #: top one, ``(2, 3)`` the second and third in opposite directions.
@@ -351,7 +357,7 @@ def spatial_default_hops(stack: Stack, q: FloatArray) -> list[FloatArray]:
 def spatial_hop_count(n: int) -> int:
     """How many hops the spatial default runs from its best pose (and the obstacle and
     force rules' search without rows, :func:`stackik.solve.stages._rows_first`): none up
-    to n = 3, 6 at n = 4, all 12 from n = 5 (:func:`spatial_hop_plan` says which)."""
+    to n = 3, 6 from n = 4 (:func:`spatial_hop_plan` says which)."""
     return len(spatial_hop_plan(n))
 
 
@@ -363,15 +369,24 @@ def spatial_hop_count(n: int) -> int:
 #: all twelve: 20 each, at twice these six's cost).
 SPATIAL_HOPS_N4 = (0, 1, 8, 9, 10, 11)
 
+#: The hops of the spatial default from n = 5: the top two turned both ways by 1.2 and by
+#: 2.5 rad, the top one alone by 1.2 rad, the second alone by -0.6 rad. At n = 8 a hop
+#: reached a lower basin than the 18 starts on 15 of 50 design targets (seeds 91500,
+#: 77300, 74200), the top two turned by 2.5 rad on 8 of them. With the first 12 starts,
+#: 100 design targets each (seeds 74200, 76300, 77300, 79300, 91500): n = 6 97 within
+#: 0.1 % (96 with hops 0-3, 97 with all 12), n = 8 94 (89 with hops 0-3, 99 with all 12
+#: at 1.3x these six's iterations), n = 16 47 of 50 (47 with all 12; the three misses
+#: are the starts').
+SPATIAL_HOPS_N5 = (0, 1, 2, 3, 6, 11)
+
 
 def spatial_hop_plan(n: int) -> tuple[int, ...]:
     """Which of :data:`SPATIAL_HOPS` the spatial default runs from its best pose (indices
-    into :func:`spatial_hops`' list): none up to n = 3, :data:`SPATIAL_HOPS_N4` at n = 4
-    (with the eight starts, within the time goal of 10x IPOPT from eight starts), all 12
-    from n = 5."""
+    into :func:`spatial_hops`' list): none up to n = 3, :data:`SPATIAL_HOPS_N4` at n = 4,
+    :data:`SPATIAL_HOPS_N5` from n = 5."""
     if n <= 3:
         return ()
-    return SPATIAL_HOPS_N4 if n == 4 else tuple(range(len(SPATIAL_HOPS)))
+    return SPATIAL_HOPS_N4 if n == 4 else SPATIAL_HOPS_N5
 
 
 class StartSampler:

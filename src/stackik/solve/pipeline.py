@@ -115,8 +115,8 @@ def solve_ik(
         arc starts (:func:`stackik.starts.arc_starts`) and then eight random
         perturbations of its best pose (``n_starts`` 26); in spatial mode
         the interior point's structured starts (:func:`stackik.starts.spatial_starts`: 8
-        up to n = 4, 18 from n = 5; twists, leans and folds; then hops from the best pose,
-        6 at n = 4 and 12 from n = 5, :func:`stackik.starts.spatial_hop_plan`), the SQP
+        up to n = 4, 12 from n = 5; twists, leans and folds; then 6 hops from the best
+        pose from n = 4, :func:`stackik.starts.spatial_hop_plan`), the SQP
         engine's five
         structured and seven random ones; otherwise one. ``starts=K`` in spatial mode
         takes the first K of :func:`stackik.starts.spatial_starts`; spatial ``starts=1``
