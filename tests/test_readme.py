@@ -175,7 +175,7 @@ def test_headline_table_is_generated() -> None:
 
 def test_default_starts() -> None:
     """The README's default starts: "three for planar stacks up to n = 4", "eight for
-    spatial stacks up to n = 4", twelve from n = 5 and six hops, and the command line's
+    spatial stacks up to n = 3, twelve from n = 4" and six hops, and the command line's
     same default."""
     from stackik import PlanarTarget, SpatialTarget, Stack, solve_ik
     from stackik.cli import build_parser
@@ -183,14 +183,13 @@ def test_default_starts() -> None:
     from stackik.sampling import random_spatial_targets
 
     assert "three for planar stacks up to n = 4" in PROSE
-    assert "eight for spatial stacks up to n = 4" in PROSE
+    assert "eight for spatial stacks up to n = 3, twelve from n = 4" in PROSE
     assert "The command line uses the same default unless given `--starts K`" in PROSE
     stack = Stack.reference(4)
     assert solve_ik(stack, PlanarTarget(600.0, 1000.0, -1.57)).n_starts == 3
     spatial = SpatialTarget(np.array([100.0, 50.0, 1000.0]), euler_zyx([0.1, 0.2, 0.0]))
     assert 'then six "hops" from the best pose from n = 4' in PROSE
-    assert "(twelve from n = 5)" in PROSE
-    assert solve_ik(stack, spatial).n_starts == 8 + 6
+    assert solve_ik(stack, spatial).n_starts == 12 + 6
     stack6 = Stack.reference(6)
     assert solve_ik(stack6, random_spatial_targets(stack6, 1, 9606)[0]).n_starts == 12 + 6
     args = build_parser().parse_args(["solve", "--target", "600", "1000", "-1.57"])

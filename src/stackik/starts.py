@@ -304,14 +304,18 @@ def _lean(q0: FloatArray, phi: float, shift: float) -> FloatArray:
 
 def spatial_start_count(n: int) -> int:
     """Structured starts the spatial default runs (the first of :func:`spatial_starts`):
-    8 up to n = 4, 12 from n = 5 (measured as :func:`spatial_starts` says and below).
+    8 up to n = 3, 12 from n = 4 (measured as :func:`spatial_starts` says and below).
 
     From n = 5 the first 12 and the hops of :data:`SPATIAL_HOPS_N5` replaced the first 18
     and all 12 hops: on 100 design targets at n = 6 and at n = 8 and 50 at n = 16 (seeds
     74200, 76300, 77300, 79300, 91500; best known from IPOPT from 32 starts and every
     method of those runs) within 0.1 % on 97 / 94 / 47 (was 99 / 100 / 49) at 59 / 57 /
-    66 % of the iterations (docs/benchmarks.md, 2026-12-06)."""
-    return 8 if n <= 4 else 12
+    66 % of the iterations. At n = 4 the first 12 replaced the first 8 (with the hops of
+    :data:`SPATIAL_HOPS_N4`): 177 of 180 targets of eight sets within 0.1 % (was 175; on
+    the two sets drawn after the plan above, seeds 83100 and 84200, 19 and 19 of 20, was 18
+    and 18) at 1.3x the iterations; no set of hops instead recovered those misses (all 12
+    hops: 175; docs/benchmarks.md, 2026-12-06)."""
+    return 8 if n <= 3 else 12
 
 
 #: Hops from the best pose of the spatial default's starts (n >= 4): the yaw of the top
@@ -366,7 +370,9 @@ def spatial_hop_count(n: int) -> int:
 #: 0.6 rad. On four sets of 20 targets (seeds 74200, 76300, 77300, 91500) the eight
 #: starts alone were within 0.1 % of the best known on 19, 19, 19 and 20; with these six
 #: hops on 20 each (the first four hops alone: 20, 19, 19; the last four: 19, 20, 20;
-#: all twelve: 20 each, at twice these six's cost).
+#: all twelve: 20 each, at twice these six's cost). With 12 starts, on eight sets (180
+#: targets): 177 with these, 176 with :data:`SPATIAL_HOPS_N5`, 176 with hops 0, 1, 10, 11,
+#: 175 with none.
 SPATIAL_HOPS_N4 = (0, 1, 8, 9, 10, 11)
 
 #: The hops of the spatial default from n = 5: the top two turned both ways by 1.2 and by

@@ -115,7 +115,7 @@ def solve_ik(
         arc starts (:func:`stackik.starts.arc_starts`) and then eight random
         perturbations of its best pose (``n_starts`` 26); in spatial mode
         the interior point's structured starts (:func:`stackik.starts.spatial_starts`: 8
-        up to n = 4, 12 from n = 5; twists, leans and folds; then 6 hops from the best
+        up to n = 3, 12 from n = 4; twists, leans and folds; then 6 hops from the best
         pose from n = 4, :func:`stackik.starts.spatial_hop_plan`), the SQP
         engine's five
         structured and seven random ones; otherwise one. ``starts=K`` in spatial mode
