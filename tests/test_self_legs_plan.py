@@ -78,3 +78,32 @@ def test_no_batch_starts_past_the_budget() -> None:
     # the search's batch keeps 1 ms (Request.time_left); past it no batch with the rows
     # runs; a pose the search did not settle goes to the SQP engine for one start
     assert r.n_starts <= spatial_start_count(5) + (r.method == "sqp")
+
+
+def test_the_batch_with_the_rows_runs_without_hops(
+    calls: list[bool], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # rng 3000: the runs with the rows from the zero-radius basins' minima end more than
+    # CLEAR_COST_RTOL above the zero-radius least, so the batch with the rows from the
+    # plan's starts runs too (here it finds the answer, 2 % lower); after it no hops (they
+    # found a lower pose on 1 of 29 such targets, docs/clearance.md), and each run from a
+    # basin stops at CLEAR_BASIN_MAX_ITER iterations
+    from stackik.methods.ip import IPMethod
+    from stackik.solve.policy import CLEAR_BASIN_MAX_ITER
+
+    seen: list[tuple[int, bool, object]] = []
+    original = IPMethod.run_many
+
+    def run_many(self: IPMethod, prob, starts, options, *args):  # type: ignore[no-untyped-def]
+        seen.append((len(starts), prob.self_legs is not None, options.get("max_iter")))
+        return original(self, prob, starts, options, *args)
+
+    monkeypatch.setattr(IPMethod, "run_many", run_many)
+    target = random_spatial_targets(THIN4, 1, rng=3000)[0]
+    r = solve_ik(THICK4, target)
+    assert calls == [False] and r.success
+    assert clearances(THICK4, r.q).minimum >= -1e-6
+    with_rows = [(k, it) for k, rows, it in seen if rows]
+    singles = [it for k, it in with_rows if k == 1]
+    assert singles and all(it == CLEAR_BASIN_MAX_ITER for it in singles)
+    assert with_rows[-1][0] == spatial_start_count(4)  # the batch, last: no hops after it
