@@ -340,22 +340,24 @@ def spatial_hops(stack: Stack, q: FloatArray) -> list[FloatArray]:
     targets) and from 73 % to all 30 (n = 6).
     """
     n = stack.n
-    out = []
-    for tops, yaw in SPATIAL_HOPS:
-        if max(tops) > n:
-            continue
-        h = q.copy()
-        for k, top in enumerate(tops):
-            h[n - top, 3] += yaw if k == 0 else -yaw
-        out.append(h)
-    return out
+    return [_turned(q, tops, yaw) for tops, yaw in SPATIAL_HOPS if max(tops) <= n]
 
 
 def spatial_default_hops(stack: Stack, q: FloatArray) -> list[FloatArray]:
-    """The spatial default's hops from its best pose ``q``: those of
-    :func:`spatial_hop_plan` among :func:`spatial_hops`."""
-    every = spatial_hops(stack, q)
-    return [every[i] for i in spatial_hop_plan(stack.n)]
+    """The spatial default's hops from its best pose ``q``: the entries of
+    :data:`SPATIAL_HOPS` that :func:`spatial_hop_plan` names (n >= 4, where every entry
+    applies)."""
+    return [_turned(q, *SPATIAL_HOPS[i]) for i in spatial_hop_plan(stack.n)]
+
+
+def _turned(q: FloatArray, tops: tuple[int, ...], yaw: float) -> FloatArray:
+    """``q`` with the yaw of the platform ``tops[0]`` from the top turned by ``yaw`` and
+    of the others by ``-yaw`` (one entry of :data:`SPATIAL_HOPS`)."""
+    n = q.shape[0]
+    h = q.copy()
+    for k, top in enumerate(tops):
+        h[n - top, 3] += yaw if k == 0 else -yaw
+    return h
 
 
 def spatial_hop_count(n: int) -> int:

@@ -527,7 +527,7 @@ def _clear_first(
     if _spatial_self_legs(req):
         free = free.without_self_legs()
         cap = CLEAR_BASIN_MAX_ITER  # runs from the basins that go on past it pass none
-    return _rows_first(req, method, starts, free, CLEAR_MU0, CLEAR_COST_RTOL, None, cap)
+    return _rows_first(req, method, starts, free, CLEAR_MU0, CLEAR_COST_RTOL, max_iter=cap)
 
 
 def _over_limits(prob: Problem, q: FloatArray) -> bool:
