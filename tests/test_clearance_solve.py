@@ -146,6 +146,28 @@ def test_cli_solve_clearance_and_obstacles(capsys: pytest.CaptureFixture[str], t
     assert "--obstacles" in err and len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize(
+    "target", [["--target", "300", "800", "0.2"], ["--spatial", "--position", "100", "50", "600"]]
+)
+def test_cli_solve_shows_far_obstacles(
+    capsys: pytest.CaptureFixture[str], tmp_path, target: list[str]
+) -> None:
+    """An obstacle out of every body's reach: the solve's check leaves it out
+    (``IKResult.clearances`` None), the CLI's table and JSON still give its distance."""
+    import json
+
+    from stackik.cli import main
+
+    obs = tmp_path / "far.toml"
+    obs.write_text('[[obstacles]]\ntype = "sphere"\ncenter = [3000, 0, 500]\nradius = 100\n')
+    args = ["solve", "--n", "4", *target, "--obstacles", str(obs)]
+    assert main(args) == 0
+    assert "obstacle 0:" in capsys.readouterr().out
+    assert main([*args, "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["clearances"]["obstacles"][0] > 1000.0
+
+
 OBSTACLES3 = (
     sk.Sphere((50, 20, 500), 30.0),
     sk.Capsule((-300, 100, 300), (300, -50, 700), 10.0),
@@ -237,7 +259,12 @@ def test_out_of_reach_obstacles_have_no_rows() -> None:
     assert not Problem(REF, t, "frobenius", None, obstacles=far).dense_rows
     assert Problem(REF, t, "frobenius", None, obstacles=near).clearance.obstacle_rows is not None
     r = sk.solve_ik(REF, t, obstacles=far)
-    assert r.success and r.clearances is not None and r.clearances.minimum > 0
+    # the interior point's check leaves out obstacles no body of the pose reaches: the
+    # plain solve's pose, no clearances measured; the full check passes it
+    assert r.success and r.clearances is None
+    np.testing.assert_array_equal(r.q, sk.solve_ik(REF, t).q)
+    chk = sk.check_pose(REF, t, r.q, obstacles=far)
+    assert chk.ok and chk.clearances is not None and chk.clearances.minimum > 0
     from stackik.clearance import clearances_can_fail
 
     assert not clearances_can_fail(REF, far) and clearances_can_fail(REF, near)

@@ -101,7 +101,8 @@ class IKResult:
     clearances : Clearances or None
         Signed least distances [mm] per pair kind, with the closest pairs
         (:func:`stackik.clearances`), as the check measured them; None when the check had
-        none to enforce (zero leg radii and plate thickness, no obstacle, margin 0). Not
+        none to enforce (zero leg radii and plate thickness, margin 0, and no obstacle or,
+        for the interior point, none that a body of the pose can reach). Not
         kept by :meth:`to_record` / :meth:`from_record` (:meth:`to_dict` has them).
     """
 

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import textwrap
 from pathlib import Path
@@ -310,6 +311,16 @@ def run(args: argparse.Namespace) -> int:
         **clear,
         **kwargs,
     )
+    if clear["obstacles"] and result.clearances is None:
+        # the solve's check leaves out obstacles no body of the pose can reach; the table
+        # and the JSON show every obstacle's distance all the same
+        import numpy as np
+
+        from stackik.clearance import clearances
+
+        if np.all(np.isfinite(result.q)):
+            measured = clearances(stack, result.q, clear["obstacles"], phi=result.phi)
+            result = dataclasses.replace(result, clearances=measured)
     if args.json:
         data = result.to_dict()
         data["qp_solver"] = qp_backend(result) or "-"

@@ -191,14 +191,30 @@ class Problem:
         """The self-leg rows (appended after the limits, before the force rows), or None."""
         return self.clearance.self_legs
 
-    def check(self, q: FloatArray) -> Any:
+    def check(self, q: FloatArray, *, screen: bool = False) -> Any:
         """:func:`stackik.check.check_pose` of ``q`` (raw) with this problem's load, obstacles
-        and clearance margin: the acceptance rule every method applies."""
+        and clearance margin: the acceptance rule every method applies.
+
+        ``screen``: leave the obstacles out when none can touch the pose
+        (:func:`stackik.clearance.clearances_can_fail` with ``q``: zero radii and thickness,
+        margin 0, every obstacle beyond the ball that holds the pose's bodies), as the planar
+        interior point's compiled check does: the same verdict without measuring distances
+        that cannot fail (the check's ``clearances`` is then None)."""
         from stackik.check import check_pose
+        from stackik.clearance import clearances_can_fail
 
         cl = self.clearance
+        obstacles = cl.obstacles
+        if (
+            screen
+            and obstacles
+            and not clearances_can_fail(
+                self.stack, obstacles, cl.margin, q, self.mode.phi(self.target)
+            )
+        ):
+            obstacles = ()
         return check_pose(
-            self.stack, self.target, q, self.load, obstacles=cl.obstacles, clearance=cl.margin,
+            self.stack, self.target, q, self.load, obstacles=obstacles, clearance=cl.margin,
             constraints=self.constraints,
         )  # fmt: skip
 

@@ -372,7 +372,7 @@ def ip_starts(
             run = Run(q, int(nits[j]), statuses[j], chk, obj, (P, R, legs), texts[j])
         else:  # polished here, only the runs checked (Problem's rotation-vector form)
             q = prob.q_of(polish(prob, X[j]))
-            chk = prob.check(q)
+            chk = prob.check(q, screen=True)
             obj = prob.objective_value(q)
             run = Run(q, int(nits[j]), statuses[j], chk, obj, None, texts[j])
         if chk.ok:
