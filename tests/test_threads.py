@@ -11,6 +11,7 @@ from stackik import _threads
 from stackik.batch import checkpointed_map
 from stackik.formulation import Problem
 from stackik.methods import ip as ip_method
+from stackik.paths import interpolate_targets
 from stackik.sampling import random_spatial_targets
 from stackik.starts import paper_initial_guess
 
@@ -140,3 +141,31 @@ def test_solves_side_by_side_share_the_pool_and_keep_their_poses():
         got = list(pool.map(lambda t: sk.solve_ik(stack, t, threads=2).q, targets))
     for a, b in zip(serial, got):
         np.testing.assert_array_equal(a, b)
+
+
+def test_a_path_is_the_same_on_one_thread_or_two_and_refuses_bad_counts():
+    """``solve_path(threads=...)`` reaches the default solves: the same path either way."""
+    stack = sk.Stack.reference(4)
+    a, b = random_spatial_targets(stack, 2, 4321)
+    waypoints = interpolate_targets([a, b], steps=6)
+    one = sk.solve_path(stack, waypoints, max_jump=(60.0, 0.3), threads=1)
+    two = sk.solve_path(stack, waypoints, max_jump=(60.0, 0.3), threads=2)
+    assert one.completed == two.completed
+    np.testing.assert_array_equal(one.q, two.q)
+    with pytest.raises(ValueError, match="threads"):
+        sk.solve_path(stack, waypoints, threads=0)
+
+
+def test_cli_threads(capsys):
+    """``stackik solve --threads N``: the same pose as the default; 0 is a usage error."""
+    import json
+
+    from stackik.cli import main
+
+    args = ["solve", "--n", "4", "--spatial", "--position", "100", "50", "600", "--json"]
+    assert main([*args, "--threads", "1"]) == 0
+    one = json.loads(capsys.readouterr().out)
+    assert main(args) == 0
+    assert json.loads(capsys.readouterr().out)["q"] == one["q"]
+    assert main([*args, "--threads", "0"]) == 2
+    assert "--threads" in capsys.readouterr().err

@@ -127,6 +127,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--fps", type=positive_int, default=10, help="animation frames per second")
     p.add_argument("--checkpoint", type=Path, default=None, metavar="FILE",
                    help="record finished waypoints; rerun to resume")  # fmt: skip
+    p.add_argument("--threads", type=positive_int, default=None, metavar="N",
+                   help="threads the default solves' starts run on (default: every CPU, at "
+                        "most 8; the path does not depend on it)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.add_argument("--html", type=Path, default=None, metavar="FILE",
                    help="also write an interactive 3D view of the path (needs plotly)")  # fmt: skip
@@ -270,6 +273,7 @@ def run(args: argparse.Namespace) -> int:
         leg_speed=speed,
         leg_accel=accel,
         checkpoint=args.checkpoint,
+        threads=args.threads,
     )
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)

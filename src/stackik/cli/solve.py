@@ -26,6 +26,7 @@ from ._common import (
     load_of,
     load_stack,
     planar_target,
+    positive_int,
     resolve_qp,
 )
 
@@ -93,6 +94,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="first start: the paper's initial guess or the convex (SOCP) restriction",
     )
     p.add_argument("--max-time", type=float, default=None, metavar="SEC", help="time budget")
+    p.add_argument("--threads", type=positive_int, default=None, metavar="N",
+                   help="threads the interior point's starts run on (default: every CPU, at "
+                        "most 8; the pose does not depend on it)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument("--html", type=Path, default=None, metavar="FILE",
                    help="also write an interactive 3D view of the pose (needs plotly)")  # fmt: skip
@@ -308,6 +312,7 @@ def run(args: argparse.Namespace) -> int:
         start=args.start,
         load=load_of(args),
         force_weight=args.force_weight,
+        threads=args.threads,
         **clear,
         **kwargs,
     )

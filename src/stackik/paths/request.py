@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from stackik._threads import resolve as resolve_threads
 from stackik.check import check_pose
 from stackik.families import as_families
 from stackik.formulation.clearance import Clearance, clearance_of
@@ -66,6 +67,9 @@ class _Request:
     load: Load | None = None
     #: the user's constraint families every waypoint keeps (solve_ik's ``constraints``)
     constraints: tuple[Any, ...] = ()
+    #: solve_ik's ``threads`` for the default solves (not the problem's identity: the
+    #: poses do not depend on it)
+    threads: int | None = None
     memo: dict[Any, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -116,7 +120,9 @@ class _Request:
         key = (index, json.dumps(target_to_dict(target)))
         if key not in self.memo:
             rng = None if self.seed is None else self.seed + index
-            self.memo[key] = solve_ik(self.stack, target, rng=rng, **self.clear_kw)
+            self.memo[key] = solve_ik(
+                self.stack, target, rng=rng, threads=self.threads, **self.clear_kw
+            )
         return self.memo[key]
 
 
@@ -138,6 +144,7 @@ def _request(
     clearance: Any = 0.0,
     load: Any = None,
     constraints: Any = (),
+    threads: Any = None,
 ) -> _Request:
     if not isinstance(stack, Stack):
         raise ValueError(f"stack: expected a Stack, got {type(stack).__name__}")
@@ -201,6 +208,7 @@ def _request(
     return _Request(
         stack, pts, planar, k, mj, mode, w, refine, max_depth, q0, speeds[0], speeds[1],
         max_candidates, seed, reanchor_every, clear, load, fams,
+        None if threads is None else resolve_threads(threads),
     )  # fmt: skip
 
 

@@ -114,6 +114,7 @@ def solve_path(
     clearance: float = 0.0,
     load: Any = None,
     constraints: Any = (),
+    threads: int | None = None,
 ) -> PathResult:
     """Continuous least-FN poses along a sequence of end-effector waypoints.
 
@@ -174,6 +175,10 @@ def solve_path(
     constraints : ConstraintFamily or sequence of ConstraintFamily, optional
         As :func:`stackik.solve_ik`'s (:mod:`stackik.families`): every waypoint keeps them
         (the full check), and the steps' problems carry their rows.
+    threads : int or None
+        As :func:`stackik.solve_ik`'s: the threads the waypoints' default solves run their
+        starts on (None: every CPU the process may use, at most 8; 1: one after another,
+        for paths solved in parallel processes). The path does not depend on it.
 
     Returns
     -------
@@ -188,13 +193,13 @@ def solve_path(
         planes, NaN, ``max_jump`` not a pair of positive numbers, unknown mode, a
         ``start`` of the wrong shape or that misses ``targets[0]``, only one of
         ``leg_speed``/``leg_accel``, non-positive limits, a malformed ``load``,
-        ``obstacles`` or ``clearance``.
+        ``obstacles`` or ``clearance``, ``threads`` not a positive integer.
     """
     t_start = time.perf_counter()
     req = _request(
         stack, targets, max_jump, mode, motion_weight, refine, max_depth, start,
         leg_speed, leg_accel, max_candidates, rng, reanchor_every, obstacles, clearance, load,
-        constraints,
+        constraints, threads,
     )  # fmt: skip
     return _run(req, checkpoint, t_start)
 
