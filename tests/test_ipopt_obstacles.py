@@ -69,3 +69,30 @@ def test_ipopt_goes_around_a_sphere_on_a_leg(planar):
     assert check_pose(stack, target, r.q, obstacles=[sphere]).ok
     assert r.frobenius_norm >= r0.frobenius_norm * (1 - 1e-6)
     assert math.isfinite(r.frobenius_norm)
+
+
+def test_no_solver_build_past_the_budget(monkeypatch):
+    """``run_ipopt``'s builds (``_built``): a solver not built yet whose stack and obstacles
+    took longer to build last time than the time left is not built (status
+    ``"max_time"`` in ``run_ipopt``); one built already is reused whatever the time."""
+    import time
+
+    from stackik.methods import ipopt as m
+
+    monkeypatch.setattr(m, "_BUILT", set())
+    monkeypatch.setattr(m, "_BUILD_S", {})
+    calls = []
+
+    def build(*args):
+        calls.append(args)
+        time.sleep(0.05)
+        return "solver"
+
+    assert m._built(build, 10.0, ("stack", "boxes"), "stack", 1) == "solver"
+    assert m._BUILD_S[("build", ("stack", "boxes"))] >= 0.05
+    # the same shape with other options (another max_wall_time) and too little time left
+    assert m._built(build, 0.01, ("stack", "boxes"), "stack", 2) is None
+    assert len(calls) == 1
+    assert m._built(build, 0.01, ("stack", "boxes"), "stack", 1) == "solver"  # built
+    assert m._built(build, 0.01, ("stack", "none"), "stack", 3) == "solver"  # no history
+    assert len(calls) == 3

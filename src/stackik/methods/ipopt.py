@@ -25,6 +25,7 @@ there and the KKT points with ``E = I`` are the same. Its spurious zeros (half t
 from __future__ import annotations
 
 import math
+import time
 from functools import lru_cache
 from typing import Any, ClassVar
 
@@ -598,6 +599,34 @@ def _spatial_solver(
     return solver, lbg, ubg
 
 
+#: Keys of the solvers built in this process (their last ``_BUILT_MAX``) and, per stack
+#: and obstacle set, how long its last build took [s].
+_BUILT: set[Any] = set()
+_BUILD_S: dict[Any, float] = {}
+_BUILT_MAX = 256
+
+
+def _built(build: Any, time_left: float, shape: Any, *args: Any) -> Any:
+    """``build(*args)`` (a cached CasADi solver), or None when it is not built yet and the
+    last build for the same stack and obstacles took longer than ``time_left``: a new
+    ``max_wall_time`` (:func:`run_ipopt` rounds it to a power of two, so a later run of
+    a solve may need a solver of its own) or the self-leg rows of a second run must not
+    spend past the budget on symbolic set-up (seconds with box obstacles' rows).
+    ``shape``: the stack and the obstacle key."""
+    full = (build.__name__, args)
+    shape = (build.__name__, shape)
+    if full not in _BUILT and _BUILD_S.get(shape, 0.0) > time_left:
+        return None
+    t0 = time.perf_counter()
+    out = build(*args)
+    if full not in _BUILT:
+        if len(_BUILT) >= _BUILT_MAX:
+            _BUILT.clear()
+        _BUILT.add(full)
+        _BUILD_S[shape] = time.perf_counter() - t0
+    return out
+
+
 def run_ipopt(
     prob: Problem, u0: FloatArray, options: dict[str, Any], time_left: float = math.inf
 ) -> tuple[FloatArray, int, str]:
@@ -606,8 +635,10 @@ def run_ipopt(
 
     ``options`` are IPOPT options (``max_iter``, ``tol``, ...). ``time_left`` [s] becomes
     IPOPT's ``max_wall_time``, rounded down to a power of two so that cached solvers are
-    reused.
+    reused. When building the CasADi solver (seconds with box obstacles' rows) used up
+    ``time_left``, IPOPT does not run: ``u0``, 0 iterations, status ``"max_time"``.
     """
+    t_start = time.perf_counter()
     target = prob.target
     planar = isinstance(target, PlanarTarget)
     if planar and prob.objective == "weighted" and np.ptp(prob.w_th) != 0:
@@ -622,18 +653,27 @@ def run_ipopt(
         raise OptionError("options: IPOPT option values must be numbers or strings") from None
     load = None if prob.forces is None else prob.forces.load
     if isinstance(target, PlanarTarget):
-        solver, lbg, ubg = _solver(
-            prob.stack, target.phi, prob.objective, tuple(prob.xs), key, load,
-            obstacle_key(prob), _self_leg_key(prob), pair_key(prob),
+        obstacles = obstacle_key(prob)
+        built = _built(
+            _solver, time_left, (prob.stack, obstacles), prob.stack, target.phi,
+            prob.objective, tuple(prob.xs), key, load, obstacles, _self_leg_key(prob),
+            pair_key(prob),
         )  # fmt: skip
+        if built is None:
+            return u0, 0, "max_time"
+        solver, lbg, ubg = built
         par = target.y
     else:
         assert isinstance(target, SpatialTarget)
         legs = _self_leg_key(prob)
-        solver, lbg, ubg = _spatial_solver(
-            prob.stack, prob.objective, tuple(prob.xs), key, load, legs, obstacle_key(prob),
-            pair_key(prob),
+        obstacles = obstacle_key(prob)
+        built = _built(
+            _spatial_solver, time_left, (prob.stack, obstacles), prob.stack, prob.objective,
+            tuple(prob.xs), key, load, legs, obstacles, pair_key(prob),
         )  # fmt: skip
+        if built is None:
+            return u0, 0, "max_time"
+        solver, lbg, ubg = built
         par = np.concatenate(
             [
                 target.position,
@@ -652,6 +692,8 @@ def run_ipopt(
         x0 = np.concatenate([u0, s0])
         lbx = np.concatenate([np.full(u0.size, -np.inf), -np.ones(s0.size)])
         ubx = np.concatenate([np.full(u0.size, np.inf), np.ones(s0.size)])
+    if time.perf_counter() - t_start >= time_left:  # the set-up spent the budget
+        return u0, 0, "max_time"
     sol = solver(x0=x0, p=par, lbg=lbg, ubg=ubg, lbx=lbx, ubx=ubx)
     stats = solver.stats()
     u = np.asarray(sol["x"], dtype=float).ravel()[: u0.size]

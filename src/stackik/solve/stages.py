@@ -784,6 +784,8 @@ def _lazy_self_legs(
     others = max(chk.max_violation_mm, unconstrained_shortfall(prob, chk))
     if not pose_ok(chk.position_error, chk.angle_error, others, True, chk.peak_force_ratio):
         return run
+    if req.out_of_time():  # no second run past the budget
+        return run
     again = method.run(prob, qs, options, req.time_left(time.perf_counter()), req.qp_solver)
     return dataclasses.replace(again, nit=run.nit + again.nit)
 
