@@ -38,13 +38,13 @@ before the timed IPOPT runs of a target, one untimed IPOPT solve of that target 
 same obstacle builds it, so the IPOPT times exclude the symbolic set-up (none subtracted).
 The best known FN is the least over every success of the row that passes the re-check.
 
-Re-check. Every pose called a success is re-checked in this file, not by stackik's
-clearance code: target and limits by ``check_pose`` on the stack without obstacles, and the
-obstacle by exact distances written here: each leg axis segment against the sphere's
-centre (point-segment), the capsule's axis (segment-segment,
-:func:`bench_clearance.segment_distance`) or the box (:func:`segment_box_gap`: slab
-clipping decides whether the axis meets it, else ends and edges; :func:`plate_box_gap`
-for a plate), and each plate except the base (the convex
+Re-check. Every pose called a success is re-checked apart from stackik's clearance code:
+target and limits by ``check_pose`` on the stack without obstacles, and the obstacle by
+the test oracle's exact distances (``tests/reference_impl.obstacle_body_gaps``, which the
+soak's obstacle cases use too): each leg axis segment against the sphere's
+centre (point-segment), the capsule's axis (segment-segment) or the box
+(``segment_box_gap``: slab clipping decides whether the axis meets it, else ends and
+edges; ``plate_box_gap`` for a plate), and each plate except the base (the convex
 polygon of its nodes in its plane: the top nodes of platform j and the base nodes of
 platform j + 1) against the centre (exact point-polygon: the height when the centre
 projects inside, else the distance to the nearest edge) or the axis (exact
@@ -78,7 +78,8 @@ from stackik.sampling import random_planar_targets, random_spatial_targets
 from stackik.targets import PlanarTarget
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_clearance import segment_distance  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+import reference_impl as ref  # noqa: E402  (the test oracle's exact distances)
 
 CASES = {  # name: (planar, obstacle kind, n)
     "spatial4_sphere": (False, "sphere", 4),
@@ -121,155 +122,20 @@ def legs(stack: Stack, A: np.ndarray, O: np.ndarray) -> tuple[np.ndarray, np.nda
     return B, T
 
 
-def _point_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
-    d = b - a
-    dd = float(d @ d)
-    t = 0.0 if dd == 0.0 else min(1.0, max(0.0, float((p - a) @ d) / dd))
-    return float(np.linalg.norm(p - (a + t * d)))
-
-
-def _hull(pts: np.ndarray) -> np.ndarray:
-    """Convex hull (counter-clockwise, monotone chain) of 2D points (m, 2)."""
-    P = sorted(map(tuple, pts))
-
-    def half(seq: list[tuple[float, ...]]) -> list[tuple[float, ...]]:
-        h: list[tuple[float, ...]] = []
-        for p in seq:
-            while (
-                len(h) >= 2
-                and (
-                    (h[-1][0] - h[-2][0]) * (p[1] - h[-2][1])
-                    - (h[-1][1] - h[-2][1]) * (p[0] - h[-2][0])
-                )
-                <= 0
-            ):
-                h.pop()
-            h.append(p)
-        return h
-
-    lo, hi = half(P), half(P[::-1])
-    return np.array(lo[:-1] + hi[:-1])
-
-
-def _inside(h: np.ndarray, p: np.ndarray) -> bool:
-    """Whether 2D point p lies in the counter-clockwise convex polygon h."""
-    e = np.roll(h, -1, axis=0) - h
-    w = p - h
-    return bool(np.all(e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0] >= 0))
-
-
-def plate_distance(nodes: np.ndarray, A: np.ndarray, O: np.ndarray, a: np.ndarray,
-                   b: np.ndarray) -> float:  # fmt: skip
-    """Exact distance [mm] of the segment a-b (a point if a = b) from the convex polygon of
-    ``nodes`` (plate frame, z = 0) placed at (A, O): 0 if it crosses the polygon, else the
-    least of the endpoints' heights where they project inside and the edge distances."""
-    assert np.allclose(nodes[:, 2], 0.0)
-    h = _hull(nodes[:, :2])
-    la, lb = A.T @ (a - O), A.T @ (b - O)
-    best = math.inf
-    for p in (la, lb):
-        if _inside(h, p[:2]):
-            best = min(best, abs(float(p[2])))
-    if la[2] * lb[2] < 0:  # the segment crosses the plane: where?
-        x = la + (lb - la) * (la[2] / (la[2] - lb[2]))
-        if _inside(h, x[:2]):
-            return 0.0
-    H = np.column_stack([h, np.zeros(len(h))])
-    for v, w in zip(H, np.roll(H, -1, axis=0), strict=True):
-        best = min(best, segment_distance(v, w, la, lb))
-    return best
-
-
-def _box_sdf(x: np.ndarray, box: Box) -> float:
-    """Signed distance [mm] of the point x from the box (negative inside)."""
-    assert box.rotation is not None
-    e = np.abs(box.rotation.T @ (x - box.center)) - box.half_extents
-    return float(np.linalg.norm(np.maximum(e, 0.0)) + min(float(e.max()), 0.0))
-
-
-def _clip(a: np.ndarray, b: np.ndarray, box: Box) -> tuple[float, float] | None:
-    """The parameter interval of the segment a-b inside the box (slab clipping), or None."""
-    assert box.rotation is not None
-    la, lb = box.rotation.T @ (a - box.center), box.rotation.T @ (b - box.center)
-    t0, t1 = 0.0, 1.0
-    for p, d, h in zip(la, lb - la, box.half_extents, strict=True):
-        if d == 0.0:
-            if abs(p) > h:
-                return None
-            continue
-        lo, hi = sorted(((-h - p) / d, (h - p) / d))
-        t0, t1 = max(t0, lo), min(t1, hi)
-        if t0 > t1:
-            return None
-    return t0, t1
-
-
-def segment_box_gap(a: np.ndarray, b: np.ndarray, box: Box) -> float:
-    """Signed distance [mm] of the segment a-b from the box. Disjoint (slab clipping finds
-    no point inside): exact, the least of the ends' distances and the distances from the
-    box's 12 edges (:func:`bench_clearance.segment_distance`), where the closest pair of a
-    segment and a disjoint box lies. Meeting: at most 0, the least over t of the box's
-    signed distance at a + t (b - a) (convex in t: bounded Brent, and the clipped
-    interval's middle) -- only its sign decides a false success."""
-    from scipy.optimize import minimize_scalar
-
-    def f(t: float) -> float:
-        return _box_sdf(a + t * (b - a), box)
-
-    inside = _clip(a, b, box)
-    if inside is None:
-        edges = min(segment_distance(a, b, e0, e1) for e0, e1 in _box_edges(box))
-        return min(f(0.0), f(1.0), edges)
-    r = minimize_scalar(f, bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-13})
-    return min(float(r.fun), f(0.5 * (inside[0] + inside[1])), 0.0)
-
-
-def _box_edges(box: Box) -> list[tuple[np.ndarray, np.ndarray]]:
-    assert box.rotation is not None
-    s = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-    c = box.center + (s * box.half_extents) @ box.rotation.T
-    return [(c[i], c[j]) for i in range(8) for j in range(i + 1, 8) if np.sum(s[i] != s[j]) == 1]
-
-
-def plate_box_gap(nodes: np.ndarray, A: np.ndarray, O: np.ndarray, box: Box) -> float:
-    """Distance [mm] of a plate polygon from the box, 0 or less when they meet: two convex
-    bodies' least distance is attained at an edge (or vertex) of one of them, so the least
-    of the polygon's edges against the box (:func:`segment_box_gap`, signed) and of the
-    box's 12 edges against the polygon (:func:`plate_distance`, 0 when one pierces it)."""
-    h = _hull(nodes[:, :2])
-    H = np.column_stack([h, np.zeros(len(h))]) @ A.T + O
-    best = min(segment_box_gap(v, w, box) for v, w in zip(H, np.roll(H, -1, axis=0), strict=True))
-    return min(best, *(plate_distance(nodes, A, O, e0, e1) for e0, e1 in _box_edges(box)))
-
-
 def obstacle_gap(stack: Stack, q: np.ndarray, phi: float | None, ob: Obstacle) -> dict[str, float]:
     """Least distance [mm] of the leg axes and of the plates (base excluded) from the
-    obstacle's core (a sphere's centre, a capsule's axis; a box's signed distance)."""
+    obstacle's core (a sphere's centre, a capsule's axis; a box's signed distance), by the
+    test oracle's exact distances (``tests/reference_impl.obstacle_body_gaps``)."""
     A, O = frames(stack, q, phi)
-    B, T = legs(stack, A, O)
-    if isinstance(ob, Box):
-        leg = min(segment_box_gap(B[i, k], T[i, k], ob) for i in range(stack.n) for k in range(6))
-        plate = math.inf
-        for j in range(1, stack.n + 1):
-            nodes = stack.top_nodes[j - 1]
-            if j < stack.n:
-                nodes = np.vstack([nodes, stack.base_nodes[j]])
-            plate = min(plate, plate_box_gap(nodes, A[j], O[j], ob))
-        return {"leg": leg, "plate": plate}
-    a, b = (ob.center, ob.center) if isinstance(ob, Sphere) else (ob.a, ob.b)  # type: ignore[attr-defined]
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    leg = min(
-        _point_segment(a, B[i, k], T[i, k]) if isinstance(ob, Sphere)
-        else segment_distance(B[i, k], T[i, k], a, b)
-        for i in range(stack.n) for k in range(6)
-    )  # fmt: skip
-    plate = math.inf
-    for j in range(1, stack.n + 1):
-        nodes = stack.top_nodes[j - 1]
-        if j < stack.n:
-            nodes = np.vstack([nodes, stack.base_nodes[j]])
-        plate = min(plate, plate_distance(nodes, A[j], O[j], a, b))
-    return {"leg": leg, "plate": plate}
+    d = ob.to_dict()
+    g = ref.obstacle_body_gaps(ref_stack(stack), O, A, d)
+    core = float(d.get("radius", 0.0))  # the oracle measures from the surface
+    return {"leg": float(g["leg"].min()) + core, "plate": float(g["plate"].min()) + core}
+
+
+def ref_stack(stack: Stack) -> list[dict[str, np.ndarray]]:
+    """The stack as the oracle's plain dicts (its joints)."""
+    return [{"base": stack.base_nodes[i], "top": stack.top_nodes[i]} for i in range(stack.n)]
 
 
 # ---------------------------------------------------------------------------------------

@@ -1,14 +1,16 @@
 """Soak run of stackik (issue 7): thousands of fuzzed solves, unattended.
 
 Every case comes from ``tests/fuzz_cases.py`` (``make_case(seed, index)``): reachable planar
-and spatial targets from random feasible poses, spatial targets on legs of a size (leg
-radii 0-15 mm, clearance margins; every success's legs re-measured with an exact segment
-distance), random and extreme-scale geometries, large stacks, unreachable targets,
-impossible geometries, wild warm starts, iteration and time limits, ``start="convex"``,
-and malformed input (NaN/inf, wrong shapes, bad geometries, bad arguments) across every
-method, QP backend and objective. Each case is solved in a worker process with a watchdog
-(a case that outlives ``--timeout`` is recorded as a ``hang`` and its worker replaced),
-its outcome classified and every success re-checked independently (``fuzz_cases.recheck``).
+and spatial targets from random feasible poses, spatial targets on legs of a size (leg radii
+0-15 mm, clearance margins; every success's legs re-measured with an exact segment
+distance), obstacles across the legs (spheres, capsules, boxes, half-spaces; every leg and
+plate re-measured against them by the oracle's exact distances), random and extreme-scale
+geometries, large stacks, unreachable targets, impossible geometries, wild warm starts,
+iteration and time limits, ``start="convex"``, and malformed input (NaN/inf, wrong shapes,
+bad geometries, bad arguments) across every method, QP backend and objective. Each case is
+solved in a worker process with a watchdog (a case that outlives ``--timeout`` is recorded
+as a ``hang`` and its worker replaced), its outcome classified and every success re-checked
+independently (``fuzz_cases.recheck``).
 
 Writes ``benchmarks/results/soak.json`` (counts, per-category and per-method tables,
 every problem case, compact per-case records, machine and date; rewritten every 100 cases
@@ -228,7 +230,7 @@ def _row(recs: list[dict[str, Any]]) -> dict[str, Any]:
         "max_time_s": max(times) if times else 0.0,
     }
     slack = [r["clearance_slack"] for r in recs if "clearance_slack" in r]
-    if slack:  # successes on legs of a size: how many hold two legs at the least distance
+    if slack:  # successes with a clearance to keep: how many sit at the least distance
         row["clearance_rechecked"] = len(slack)
         row["clearance_active"] = sum(s <= ACTIVE_MM for s in slack)
         row["clearance_least_slack_mm"] = min(slack)
@@ -424,8 +426,8 @@ def print_summary(summary: dict[str, Any]) -> None:
         )
         if "clearance_rechecked" in r:
             print(
-                f"  {'':20s} legs of a size: {r['clearance_rechecked']} successes re-measured, "
-                f"{r['clearance_active']} with two legs at the least distance "
+                f"  {'':20s} clearances: {r['clearance_rechecked']} successes re-measured, "
+                f"{r['clearance_active']} with a pair at the least distance "
                 f"(slack <= {ACTIVE_MM} mm), least slack {r['clearance_least_slack_mm']:.2e} mm"
             )
     for u in summary["unexpected"]:

@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 
 import stackik as sk
+from stackik.obstacles import Obstacle
 from stackik.result import IKStatus
 from stackik.sampling import random_feasible_poses
 from stackik.sqp.qp import available_qp_solvers
@@ -212,10 +213,12 @@ def recheck(
     result: sk.IKResult,
     clearance: float = 0.0,
     load: Any = None,
+    obstacles: Any = (),
 ) -> Recheck:
-    """Check ``result`` against ``target`` and every limit without trusting the solver; on a
-    spatial target with legs of a size (or a ``clearance`` margin [mm]), also the distance
-    of every two legs of a platform (:func:`clearance_problems`)."""
+    """Check ``result`` against ``target`` and every limit without trusting the solver; with
+    legs of a size (or a ``clearance`` margin [mm]), also the distance of every two legs of
+    a platform, and every leg and plate (but the base) against every obstacle
+    (:func:`clearance_problems`, :func:`obstacle_problems`), planar and spatial."""
     reasons: list[str] = []
     planar = isinstance(target, PlanarTarget)
     n, k = stack.n, (3 if planar else 6)
@@ -284,12 +287,44 @@ def recheck(
         got = np.asarray(got, dtype=float)
         if got.shape != want.shape or not np.all(np.abs(got - want) <= tol):
             reasons.append(f"result.{name} disagrees with q")
-    slack = math.nan
-    if not planar:
-        problems, slack = clearance_problems(stack, q, clearance)
-        reasons += problems
+    problems, slack = clearance_problems(stack, poses, clearance)
+    reasons += problems
+    ob_problems, ob_slack = obstacle_problems(stack, poses, obstacles, clearance)
+    reasons += ob_problems
+    if math.isfinite(ob_slack):
+        slack = ob_slack if not math.isfinite(slack) else min(slack, ob_slack)
     reasons += force_problems(stack, poses, load)
     return Recheck(not reasons, reasons, pos, ang, leg_v, joint_v, slack)
+
+
+def obstacle_problems(
+    stack: sk.Stack, poses: list[Any], obstacles: Any = (), clearance: float = 0.0
+) -> tuple[list[str], float]:
+    """Legs (capsules of ``leg_radius``) or plates (zero thickness; the base plate left out)
+    closer to an obstacle than ``clearance - CLEARANCE_TOL`` [mm], by the oracle's exact
+    distances (``reference_impl.obstacle_body_gaps``, plain data: independent of stackik's
+    clearance code); and the least slack (surface distance - margin) [mm] (nan without
+    obstacles)."""
+    obs = [obstacles] if isinstance(obstacles, Obstacle) else list(obstacles or ())
+    if not obs:
+        return [], math.nan
+    if any(g.plate_thickness > 0.0 for g in stack):  # not in the oracle
+        raise NotImplementedError("the obstacle oracle has plates of zero thickness only")
+    O, A = ref.chain(poses)
+    radius = np.array([g.leg_radius for g in stack], dtype=float)[:, None]
+    geoms = geometry_dicts(stack)
+    problems: list[str] = []
+    slack = math.inf
+    for j, ob in enumerate(obs):
+        g = ref.obstacle_body_gaps(geoms, O, A, ob.to_dict())
+        leg = g["leg"] - radius - clearance
+        plate = g["plate"] - clearance
+        worst = min(float(leg.min()), float(plate.min()))
+        slack = min(slack, worst)
+        if not worst >= -CLEARANCE_TOL:
+            body = "a leg" if leg.min() <= plate.min() else "a plate"
+            problems.append(f"{body} {worst:.6g} mm inside obstacle {j}'s margin")
+    return problems, slack
 
 
 def force_problems(stack: sk.Stack, poses: list[Any], load: Any) -> list[str]:
@@ -314,16 +349,17 @@ def force_problems(stack: sk.Stack, poses: list[Any], load: Any) -> list[str]:
 
 
 def clearance_problems(
-    stack: sk.Stack, q: np.ndarray, clearance: float = 0.0
+    stack: sk.Stack, poses: list[Any], clearance: float = 0.0
 ) -> tuple[list[str], float]:
     """Legs of one platform closer than ``2 leg_radius - CLEARANCE_TOL`` (capsules that
     overlap) or, with a margin, than ``2 leg_radius + clearance - CLEARANCE_TOL`` axis to
-    axis, by the oracle's exact segment distance (``reference_impl``); and the least slack
+    axis, by the oracle's exact segment distance (``reference_impl``; ``poses``: each
+    platform's ``(P, R)``, planar ones lifted); and the least slack
     ``gap - (2 leg_radius + clearance)`` [mm] (nan without radii and margin)."""
     radius = np.array([g.leg_radius for g in stack], dtype=float)
     if not (radius.max() > 0.0 or clearance > 0.0):
         return [], math.nan
-    gaps = ref.spatial_self_leg_gaps(geometry_dicts(stack), q)
+    gaps = ref.self_leg_gaps(geometry_dicts(stack), poses)
     need = 2.0 * radius + float(clearance)
     bad = np.flatnonzero(~(gaps >= need - CLEARANCE_TOL))
     problems = [f"legs of platform {i} {gaps[i]:.6g} mm apart < {need[i]:.6g} mm" for i in bad]
@@ -364,7 +400,8 @@ def nit_bound(stack: sk.Stack, target: Any, kwargs: dict[str, Any], per_run: int
     """Largest ``nit`` solve_ik may report with ``per_run`` iterations per solver run.
 
     SQP: the screened structured starts (n >= 2, no x0, default starts), the
-    planned starts, and up to FALLBACK_STARTS more when none passes the check. The
+    planned starts, and up to FALLBACK_STARTS more when none passes the check (each twice
+    on planar problems with self-leg rows: first without them). The
     interior-point path (``method="ip"``, or ``"auto"`` where it applies): its planned
     starts (structured ones plus the documented fold patterns, :func:`stackik.starts.fold_depth`)
     and, for ``"auto"``, the bisection toward an unreachable target and the SQP runs
@@ -379,8 +416,15 @@ def nit_bound(stack: sk.Stack, target: Any, kwargs: dict[str, Any], per_run: int
     method = kwargs.get("method", "auto")
     structured = stack.n >= 2 and x0 is None and kwargs.get("start", "paper") == "paper"
     screened = SCREENED_STARTS if planar else SCREENED_STARTS_SPATIAL
+    # planar self-leg rows (legs of a size or a margin): a local engine's run without them
+    # may be followed by one with them from the same start (``Problem.lazy_self_legs``)
+    radius = max(float(g.leg_radius) for g in stack)
+    lazy = planar and (radius > 0.0 or float(kwargs.get("clearance", 0.0)) > 0.0)
 
     def sqp_runs() -> int:
+        return (2 if lazy else 1) * _sqp_starts()
+
+    def _sqp_starts() -> int:
         runs = 0
         if starts is None and structured and not planar:
             from stackik.starts import SPATIAL_STARTS
@@ -462,8 +506,10 @@ def run_case(case: Case) -> dict[str, Any]:
         problems.append("success flag disagrees with status")
     if res.success:
         load = kwargs.get("load")
-        chk = sk.check_pose(stack, target, res.q, load)
-        rc = recheck(stack, target, res, float(kwargs.get("clearance", 0.0)), load)
+        margin = float(kwargs.get("clearance", 0.0))
+        obstacles = kwargs.get("obstacles") or ()
+        chk = sk.check_pose(stack, target, res.q, load, obstacles=obstacles, clearance=margin)
+        rc = recheck(stack, target, res, margin, load, obstacles)
         if not chk.ok:
             problems.append("check_pose fails")
         problems += rc.reasons
@@ -658,6 +704,108 @@ def gen_clearance_spatial(rng: np.random.Generator, n: int | None = None) -> Cas
             "mode": "spatial",
             "leg_radius_max": float(radii.max()),
             "margin": margin,
+        },
+    )
+
+
+#: Obstacle kinds of :func:`gen_obstacles`.
+OBSTACLE_KINDS = ("sphere", "capsule", "box", "halfspace")
+
+
+def _random_obstacle(
+    rng: np.random.Generator, stack: sk.Stack, poses: list[Any], kind: str
+) -> Obstacle:
+    """An obstacle of ``kind`` near a random point of a random leg of the pose ``poses``
+    (the zero-radius pose the target came from): 0-60 mm off it, sizes of actuators, truss
+    members, beams and walls; a half-space's boundary through such a point, its normal
+    random but pointing away from the base origin's side (the bodies stay on that side)."""
+    O, A = ref.chain(poses)
+    geoms = geometry_dicts(stack)
+    i, k = int(rng.integers(stack.n)), int(rng.integers(6))
+    a = O[i] + A[i] @ geoms[i]["base"][k]
+    b = O[i + 1] + A[i + 1] @ geoms[i]["top"][k]
+    p = a + rng.uniform(0.0, 1.0) * (b - a) + rng.normal(0.0, 30.0, 3)
+    if kind == "sphere":
+        return sk.Sphere(p, float(rng.uniform(3.0, 60.0)))
+    if kind == "capsule":
+        d = rng.normal(size=3)
+        d *= float(rng.uniform(50.0, 500.0)) / np.linalg.norm(d)
+        return sk.Capsule(p - d, p + d, float(rng.uniform(2.0, 25.0)))
+    if kind == "box":
+        from scipy.spatial.transform import Rotation
+
+        rot = Rotation.from_rotvec(rng.normal(0.0, 1.5, 3)).as_matrix()
+        return sk.Box(p, rng.uniform(3.0, 120.0, 3), rot)
+    normal = rng.normal(size=3)
+    if normal @ p > 0.0:  # the base origin on the side the normal points to
+        normal = -normal
+    return sk.HalfSpace(p, normal)
+
+
+def gen_obstacles(rng: np.random.Generator, n: int | None = None) -> Case:
+    """Keep-out bodies (spheres, truss capsules, rotated boxes, half-spaces; one to three)
+    placed across the legs of the pose a target came from, planar or spatial, legs of zero
+    radius or 1-12 mm, a clearance margin a third of the time (0-5 mm), reference or random
+    platforms, every method. Obstacles that would touch a base joint (every pose would
+    collide: a ValueError by design) are drawn again. The re-check measures every leg and
+    plate against every obstacle with the oracle's own exact distances."""
+    n = int(rng.choice([1, 2, 3, 4])) if n is None else n
+    planar = bool(rng.random() < 0.5)
+    radius = 0.0 if rng.random() < 0.4 else float(rng.uniform(1.0, 12.0))
+    margin = float(rng.uniform(0.0, 5.0)) if rng.random() < 0.33 else 0.0
+    thin = sk.Stack.reference(n) if rng.random() < 0.75 else random_stack(rng, n)
+    if planar:
+        phi = float(rng.choice(PHIS))
+        q = feasible_planar_pose(thin, rng, phi)
+        if q is None:  # pragma: no cover - random geometries that fail the sampler
+            thin = sk.Stack.reference(n)
+            q = feasible_planar_pose(thin, rng, phi)
+        assert q is not None
+        y = sk.planar_forward(q)
+        target: Any = PlanarTarget(float(y[0]), float(y[1]), float(y[2]), phi=phi)
+        poses = [ref.planar_platform_pose(row, phi) for row in q]
+    else:
+        q = feasible_spatial_pose(thin, rng)
+        if q is None:  # pragma: no cover
+            thin = sk.Stack.reference(n)
+            q = feasible_spatial_pose(thin, rng)
+        assert q is not None
+        target = SpatialTarget(*sk.spatial_forward(q))
+        poses = [ref.spatial_platform_pose(row) for row in q]
+    stack = sk.Stack(
+        tuple(sk.PlatformGeometry(**{**g.to_dict(), "leg_radius": radius}) for g in thin)
+    )
+    base = np.asarray(stack.base_nodes[0], dtype=float)
+    obstacles: list[Obstacle] = []
+    kinds: list[str] = []
+    for _ in range(int(rng.integers(1, 4))):
+        kind = str(rng.choice(OBSTACLE_KINDS))
+        for _attempt in range(20):
+            ob = _random_obstacle(rng, stack, poses, kind)
+            if float(np.min(ob.point_distance(base))) > radius + 1.0:
+                obstacles.append(ob)
+                kinds.append(kind)
+                break
+    kw = random_solver(rng, planar, n)
+    if kw.get("method") == "trust-constr":
+        kw["options"] = {"maxiter": 150}
+    if HAVE_IPOPT and rng.random() < 0.15:
+        kw = {"method": "ipopt", "max_time": kw["max_time"]}
+    kw["obstacles"] = obstacles
+    if margin > 0.0:
+        kw["clearance"] = margin
+    return Case(
+        "obstacles",
+        f"n={n} {'planar' if planar else 'spatial'} radius={radius:.3g} margin={margin:.3g} "
+        f"obstacles={kinds} {_kw_label(kw, ('obstacles',))}",
+        lambda: (stack, target, kw),
+        info={
+            "n": n,
+            "method": kw.get("method", "sqp"),
+            "mode": "planar" if planar else "spatial",
+            "leg_radius_max": radius,
+            "margin": margin,
+            "obstacles": len(obstacles),
         },
     )
 
@@ -1178,6 +1326,7 @@ CATEGORIES: dict[str, tuple[float, Callable[[np.random.Generator], Case]]] = {
     "reachable_planar": (0.27, gen_reachable_planar),
     "reachable_spatial": (0.09, gen_reachable_spatial),
     "clearance_spatial": (0.05, gen_clearance_spatial),
+    "obstacles": (0.05, gen_obstacles),
     "loads": (0.05, gen_loads),
     "random_geometry": (0.10, gen_random_geometry),
     "large_n": (0.035, gen_large_n),

@@ -243,9 +243,15 @@ def segment_distance(p0, p1, q0, q1):
 def spatial_self_leg_gaps(stack, q):
     """Per platform, the least distance between the axes (bottom joint to top joint) of
     two of its legs, for a spatial pose q (n, 6); in the platform's own frame."""
+    return self_leg_gaps(stack, [spatial_platform_pose(row) for row in q])
+
+
+def self_leg_gaps(stack, poses):
+    """Per platform, the least distance between the axes (bottom joint to top joint) of
+    two of its legs, from its pose ``(P, R)`` (planar poses lifted, or spatial); in the
+    platform's own frame."""
     out = []
-    for geom, row in zip(stack, q):
-        P, R = spatial_platform_pose(row)
+    for geom, (P, R) in zip(stack, poses):
         tops = [R @ geom["top"][k] + P for k in range(6)]
         best = math.inf
         for k in range(6):
@@ -254,6 +260,178 @@ def spatial_self_leg_gaps(stack, q):
                 best = min(best, d)
         out.append(best)
     return np.array(out)
+
+
+# --------------------------------------------------------------------------- obstacles
+# Obstacles as plain dicts (``stackik.Obstacle.to_dict()``'s format): {"type": "sphere",
+# "center", "radius"}, {"type": "capsule", "a", "b", "radius"}, {"type": "box", "center",
+# "half_extents", "rotation" (optional)}, {"type": "halfspace", "point", "normal"}.
+def _hull(pts):
+    """Convex hull (counter-clockwise, monotone chain) of 2D points (m, 2)."""
+    P = sorted(map(tuple, pts))
+
+    def half(seq):
+        h = []
+        for p in seq:
+            while (
+                len(h) >= 2
+                and (
+                    (h[-1][0] - h[-2][0]) * (p[1] - h[-2][1])
+                    - (h[-1][1] - h[-2][1]) * (p[0] - h[-2][0])
+                )
+                <= 0
+            ):
+                h.pop()
+            h.append(p)
+        return h
+
+    lo, hi = half(P), half(P[::-1])
+    return np.array(lo[:-1] + hi[:-1])
+
+
+def _inside(h, p):
+    """Whether 2D point p lies in the counter-clockwise convex polygon h."""
+    e = np.roll(h, -1, axis=0) - h
+    w = p - h
+    return bool(np.all(e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0] >= 0))
+
+
+def plate_distance(nodes, A, O, a, b):
+    """Exact distance [mm] of the segment a-b (a point if a = b) from the convex polygon of
+    ``nodes`` (plate frame, z = 0) placed at (A, O): 0 if it crosses the polygon, else the
+    least of the endpoints' heights where they project inside and the edge distances."""
+    assert np.allclose(nodes[:, 2], 0.0)
+    h = _hull(nodes[:, :2])
+    la, lb = A.T @ (a - O), A.T @ (b - O)
+    best = math.inf
+    for p in (la, lb):
+        if _inside(h, p[:2]):
+            best = min(best, abs(float(p[2])))
+    if la[2] * lb[2] < 0:  # the segment crosses the plane: where?
+        x = la + (lb - la) * (la[2] / (la[2] - lb[2]))
+        if _inside(h, x[:2]):
+            return 0.0
+    H = np.column_stack([h, np.zeros(len(h))])
+    for v, w in zip(H, np.roll(H, -1, axis=0)):
+        best = min(best, segment_distance(v, w, la, lb))
+    return best
+
+
+def _box_frame(box):
+    R = np.asarray(box.get("rotation", np.eye(3)), float)
+    return np.asarray(box["center"], float), np.asarray(box["half_extents"], float), R
+
+
+def _box_sdf(x, box):
+    """Signed distance [mm] of the point x from the box (negative inside)."""
+    c, h, R = _box_frame(box)
+    e = np.abs(R.T @ (x - c)) - h
+    return float(np.linalg.norm(np.maximum(e, 0.0)) + min(float(e.max()), 0.0))
+
+
+def _clip(a, b, box):
+    """The parameter interval of the segment a-b inside the box (slab clipping), or None."""
+    c, half, R = _box_frame(box)
+    la, lb = R.T @ (a - c), R.T @ (b - c)
+    t0, t1 = 0.0, 1.0
+    for p, d, h in zip(la, lb - la, half):
+        if d == 0.0:
+            if abs(p) > h:
+                return None
+            continue
+        lo, hi = sorted(((-h - p) / d, (h - p) / d))
+        t0, t1 = max(t0, lo), min(t1, hi)
+        if t0 > t1:
+            return None
+    return t0, t1
+
+
+def box_edges(box):
+    """The box's 12 edges, pairs of corners."""
+    c, half, R = _box_frame(box)
+    s = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    k = c + (s * half) @ R.T
+    return [(k[i], k[j]) for i in range(8) for j in range(i + 1, 8) if np.sum(s[i] != s[j]) == 1]
+
+
+def segment_box_gap(a, b, box):
+    """Signed distance [mm] of the segment a-b from the box. Disjoint (slab clipping finds
+    no point inside): exact, the least of the ends' distances and the distances from the
+    box's 12 edges, where the closest pair of a segment and a disjoint box lies. Meeting:
+    at most 0, the least over t of the box's signed distance at a + t (b - a) (convex in
+    t: bounded Brent, and the clipped interval's middle) -- only its sign decides a false
+    success."""
+    from scipy.optimize import minimize_scalar
+
+    def f(t):
+        return _box_sdf(a + t * (b - a), box)
+
+    inside = _clip(a, b, box)
+    if inside is None:
+        edges = min(segment_distance(a, b, e0, e1) for e0, e1 in box_edges(box))
+        return min(f(0.0), f(1.0), edges)
+    r = minimize_scalar(f, bounds=(0.0, 1.0), method="bounded", options={"xatol": 1e-13})
+    return min(float(r.fun), f(0.5 * (inside[0] + inside[1])), 0.0)
+
+
+def plate_box_gap(nodes, A, O, box):
+    """Distance [mm] of a plate polygon from the box, 0 or less when they meet: two convex
+    bodies' least distance is attained at an edge (or vertex) of one of them, so the least
+    of the polygon's edges against the box (:func:`segment_box_gap`, signed) and of the
+    box's 12 edges against the polygon (:func:`plate_distance`, 0 when one pierces it)."""
+    h = _hull(nodes[:, :2])
+    H = np.column_stack([h, np.zeros(len(h))]) @ A.T + O
+    best = min(segment_box_gap(v, w, box) for v, w in zip(H, np.roll(H, -1, axis=0)))
+    return min(best, *(plate_distance(nodes, A, O, e0, e1) for e0, e1 in box_edges(box)))
+
+
+def _halfspace_depth(x, hs):
+    """Signed distance [mm] of the point x from the half-space's boundary (positive on the
+    side its normal points to, where bodies must stay)."""
+    n = np.asarray(hs["normal"], float)
+    return float((x - np.asarray(hs["point"], float)) @ n) / math.sqrt(float(n @ n))
+
+
+def obstacle_body_gaps(stack, O, A, ob):
+    """Least signed surface distances [mm] of an obstacle (a dict, above) from every leg
+    axis and from every plate but the base (the convex polygon of the top nodes of platform
+    j and the base nodes of platform j + 1, zero thickness), as ``{"leg": (n, 6),
+    "plate": (n,)}``, measured from the obstacle's surface (a sphere's and a capsule's
+    radius subtracted; a leg's own radius not). ``O``, ``A``: plate origins and
+    orientations (n + 1) from :func:`chain`."""
+    n = len(stack)
+    kind = ob["type"]
+    leg = np.empty((n, 6))
+    plate = np.empty(n)
+    for i, geom in enumerate(stack):
+        for k in range(6):
+            a = O[i] + A[i] @ geom["base"][k]
+            b = O[i + 1] + A[i + 1] @ geom["top"][k]
+            if kind == "sphere":
+                c = np.asarray(ob["center"], float)
+                leg[i, k] = _point_segment_distance(c, a, b) - ob["radius"]
+            elif kind == "capsule":
+                p0, p1 = np.asarray(ob["a"], float), np.asarray(ob["b"], float)
+                leg[i, k] = segment_distance(a, b, p0, p1) - ob["radius"]
+            elif kind == "box":
+                leg[i, k] = segment_box_gap(a, b, ob)
+            else:
+                leg[i, k] = min(_halfspace_depth(a, ob), _halfspace_depth(b, ob))
+    for j in range(1, n + 1):
+        nodes = np.asarray(stack[j - 1]["top"], float)
+        if j < n:
+            nodes = np.vstack([nodes, np.asarray(stack[j]["base"], float)])
+        if kind == "sphere":
+            c = np.asarray(ob["center"], float)
+            plate[j - 1] = plate_distance(nodes, A[j], O[j], c, c) - ob["radius"]
+        elif kind == "capsule":
+            p0, p1 = np.asarray(ob["a"], float), np.asarray(ob["b"], float)
+            plate[j - 1] = plate_distance(nodes, A[j], O[j], p0, p1) - ob["radius"]
+        elif kind == "box":
+            plate[j - 1] = plate_box_gap(nodes, A[j], O[j], ob)
+        else:
+            plate[j - 1] = min(_halfspace_depth(O[j] + A[j] @ x, ob) for x in nodes)
+    return {"leg": leg, "plate": plate}
 
 
 # --------------------------------------------------------------------------- derivatives

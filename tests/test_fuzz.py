@@ -98,6 +98,15 @@ def test_clearance_spatial(seed, n):
     run(fc.gen_clearance_spatial(np.random.default_rng(seed), n=n))
 
 
+@fuzz(6)
+@given(seed=SEEDS, n=st.integers(1, 3))
+def test_obstacles(seed, n):
+    """Spheres, truss capsules, boxes and half-spaces across the legs, planar and spatial,
+    legs of 0-12 mm: a success keeps every leg and plate clear of every obstacle by the
+    oracle's exact distances (``fuzz_cases.obstacle_problems``)."""
+    run(fc.gen_obstacles(np.random.default_rng(seed), n=n))
+
+
 @fuzz(8)
 @given(seed=SEEDS, n=st.integers(1, 3))
 def test_loads(seed, n):
