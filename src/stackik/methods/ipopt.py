@@ -614,8 +614,8 @@ def _built(build: Any, time_left: float, shape: Any, *args: Any) -> Any:
     spend past the budget on symbolic set-up (seconds with box obstacles' rows).
     ``shape``: the stack and the obstacle key."""
     full = (build.__name__, args)
-    shape = (build.__name__, shape)
-    if full not in _BUILT and _BUILD_S.get(shape, 0.0) > time_left:
+    family = (build.__name__, shape)
+    if full not in _BUILT and _BUILD_S.get(family, 0.0) > time_left:
         return None
     t0 = time.perf_counter()
     out = build(*args)
@@ -623,7 +623,7 @@ def _built(build: Any, time_left: float, shape: Any, *args: Any) -> Any:
         if len(_BUILT) >= _BUILT_MAX:
             _BUILT.clear()
         _BUILT.add(full)
-        _BUILD_S[shape] = time.perf_counter() - t0
+        _BUILD_S[family] = time.perf_counter() - t0
     return out
 
 
@@ -652,28 +652,22 @@ def run_ipopt(
     except TypeError:
         raise OptionError("options: IPOPT option values must be numbers or strings") from None
     load = None if prob.forces is None else prob.forces.load
+    obstacles = obstacle_key(prob)
+    build: Any
     if isinstance(target, PlanarTarget):
-        obstacles = obstacle_key(prob)
-        built = _built(
-            _solver, time_left, (prob.stack, obstacles), prob.stack, target.phi,
-            prob.objective, tuple(prob.xs), key, load, obstacles, _self_leg_key(prob),
-            pair_key(prob),
+        build = _solver
+        args: tuple[Any, ...] = (
+            prob.stack, target.phi, prob.objective, tuple(prob.xs), key, load, obstacles,
+            _self_leg_key(prob), pair_key(prob),
         )  # fmt: skip
-        if built is None:
-            return u0, 0, "max_time"
-        solver, lbg, ubg = built
         par = target.y
     else:
         assert isinstance(target, SpatialTarget)
-        legs = _self_leg_key(prob)
-        obstacles = obstacle_key(prob)
-        built = _built(
-            _spatial_solver, time_left, (prob.stack, obstacles), prob.stack, prob.objective,
-            tuple(prob.xs), key, load, legs, obstacles, pair_key(prob),
+        build = _spatial_solver
+        args = (
+            prob.stack, prob.objective, tuple(prob.xs), key, load, _self_leg_key(prob),
+            obstacles, pair_key(prob),
         )  # fmt: skip
-        if built is None:
-            return u0, 0, "max_time"
-        solver, lbg, ubg = built
         par = np.concatenate(
             [
                 target.position,
@@ -682,6 +676,10 @@ def run_ipopt(
                 [prob.c0, prob.fscale],
             ]
         )
+    built = _built(build, time_left, (prob.stack, obstacles), *args)
+    if built is None:
+        return u0, 0, "max_time"
+    solver, lbg, ubg = built
     x0: FloatArray = u0
     lbx: Any = -np.inf
     ubx: Any = np.inf
