@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 import stackik as sk
-from stackik.obstacles import Obstacle
+from stackik.obstacles import Obstacle, as_obstacles
 from stackik.result import IKStatus
 from stackik.sampling import random_feasible_poses
 from stackik.sqp.qp import available_qp_solvers
@@ -291,8 +291,7 @@ def recheck(
     reasons += problems
     ob_problems, ob_slack = obstacle_problems(stack, poses, obstacles, clearance)
     reasons += ob_problems
-    if math.isfinite(ob_slack):
-        slack = ob_slack if not math.isfinite(slack) else min(slack, ob_slack)
+    slack = float(np.fmin(slack, ob_slack))  # (nan: nothing to keep clear)
     reasons += force_problems(stack, poses, load)
     return Recheck(not reasons, reasons, pos, ang, leg_v, joint_v, slack)
 
@@ -305,7 +304,7 @@ def obstacle_problems(
     distances (``reference_impl.obstacle_body_gaps``, plain data: independent of stackik's
     clearance code); and the least slack (surface distance - margin) [mm] (nan without
     obstacles)."""
-    obs = [obstacles] if isinstance(obstacles, Obstacle) else list(obstacles or ())
+    obs = as_obstacles(obstacles)
     if not obs:
         return [], math.nan
     if any(g.plate_thickness > 0.0 for g in stack):  # not in the oracle
