@@ -80,6 +80,7 @@ from stackik.targets import PlanarTarget
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import reference_impl as ref  # noqa: E402  (the test oracle's exact distances)
+from fuzz_cases import geometry_dicts  # noqa: E402
 
 CASES = {  # name: (planar, obstacle kind, n)
     "spatial4_sphere": (False, "sphere", 4),
@@ -128,14 +129,9 @@ def obstacle_gap(stack: Stack, q: np.ndarray, phi: float | None, ob: Obstacle) -
     test oracle's exact distances (``tests/reference_impl.obstacle_body_gaps``)."""
     A, O = frames(stack, q, phi)
     d = ob.to_dict()
-    g = ref.obstacle_body_gaps(ref_stack(stack), O, A, d)
+    g = ref.obstacle_body_gaps(geometry_dicts(stack), O, A, d)
     core = float(d.get("radius", 0.0))  # the oracle measures from the surface
     return {"leg": float(g["leg"].min()) + core, "plate": float(g["plate"].min()) + core}
-
-
-def ref_stack(stack: Stack) -> list[dict[str, np.ndarray]]:
-    """The stack as the oracle's plain dicts (its joints)."""
-    return [{"base": stack.base_nodes[i], "top": stack.top_nodes[i]} for i in range(stack.n)]
 
 
 # ---------------------------------------------------------------------------------------
