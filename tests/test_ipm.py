@@ -201,6 +201,26 @@ def test_second_order_corrections_finish_a_tall_stack():
     assert check_pose(stack, t, prob.q_of(u)).ok
 
 
+def test_acceptable_level_ends_a_run_that_cannot_meet_tol():
+    """A tolerance no run meets (1e-30): the run ends at the acceptable level
+    (``barrier._ACC_TOL`` for ``_ACC_ITER`` iterations with the objective still) as a
+    success, at the optimum the default tolerance reaches, well before ``max_iter``."""
+    from stackik._compiled import barrier
+
+    t = sk.PlanarTarget(*PAPER_TARGETS[0])
+    prob = Problem(STACK4, t, "frobenius", None)
+    u0 = prob.u_of(paper_initial_guess(STACK4, t))
+    u, nit, status = ip_method.ip_solve(prob, u0)
+    u_acc, nit_acc, status_acc = ip_method.ip_solve(prob, u0, {"tol": 1e-30, "max_iter": 300})
+    assert status == status_acc == "success"
+    assert nit <= nit_acc <= nit + 2 * barrier._ACC_ITER + 20
+    fn = math.sqrt(prob.objective_value(prob.q_of(u)))
+    fn_acc = math.sqrt(prob.objective_value(prob.q_of(u_acc)))
+    # the same optimum: the longer run no higher, within the default tolerance's reach
+    assert fn_acc <= fn * (1 + 1e-12)
+    assert fn_acc == pytest.approx(fn, rel=1e-8)
+
+
 def test_ip_solve_reaches_the_paper_optimum():
     t = sk.PlanarTarget(*PAPER_TARGETS[0])
     prob = Problem(STACK4, t, "frobenius", None)
