@@ -83,15 +83,18 @@ def test_below_adaptive_n_the_batch_is_one_call(n: int, spy: list[list[Any]]) ->
     assert res.n_starts == _batch_size(n)
 
 
-def test_agree() -> None:
+def test_confirmed() -> None:
     def run(fn: float) -> Any:
         return SimpleNamespace(obj=fn**2)
 
-    assert stages.agree([run(100.0), run(100.01)], 2e-4)
-    assert not stages.agree([run(100.0), run(100.03)], 2e-4)
-    assert stages.agree([run(100.03), run(100.0)], 1e-3)  # any order
-    assert not stages.agree([run(100.0), None], 1.0)  # a start that failed the check
-    assert not stages.agree([], 1.0)
+    assert stages.confirmed([run(100.0), run(100.01)], 2e-4)
+    assert not stages.confirmed([run(100.0), run(100.03)], 2e-4)
+    assert stages.confirmed([run(100.03), run(100.0)], 1e-3)  # any order
+    assert not stages.confirmed([run(100.0), None], 1.0)  # a start that failed the check
+    assert not stages.confirmed([], 1.0)
+    # the least matched by another, whatever the others found
+    assert stages.confirmed([run(120.0), run(100.0), None, run(100.01)], 2e-4)
+    assert not stages.confirmed([run(100.0), run(120.0), run(120.0)], 2e-4)
 
 
 def test_early_stop_when_the_first_starts_agree(
@@ -120,7 +123,7 @@ def test_early_stop_when_the_first_starts_agree(
     np.testing.assert_array_equal(again.q, res.q)  # deterministic
 
 
-def test_whole_batch_when_the_first_starts_disagree(
+def test_whole_batch_when_no_run_confirms_the_best(
     spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(stages, "ADAPTIVE_RTOL", -1.0)  # never agree
@@ -128,14 +131,45 @@ def test_whole_batch_when_the_first_starts_disagree(
     res = solve_ik(stack, target)
     size = _batch_size(N_BIG)
     assert res.success
-    assert _counts(spy) == [1] * ADAPTIVE_FIRST + [size - ADAPTIVE_FIRST]
+    assert _counts(spy) == [1] * size  # every start, each alone
     assert res.n_starts == size
+    order = [c[0] for c in spy]
     spy.clear()
     monkeypatch.setattr(policy, "ADAPTIVE_N", math.inf)  # the plan off: one call
     full = solve_ik(stack, target)
     assert _counts(spy) == [size]
+    batch = spy[0]
+    randoms = size - tall_random_starts(N_BIG)
+    # the random starts first (the first ADAPTIVE_FIRST, then the others), then the rest
+    expect = batch[randoms:] + batch[:randoms]
+    for q, b in zip(order, expect, strict=True):
+        np.testing.assert_array_equal(q, b)
     assert res.frobenius_norm == pytest.approx(full.frobenius_norm, rel=1e-12)
     np.testing.assert_allclose(res.q, full.q, rtol=0, atol=1e-9)
+
+
+def test_more_starts_until_one_confirms_the_best(
+    spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the first two starts disagree (the check refuses the first run), the next two
+    # confirm the best found: four starts, the best of them
+    stack, target = Stack.reference(N_BIG), _target(N_BIG)
+    monkeypatch.setattr(stages, "ADAPTIVE_RTOL", 1.0)  # any two passing poses agree
+    original = IPMethod.run_many
+    calls = {"n": 0}
+
+    def first_fails(self: IPMethod, prob: Any, starts: list[Any], *args: Any) -> Any:
+        batch = original(self, prob, starts, *args)
+        calls["n"] += 1
+        if calls["n"] == 1:
+            batch.best = None
+        return batch
+
+    monkeypatch.setattr(IPMethod, "run_many", first_fails)
+    res = solve_ik(stack, target)
+    assert res.success
+    assert res.n_starts == 2 * ADAPTIVE_FIRST
+    assert calls["n"] == 2 * ADAPTIVE_FIRST
 
 
 def test_default_at_adaptive_n_is_reproducible(spy: list[list[Any]]) -> None:
@@ -197,19 +231,19 @@ def _compact_target(n: int) -> PlanarTarget:
     raise AssertionError("no compact target")
 
 
-def test_compact_targets_take_arcs_the_whole_batch_and_hops(spy: list[list[Any]]) -> None:
+def test_compact_targets_take_arcs_random_starts_and_hops(spy: list[list[Any]]) -> None:
     stack, target = Stack.reference(N_BIG), _compact_target(N_BIG)
     res = solve_ik(stack, target)
-    size = _batch_size(N_BIG) + 2  # the two arcs
+    size = 2 + policy.COMPACT_RANDOM  # the two arcs and the random starts
+    hops = [policy.COMPACT_HOPS] * policy.COMPACT_ROUNDS
     assert res.success
-    assert _counts(spy) == [size, policy.COMPACT_HOPS]
-    assert res.n_starts == size + policy.COMPACT_HOPS
+    assert _counts(spy) == [size, *hops]
+    assert res.n_starts == size + sum(hops)
     q0 = paper_initial_guess(stack, target)
     batch = spy[0]
-    randoms = size - tall_random_starts(N_BIG)
-    for q, arc in zip(batch[randoms - 2 : randoms], arc_starts(stack, q0), strict=True):
+    for q, arc in zip(batch[:2], arc_starts(stack, q0), strict=True):
         np.testing.assert_array_equal(q, arc)  # the arcs, before the random starts
-    # the hops perturb the batch's best pose at the random starts' scale
+    # the first hops perturb the batch's best pose at the random starts' scale
     best = min(
         (solve_ik(stack, target, method="ip", x0=q) for q in batch),
         key=lambda r: r.frobenius_norm if r.success else math.inf,

@@ -108,12 +108,14 @@ def solve_ik(
         (:data:`stackik.solve.policy.ADAPTIVE_N`) the interior point first runs two of
         the random ones alone, and when both pass the check with FN within 5e-4 of each
         other (relative, :data:`~stackik.solve.policy.ADAPTIVE_RTOL`) returns the better
-        of them (``n_starts`` 2); otherwise it runs the other 14 too and keeps the best
-        pose of all (the adaptive plan, :func:`stackik.solve.stages.ip_stage`); toward a
-        compact target (:func:`stackik.starts.reach_fraction` below 0.4,
-        :data:`~stackik.solve.policy.COMPACT_REACH`) it runs the whole batch with two
-        arc starts (:func:`stackik.starts.arc_starts`) and then eight random
-        perturbations of its best pose (``n_starts`` 26); in spatial mode
+        of them (``n_starts`` 2); otherwise it runs the others two at a time (the other
+        random ones first) until another run confirms the best FN found, or all 16 ran,
+        and keeps the best pose of all (the adaptive plan,
+        :func:`stackik.solve.stages.ip_stage`); toward a compact target
+        (:func:`stackik.starts.reach_fraction` below 0.4,
+        :data:`~stackik.solve.policy.COMPACT_REACH`) it runs two arc starts
+        (:func:`stackik.starts.arc_starts`) and three random ones, then two rounds of four
+        random perturbations of the best pose so far (``n_starts`` 13); in spatial mode
         the interior point's structured starts (:func:`stackik.starts.spatial_starts`: 8
         up to n = 3, 12 from n = 4; twists, leans and folds; then 6 hops from the best
         pose from n = 4, :func:`stackik.starts.spatial_hop_plan`), the SQP

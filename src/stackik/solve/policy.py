@@ -34,7 +34,9 @@ __all__ = [
     "CLEAR_COST_RTOL",
     "CLEAR_MU0",
     "COMPACT_HOPS",
+    "COMPACT_RANDOM",
     "COMPACT_REACH",
+    "COMPACT_ROUNDS",
     "FORCE_COST_RTOL",
     "FORCE_METHOD",
     "FORCE_MU0",
@@ -129,25 +131,36 @@ UNFOLD_MU0 = 1e-2
 #: Planar default from ``n = ADAPTIVE_N`` on: the interior point first runs
 #: ``ADAPTIVE_FIRST`` of the batch's random starts alone (:func:`tall_random_starts`), and
 #: when each passes the check and their FN agree within ``ADAPTIVE_RTOL`` (relative), the
-#: solve stops there; otherwise the rest of the batch runs and the best pose overall is
-#: kept (:meth:`StartPlan.adaptive_first`, :func:`stackik.solve.stages.ip_stage`).
+#: solve stops there; otherwise the batch's other starts run ``ADAPTIVE_FIRST`` at a time
+#: (its other random starts first) until another run confirms the best pose found (FN
+#: within ``ADAPTIVE_RTOL``) or every start ran, and the best pose is kept
+#: (:meth:`StartPlan.adaptive_first`, :func:`stackik.solve.stages.ip_stage`).
 #: Random perturbations of the paper's guess, not its folds: on the design targets the
 #: structured starts often agree on the same worse basin (docs/benchmarks.md, 2026-12-03).
+#: The confirmation (rather than the whole batch) after a disagreement: on the 10
+#: targets of seeds 74100-88100 at n = 32 and 64 where the first two disagreed, the same
+#: FN to 0.014 % after 4-6 starts instead of 16, 3-5x fewer iterations
+#: (docs/benchmarks.md, 2026-12-06).
 ADAPTIVE_N: float = 32
 ADAPTIVE_FIRST = 2
 ADAPTIVE_RTOL = 5e-4
 
 #: Planar default from ``n = ADAPTIVE_N`` on, targets with a
 #: :func:`stackik.starts.reach_fraction` below ``COMPACT_REACH`` (compact: most of the stack
-#: coils around the target): no early stop; the batch also has the two
-#: :func:`stackik.starts.arc_starts`, and ``COMPACT_HOPS`` random perturbations of its best
-#: pose run after it (:meth:`StartPlan.batch`, :func:`stackik.solve.stages.ip_stage`). On
-#: the design targets at n = 64 (seeds 52700 and 63300) the two random starts of the
+#: coils around the target): no early stop; the batch is the two
+#: :func:`stackik.starts.arc_starts` and ``COMPACT_RANDOM`` random starts (no fold
+#: patterns), then ``COMPACT_ROUNDS`` rounds of ``COMPACT_HOPS`` random perturbations of
+#: the best pose so far (:meth:`StartPlan.batch`, :func:`stackik.solve.stages.ip_stage`).
+#: On the design targets at n = 64 (seeds 52700 and 63300) the two random starts of the
 #: adaptive plan agreed on a basin up to 8 % above the best known on such targets, the
 #: bent bottom (an arc) reached the best basin, the hops the best coils around it
-#: (docs/benchmarks.md, 2026-12-04).
+#: (docs/benchmarks.md, 2026-12-04). The fold patterns and eight hops from one pose
+#: (26 runs) found the best of 12 compact targets (seed 93000) no more often than these
+#: 13 runs at a third of the iterations (docs/benchmarks.md, 2026-12-06).
 COMPACT_REACH = 0.4
-COMPACT_HOPS = 8
+COMPACT_RANDOM = 3
+COMPACT_HOPS = 4
+COMPACT_ROUNDS = 2
 
 #: Spatial default (:attr:`StartPlan.max_iter`): the iteration limit of the interior
 #: point's runs from its structured starts and hops, unless the caller set ``max_iter``.
@@ -239,14 +252,16 @@ class StartPlan:
     def batch(self, sampler: Any, structured: bool, n: int) -> list[FloatArray]:
         """The starts of a one-call batch method (the interior point): the planned ones,
         plus on the structured default every fold pattern of the top platforms
-        (:func:`stackik.starts.fold_depth`), toward a compact target (:attr:`compact`) the
-        two :func:`stackik.starts.arc_starts` and, for tall stacks, random ones (last);
-        random starts fill up to the count asked for."""
+        (:func:`stackik.starts.fold_depth`) and, for tall stacks, random ones (last);
+        toward a compact target (:attr:`compact`) only the two
+        :func:`stackik.starts.arc_starts` and :data:`COMPACT_RANDOM` random starts; random
+        starts fill up to the count asked for."""
         qs = self.queue[: self.n_planned]
         if self.starts is None and structured:
+            if self.compact:  # the arcs and random starts alone (COMPACT_RANDOM)
+                qs = arc_starts(sampler.stack, self.queue[0])
+                return qs + [sampler.draw() for _ in range(COMPACT_RANDOM)]
             qs += fold_patterns(sampler.stack, self.queue[0], fold_depth(n))
-            if self.compact:
-                qs += arc_starts(sampler.stack, self.queue[0])
             qs += [sampler.draw() for _ in range(tall_random_starts(n))]
         while len(qs) < self.n_planned:
             qs.append(sampler.draw())

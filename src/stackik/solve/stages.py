@@ -33,6 +33,7 @@ from stackik.solve.policy import (
     CLEAR_COST_RTOL,
     CLEAR_MU0,
     COMPACT_HOPS,
+    COMPACT_ROUNDS,
     FORCE_COST_RTOL,
     FORCE_METHOD,
     FORCE_MU0,
@@ -64,7 +65,7 @@ __all__ = [
     "Handover",
     "Tally",
     "Verdict",
-    "agree",
+    "confirmed",
     "ip_stage",
     "local_stage",
 ]
@@ -275,41 +276,46 @@ def ip_stage(req: Request, plan: StartPlan) -> Verdict | Handover:
     return Handover(queue, batch.least, batch.nit, n_run, stalled, shared)
 
 
-def agree(runs: list[Run | None], rtol: float) -> bool:
-    """Every run passed the check and their objectives agree: the square roots (FN for
-    the default objective) within ``rtol`` of the least, relative
-    (:data:`stackik.solve.policy.ADAPTIVE_RTOL` in the adaptive plan)."""
-    if not runs or any(r is None for r in runs):
-        return False
-    roots = [float(np.sqrt(max(r.obj, 0.0))) for r in runs if r is not None]
-    low = min(roots)
-    return max(roots) - low <= rtol * abs(low)
-
-
 def _adaptive_batch(
     req: Request, method: IPMethod, starts: list[FloatArray], first: list[int]
 ) -> tuple[IPBatch, int]:
-    """The adaptive plan (:data:`stackik.solve.policy.ADAPTIVE_N`): each of the starts
-    ``first`` (indices into ``starts``) alone (side by side on the solve's threads,
-    :mod:`stackik._threads`); when they all pass and :func:`agree`, they
-    found the same basin and the solve stops with the better of them; otherwise the other
-    starts run in one call and the best pose over all is kept (merged by :func:`_merge`,
-    the same rule as one call: the lowest objective that passes, ties to the earlier
-    call). Returns the merged batch and how many starts ran (``len(first)`` or all)."""
+    """The adaptive plan (:data:`stackik.solve.policy.ADAPTIVE_N`): the starts ``first``
+    (indices into ``starts``) each alone, side by side on the solve's threads
+    (:mod:`stackik._threads`); when they all pass and agree (:func:`confirmed`), they
+    found the same basin and the solve stops with the better of them. Otherwise the
+    other starts run ``len(first)`` at a time (those after ``first`` in ``starts``, the
+    batch's other random starts, then those before it) until another run confirms the
+    best pose found so far, or every start ran. The best pose over all runs is kept
+    (merged by :func:`_merge`, the same rule as one call: the lowest objective that
+    passes, ties to the earlier run). Returns the merged batch and how many starts ran."""
     prob = req.problem
+    later = [j for j in range(len(starts)) if j not in first]
+    order = first + sorted(later, key=lambda j: (j < first[0], j))
 
-    def alone(k: int) -> IPBatch:
-        left = req.time_left(time.perf_counter())
-        return method.run_many(prob, [starts[first[k]]], req.options, left)
+    parts: list[IPBatch] = []
+    ran = 0
+    step = len(first)
+    while ran < len(order):
+        chunk = order[ran : ran + step]
 
-    # side by side on the solve's threads: the same runs as one after another
-    parts = map_in_threads(alone, len(first), for_problem(prob.n * prob.k))
-    if agree([p.best for p in parts], ADAPTIVE_RTOL) or req.out_of_time():
-        return _merge(parts), len(first)
-    rest = [qs for j, qs in enumerate(starts) if j not in first]
-    left = req.time_left(time.perf_counter())
-    parts.append(method.run_many(req.problem, rest, req.options, left))
-    return _merge(parts), len(starts)
+        def alone(k: int, chunk: list[int] = chunk) -> IPBatch:
+            left = req.time_left(time.perf_counter())
+            return method.run_many(prob, [starts[chunk[k]]], req.options, left)
+
+        # side by side on the solve's threads: the same runs as one after another
+        parts += map_in_threads(alone, len(chunk), for_problem(prob.n * prob.k))
+        ran += len(chunk)
+        if confirmed([p.best for p in parts], ADAPTIVE_RTOL) or req.out_of_time():
+            break
+    return _merge(parts), ran
+
+
+def confirmed(runs: list[Run | None], rtol: float) -> bool:
+    """At least two of ``runs`` passed the check and the least objective among them is
+    matched by another: square roots (FN for the default objective) within ``rtol`` of
+    it, relative (:data:`stackik.solve.policy.ADAPTIVE_RTOL` in the adaptive plan)."""
+    roots = sorted(float(np.sqrt(max(r.obj, 0.0))) for r in runs if r is not None)
+    return len(roots) >= 2 and roots[1] - roots[0] <= rtol * abs(roots[0])
 
 
 def _merge(parts: list[IPBatch]) -> IPBatch:
@@ -568,16 +574,19 @@ def _compact_hops(
     req: Request, method: IPMethod, best: Run, nit: int, tried: int
 ) -> tuple[Run, int, int]:
     """The planar default's hops toward a compact target (:attr:`StartPlan.compact`):
-    :data:`stackik.solve.policy.COMPACT_HOPS` random perturbations of the best pose
-    (:meth:`stackik.starts.StartSampler.draw_around`, the random starts' scale) in one
+    :data:`stackik.solve.policy.COMPACT_ROUNDS` rounds, each
+    :data:`~stackik.solve.policy.COMPACT_HOPS` random perturbations of the best pose so
+    far (:meth:`stackik.starts.StartSampler.draw_around`, the random starts' scale) in one
     compiled call (within what is left of ``max_time``); a passing run with a lower FN
     replaces ``best``. The coils of such poses have many minima a few tenths of a percent
     apart, and the perturbed best pose settles in a neighbouring one. ``tried`` counts
     the hops that ran."""
-    if req.out_of_time():
-        return best, nit, tried
-    hops = [req.sampler.draw_around(best.q) for _ in range(COMPACT_HOPS)]
-    return _best_of(req, method, hops, best, nit, tried)
+    for _ in range(COMPACT_ROUNDS):
+        if req.out_of_time():
+            break
+        hops = [req.sampler.draw_around(best.q) for _ in range(COMPACT_HOPS)]
+        best, nit, tried = _best_of(req, method, hops, best, nit, tried)
+    return best, nit, tried
 
 
 def _recentres(req: Request) -> bool:
