@@ -231,19 +231,19 @@ def _compact_target(n: int) -> PlanarTarget:
     raise AssertionError("no compact target")
 
 
-def test_compact_targets_take_arcs_random_starts_and_hops(spy: list[list[Any]]) -> None:
+def test_compact_targets_take_arcs_the_whole_batch_and_hops(spy: list[list[Any]]) -> None:
     stack, target = Stack.reference(N_BIG), _compact_target(N_BIG)
     res = solve_ik(stack, target)
-    size = 2 + policy.COMPACT_RANDOM  # the two arcs and the random starts
-    hops = [policy.COMPACT_HOPS] * policy.COMPACT_ROUNDS
+    size = _batch_size(N_BIG) + 2  # the two arcs
     assert res.success
-    assert _counts(spy) == [size, *hops]
-    assert res.n_starts == size + sum(hops)
+    assert _counts(spy) == [size, policy.COMPACT_HOPS]
+    assert res.n_starts == size + policy.COMPACT_HOPS
     q0 = paper_initial_guess(stack, target)
     batch = spy[0]
-    for q, arc in zip(batch[:2], arc_starts(stack, q0), strict=True):
+    randoms = size - tall_random_starts(N_BIG)
+    for q, arc in zip(batch[randoms - 2 : randoms], arc_starts(stack, q0), strict=True):
         np.testing.assert_array_equal(q, arc)  # the arcs, before the random starts
-    # the first hops perturb the batch's best pose at the random starts' scale
+    # the hops perturb the batch's best pose at the random starts' scale
     best = min(
         (solve_ik(stack, target, method="ip", x0=q) for q in batch),
         key=lambda r: r.frobenius_norm if r.success else math.inf,
@@ -252,6 +252,28 @@ def test_compact_targets_take_arcs_random_starts_and_hops(spy: list[list[Any]]) 
     assert 0.0 < scale < 6.0
     assert res.frobenius_norm <= best.frobenius_norm * (1 + 1e-12)
     spy.clear()
+    again = solve_ik(stack, target)
+    np.testing.assert_array_equal(again.q, res.q)  # deterministic
+
+
+def test_lean_compact_plan_from_compact_lean_n(
+    spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the lean plan at N_BIG (its threshold lowered): the arcs and COMPACT_RANDOM random
+    # starts alone, then rounds of hops, each from the best pose so far
+    monkeypatch.setattr(policy, "COMPACT_LEAN_N", N_BIG)
+    assert policy.compact_hop_rounds(N_BIG) == [policy.COMPACT_LEAN_HOPS] * policy.COMPACT_ROUNDS
+    assert policy.compact_hop_rounds(N_BIG - 1) == [policy.COMPACT_HOPS]
+    stack, target = Stack.reference(N_BIG), _compact_target(N_BIG)
+    res = solve_ik(stack, target)
+    size = 2 + policy.COMPACT_RANDOM
+    hops = policy.compact_hop_rounds(N_BIG)
+    assert res.success
+    assert _counts(spy) == [size, *hops]
+    assert res.n_starts == size + sum(hops)
+    q0 = paper_initial_guess(stack, target)
+    for q, arc in zip(spy[0][:2], arc_starts(stack, q0), strict=True):
+        np.testing.assert_array_equal(q, arc)  # the arcs first
     again = solve_ik(stack, target)
     np.testing.assert_array_equal(again.q, res.q)  # deterministic
 

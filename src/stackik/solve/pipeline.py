@@ -113,9 +113,12 @@ def solve_ik(
         and keeps the best pose of all (the adaptive plan,
         :func:`stackik.solve.stages.ip_stage`); toward a compact target
         (:func:`stackik.starts.reach_fraction` below 0.4,
-        :data:`~stackik.solve.policy.COMPACT_REACH`) it runs two arc starts
-        (:func:`stackik.starts.arc_starts`) and three random ones, then two rounds of four
-        random perturbations of the best pose so far (``n_starts`` 13); in spatial mode
+        :data:`~stackik.solve.policy.COMPACT_REACH`) it runs the whole batch with two
+        arc starts (:func:`stackik.starts.arc_starts`) and then eight random
+        perturbations of its best pose (``n_starts`` 26), from n = 64
+        (:data:`~stackik.solve.policy.COMPACT_LEAN_N`) the arcs and three random starts
+        alone, then two rounds of four perturbations of the best pose so far
+        (``n_starts`` 13); in spatial mode
         the interior point's structured starts (:func:`stackik.starts.spatial_starts`: 8
         up to n = 3, 12 from n = 4; twists, leans and folds; then 6 hops from the best
         pose from n = 4, :func:`stackik.starts.spatial_hop_plan`), the SQP

@@ -34,6 +34,8 @@ __all__ = [
     "CLEAR_COST_RTOL",
     "CLEAR_MU0",
     "COMPACT_HOPS",
+    "COMPACT_LEAN_HOPS",
+    "COMPACT_LEAN_N",
     "COMPACT_RANDOM",
     "COMPACT_REACH",
     "COMPACT_ROUNDS",
@@ -55,6 +57,7 @@ __all__ = [
     "UNFOLD_STARTS",
     "StartPlan",
     "auto_method",
+    "compact_hop_rounds",
     "plan_starts",
 ]
 
@@ -147,20 +150,36 @@ ADAPTIVE_RTOL = 5e-4
 
 #: Planar default from ``n = ADAPTIVE_N`` on, targets with a
 #: :func:`stackik.starts.reach_fraction` below ``COMPACT_REACH`` (compact: most of the stack
-#: coils around the target): no early stop; the batch is the two
-#: :func:`stackik.starts.arc_starts` and ``COMPACT_RANDOM`` random starts (no fold
-#: patterns), then ``COMPACT_ROUNDS`` rounds of ``COMPACT_HOPS`` random perturbations of
-#: the best pose so far (:meth:`StartPlan.batch`, :func:`stackik.solve.stages.ip_stage`).
-#: On the design targets at n = 64 (seeds 52700 and 63300) the two random starts of the
-#: adaptive plan agreed on a basin up to 8 % above the best known on such targets, the
-#: bent bottom (an arc) reached the best basin, the hops the best coils around it
-#: (docs/benchmarks.md, 2026-12-04). The fold patterns and eight hops from one pose
-#: (26 runs) found the best of 12 compact targets (seed 93000) no more often than these
-#: 13 runs at a third of the iterations (docs/benchmarks.md, 2026-12-06).
+#: coils around the target): no early stop; the batch also has the two
+#: :func:`stackik.starts.arc_starts`, and ``COMPACT_HOPS`` random perturbations of its best
+#: pose run after it (:meth:`StartPlan.batch`, :func:`compact_hop_rounds`,
+#: :func:`stackik.solve.stages.ip_stage`). On the design targets at n = 64 (seeds 52700
+#: and 63300) the two random starts of the adaptive plan agreed on a basin up to 8 % above
+#: the best known on such targets, the bent bottom (an arc) reached the best basin, the
+#: hops the best coils around it (docs/benchmarks.md, 2026-12-04).
 COMPACT_REACH = 0.4
+COMPACT_HOPS = 8
+#: From ``n = COMPACT_LEAN_N`` on, the compact plan is lean: the two arcs and
+#: ``COMPACT_RANDOM`` random starts alone (no fold patterns, no other random starts), then
+#: ``COMPACT_ROUNDS`` rounds of ``COMPACT_LEAN_HOPS`` hops, each from the best pose so far:
+#: 13 runs instead of 26. At n = 64 it found the best known (IPOPT from 32 starts, both
+#: plans) on 12 of 12 fresh compact targets against 11 of 12, at a third of the iterations
+#: (seed 99000); at n = 32 on 6 of 12 against 11 of 12 (seed 99500), so below it the plan
+#: is the one above (docs/benchmarks.md, 2026-12-07).
+COMPACT_LEAN_N = 64
 COMPACT_RANDOM = 3
-COMPACT_HOPS = 4
+COMPACT_LEAN_HOPS = 4
 COMPACT_ROUNDS = 2
+
+
+def compact_hop_rounds(n: int) -> list[int]:
+    """The hops of the compact plan at ``n`` platforms, round by round (each round from
+    the best pose so far): one round of :data:`COMPACT_HOPS`, or from
+    :data:`COMPACT_LEAN_N` on :data:`COMPACT_ROUNDS` rounds of :data:`COMPACT_LEAN_HOPS`."""
+    if n >= COMPACT_LEAN_N:
+        return [COMPACT_LEAN_HOPS] * COMPACT_ROUNDS
+    return [COMPACT_HOPS]
+
 
 #: Spatial default (:attr:`StartPlan.max_iter`): the iteration limit of the interior
 #: point's runs from its structured starts and hops, unless the caller set ``max_iter``.
@@ -252,16 +271,19 @@ class StartPlan:
     def batch(self, sampler: Any, structured: bool, n: int) -> list[FloatArray]:
         """The starts of a one-call batch method (the interior point): the planned ones,
         plus on the structured default every fold pattern of the top platforms
-        (:func:`stackik.starts.fold_depth`) and, for tall stacks, random ones (last);
-        toward a compact target (:attr:`compact`) only the two
-        :func:`stackik.starts.arc_starts` and :data:`COMPACT_RANDOM` random starts; random
-        starts fill up to the count asked for."""
+        (:func:`stackik.starts.fold_depth`), toward a compact target (:attr:`compact`) the
+        two :func:`stackik.starts.arc_starts` and, for tall stacks, random ones (last);
+        toward a compact target from :data:`COMPACT_LEAN_N` on, only the arcs and
+        :data:`COMPACT_RANDOM` random starts; random starts fill up to the count asked
+        for."""
         qs = self.queue[: self.n_planned]
         if self.starts is None and structured:
-            if self.compact:  # the arcs and random starts alone (COMPACT_RANDOM)
+            if self.compact and n >= COMPACT_LEAN_N:  # the arcs and random starts alone
                 qs = arc_starts(sampler.stack, self.queue[0])
                 return qs + [sampler.draw() for _ in range(COMPACT_RANDOM)]
             qs += fold_patterns(sampler.stack, self.queue[0], fold_depth(n))
+            if self.compact:
+                qs += arc_starts(sampler.stack, self.queue[0])
             qs += [sampler.draw() for _ in range(tall_random_starts(n))]
         while len(qs) < self.n_planned:
             qs.append(sampler.draw())

@@ -32,8 +32,6 @@ from stackik.solve.policy import (
     CLEAR_BASIN_MAX_ITER,
     CLEAR_COST_RTOL,
     CLEAR_MU0,
-    COMPACT_HOPS,
-    COMPACT_ROUNDS,
     FORCE_COST_RTOL,
     FORCE_METHOD,
     FORCE_MU0,
@@ -50,6 +48,7 @@ from stackik.solve.policy import (
     UNFOLD_SCREEN_MM,
     UNFOLD_STARTS,
     StartPlan,
+    compact_hop_rounds,
 )
 from stackik.solve.request import Request
 from stackik.starts import spatial_default_hops
@@ -573,18 +572,18 @@ def _best_of(
 def _compact_hops(
     req: Request, method: IPMethod, best: Run, nit: int, tried: int
 ) -> tuple[Run, int, int]:
-    """The planar default's hops toward a compact target (:attr:`StartPlan.compact`):
-    :data:`stackik.solve.policy.COMPACT_ROUNDS` rounds, each
-    :data:`~stackik.solve.policy.COMPACT_HOPS` random perturbations of the best pose so
-    far (:meth:`stackik.starts.StartSampler.draw_around`, the random starts' scale) in one
-    compiled call (within what is left of ``max_time``); a passing run with a lower FN
+    """The planar default's hops toward a compact target (:attr:`StartPlan.compact`): the
+    rounds of :func:`stackik.solve.policy.compact_hop_rounds`, each that many random
+    perturbations of the best pose so far (:meth:`stackik.starts.StartSampler.draw_around`,
+    the random starts' scale) in one compiled call (within what is left of ``max_time``);
+    a passing run with a lower FN
     replaces ``best``. The coils of such poses have many minima a few tenths of a percent
     apart, and the perturbed best pose settles in a neighbouring one. ``tried`` counts
     the hops that ran."""
-    for _ in range(COMPACT_ROUNDS):
+    for count in compact_hop_rounds(req.stack.n):
         if req.out_of_time():
             break
-        hops = [req.sampler.draw_around(best.q) for _ in range(COMPACT_HOPS)]
+        hops = [req.sampler.draw_around(best.q) for _ in range(count)]
         best, nit, tried = _best_of(req, method, hops, best, nit, tried)
     return best, nit, tried
 
