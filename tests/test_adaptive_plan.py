@@ -1,6 +1,6 @@
 """The adaptive start plan of the planar default from n = ADAPTIVE_N (solve/policy.py,
-solve/stages.py): untouched below, early stop when the first starts agree, the whole
-batch when they do not."""
+solve/stages.py): untouched below, early stop when the first starts agree, more starts
+two at a time until one confirms the best when they do not; the compact-target plans."""
 
 from __future__ import annotations
 

@@ -143,7 +143,7 @@ UNFOLD_MU0 = 1e-2
 #: The confirmation (rather than the whole batch) after a disagreement: on the 10
 #: targets of seeds 74100-88100 at n = 32 and 64 where the first two disagreed, the same
 #: FN to 0.014 % after 4-6 starts instead of 16, 3-5x fewer iterations
-#: (docs/benchmarks.md, 2026-12-06).
+#: (docs/benchmarks.md, 2026-12-07).
 ADAPTIVE_N: float = 32
 ADAPTIVE_FIRST = 2
 ADAPTIVE_RTOL = 5e-4

@@ -576,10 +576,9 @@ def _compact_hops(
     rounds of :func:`stackik.solve.policy.compact_hop_rounds`, each that many random
     perturbations of the best pose so far (:meth:`stackik.starts.StartSampler.draw_around`,
     the random starts' scale) in one compiled call (within what is left of ``max_time``);
-    a passing run with a lower FN
-    replaces ``best``. The coils of such poses have many minima a few tenths of a percent
-    apart, and the perturbed best pose settles in a neighbouring one. ``tried`` counts
-    the hops that ran."""
+    a passing run with a lower FN replaces ``best``. The coils of such poses have many
+    minima a few tenths of a percent apart, and the perturbed best pose settles in a
+    neighbouring one. ``tried`` counts the hops that ran."""
     for count in compact_hop_rounds(req.stack.n):
         if req.out_of_time():
             break
