@@ -707,6 +707,15 @@ def gen_clearance_spatial(rng: np.random.Generator, n: int | None = None) -> Cas
     )
 
 
+def _or_ipopt(rng: np.random.Generator, kw: dict[str, Any], chance: float) -> dict[str, Any]:
+    """``kw``, or with probability ``chance`` (when IPOPT is installed: one draw of
+    ``rng`` then) IPOPT with its defaults and ``kw``'s time budget instead: the solver
+    keywords of the cases whose rows IPOPT carries (obstacles, loads)."""
+    if HAVE_IPOPT and rng.random() < chance:
+        return {"method": "ipopt", "max_time": kw["max_time"]}
+    return kw
+
+
 #: Obstacle kinds of :func:`gen_obstacles`.
 OBSTACLE_KINDS = ("sphere", "capsule", "box", "halfspace")
 
@@ -788,8 +797,7 @@ def gen_obstacles(rng: np.random.Generator, n: int | None = None) -> Case:
     kw = random_solver(rng, planar, n)
     if kw.get("method") == "trust-constr":
         kw["options"] = {"maxiter": 150}
-    if HAVE_IPOPT and rng.random() < 0.15:
-        kw = {"method": "ipopt", "max_time": kw["max_time"]}
+    kw = _or_ipopt(rng, kw, 0.15)
     kw["obstacles"] = obstacles
     if margin > 0.0:
         kw["clearance"] = margin
@@ -846,8 +854,7 @@ def gen_loads(rng: np.random.Generator, n: int | None = None) -> Case:
         assert qs is not None
         target = SpatialTarget(*sk.spatial_forward(qs))
     kw = random_solver(rng, planar, n)
-    if HAVE_IPOPT and rng.random() < 0.1:
-        kw = {"method": "ipopt", "max_time": kw["max_time"]}
+    kw = _or_ipopt(rng, kw, 0.1)
     kw["load"] = load
     return Case(
         "loads",

@@ -278,13 +278,15 @@ class StartPlan:
         for."""
         qs = self.queue[: self.n_planned]
         if self.starts is None and structured:
-            if self.compact and n >= COMPACT_LEAN_N:  # the arcs and random starts alone
-                qs = arc_starts(sampler.stack, self.queue[0])
-                return qs + [sampler.draw() for _ in range(COMPACT_RANDOM)]
-            qs += fold_patterns(sampler.stack, self.queue[0], fold_depth(n))
+            lean = self.compact and n >= COMPACT_LEAN_N  # the arcs and random starts alone
+            if lean:
+                qs = []
+            else:
+                qs += fold_patterns(sampler.stack, self.queue[0], fold_depth(n))
             if self.compact:
                 qs += arc_starts(sampler.stack, self.queue[0])
-            qs += [sampler.draw() for _ in range(tall_random_starts(n))]
+            randoms = COMPACT_RANDOM if lean else tall_random_starts(n)
+            qs += [sampler.draw() for _ in range(randoms)]
         while len(qs) < self.n_planned:
             qs.append(sampler.draw())
         return qs
