@@ -152,6 +152,94 @@ def test_cholesky_and_kkt_step():
     assert _ipm._kkt_step(W, Aeq, c, r, 0.0, False)[3] == 0.0
 
 
+def _block_semiseparable(rng, nb, r, shift):
+    """A symmetric matrix with diagonal blocks ``Ad`` and blocks ``U_b V_c^T`` below them."""
+    K = 3 * nb
+    U, V = rng.standard_normal((K, r)), rng.standard_normal((K, r))
+    blk = np.arange(K) // 3
+    below = blk[:, None] > blk[None, :]
+    S = np.where(below, U @ V.T, 0.0)
+    S = S + S.T
+    Ad = np.empty((nb, 3, 3))
+    for b in range(nb):
+        G = rng.standard_normal((3, 3))
+        Ad[b] = G @ G.T + shift * np.eye(3)
+        S[3 * b : 3 * b + 3, 3 * b : 3 * b + 3] = Ad[b]
+    return S, Ad, U, V
+
+
+@pytest.mark.parametrize(("nb", "r"), [(1, 2), (4, 3), (21, 11)])
+def test_semiseparable_factor_solves_and_refuses_as_the_dense_one(nb, r):
+    """The block semiseparable factor (``linalg.semisep_factor``) solves like a dense
+    solve (to the matrix's condition times rounding) and is refused exactly where the
+    matrix is not positive definite."""
+    rng = np.random.default_rng(nb + r)
+    for shift in (3.0 * r * nb, 0.3 * r * nb, -5.0):
+        S, Ad, U, V = _block_semiseparable(rng, nb, r, shift)
+        G, ok = _ip_linalg.semisep_factor(Ad, U, V)
+        assert ok == (np.linalg.eigvalsh(S).min() > 1e-8 * np.abs(S).max())
+        if ok:
+            b = rng.standard_normal(3 * nb)
+            x = _ip_linalg.semisep_solve(G, b)
+            x0 = np.linalg.solve(S, b)
+            bound = 1e3 * np.linalg.cond(S) * np.finfo(float).eps
+            np.testing.assert_allclose(x, x0, atol=bound * np.abs(x0).max())
+
+
+@pytest.mark.parametrize(("n", "seed", "objective"),
+                         [(5, 0, "frobenius"), (24, 1, "frobenius"), (64, 2, "frobenius"),
+                          (9, 3, "feasible")])  # fmt: skip
+def test_chain_generators_reproduce_the_hessian_below_its_blocks(n, seed, objective):
+    """Below a platform's own block, the planar Lagrangian Hessian is ``U V^T`` with the
+    chain's five generator columns (``_chain_generators``), for the FN and the feasibility
+    objectives, reference and random stacks."""
+    prob, u, P, rng = random_problem(n, seed, 0.7, objective)
+    H = _ipm._lagrangian_hessian(u, rng.standard_normal(3), rng.random(24 * n), P)
+    AE = _ipm._evaluate(u, P)[3]
+    U, V = _ipm._chain_generators(H, AE, P)
+    blk = np.arange(3 * n) // 3
+    below = blk[:, None] > blk[None, :]
+    np.testing.assert_allclose((U @ V.T)[below], H[below], rtol=0,
+                               atol=1e-13 * np.abs(H).max())  # fmt: skip
+
+
+@pytest.mark.parametrize(("n", "seed", "bump", "last_shift"),
+                         [(24, 0, 1e3, 0.0), (24, 0, 1e3, 5.0), (64, 2, 1e4, 0.0),
+                          (40, 4, 1e6, 0.0), (64, 6, 1e8, 5.0)])  # fmt: skip
+def test_structured_kkt_step_matches_the_dense_one(n, seed, bump, last_shift):
+    """From ``STRUCTURED_MIN_N`` variables on, the KKT step of a problem without dense rows
+    factors the reduced Hessian by its structure: the same shift as the dense factor, and
+    the same step to the reduced Hessian's condition number times rounding."""
+    assert 3 * 24 >= _ipm.STRUCTURED_MIN_N  # the cases below take the structured path
+    prob, u, P, rng = random_problem(n, seed, 0.3)
+    yE, z = rng.standard_normal(3), rng.random(24 * n)
+    barrier = np.zeros((3 * n, 3 * n))  # the barrier terms: a psd block per platform
+    for b in range(n):
+        G = rng.standard_normal((3, 3))
+        barrier[3 * b : 3 * b + 3, 3 * b : 3 * b + 3] = bump * G @ G.T
+    W = _ipm._lagrangian_hessian(u, yE, z, P) + barrier
+    AE = _ipm._evaluate(u, P)[3]
+    cE, rhs = 1e-3 * rng.standard_normal(3), rng.standard_normal(3 * n)
+    dx0, _, _, shift0 = _ipm._kkt_step(W, AE, cE, rhs, last_shift, last_shift == 0.0)
+    # the kernel's entry point has no Python wrapper: its Python body runs the same code
+    dx, shift, fac = _ipm._kernel_kkt_step.py_func(P, W, AE, cE, rhs, last_shift,
+                                                   last_shift == 0.0)  # fmt: skip
+    assert fac[4].shape[0] > 0 and shift == shift0
+    # the barrier loop's Hessian there forms only the blocks that step reads: the same step
+    Wp = _ipm._hessian_of(u, yE, z, P, 0.0, True) + barrier
+    blk = np.arange(3 * n) // 3
+    needed = (blk[:, None] == blk[None, :]) | (blk[:, None] == 0) | (blk[None, :] == 0)
+    assert not Wp[~needed].any()
+    dxp = _ipm._kernel_kkt_step.py_func(P, Wp, AE, cE, rhs, last_shift, last_shift == 0.0)[0]
+    np.testing.assert_array_equal(dxp, dx)
+    E = fac[1]
+    Z = np.vstack([E, np.eye(3 * n - 3)])
+    cond = np.linalg.cond(Z.T @ (W + shift * np.eye(3 * n)) @ Z)
+    bound = 1e2 * cond * np.finfo(float).eps
+    np.testing.assert_allclose(dx, dx0, rtol=0, atol=bound * np.abs(dx0).max())
+    np.testing.assert_allclose(AE @ dx, -cE, atol=1e-12)
+
+
 def test_kkt_factor_serves_other_right_hand_sides():
     """The factor the step returns (``_kkt_factor``) solves the system with another ``cE``
     and ``rhs`` (a second-order correction) exactly as a fresh step would, planar and
@@ -164,7 +252,8 @@ def test_kkt_factor_serves_other_right_hand_sides():
         W = W @ W.T + np.eye(N)
         AE = rng.standard_normal((E, N))
         for sign in (1.0, -1.0):  # positive definite, then indefinite (a shift)
-            fac, shift = mod._kkt_factor(sign * W, AE, 0.0, True)
+            dense = (np.empty((0, 0)),) * 2 if mod is _ipm else ()  # no chain generators
+            fac, shift = mod._kkt_factor(sign * W, AE, 0.0, True, *dense)
             assert (shift > 0.0) == (sign < 0.0)
             c2, r2 = rng.standard_normal(E), rng.standard_normal(N)
             dx = mod._kkt_solve(fac, sign * W, c2, r2, shift)
@@ -355,7 +444,7 @@ def test_gauss_newton_closed_form(n):
     q = np.column_stack([rng.normal(0, 100, n), 300 + rng.normal(0, 50, n), rng.normal(0, 0.4, n)])
     c, s, _, J, d = _ipm._kinematics(q)
     _, Jr = sk.kinematics.planar_fn_residuals(q)  # the Python residual Jacobian
-    GN = _ipm._gauss_newton(c, s, d)
+    GN = _ipm._gauss_newton(c, s, d, False)
     np.testing.assert_allclose(GN, Jr.T @ Jr, rtol=1e-12, atol=1e-9 * max(1.0, np.abs(GN).max()))
 
 

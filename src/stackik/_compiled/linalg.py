@@ -169,6 +169,125 @@ def _cho_solve(R: FloatArray, b: FloatArray) -> FloatArray:
 
 
 @_jit
+def semisep_factor(Ad: FloatArray, Ug: FloatArray, Vg: FloatArray) -> tuple[FloatArray, bool]:
+    """Block ``L D L^T`` factor of the symmetric matrix ``S`` (``3 nb`` rows) whose diagonal
+    blocks are ``Ad`` (nb, 3, 3) and whose blocks below them are ``S[b, c] = U_b V_c^T``
+    (``b > c``; ``U_b``, ``V_b`` the rows ``3 b .. 3 b + 2`` of ``Ug``, ``Vg`` (3 nb, r)): a
+    block *semiseparable* matrix (the planar KKT step's reduced Hessian,
+    :func:`stackik._compiled.planar._kkt_factor`). ``L = I + (U_b W_c^T below the
+    diagonal)`` and ``D = blockdiag(D_b)`` by the recursion (Foreman-Mackey et al. 2017's,
+    celerite, in 3 x 3 blocks)
+
+        S_0 = 0,  D_b = A_b - U_b S_b U_b^T,  W_b = D_b^-1 (V_b - U_b S_b),
+        S_(b+1) = S_b + W_b^T D_b W_b,
+
+    O(nb r^2) instead of the dense factor's O(nb^3). ``D_b``'s pivots are those of the
+    dense Cholesky factor of ``S`` (the same elimination order): ``ok`` False when one is
+    not above ``1e-14 |S_ii|`` (the dense factor's test, :func:`_potrf`). Returns ``G``
+    (3 nb, 2 r + 3): each row's ``U``, ``W`` and its row of ``D_b``'s lower Cholesky
+    factor, for :func:`semisep_solve`."""
+    K, r = Ug.shape
+    nb = K // 3
+    G = np.zeros((K, 2 * r + 3))
+    S = np.zeros((r, r))
+    T = np.empty((3, r))  # U_b S_b, then V_b - U_b S_b
+    D = np.empty((3, 3))
+    L = np.zeros((3, 3))
+    for b in range(nb):
+        o = 3 * b
+        for i in range(3):
+            for k in range(r):
+                acc = 0.0
+                for m in range(r):
+                    acc += Ug[o + i, m] * S[m, k]
+                T[i, k] = acc
+        for i in range(3):
+            for j in range(i + 1):
+                acc = Ad[b, i, j]
+                for k in range(r):
+                    acc -= T[i, k] * Ug[o + j, k]
+                D[i, j] = acc
+        for j in range(3):
+            acc = D[j, j]
+            for p in range(j):
+                acc -= L[j, p] * L[j, p]
+            if not acc > 1e-14 * (abs(Ad[b, j, j]) + 1e-300):
+                return G, False
+            L[j, j] = math.sqrt(acc)
+            for i in range(j + 1, 3):
+                acc = D[i, j]
+                for p in range(j):
+                    acc -= L[i, p] * L[j, p]
+                L[i, j] = acc / L[j, j]
+        for i in range(3):
+            for k in range(r):
+                T[i, k] = Vg[o + i, k] - T[i, k]
+                G[o + i, k] = Ug[o + i, k]
+            for p in range(3):
+                G[o + i, 2 * r + p] = L[i, p]
+        for k in range(r):  # W_b = D_b^-1 (V_b - U_b S_b), column by column
+            y0 = T[0, k] / L[0, 0]
+            y1 = (T[1, k] - L[1, 0] * y0) / L[1, 1]
+            y2 = (T[2, k] - L[2, 0] * y0 - L[2, 1] * y1) / L[2, 2]
+            x2 = y2 / L[2, 2]
+            x1 = (y1 - L[2, 1] * x2) / L[1, 1]
+            x0 = (y0 - L[1, 0] * x1 - L[2, 0] * x2) / L[0, 0]
+            G[o, r + k] = x0
+            G[o + 1, r + k] = x1
+            G[o + 2, r + k] = x2
+        for m in range(r):  # S += W_b^T D_b W_b = W_b^T (V_b - U_b S_b)
+            w0 = G[o, r + m]
+            w1 = G[o + 1, r + m]
+            w2 = G[o + 2, r + m]
+            for k in range(r):
+                S[m, k] += w0 * T[0, k] + w1 * T[1, k] + w2 * T[2, k]
+    return G, True
+
+
+@_jit
+def semisep_solve(G: FloatArray, b: FloatArray) -> FloatArray:
+    """``x`` with ``S x = b`` for :func:`semisep_factor`'s factor ``G`` of ``S``."""
+    K = b.shape[0]
+    r = (G.shape[1] - 3) // 2
+    nb = K // 3
+    acc = np.zeros(r)
+    y = np.empty(K)
+    for bl in range(nb):  # L y = b
+        o = 3 * bl
+        for i in range(3):
+            v = b[o + i]
+            for k in range(r):
+                v -= G[o + i, k] * acc[k]
+            y[o + i] = v
+        for k in range(r):
+            acc[k] += G[o, r + k] * y[o] + G[o + 1, r + k] * y[o + 1] + G[o + 2, r + k] * y[o + 2]
+    c = 2 * r
+    for bl in range(nb):  # D w = y, in place
+        o = 3 * bl
+        y0 = y[o] / G[o, c]
+        y1 = (y[o + 1] - G[o + 1, c] * y0) / G[o + 1, c + 1]
+        y2 = (y[o + 2] - G[o + 2, c] * y0 - G[o + 2, c + 1] * y1) / G[o + 2, c + 2]
+        x2 = y2 / G[o + 2, c + 2]
+        x1 = (y1 - G[o + 2, c + 1] * x2) / G[o + 1, c + 1]
+        x0 = (y0 - G[o + 1, c] * x1 - G[o + 2, c] * x2) / G[o, c]
+        y[o] = x0
+        y[o + 1] = x1
+        y[o + 2] = x2
+    acc[:] = 0.0
+    x = np.empty(K)
+    for bl in range(nb - 1, -1, -1):  # L^T x = w
+        o = 3 * bl
+        for i in range(3):
+            v = y[o + i]
+            for k in range(r):
+                v -= G[o + i, r + k] * acc[k]
+            x[o + i] = v
+        for k in range(r):
+            acc[k] += G[o, k] * x[o] + G[o + 1, k] * x[o + 1] + G[o + 2, k] * x[o + 2]
+    return x
+
+
+@_jit
 def _solve6(B: FloatArray) -> tuple[FloatArray, bool]:
     """Inverse of a 6 x 6 matrix by Gauss-Jordan with partial pivoting (no LAPACK);
     ``ok`` False when a pivot is below 1e-10 of the largest entry."""
@@ -261,18 +380,27 @@ def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
 
 
 @_jit_inline
-def subtract_blocks_scaled(H: FloatArray, Hb: FloatArray, xs: FloatArray) -> FloatArray:
+def subtract_blocks_scaled(H: FloatArray, Hb: FloatArray, xs: FloatArray,
+                           partial: bool = False) -> FloatArray:  # fmt: skip
     """``H - blockdiag(Hb)`` in the variables scaled by ``xs``: ``H[a, b] * xs[a] *
     xs[b]``, in place (``H`` (N, N), ``Hb`` (n, k, k) a platform's block, ``N = k n``);
-    returns ``H``."""
+    returns ``H``. With ``partial`` only a platform's own block and the first platform's
+    rows and columns are scaled (the planar structured step's entries; zeros elsewhere)."""
     n, k = Hb.shape[0], Hb.shape[1]
     for i in range(n):
         for a in range(k):
             for b in range(k):
                 H[k * i + a, k * i + b] -= Hb[i, a, b]
     for a in range(H.shape[0]):
-        for b in range(H.shape[1]):
-            H[a, b] *= xs[a] * xs[b]
+        if not partial or a < k:
+            for b in range(H.shape[1]):
+                H[a, b] *= xs[a] * xs[b]
+        else:
+            for b in range(k):
+                H[a, b] *= xs[a] * xs[b]
+            o = a - a % k
+            for b in range(o, o + k):
+                H[a, b] *= xs[a] * xs[b]
     return H
 
 

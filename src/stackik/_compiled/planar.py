@@ -32,6 +32,7 @@ from stackik._compiled.core import (
     _jit_inline,
     _jit_internal,
     _limit_rows,
+    no_dense_rows,
 )
 from stackik._compiled.dense_rows import (
     with_dense_rows,
@@ -42,6 +43,8 @@ from stackik._compiled.linalg import (
     _cholesky_plus,
     _inv3,
     add_distance_term,
+    semisep_factor,
+    semisep_solve,
     subtract_blocks_scaled,
 )
 
@@ -134,9 +137,36 @@ def _kinematics(q: FloatArray) -> tuple[Any, ...]:
     return c, s, y, J, d
 
 
+@_jit_inline
+def _needed(m: int, l: int, partial: bool) -> bool:
+    """Whether the Hessian's block of platforms ``m`` and ``l`` is formed: every block,
+    or with ``partial`` only those the structured KKT step reads (:func:`_kkt_factor`): a
+    platform's own block and the first platform's row and column of blocks (zeros
+    elsewhere; the blocks below the diagonal are its generators,
+    :func:`_chain_generators`)."""
+    return not partial or m == l or m == 0 or l == 0
+
+
+@_jit_inline
+def _scale_needed(H: FloatArray, coef: float, partial: bool) -> None:
+    """``H *= coef`` in place on the blocks :func:`_needed` forms."""
+    N = H.shape[0]
+    for a in range(N):
+        if not partial or a < 3:
+            for b in range(N):
+                H[a, b] *= coef
+        else:
+            for b in range(3):
+                H[a, b] *= coef
+            o = a - a % 3
+            for b in range(o, o + 3):
+                H[a, b] *= coef
+
+
 @_jit
-def _gauss_newton(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatArray:
-    """``Jr^T Jr`` of the FN residuals ``r_i = d_i`` (i < n-1) in O(n^2), shape (3n, 3n).
+def _gauss_newton(c: FloatArray, s: FloatArray, d: FloatArray, partial: bool) -> FloatArray:
+    """``Jr^T Jr`` of the FN residuals ``r_i = d_i`` (i < n-1) in O(n^2), shape (3n, 3n)
+    (with ``partial``, only the blocks :func:`_needed` names, zeros elsewhere).
 
     With ``u_m0 = (c_m, s_m)``, ``u_m1 = (-s_m, c_m)`` (the translation columns, present in
     the rows i < m), the angle columns ``J2 d_max(i,m)`` and prefix sums ``P_k`` of the
@@ -152,10 +182,12 @@ def _gauss_newton(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatArray:
         P[i + 1, 0] = P[i, 0] + d[i, 0]
         P[i + 1, 1] = P[i, 1] + d[i, 1]
         Q[i + 1] = Q[i] + d[i, 0] * d[i, 0] + d[i, 1] * d[i, 1]
-    H = np.empty((N, N))
+    H = np.zeros((N, N)) if partial else np.empty((N, N))
     for m in range(n):
         um = ((c[m], s[m]), (-s[m], c[m]))
         for l in range(n):
+            if not _needed(m, l, partial):
+                continue
             ul = ((c[l], s[l]), (-s[l], c[l]))
             k = min(m, l)
             for t in range(2):
@@ -182,10 +214,12 @@ def _gauss_newton(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatArray:
 
 
 @_jit
-def _fn2_hessian(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatArray:
-    """Exact Hessian of ``sum_i |d_i|^2`` (i < n-1) in raw q, shape (3n, 3n)."""
+def _fn2_hessian(c: FloatArray, s: FloatArray, d: FloatArray, partial: bool) -> FloatArray:
+    """Exact Hessian of ``sum_i |d_i|^2`` (i < n-1) in raw q, shape (3n, 3n) (with
+    ``partial``, only the blocks :func:`_needed` names, zeros elsewhere)."""
     n = c.shape[0]
-    H = 2.0 * _gauss_newton(c, s, d)
+    H = _gauss_newton(c, s, d, partial)
+    _scale_needed(H, 2.0, partial)
     # angle-angle part: -sum_{i<n-1} r_i . d_max(i, m, l) depends on b = max(m, l) only:
     # sum_{i<b} d_i . d_b + sum_{b<=i<n-1} |d_i|^2 (O(n^2) with prefix sums)
     Pb0 = 0.0
@@ -200,14 +234,15 @@ def _fn2_hessian(c: FloatArray, s: FloatArray, d: FloatArray) -> FloatArray:
         Pb1 += d[b, 1]
     for m in range(n):
         for l in range(n):
-            H[3 * m + 2, 3 * l + 2] -= 2.0 * Hb[max(m, l)]
+            if _needed(m, l, partial):
+                H[3 * m + 2, 3 * l + 2] -= 2.0 * Hb[max(m, l)]
     c0 = 0.0
     c1 = 0.0  # sum_{i<k} r_i
     for k in range(n):
         t0 = -s[k] * c0 + c[k] * c1
         t1 = -c[k] * c0 - s[k] * c1
-        for m in range(k):
-            H[3 * k, 3 * m + 2] += 2.0 * t0
+        for m in range(k if not partial else min(k, 1)):  # m < k: the block (k, m) is
+            H[3 * k, 3 * m + 2] += 2.0 * t0  # needed only for m = 0 when partial
             H[3 * k + 1, 3 * m + 2] += 2.0 * t1
             H[3 * m + 2, 3 * k] += 2.0 * t0
             H[3 * m + 2, 3 * k + 1] += 2.0 * t1
@@ -407,14 +442,15 @@ def _evaluate_ip(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Floa
 
 
 @_jit
-def _lagrangian_hessian(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
-                        wq: float = 0.0) -> FloatArray:  # fmt: skip
+def _hessian_of(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any, wq: float,
+                partial: bool) -> FloatArray:  # fmt: skip
     """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (N, N), at the scaled
     point ``u`` (the parts :func:`_kernel_evaluate` returns); of :func:`_evaluate_ext`'s
     problem too: ``z`` then has 30 n multipliers with a box (its rows are linear) and the
-    distance term adds ``2 wq I``. One compiled function for the barrier loop (the kernel
-    interface's Hessian), the SQP method and the path kernels (each passes ``wq``: one
-    specialisation): a thin layer of its own would compile it again."""
+    distance term adds ``2 wq I``. With ``partial`` only the blocks the structured KKT step
+    reads (:func:`_needed`), zeros elsewhere. One compiled function for the barrier loop
+    (:func:`_kernel_hessian`), the SQP method and the path kernels
+    (:func:`_lagrangian_hessian`)."""
     xs, cs, es, fscale, w, tf, tz, bf = P.xs, P.cs, P.es, P.fscale, P.w, P.tf, P.tz, P.bf
     bz, ls, sj, feasible = P.bz, P.ls0, P.sj, P.feasible
     n = tf.shape[0]
@@ -426,35 +462,169 @@ def _lagrangian_hessian(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any
     if feasible:
         H = np.zeros((N, N))
     else:
-        H = _fn2_hessian(c, s, d) * (w / fscale)
+        H = _fn2_hessian(c, s, d, partial)
+        _scale_needed(H, w / fscale, partial)
     # end-effector equalities: sum_r yE_r d2 y_r = [min(a,b) is an angle] * v[max(a,b)]
     yp0 = yE[0] * es[0]
     yp1 = yE[1] * es[1]
     v = yp1 * J[0] - yp0 * J[1]
     for a in range(2, N, 3):  # angle columns a: every (a, b) with b >= a
         H[a, a] -= v[a]
-        for b in range(a + 1, N):
+        for b in range(a + 1, N if a == 2 or not partial else 0):  # partial: a's block ends at a
             H[a, b] -= v[b]
             H[b, a] -= v[b]
     Hb = _constraint_hessian(q, z * cs, tf, tz, bf, bz, ls, sj)
-    H = subtract_blocks_scaled(H, Hb, xs)
+    H = subtract_blocks_scaled(H, Hb, xs, partial)
     if wq > 0.0:
         for a in range(N):
             H[a, a] += 2.0 * wq
     return H
 
 
+@_jit
+def _lagrangian_hessian(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
+                        wq: float = 0.0) -> FloatArray:  # fmt: skip
+    """:func:`_hessian_of`, every block (the SQP method, the path kernels, the tests)."""
+    return _hessian_of(parts, yE, z, P, wq, False)
+
+
+@_jit_internal
+def _kernel_hessian(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
+                    wq: float) -> FloatArray:  # fmt: skip
+    """:func:`_hessian_of` for the barrier loop: only the blocks the structured KKT step
+    reads where it takes that step (:func:`_structured`)."""
+    return _hessian_of(parts, yE, z, P, wq, _structured(P, parts.shape[0]))
+
+
 #: The Hessian with a path step's extensions (the name the tests use): the same function.
 _lagrangian_hessian_ext = _lagrangian_hessian
 
 
+#: From this many variables on, a KKT step of a problem without dense rows factors the
+#: reduced Hessian by its structure (:func:`_structured_factor`) instead of densely, and the
+#: barrier loop's Hessian forms only the blocks that step reads (:func:`_needed`). Below
+#: it the dense factor is as fast or faster (paired runs, docs/benchmarks.md).
+STRUCTURED_MIN_N = 3 * 12
+
+
 @_jit_inline
-def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
-                try_plain: bool) -> tuple[Any, float]:  # fmt: skip
-    """The factor of :func:`_kkt_step`'s null-space method: ``(Binv, E, Et, L)`` (the
+def _structured(P: Any, N: int) -> bool:
+    """Whether the barrier loop's KKT step of the problem ``P`` with ``N`` variables is
+    the structured one: ``N >= STRUCTURED_MIN_N`` and no dense rows (whose curvature and
+    barrier terms reach every block)."""
+    return N >= STRUCTURED_MIN_N and no_dense_rows(P)
+
+
+@_jit_inline
+def _chain_generators(W: FloatArray, AE: FloatArray, P: Any) -> tuple[FloatArray, FloatArray]:
+    """``U``, ``V`` (N, 5) with ``W[a, b] = U[a] . V[b]`` wherever platform a's block is
+    above platform b's (``a // 3 > b // 3``), for the Hessian ``W`` of a problem without
+    dense rows (:func:`_lagrangian_hessian` plus the block rows' ``J^T Sigma J``), in the
+    scaled variables.
+
+    Below its diagonal blocks ``W`` is the FN^2 Hessian's and the equalities' curvature
+    alone (the limit rows' curvature and the barrier terms are a platform's own). From
+    :func:`_gauss_newton` and :func:`_fn2_hessian`, with ``u_m0 = (c_m, s_m)``, ``u_m1 =
+    (-s_m, c_m)``, ``J2 v = (-v_y, v_x)``, ``X_l = (l + 1) d_l - P_(l+1)`` and ``k = 2 w /
+    fscale`` (0 for the feasibility objective), for m > l:
+    trans_m.trans_l and angle_m.trans_l = ``(u_mt; J2 d_m) . k l u_lt'`` (two columns),
+    trans_m.angle_l and angle_m.angle_l = ``(J2^T u_mt; d_m) . k X_l`` (two), plus a part
+    of the row alone (the rest of the FN^2 terms and the equalities' ``-v[b]``) times 1
+    on the angle columns, which is ``W``'s column 2 (``X_0 = 0`` and ``l = 0``: nothing
+    else reaches the first angle column from below). ``c``, ``s``, ``d`` are read from
+    ``AE`` (its columns are ``J``'s, scaled)."""
+    N = W.shape[0]
+    n = N // 3
+    xs, es = P.xs, P.es
+    k = 0.0 if P.feasible else 2.0 * P.w / P.fscale
+    U = np.empty((N, 5))
+    V = np.zeros((N, 5))
+    p0 = 0.0  # P_(m+1), the lever arms summed
+    p1 = 0.0
+    x2 = xs[2]
+    for m in range(n):
+        a = 3 * m
+        c = AE[0, a] / (es[0] * xs[a])
+        sn = AE[1, a] / (es[1] * xs[a])
+        dy = -AE[0, a + 2] / (es[0] * xs[a + 2])
+        dx = AE[1, a + 2] / (es[1] * xs[a + 2])
+        p0 += dx
+        p1 += dy
+        x0, x1, xa = xs[a], xs[a + 1], xs[a + 2]
+        U[a, 0] = c * x0
+        U[a, 1] = sn * x0
+        U[a + 1, 0] = -sn * x1
+        U[a + 1, 1] = c * x1
+        U[a + 2, 0] = -dy * xa
+        U[a + 2, 1] = dx * xa
+        U[a, 2] = sn * x0
+        U[a, 3] = -c * x0
+        U[a + 1, 2] = c * x1
+        U[a + 1, 3] = sn * x1
+        U[a + 2, 2] = dx * xa
+        U[a + 2, 3] = dy * xa
+        for t in range(3):
+            U[a + t, 4] = W[a + t, 2] / x2
+        km = k * m
+        V[a, 0] = km * c * x0
+        V[a, 1] = km * sn * x0
+        V[a + 1, 0] = -km * sn * x1
+        V[a + 1, 1] = km * c * x1
+        V[a + 2, 2] = k * ((m + 1) * dx - p0) * xa
+        V[a + 2, 3] = k * ((m + 1) * dy - p1) * xa
+        V[a + 2, 4] = xa
+    return U, V
+
+
+@_jit_inline
+def _structured_factor(W: FloatArray, Et: FloatArray, U5: FloatArray, V5: FloatArray,
+                       t: float) -> tuple[FloatArray, bool]:  # fmt: skip
+    """:func:`stackik._compiled.linalg.semisep_factor` of ``Z^T (W + t I) Z`` (the
+    reduced Hessian, shifted) for ``Z = [E; I]``: with ``Hz = W22 + E^T W12 + W21 E +
+    E^T W11 E``, the part of ``W`` below its diagonal blocks (:func:`_chain_generators`'
+    ``U5``, ``V5``) and the rank-6 term ``X M X^T``, ``X = [E^T, W21]``, ``M = [[W11 + t I,
+    I], [I, 0]]``, are its generators (11 columns)."""
+    N = W.shape[0]
+    K = N - 3
+    nb = K // 3
+    r = 11
+    Ug = np.empty((K, r))
+    Vg = np.empty((K, r))
+    for a in range(K):
+        for j in range(5):
+            Ug[a, j] = U5[3 + a, j]
+            Vg[a, j] = V5[3 + a, j]
+        for i in range(3):
+            Ug[a, 5 + i] = Et[a, i]
+            Ug[a, 8 + i] = W[3 + a, i]
+            # (X M)[a] = (E^T (W11 + t I) + W21, E^T)
+            Vg[a, 5 + i] = (Et[a, 0] * W[0, i] + Et[a, 1] * W[1, i] + Et[a, 2] * W[2, i]
+                            + t * Et[a, i] + W[3 + a, i])  # fmt: skip
+            Vg[a, 8 + i] = Et[a, i]
+    Ad = np.empty((nb, 3, 3))
+    for b in range(nb):
+        for i in range(3):
+            a = 3 * b + i
+            for j in range(i + 1):
+                e = 3 * b + j
+                acc = W[3 + a, 3 + e]
+                for p in range(3):  # X_a M X_e^T
+                    acc += Ug[a, 5 + p] * Vg[e, 5 + p] + Ug[a, 8 + p] * Vg[e, 8 + p]
+                if i == j:
+                    acc += t
+                Ad[b, i, j] = acc
+    return semisep_factor(Ad, Ug, Vg)
+
+
+@_jit_inline
+def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float, try_plain: bool,
+                U5: FloatArray, V5: FloatArray) -> tuple[Any, float]:  # fmt: skip
+    """The factor of :func:`_kkt_step`'s null-space method: ``(Binv, E, Et, L, G)`` (the
     inverse of ``AE``'s first three columns, the dependent part of ``Z`` and its
-    transpose, the reduced Hessian's Cholesky factor) and the shift; every step with the
-    same ``W`` and ``AE`` is then :func:`_kkt_solve`."""
+    transpose, the reduced Hessian's dense Cholesky factor, or with the chain's
+    generators ``U5``, ``V5`` (:func:`_chain_generators`; no rows: dense) its structured
+    factor ``G``, :func:`_structured_factor`) and the shift; every step with the same ``W``
+    and ``AE`` is then :func:`_kkt_solve`."""
     N = W.shape[0]
     K = N - 3
     Binv = _inv3(AE[:, :3])
@@ -465,6 +635,26 @@ def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
         for a in range(K):
             E[i, a] = -(Binv[i, 0] * AE[0, 3 + a] + Binv[i, 1] * AE[1, 3 + a]
                         + Binv[i, 2] * AE[2, 3 + a])  # fmt: skip
+    Et = E.T.copy()
+    none = np.empty((0, 0))
+    if U5.shape[0] > 0:
+        # the same shifts as the dense factor below, on the structured one
+        shift = 0.0
+        ok = False
+        if try_plain or not last_shift > 0.0:
+            G, ok = _structured_factor(W, Et, U5, V5, 0.0)
+        if not ok:
+            scale = 0.0
+            for i in range(K):
+                scale = max(scale, abs(W[3 + i, 3 + i]))
+            shift = max(last_shift / 3.0, 1e-4) if last_shift > 0.0 else 1e-4
+            grow = 8.0 if last_shift > 0.0 else 100.0
+            for _ in range(60):
+                G, ok = _structured_factor(W, Et, U5, V5, shift)
+                if ok or not shift <= 1e20 * (1.0 + scale):
+                    break
+                shift *= grow
+        return (Binv, E, Et, none, G), shift
     # Hz = Z^T W Z = E^T M[:3] + M[3:] with M = W Z (N, K) = W[:, :3] E + W[:, 3:]: its
     # first three rows stored, the others formed where Hz needs them, and only Hz's lower
     # triangle (what the Cholesky factor reads): the same numbers, 10 instead of 16 us at
@@ -487,7 +677,6 @@ def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
         for b in range(a + 1):
             m = w0 * E[0, b] + w1 * E[1, b] + w2 * E[2, b] + W[3 + a, 3 + b]
             Hz[a, b] = e0 * M3[0, b] + e1 * M3[1, b] + e2 * M3[2, b] + m
-    Et = E.T.copy()
     # inertia correction as in IPOPT: the smallest shift (tried in factors of 8, from a third
     # of the last one) making the reduced Hessian positive definite; unlike IPOPT, no
     # unshifted attempt right after a shifted step (try_plain; docs/benchmarks.md)
@@ -509,7 +698,7 @@ def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
             if ok or not shift <= 1e20 * (1.0 + scale):
                 break
             shift *= grow
-    return (Binv, E, Et, L), shift
+    return (Binv, E, Et, L, none), shift
 
 
 @_jit_inline
@@ -517,7 +706,7 @@ def _kkt_solve(fac: Any, W: FloatArray, cE: FloatArray, rhs: FloatArray,
                shift: float) -> FloatArray:  # fmt: skip
     """``dx`` of ``[W + shift I, -AE^T; AE 0] [dx; dy] = [rhs; -cE]`` from
     :func:`_kkt_factor`'s factor ``fac`` (of ``W`` and ``AE``) and shift."""
-    Binv, E, Et, L = fac
+    Binv, E, Et, L, G = fac
     N = W.shape[0]
     K = N - 3
     dxp = np.empty(3)  # the particular part: -B^-1 cE
@@ -532,7 +721,7 @@ def _kkt_solve(fac: Any, W: FloatArray, cE: FloatArray, rhs: FloatArray,
         rz[a] = E[0, a] * res[0] + E[1, a] * res[1] + E[2, a] * res[2] + res[3 + a]
     if shift > 0.0:  # the particular part sees the shifted Hessian too
         rz -= shift * (Et @ dxp)
-    w = _cho_solve(L, rz)
+    w = semisep_solve(G, rz) if G.shape[0] > 0 else _cho_solve(L, rz)
     dx = np.empty(N)
     for i in range(3):
         acc = dxp[i]
@@ -558,7 +747,8 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, la
     unshifted attempt. Returns ``dx``, ``dy``, the curvature ``dx^T W dx`` and the shift used.
     """
     N = W.shape[0]
-    fac, shift = _kkt_factor(W, AE, last_shift, try_plain)
+    none = np.empty((0, 0))
+    fac, shift = _kkt_factor(W, AE, last_shift, try_plain, none, none)
     dx = _kkt_solve(fac, W, cE, rhs, shift)
     Binv = fac[0]
     Wdx = np.empty(N)
@@ -620,10 +810,16 @@ def _kernel_evaluate(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: 
 
 
 @_jit_internal
-def _kernel_kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
+def _kernel_kkt_step(P: Any, W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
                      last_shift: float, try_plain: bool) -> tuple[Any, ...]:  # fmt: skip
-    """:func:`_kkt_factor`, then :func:`_kkt_solve`: the step, the shift and the factor."""
-    fac, shift = _kkt_factor(W, AE, last_shift, try_plain)
+    """:func:`_kkt_factor`, then :func:`_kkt_solve`: the step, the shift and the factor;
+    structured (:func:`_chain_generators`) from :data:`STRUCTURED_MIN_N` variables on
+    where the problem has no dense rows."""
+    if _structured(P, W.shape[0]):
+        U5, V5 = _chain_generators(W, AE, P)
+    else:
+        U5 = V5 = np.empty((0, 0))
+    fac, shift = _kkt_factor(W, AE, last_shift, try_plain, U5, V5)
     return _kkt_solve(fac, W, cE, rhs, shift), shift, fac
 
 
@@ -649,7 +845,7 @@ def _kernel_eq_transpose_dot(AE: FloatArray, y: FloatArray) -> FloatArray:
 kernel.register(
     PlanarData,
     evaluate=_kernel_evaluate,
-    hessian=_lagrangian_hessian,
+    hessian=_kernel_hessian,
     kkt_step=_kernel_kkt_step,
     kkt_solve=_kernel_kkt_solve,
     eq_multipliers=_kernel_eq_multipliers,
