@@ -62,7 +62,7 @@ def test_headline_reads_the_results(gen: ModuleType, tmp_path: Path) -> None:
     import json
     import shutil
 
-    for name in ("ik_bench.json", "spatial_bench.json", "path_bench.json"):
+    for name in ("ik_bench.json", "spatial_bench.json", "path_bench.json", "scale.json"):
         shutil.copy(RESULTS / name, tmp_path / name)
     data = json.loads((tmp_path / "ik_bench.json").read_text())
     for row in data["summary"]:

@@ -222,15 +222,16 @@ def test_structured_kkt_step_matches_the_dense_one(n, seed, bump, last_shift):
     cE, rhs = 1e-3 * rng.standard_normal(3), rng.standard_normal(3 * n)
     dx0, _, _, shift0 = _ipm._kkt_step(W, AE, cE, rhs, last_shift, last_shift == 0.0)
     # the kernel's entry point has no Python wrapper: its Python body runs the same code
-    dx, shift, fac = _ipm._kernel_kkt_step.py_func(P, W, AE, cE, rhs, last_shift,
+    assert _ipm._chained.py_func(P, 3 * n)
+    dx, shift, fac = _ipm._structured_step.py_func(P, W, AE, cE, rhs, last_shift,
                                                    last_shift == 0.0)  # fmt: skip
-    assert fac[4].shape[0] > 0 and shift == shift0
+    assert fac[4].shape[0] > 0 and shift == shift0  # the structured factor
     # the barrier loop's Hessian there forms only the blocks that step reads: the same step
     Wp = _ipm._hessian_of(u, yE, z, P, 0.0, True) + barrier
     blk = np.arange(3 * n) // 3
     needed = (blk[:, None] == blk[None, :]) | (blk[:, None] == 0) | (blk[None, :] == 0)
     assert not Wp[~needed].any()
-    dxp = _ipm._kernel_kkt_step.py_func(P, Wp, AE, cE, rhs, last_shift, last_shift == 0.0)[0]
+    dxp = _ipm._structured_step.py_func(P, Wp, AE, cE, rhs, last_shift, last_shift == 0.0)[0]
     np.testing.assert_array_equal(dxp, dx)
     E = fac[1]
     Z = np.vstack([E, np.eye(3 * n - 3)])
@@ -252,8 +253,7 @@ def test_kkt_factor_serves_other_right_hand_sides():
         W = W @ W.T + np.eye(N)
         AE = rng.standard_normal((E, N))
         for sign in (1.0, -1.0):  # positive definite, then indefinite (a shift)
-            dense = (np.empty((0, 0)),) * 2 if mod is _ipm else ()  # no chain generators
-            fac, shift = mod._kkt_factor(sign * W, AE, 0.0, True, *dense)
+            fac, shift = mod._kkt_factor(sign * W, AE, 0.0, True)
             assert (shift > 0.0) == (sign < 0.0)
             c2, r2 = rng.standard_normal(E), rng.standard_normal(N)
             dx = mod._kkt_solve(fac, sign * W, c2, r2, shift)

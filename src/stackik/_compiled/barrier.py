@@ -507,6 +507,7 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
             n_acc = 0  # iterations in a row at the acceptable level (_ACC_TOL) ...
             f_acc = f  # ... and the objective at the first of them
             period = kernel.clock_period(Ps)
+            chain = kernel.chained(Ps, N)  # the mode's structured steps
             # the leg-force rows' curvature (the last n_force dense rows): an SR1 estimate
             n_force = 12 * P.forces[9].size
             B = np.zeros((N, N)) if n_force > 0 else np.zeros((0, 0))
@@ -535,7 +536,10 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
                     mu = mu_next
                     nfilt = 0
                 # --- Newton step -----------------------------------------------------------
-                W = kernel.hessian(parts, yE, block_part(z, AI), Ps, wqs)
+                if chain:
+                    W = kernel.chain_hessian(parts, yE, block_part(z, AI), Ps, wqs)
+                else:
+                    W = kernel.hessian(parts, yE, block_part(z, AI), Ps, wqs)
                 if not (_finite(W) and _finite(g) and _finite(AE)):
                     status = IP_NONFINITE
                     break
@@ -544,7 +548,12 @@ def ip_multi(U0: FloatArray, P: Any, tol: float, constr_tol: float, mu0: FloatAr
                 Sig = z / s
                 add_normal(W, AI, Sig)  # the blocks' J^T Sigma J (and the dense rows', everywhere)
                 rhs = _newton_rhs(g, AEty, AI, cI, s, Sig, mu)
-                dx, shift, fac = kernel.kkt_step(Ps, W, AE, cE, rhs, last_shift, prev_shift == 0.0)
+                if chain:
+                    dx, shift, fac = kernel.chain_kkt_step(Ps, W, AE, cE, rhs, last_shift,
+                                                           prev_shift == 0.0)  # fmt: skip
+                else:
+                    dx, shift, fac = kernel.kkt_step(Ps, W, AE, cE, rhs, last_shift,
+                                                     prev_shift == 0.0)  # fmt: skip
                 if not _finite(dx):
                     status = IP_NONFINITE
                     break

@@ -27,6 +27,9 @@ from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 __all__ = [
+    "chain_hessian",
+    "chain_kkt_step",
+    "chained",
     "clock_period",
     "eq_multipliers",
     "eq_transpose_dot",
@@ -48,8 +51,8 @@ def register(data_class: type, **implementations: Any) -> None:
     """Register a mode: ``implementations`` maps every stub's name to the mode's jitted
     function with the stub's parameters (same names, same order) or those without the
     first, the problem data (then one specialisation serves every problem-data type) or,
-    for :func:`clock_period`, an int. Raises ``ValueError`` when a stub is missing, a name
-    is not a stub or a function's parameters are not the stub's."""
+    for :func:`clock_period` and :func:`chained`, an int. Raises ``ValueError`` when a
+    stub is missing, a name is not a stub or a function's parameters are not the stub's."""
     missing = sorted(set(_HOOKS) - set(implementations))
     unknown = sorted(set(implementations) - set(_HOOKS))
     if missing or unknown:
@@ -191,6 +194,37 @@ def _clock_period_call(typingctx: Any, P: Any) -> Any:
 clock_period: Any = intrinsic(_clock_period_call)
 
 
+def _chained_call(typingctx: Any, P: Any, N: Any) -> Any:
+    """Whether the barrier loop's steps of the problem ``P`` with ``N`` variables are the
+    mode's structured ones (:func:`chain_hessian`, :func:`chain_kkt_step`) instead of
+    :func:`hessian` and :func:`kkt_step`; decided once a start, so that the plain step's
+    code is what it is without them (0: never)."""
+    return _direct_call(typingctx, "chained", P, (P, N))
+
+
+chained: Any = intrinsic(_chained_call)
+
+
+def _chain_hessian_call(typingctx: Any, parts: Any, yE: Any, z: Any, P: Any, wq: Any) -> Any:
+    """:func:`hessian` for the structured step: the entries :func:`chain_kkt_step` reads
+    (the others may be left zero)."""
+    return _direct_call(typingctx, "chain_hessian", P, (parts, yE, z, P, wq))
+
+
+chain_hessian: Any = intrinsic(_chain_hessian_call)
+
+
+def _chain_kkt_step_call(typingctx: Any, P: Any, W: Any, AE: Any, cE: Any, rhs: Any,
+                         last_shift: Any, try_plain: Any) -> Any:  # fmt: skip
+    """:func:`kkt_step` from :func:`chain_hessian`'s ``W``, by the problem's structure; its
+    factor is one :func:`kkt_solve` takes too."""
+    return _direct_call(typingctx, "chain_kkt_step", P,
+                        (P, W, AE, cE, rhs, last_shift, try_plain))  # fmt: skip
+
+
+chain_kkt_step: Any = intrinsic(_chain_kkt_step_call)
+
+
 #: The stubs' parameters by name (of their typing functions, ``typingctx`` left out).
 _PARAMETERS: dict[str, tuple[str, ...]] = {
     name: fn.__code__.co_varnames[1 : fn.__code__.co_argcount]
@@ -198,6 +232,8 @@ _PARAMETERS: dict[str, tuple[str, ...]] = {
                      ("kkt_step", _kkt_step_call), ("kkt_solve", _kkt_solve_call),
                      ("eq_multipliers", _eq_multipliers_call),
                      ("eq_transpose_dot", _eq_transpose_dot_call),
-                     ("with_fscale", _with_fscale_call), ("clock_period", _clock_period_call))
+                     ("with_fscale", _with_fscale_call), ("clock_period", _clock_period_call),
+                     ("chained", _chained_call), ("chain_hessian", _chain_hessian_call),
+                     ("chain_kkt_step", _chain_kkt_step_call))
 }  # fmt: skip
 _HOOKS.extend(_PARAMETERS)

@@ -441,16 +441,16 @@ def _evaluate_ip(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: Floa
     return f, g, cE, AE, cA, AI
 
 
-@_jit
+@_jit_inline
 def _hessian_of(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any, wq: float,
                 partial: bool) -> FloatArray:  # fmt: skip
     """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (N, N), at the scaled
     point ``u`` (the parts :func:`_kernel_evaluate` returns); of :func:`_evaluate_ext`'s
     problem too: ``z`` then has 30 n multipliers with a box (its rows are linear) and the
     distance term adds ``2 wq I``. With ``partial`` only the blocks the structured KKT step
-    reads (:func:`_needed`), zeros elsewhere. One compiled function for the barrier loop
-    (:func:`_kernel_hessian`), the SQP method and the path kernels
-    (:func:`_lagrangian_hessian`)."""
+    reads (:func:`_needed`), zeros elsewhere. Inlined into its two entries,
+    :func:`_lagrangian_hessian` (every block: the barrier loop's plain step, the SQP
+    method, the path kernels) and :func:`_partial_hessian` (the structured step's)."""
     xs, cs, es, fscale, w, tf, tz, bf = P.xs, P.cs, P.es, P.fscale, P.w, P.tf, P.tz, P.bf
     bz, ls, sj, feasible = P.bz, P.ls0, P.sj, P.feasible
     n = tf.shape[0]
@@ -484,16 +484,17 @@ def _hessian_of(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any, wq: fl
 @_jit
 def _lagrangian_hessian(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
                         wq: float = 0.0) -> FloatArray:  # fmt: skip
-    """:func:`_hessian_of`, every block (the SQP method, the path kernels, the tests)."""
+    """:func:`_hessian_of`, every block (the barrier loop's plain step, the SQP method, the
+    path kernels: one compiled function for them all)."""
     return _hessian_of(parts, yE, z, P, wq, False)
 
 
 @_jit_internal
-def _kernel_hessian(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
-                    wq: float) -> FloatArray:  # fmt: skip
-    """:func:`_hessian_of` for the barrier loop: only the blocks the structured KKT step
-    reads where it takes that step (:func:`_structured`)."""
-    return _hessian_of(parts, yE, z, P, wq, _structured(P, parts.shape[0]))
+def _partial_hessian(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any,
+                     wq: float) -> FloatArray:  # fmt: skip
+    """:func:`_hessian_of` with ``partial``: the barrier loop's Hessian where it takes the
+    structured step (:func:`_chained`)."""
+    return _hessian_of(parts, yE, z, P, wq, True)
 
 
 #: The Hessian with a path step's extensions (the name the tests use): the same function.
@@ -507,11 +508,13 @@ _lagrangian_hessian_ext = _lagrangian_hessian
 STRUCTURED_MIN_N = 3 * 12
 
 
-@_jit_inline
-def _structured(P: Any, N: int) -> bool:
-    """Whether the barrier loop's KKT step of the problem ``P`` with ``N`` variables is
-    the structured one: ``N >= STRUCTURED_MIN_N`` and no dense rows (whose curvature and
-    barrier terms reach every block)."""
+@_jit_internal
+def _chained(P: Any, N: int) -> bool:
+    """Whether the barrier loop's steps of the problem ``P`` with ``N`` variables are the
+    structured ones (:func:`_partial_hessian`, :func:`_structured_step`): ``N >=
+    STRUCTURED_MIN_N`` and no dense rows (whose curvature and barrier terms reach every
+    block). Decided once a start (:func:`stackik._compiled.kernel.chained`): a test in
+    every step cost the plain step about 0.4 us at n = 4, a third of it."""
     return N >= STRUCTURED_MIN_N and no_dense_rows(P)
 
 
@@ -617,44 +620,66 @@ def _structured_factor(W: FloatArray, Et: FloatArray, U5: FloatArray, V5: FloatA
 
 
 @_jit_inline
-def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float, try_plain: bool,
-                U5: FloatArray, V5: FloatArray) -> tuple[Any, float]:  # fmt: skip
-    """The factor of :func:`_kkt_step`'s null-space method: ``(Binv, E, Et, L, G)`` (the
-    inverse of ``AE``'s first three columns, the dependent part of ``Z`` and its
-    transpose, the reduced Hessian's dense Cholesky factor, or with the chain's
-    generators ``U5``, ``V5`` (:func:`_chain_generators`; no rows: dense) its structured
-    factor ``G``, :func:`_structured_factor`) and the shift; every step with the same ``W``
-    and ``AE`` is then :func:`_kkt_solve`."""
-    N = W.shape[0]
-    K = N - 3
+def _null_space(AE: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``Binv, E, Et``: the inverse of ``AE``'s first three columns ``B`` and the dependent
+    part ``E = -B^-1 C`` (3, K) of the null-space basis ``Z = [E; I]`` and its transpose."""
+    K = AE.shape[1] - 3
     Binv = _inv3(AE[:, :3])
-    # E = -B^-1 C (3, K): dependent part of Z. Explicit loops: the inner dimension is 3,
-    # where BLAS calls cost more than the arithmetic.
+    # explicit loops: the inner dimension is 3, where BLAS calls cost more than the arithmetic
     E = np.empty((3, K))
     for i in range(3):
         for a in range(K):
             E[i, a] = -(Binv[i, 0] * AE[0, 3 + a] + Binv[i, 1] * AE[1, 3 + a]
                         + Binv[i, 2] * AE[2, 3 + a])  # fmt: skip
-    Et = E.T.copy()
-    none = np.empty((0, 0))
-    if U5.shape[0] > 0:
-        # the same shifts as the dense factor below, on the structured one
-        shift = 0.0
-        ok = False
-        if try_plain or not last_shift > 0.0:
-            G, ok = _structured_factor(W, Et, U5, V5, 0.0)
-        if not ok:
-            scale = 0.0
-            for i in range(K):
-                scale = max(scale, abs(W[3 + i, 3 + i]))
-            shift = max(last_shift / 3.0, 1e-4) if last_shift > 0.0 else 1e-4
-            grow = 8.0 if last_shift > 0.0 else 100.0
-            for _ in range(60):
-                G, ok = _structured_factor(W, Et, U5, V5, shift)
-                if ok or not shift <= 1e20 * (1.0 + scale):
-                    break
-                shift *= grow
-        return (Binv, E, Et, none, G), shift
+    return Binv, E, E.T.copy()
+
+
+@_jit
+def _structured_kkt_factor(W: FloatArray, AE: FloatArray, P: Any, last_shift: float,
+                           try_plain: bool) -> tuple[Any, float]:  # fmt: skip
+    """:func:`_kkt_factor` by the chain's structure (:func:`_chain_generators`,
+    :func:`_structured_factor`): ``(Binv, E, Et, L, G)`` with ``L`` empty and the
+    structured factor ``G``, and the same shifts as the dense factor."""
+    Binv, E, Et = _null_space(AE)
+    U5, V5 = _chain_generators(W, AE, P)
+    K = W.shape[0] - 3
+    shift = 0.0
+    ok = False
+    if try_plain or not last_shift > 0.0:
+        G, ok = _structured_factor(W, Et, U5, V5, 0.0)
+    if not ok:
+        scale = 0.0
+        for i in range(K):
+            scale = max(scale, abs(W[3 + i, 3 + i]))
+        shift = max(last_shift / 3.0, 1e-4) if last_shift > 0.0 else 1e-4
+        grow = 8.0 if last_shift > 0.0 else 100.0
+        for _ in range(60):
+            G, ok = _structured_factor(W, Et, U5, V5, shift)
+            if ok or not shift <= 1e20 * (1.0 + scale):
+                break
+            shift *= grow
+    return (Binv, E, Et, np.empty((0, 0)), G), shift
+
+
+@_jit_internal
+def _structured_step(P: Any, W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
+                     last_shift: float, try_plain: bool) -> tuple[Any, ...]:  # fmt: skip
+    """:func:`_structured_kkt_factor`, then :func:`_kkt_solve`: the barrier loop's KKT step
+    where :func:`_chained` (from :func:`_partial_hessian`'s ``W``)."""
+    fac, shift = _structured_kkt_factor(W, AE, P, last_shift, try_plain)
+    return _kkt_solve(fac, W, cE, rhs, shift), shift, fac
+
+
+@_jit_inline
+def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
+                try_plain: bool) -> tuple[Any, float]:  # fmt: skip
+    """The factor of :func:`_kkt_step`'s null-space method: ``(Binv, E, Et, L, G)`` (the
+    inverse of ``AE``'s first three columns, the dependent part of ``Z`` and its
+    transpose, the reduced Hessian's Cholesky factor; ``G`` empty: the structured factor
+    of :func:`_structured_kkt_factor`) and the shift; every step with the same ``W`` and
+    ``AE`` is then :func:`_kkt_solve`."""
+    Binv, E, Et = _null_space(AE)
+    K = W.shape[0] - 3
     # Hz = Z^T W Z = E^T M[:3] + M[3:] with M = W Z (N, K) = W[:, :3] E + W[:, 3:]: its
     # first three rows stored, the others formed where Hz needs them, and only Hz's lower
     # triangle (what the Cholesky factor reads): the same numbers, 10 instead of 16 us at
@@ -698,7 +723,7 @@ def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float, try_plain: boo
             if ok or not shift <= 1e20 * (1.0 + scale):
                 break
             shift *= grow
-    return (Binv, E, Et, L, none), shift
+    return (Binv, E, Et, L, np.empty((0, 0))), shift
 
 
 @_jit_inline
@@ -747,8 +772,7 @@ def _kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray, la
     unshifted attempt. Returns ``dx``, ``dy``, the curvature ``dx^T W dx`` and the shift used.
     """
     N = W.shape[0]
-    none = np.empty((0, 0))
-    fac, shift = _kkt_factor(W, AE, last_shift, try_plain, none, none)
+    fac, shift = _kkt_factor(W, AE, last_shift, try_plain)
     dx = _kkt_solve(fac, W, cE, rhs, shift)
     Binv = fac[0]
     Wdx = np.empty(N)
@@ -810,16 +834,10 @@ def _kernel_evaluate(u: FloatArray, P: Any, lo: FloatArray, hi: FloatArray, ug: 
 
 
 @_jit_internal
-def _kernel_kkt_step(P: Any, W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
+def _kernel_kkt_step(W: FloatArray, AE: FloatArray, cE: FloatArray, rhs: FloatArray,
                      last_shift: float, try_plain: bool) -> tuple[Any, ...]:  # fmt: skip
-    """:func:`_kkt_factor`, then :func:`_kkt_solve`: the step, the shift and the factor;
-    structured (:func:`_chain_generators`) from :data:`STRUCTURED_MIN_N` variables on
-    where the problem has no dense rows."""
-    if _structured(P, W.shape[0]):
-        U5, V5 = _chain_generators(W, AE, P)
-    else:
-        U5 = V5 = np.empty((0, 0))
-    fac, shift = _kkt_factor(W, AE, last_shift, try_plain, U5, V5)
+    """:func:`_kkt_factor`, then :func:`_kkt_solve`: the step, the shift and the factor."""
+    fac, shift = _kkt_factor(W, AE, last_shift, try_plain)
     return _kkt_solve(fac, W, cE, rhs, shift), shift, fac
 
 
@@ -845,11 +863,14 @@ def _kernel_eq_transpose_dot(AE: FloatArray, y: FloatArray) -> FloatArray:
 kernel.register(
     PlanarData,
     evaluate=_kernel_evaluate,
-    hessian=_kernel_hessian,
+    hessian=_lagrangian_hessian,
     kkt_step=_kernel_kkt_step,
     kkt_solve=_kernel_kkt_solve,
     eq_multipliers=_kernel_eq_multipliers,
     eq_transpose_dot=_kernel_eq_transpose_dot,
     with_fscale=_with_fscale,
     clock_period=16,  # an iteration costs ~10 us at n = 4: a clock read every 16
+    chained=_chained,
+    chain_hessian=_partial_hessian,
+    chain_kkt_step=_structured_step,
 )

@@ -757,4 +757,7 @@ kernel.register(
     eq_transpose_dot=_kernel_eq_transpose_dot,
     with_fscale=_with_fscale,
     clock_period=8,  # an iteration costs ~0.1-0.6 ms at n = 4-16
+    chained=0,  # no structured step: the dense one
+    chain_hessian=_hessian,
+    chain_kkt_step=_kernel_kkt_step,
 )
