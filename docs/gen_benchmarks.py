@@ -2,8 +2,9 @@
 
 No number of the benchmarks page or of the README's results table is copied by hand:
 
-- :func:`headline` reads ``ik_bench.json``, ``spatial_bench.json`` and ``path_bench.json``
-  and formats the short table the README and the benchmarks page show;
+- :func:`headline` reads ``ik_bench.json``, ``spatial_bench.json``, ``scale.json`` and
+  ``path_bench.json`` and formats the short tables the README and the benchmarks page
+  show (n = 4; then at scale);
 - :func:`pages` turns every Markdown report of ``benchmarks/results`` (the benchmark
   scripts write them beside their CSV/JSON) into a documentation page, headings made
   consecutive, nothing else changed.
@@ -110,8 +111,44 @@ def headline(results: Path = RESULTS) -> str:
         f"{fast['speedup']:.1f}x their speed, no step above `max_jump`. Timings are from a "
         "shared 2-core VM (the spatial default runs its starts on both cores, IPOPT's "
         "starts run in turn): compare ratios.",
+        "",
+        *_at_scale(sp, json.loads((results / "scale.json").read_text())),
     ]
     return "\n".join(lines)
+
+
+def _at_scale(sp: dict[str, Any], sc: dict[str, Any]) -> list[str]:
+    """The at-scale table (issue 27's sizes): the default against IPOPT from 8 starts in
+    the same run, spatial n > 4 from ``spatial_bench.json`` and planar from ``scale.json``
+    (``benchmarks/bench_scale.py``)."""
+    lines = [
+        "| problem (reference geometry) | stackik default: FN within 0.1 % of best, median "
+        "time | IPOPT, 8 starts: within 0.1 %, median time | default's speed-up |",
+        "|---|---|---|---|",
+    ]
+    for n in sorted({r["n"] for r in sp["summary"] if r["n"] > 4}):
+        d = _row(sp["summary"], n=n, method="stackik default")
+        i = _row(sp["summary"], n=n, method="ipopt, 8 starts")
+        lines.append(
+            f"| spatial n = {n}, {d['targets']} targets | {_pct(d['within_0.1%'])}, "
+            f"{_ms(d['median_time_s'])} | {_pct(i['within_0.1%'])}, {_ms(i['median_time_s'])} "
+            f"| {d['ipopt8_time_ratio']:.1f}x |"
+        )
+    for r in sc["summary"]:
+        t = r["targets"]
+        lines.append(
+            f"| planar n = {r['n']}, {t} targets | {_pct(r['default_within'] / t)}, "
+            f"{_ms(r['default_median_ms'], ms=True)} | {_pct(r['ipopt8_within'] / t)}, "
+            f"{_ms(r['ipopt8_median_ms'], ms=True)} | {r['default_speedup_vs_ipopt8']:.0f}x |"
+        )
+    lines += [
+        "",
+        f"At scale: spatial from the same `bench_spatial.py` run; planar `{sc['meta']['command']}`"
+        f" ({sc['meta']['machine'].split(', ')[-1].split()[0]}); best = the least FN of IPOPT "
+        "from 32 starts and every method of the run; speed-up = median of the per-target "
+        "wall-time ratios against IPOPT from 8 starts.",
+    ]
+    return lines
 
 
 def readme_block(results: Path = RESULTS) -> str:
