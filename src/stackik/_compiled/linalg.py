@@ -168,6 +168,28 @@ def _cho_solve(R: FloatArray, b: FloatArray) -> FloatArray:
     return x
 
 
+#: The inertia correction's tries of a shift, at most (NaN entries never factor).
+SHIFT_TRIES = 60
+
+
+@_jit_inline
+def first_shift(last_shift: float) -> tuple[float, float]:
+    """The inertia correction's first trial shift and its growth factor (IPOPT's rule, as
+    the KKT steps of both modes use it): after a shifted step from a third of the last
+    nonzero shift ``last_shift`` (at least 1e-4) in factors of 8, else from 1e-4 in
+    factors of 100."""
+    if last_shift > 0.0:
+        return max(last_shift / 3.0, 1e-4), 8.0
+    return 1e-4, 100.0
+
+
+@_jit_inline
+def shift_given_up(shift: float, scale: float) -> bool:
+    """Whether the inertia correction stops growing ``shift`` for a matrix whose largest
+    diagonal entry is ``scale`` (then the step is taken from the last factor tried)."""
+    return not shift <= 1e20 * (1.0 + scale)
+
+
 @_jit
 def semisep_factor(Ad: FloatArray, Ug: FloatArray, Vg: FloatArray) -> tuple[FloatArray, bool]:
     """Block ``L D L^T`` factor of the symmetric matrix ``S`` (``3 nb`` rows) whose diagonal

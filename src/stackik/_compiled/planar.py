@@ -38,13 +38,16 @@ from stackik._compiled.dense_rows import (
     with_dense_rows,
 )
 from stackik._compiled.linalg import (
+    SHIFT_TRIES,
     _cho_solve,
     _cholesky,
     _cholesky_plus,
     _inv3,
     add_distance_term,
+    first_shift,
     semisep_factor,
     semisep_solve,
+    shift_given_up,
     subtract_blocks_scaled,
 )
 
@@ -651,11 +654,10 @@ def _structured_kkt_factor(W: FloatArray, AE: FloatArray, P: Any, last_shift: fl
         scale = 0.0
         for i in range(K):
             scale = max(scale, abs(W[3 + i, 3 + i]))
-        shift = max(last_shift / 3.0, 1e-4) if last_shift > 0.0 else 1e-4
-        grow = 8.0 if last_shift > 0.0 else 100.0
-        for _ in range(60):
+        shift, grow = first_shift(last_shift)
+        for _ in range(SHIFT_TRIES):
             G, ok = _structured_factor(W, Et, U5, V5, shift)
-            if ok or not shift <= 1e20 * (1.0 + scale):
+            if ok or shift_given_up(shift, scale):
                 break
             shift *= grow
     return (Binv, E, Et, np.empty((0, 0)), G), shift
@@ -716,11 +718,10 @@ def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
         ZtZ = Et @ E  # the shift is delta I in x-space: Z^T (W + delta I) Z
         for i in range(ZtZ.shape[0]):
             ZtZ[i, i] += 1.0
-        shift = max(last_shift / 3.0, 1e-4) if last_shift > 0.0 else 1e-4
-        grow = 8.0 if last_shift > 0.0 else 100.0
-        for _ in range(60):  # bounded: NaN entries never factor
+        shift, grow = first_shift(last_shift)
+        for _ in range(SHIFT_TRIES):
             L, ok = _cholesky_plus(Hz, ZtZ, shift)
-            if ok or not shift <= 1e20 * (1.0 + scale):
+            if ok or shift_given_up(shift, scale):
                 break
             shift *= grow
     return (Binv, E, Et, L, np.empty((0, 0))), shift

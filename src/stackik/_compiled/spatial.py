@@ -55,12 +55,15 @@ from stackik._compiled.dense_rows import (
     with_dense_rows,
 )
 from stackik._compiled.linalg import (
+    SHIFT_TRIES,
     _cho_solve,
     _cholesky,
     _cholesky_plus,
     _mm3,
     _solve6,
     add_distance_term,
+    first_shift,
+    shift_given_up,
     subtract_blocks_scaled,
 )
 from stackik._compiled.self_legs import self_leg_hessians, self_leg_rows
@@ -641,11 +644,10 @@ def _kkt_factor(W: FloatArray, AE: FloatArray, last_shift: float,
                     ZtZ[a, b] += acc
         else:
             ZtZ = Z.T @ Z
-        shift = max(last_shift / 3.0, 1e-4) if last_shift > 0.0 else 1e-4
-        grow = 8.0 if last_shift > 0.0 else 100.0
-        for _ in range(60):
+        shift, grow = first_shift(last_shift)
+        for _ in range(SHIFT_TRIES):
             L, ok = _cholesky_plus(Hz, ZtZ, shift)
-            if ok or not shift <= 1e20 * (1.0 + scale):
+            if ok or shift_given_up(shift, scale):
                 break
             shift *= grow
     return (Z, L, Binv, Ut, S, Vt, rank, structured), shift
