@@ -175,9 +175,9 @@ SHIFT_TRIES = 60
 @_jit_inline
 def first_shift(last_shift: float) -> tuple[float, float]:
     """The inertia correction's first trial shift and its growth factor (IPOPT's rule, as
-    the KKT steps of both modes use it): after a shifted step from a third of the last
-    nonzero shift ``last_shift`` (at least 1e-4) in factors of 8, else from 1e-4 in
-    factors of 100."""
+    the KKT steps of both modes use it): once a step of the run needed a shift, from a
+    third of the last nonzero shift ``last_shift`` (at least 1e-4) in factors of 8, else
+    from 1e-4 in factors of 100."""
     if last_shift > 0.0:
         return max(last_shift / 3.0, 1e-4), 8.0
     return 1e-4, 100.0
@@ -196,7 +196,7 @@ def semisep_factor(Ad: FloatArray, Ug: FloatArray, Vg: FloatArray) -> tuple[Floa
     blocks are ``Ad`` (nb, 3, 3) and whose blocks below them are ``S[b, c] = U_b V_c^T``
     (``b > c``; ``U_b``, ``V_b`` the rows ``3 b .. 3 b + 2`` of ``Ug``, ``Vg`` (3 nb, r)): a
     block *semiseparable* matrix (the planar KKT step's reduced Hessian,
-    :func:`stackik._compiled.planar._kkt_factor`). ``L = I + (U_b W_c^T below the
+    :func:`stackik._compiled.planar._structured_kkt_factor`). ``L = I + (U_b W_c^T below the
     diagonal)`` and ``D = blockdiag(D_b)`` by the recursion (Foreman-Mackey et al. 2017's,
     celerite, in 3 x 3 blocks)
 

@@ -143,7 +143,8 @@ def _kinematics(q: FloatArray) -> tuple[Any, ...]:
 @_jit_inline
 def _needed(m: int, l: int, partial: bool) -> bool:
     """Whether the Hessian's block of platforms ``m`` and ``l`` is formed: every block,
-    or with ``partial`` only those the structured KKT step reads (:func:`_kkt_factor`): a
+    or with ``partial`` only those the structured KKT step reads
+    (:func:`_structured_kkt_factor`): a
     platform's own block and the first platform's row and column of blocks (zeros
     elsewhere; the blocks below the diagonal are its generators,
     :func:`_chain_generators`)."""
@@ -515,9 +516,10 @@ STRUCTURED_MIN_N = 3 * 12
 def _chained(P: Any, N: int) -> bool:
     """Whether the barrier loop's steps of the problem ``P`` with ``N`` variables are the
     structured ones (:func:`_partial_hessian`, :func:`_structured_step`): ``N >=
-    STRUCTURED_MIN_N`` and no dense rows (whose curvature and barrier terms reach every
-    block). Decided once a start (:func:`stackik._compiled.kernel.chained`): a test in
-    every step cost the plain step about 0.4 us at n = 4, a third of it."""
+    STRUCTURED_MIN_N`` and no dense rows (whose barrier terms, and the leg-force rows'
+    SR1 curvature, reach every block). Decided once a start
+    (:func:`stackik._compiled.kernel.chained`): a test in every step cost the plain step
+    about 0.4 us at n = 4, a third of it."""
     return N >= STRUCTURED_MIN_N and no_dense_rows(P)
 
 
@@ -642,7 +644,11 @@ def _structured_kkt_factor(W: FloatArray, AE: FloatArray, P: Any, last_shift: fl
                            try_plain: bool) -> tuple[Any, float]:  # fmt: skip
     """:func:`_kkt_factor` by the chain's structure (:func:`_chain_generators`,
     :func:`_structured_factor`): ``(Binv, E, Et, L, G)`` with ``L`` empty and the
-    structured factor ``G``, and the same shifts as the dense factor."""
+    structured factor ``G``, and the dense factor's shifts (the same schedule, and the
+    same end of it: the largest diagonal entry of the reduced Hessian). Where the schedule
+    ends without a factor (a shift above ``1e20`` times that entry) ``G`` is incomplete and
+    the step is not finite, so the run ends (``IP_NONFINITE``); the dense factor takes a
+    step from a matrix that is not a factor there."""
     Binv, E, Et = _null_space(AE)
     U5, V5 = _chain_generators(W, AE, P)
     K = W.shape[0] - 3
@@ -651,9 +657,14 @@ def _structured_kkt_factor(W: FloatArray, AE: FloatArray, P: Any, last_shift: fl
     if try_plain or not last_shift > 0.0:
         G, ok = _structured_factor(W, Et, U5, V5, 0.0)
     if not ok:
-        scale = 0.0
-        for i in range(K):
-            scale = max(scale, abs(W[3 + i, 3 + i]))
+        scale = 0.0  # max |Hz_aa|, Hz = Z^T W Z: W22 + E^T W21^T + W21 E + E^T W11 E
+        for a in range(K):
+            acc = W[3 + a, 3 + a]
+            for i in range(3):
+                acc += 2.0 * Et[a, i] * W[3 + a, i]
+                for j in range(3):
+                    acc += Et[a, i] * W[i, j] * Et[a, j]
+            scale = max(scale, abs(acc))
         shift, grow = first_shift(last_shift)
         for _ in range(SHIFT_TRIES):
             G, ok = _structured_factor(W, Et, U5, V5, shift)
