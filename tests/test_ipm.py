@@ -243,6 +243,25 @@ def test_structured_kkt_step_matches_the_dense_one(n, seed, bump, last_shift):
     np.testing.assert_allclose(AE @ dx, -cE, atol=1e-12)
 
 
+def test_structured_step_shifts_as_far_as_the_dense_one():
+    """Extreme negative curvature in the first platform's block (it reaches every entry of
+    the reduced Hessian): the structured step's shift schedule goes as far as the dense
+    one's (its end is the reduced Hessian's largest diagonal entry, not W's) and ends at
+    the same shift with a finite step."""
+    n = 16
+    prob, u, P, rng = random_problem(n, 0, 0.3)
+    W = _ipm._lagrangian_hessian(u, rng.standard_normal(3), rng.random(24 * n), P)
+    W[:3, :3] -= 1e25 * np.eye(3)
+    for b in range(1, n):
+        W[3 * b : 3 * b + 3, 3 * b : 3 * b + 3] += 1e3 * np.eye(3)
+    AE = _ipm._evaluate(u, P)[3]
+    cE, rhs = 1e-3 * rng.standard_normal(3), rng.standard_normal(3 * n)
+    dx0, _, _, shift0 = _ipm._kkt_step(W, AE, cE, rhs, 0.0, True)
+    dx, shift, _ = _ipm._structured_step.py_func(P, W, AE, cE, rhs, 0.0, True)
+    assert shift == shift0 > 1e24
+    assert np.all(np.isfinite(dx)) and np.all(np.isfinite(dx0))
+
+
 def test_kkt_factor_serves_other_right_hand_sides():
     """The factor the step returns (``_kkt_factor``) solves the system with another ``cE``
     and ``rhs`` (a second-order correction) exactly as a fresh step would, planar and
