@@ -144,10 +144,9 @@ def _kinematics(q: FloatArray) -> tuple[Any, ...]:
 def _needed(m: int, l: int, partial: bool) -> bool:
     """Whether the Hessian's block of platforms ``m`` and ``l`` is formed: every block,
     or with ``partial`` only those the structured KKT step reads
-    (:func:`_structured_kkt_factor`): a
-    platform's own block and the first platform's row and column of blocks (zeros
-    elsewhere; the blocks below the diagonal are its generators,
-    :func:`_chain_generators`)."""
+    (:func:`_structured_kkt_factor`): a platform's own block and the first platform's row
+    and column of blocks (zeros elsewhere; the blocks below the diagonal are its
+    generators, :func:`_chain_generators`)."""
     return not partial or m == l or m == 0 or l == 0
 
 
