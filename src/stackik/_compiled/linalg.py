@@ -402,27 +402,41 @@ def _AIT_dot(D: FloatArray, v: FloatArray) -> FloatArray:
 
 
 @_jit_inline
+def block_formed(m: int, l: int, partial: bool) -> bool:
+    """Whether a Hessian's block of platforms ``m`` and ``l`` is formed: every block, or
+    with ``partial`` only a platform's own block and the first platform's row and column
+    of blocks (the planar structured KKT step's entries,
+    :func:`stackik._compiled.planar._structured_kkt_factor`; zeros elsewhere)."""
+    return not partial or m == l or m == 0 or l == 0
+
+
+@_jit_inline
+def formed_columns(a: int, k: int, N: int, partial: bool) -> tuple[int, int, int, int]:
+    """The columns of row ``a`` (``k`` variables a platform, ``N`` in all) in blocks that
+    :func:`block_formed` forms, as two ranges ``[c0, c1)`` and ``[c2, c3)``."""
+    if not partial or a < k:
+        return 0, N, 0, 0
+    o = a - a % k
+    return 0, k, o, o + k
+
+
+@_jit_inline
 def subtract_blocks_scaled(H: FloatArray, Hb: FloatArray, xs: FloatArray,
                            partial: bool = False) -> FloatArray:  # fmt: skip
     """``H - blockdiag(Hb)`` in the variables scaled by ``xs``: ``H[a, b] * xs[a] *
     xs[b]``, in place (``H`` (N, N), ``Hb`` (n, k, k) a platform's block, ``N = k n``);
-    returns ``H``. With ``partial`` only a platform's own block and the first platform's
-    rows and columns are scaled (the planar structured step's entries; zeros elsewhere)."""
+    returns ``H``. With ``partial`` only the blocks :func:`block_formed` forms are scaled."""
     n, k = Hb.shape[0], Hb.shape[1]
     for i in range(n):
         for a in range(k):
             for b in range(k):
                 H[k * i + a, k * i + b] -= Hb[i, a, b]
     for a in range(H.shape[0]):
-        if not partial or a < k:
-            for b in range(H.shape[1]):
-                H[a, b] *= xs[a] * xs[b]
-        else:
-            for b in range(k):
-                H[a, b] *= xs[a] * xs[b]
-            o = a - a % k
-            for b in range(o, o + k):
-                H[a, b] *= xs[a] * xs[b]
+        c0, c1, c2, c3 = formed_columns(a, k, H.shape[1], partial)
+        for b in range(c0, c1):
+            H[a, b] *= xs[a] * xs[b]
+        for b in range(c2, c3):
+            H[a, b] *= xs[a] * xs[b]
     return H
 
 

@@ -44,7 +44,9 @@ from stackik._compiled.linalg import (
     _cholesky_plus,
     _inv3,
     add_distance_term,
+    block_formed,
     first_shift,
+    formed_columns,
     semisep_factor,
     semisep_solve,
     shift_given_up,
@@ -141,35 +143,24 @@ def _kinematics(q: FloatArray) -> tuple[Any, ...]:
 
 
 @_jit_inline
-def _needed(m: int, l: int, partial: bool) -> bool:
-    """Whether the Hessian's block of platforms ``m`` and ``l`` is formed: every block,
-    or with ``partial`` only those the structured KKT step reads
-    (:func:`_structured_kkt_factor`): a platform's own block and the first platform's row
-    and column of blocks (zeros elsewhere; the blocks below the diagonal are its
-    generators, :func:`_chain_generators`)."""
-    return not partial or m == l or m == 0 or l == 0
-
-
-@_jit_inline
-def _scale_needed(H: FloatArray, coef: float, partial: bool) -> None:
-    """``H *= coef`` in place on the blocks :func:`_needed` forms."""
+def _scale_formed(H: FloatArray, coef: float, partial: bool) -> None:
+    """``H *= coef`` in place on the blocks
+    :func:`~stackik._compiled.linalg.block_formed` forms (the others, below the diagonal
+    blocks, are the structured step's generators: :func:`_chain_generators`)."""
     N = H.shape[0]
     for a in range(N):
-        if not partial or a < 3:
-            for b in range(N):
-                H[a, b] *= coef
-        else:
-            for b in range(3):
-                H[a, b] *= coef
-            o = a - a % 3
-            for b in range(o, o + 3):
-                H[a, b] *= coef
+        c0, c1, c2, c3 = formed_columns(a, 3, N, partial)
+        for b in range(c0, c1):
+            H[a, b] *= coef
+        for b in range(c2, c3):
+            H[a, b] *= coef
 
 
 @_jit
 def _gauss_newton(c: FloatArray, s: FloatArray, d: FloatArray, partial: bool) -> FloatArray:
     """``Jr^T Jr`` of the FN residuals ``r_i = d_i`` (i < n-1) in O(n^2), shape (3n, 3n)
-    (with ``partial``, only the blocks :func:`_needed` names, zeros elsewhere).
+    (with ``partial``, only the blocks :func:`~stackik._compiled.linalg.block_formed`
+    names, zeros elsewhere).
 
     With ``u_m0 = (c_m, s_m)``, ``u_m1 = (-s_m, c_m)`` (the translation columns, present in
     the rows i < m), the angle columns ``J2 d_max(i,m)`` and prefix sums ``P_k`` of the
@@ -189,7 +180,7 @@ def _gauss_newton(c: FloatArray, s: FloatArray, d: FloatArray, partial: bool) ->
     for m in range(n):
         um = ((c[m], s[m]), (-s[m], c[m]))
         for l in range(n):
-            if not _needed(m, l, partial):
+            if not block_formed(m, l, partial):
                 continue
             ul = ((c[l], s[l]), (-s[l], c[l]))
             k = min(m, l)
@@ -219,10 +210,11 @@ def _gauss_newton(c: FloatArray, s: FloatArray, d: FloatArray, partial: bool) ->
 @_jit
 def _fn2_hessian(c: FloatArray, s: FloatArray, d: FloatArray, partial: bool) -> FloatArray:
     """Exact Hessian of ``sum_i |d_i|^2`` (i < n-1) in raw q, shape (3n, 3n) (with
-    ``partial``, only the blocks :func:`_needed` names, zeros elsewhere)."""
+    ``partial``, only the blocks :func:`~stackik._compiled.linalg.block_formed` names,
+    zeros elsewhere)."""
     n = c.shape[0]
     H = _gauss_newton(c, s, d, partial)
-    _scale_needed(H, 2.0, partial)
+    _scale_formed(H, 2.0, partial)
     # angle-angle part: -sum_{i<n-1} r_i . d_max(i, m, l) depends on b = max(m, l) only:
     # sum_{i<b} d_i . d_b + sum_{b<=i<n-1} |d_i|^2 (O(n^2) with prefix sums)
     Pb0 = 0.0
@@ -237,7 +229,7 @@ def _fn2_hessian(c: FloatArray, s: FloatArray, d: FloatArray, partial: bool) -> 
         Pb1 += d[b, 1]
     for m in range(n):
         for l in range(n):
-            if _needed(m, l, partial):
+            if block_formed(m, l, partial):
                 H[3 * m + 2, 3 * l + 2] -= 2.0 * Hb[max(m, l)]
     c0 = 0.0
     c1 = 0.0  # sum_{i<k} r_i
@@ -450,10 +442,11 @@ def _hessian_of(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any, wq: fl
     """Hessian of ``f - yE.c_E - z.c_I`` in scaled variables, shape (N, N), at the scaled
     point ``u`` (the parts :func:`_kernel_evaluate` returns); of :func:`_evaluate_ext`'s
     problem too: ``z`` then has 30 n multipliers with a box (its rows are linear) and the
-    distance term adds ``2 wq I``. With ``partial`` only the blocks the structured KKT step
-    reads (:func:`_needed`), zeros elsewhere. Inlined into its two entries,
-    :func:`_lagrangian_hessian` (every block: the barrier loop's plain step, the SQP
-    method, the path kernels) and :func:`_partial_hessian` (the structured step's)."""
+    distance term adds ``2 wq I``. With ``partial`` only the blocks the structured KKT
+    step reads (:func:`~stackik._compiled.linalg.block_formed`), zeros elsewhere. Inlined
+    into its two entries, :func:`_lagrangian_hessian` (every block: the barrier loop's
+    plain step, the SQP method, the path kernels) and :func:`_partial_hessian` (the
+    structured step's)."""
     xs, cs, es, fscale, w, tf, tz, bf = P.xs, P.cs, P.es, P.fscale, P.w, P.tf, P.tz, P.bf
     bz, ls, sj, feasible = P.bz, P.ls0, P.sj, P.feasible
     n = tf.shape[0]
@@ -466,7 +459,7 @@ def _hessian_of(parts: FloatArray, yE: FloatArray, z: FloatArray, P: Any, wq: fl
         H = np.zeros((N, N))
     else:
         H = _fn2_hessian(c, s, d, partial)
-        _scale_needed(H, w / fscale, partial)
+        _scale_formed(H, w / fscale, partial)
     # end-effector equalities: sum_r yE_r d2 y_r = [min(a,b) is an angle] * v[max(a,b)]
     yp0 = yE[0] * es[0]
     yp1 = yE[1] * es[1]
@@ -506,7 +499,7 @@ _lagrangian_hessian_ext = _lagrangian_hessian
 
 #: From this many variables on, a KKT step of a problem without dense rows factors the
 #: reduced Hessian by its structure (:func:`_structured_factor`) instead of densely, and the
-#: barrier loop's Hessian forms only the blocks that step reads (:func:`_needed`). Below
+#: barrier loop's Hessian forms only the blocks that step reads (``block_formed``). Below
 #: it the dense factor is as fast or faster (paired runs, docs/benchmarks.md).
 STRUCTURED_MIN_N = 3 * 12
 
@@ -584,19 +577,18 @@ def _chain_generators(W: FloatArray, AE: FloatArray, P: Any) -> tuple[FloatArray
 
 
 @_jit_inline
-def _structured_factor(W: FloatArray, Et: FloatArray, U5: FloatArray, V5: FloatArray,
-                       t: float) -> tuple[FloatArray, bool]:  # fmt: skip
-    """:func:`stackik._compiled.linalg.semisep_factor` of ``Z^T (W + t I) Z`` (the
-    reduced Hessian, shifted) for ``Z = [E; I]``: with ``Hz = W22 + E^T W12 + W21 E +
-    E^T W11 E``, the part of ``W`` below its diagonal blocks (:func:`_chain_generators`'
-    ``U5``, ``V5``) and the rank-6 term ``X M X^T``, ``X = [E^T, W21]``, ``M = [[W11 + t I,
-    I], [I, 0]]``, are its generators (11 columns)."""
-    N = W.shape[0]
-    K = N - 3
-    nb = K // 3
-    r = 11
-    Ug = np.empty((K, r))
-    Vg = np.empty((K, r))
+def _reduced_generators(W: FloatArray, Et: FloatArray, U5: FloatArray,
+                        V5: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:  # fmt: skip
+    """The generators of the reduced Hessian ``Hz = W22 + E^T W12 + W21 E + E^T W11 E``
+    (``Z = [E; I]``): the part of ``W`` below its diagonal blocks
+    (:func:`_chain_generators`' ``U5``, ``V5``) and the rank-6 term ``X M X^T``, ``X =
+    [E^T, W21]``, ``M = [[W11 + t I, I], [I, 0]]`` (11 columns ``Ug``, ``Vg``), with
+    ``Vg``'s columns 5-7, ``(E^T (W11 + t I) + W21)``, left for :func:`_structured_factor`
+    to fill for each shift ``t`` from ``EW = E^T W11`` (returned)."""
+    K = W.shape[0] - 3
+    Ug = np.empty((K, 11))
+    Vg = np.empty((K, 11))
+    EW = np.empty((K, 3))
     for a in range(K):
         for j in range(5):
             Ug[a, j] = U5[3 + a, j]
@@ -604,10 +596,22 @@ def _structured_factor(W: FloatArray, Et: FloatArray, U5: FloatArray, V5: FloatA
         for i in range(3):
             Ug[a, 5 + i] = Et[a, i]
             Ug[a, 8 + i] = W[3 + a, i]
-            # (X M)[a] = (E^T (W11 + t I) + W21, E^T)
-            Vg[a, 5 + i] = (Et[a, 0] * W[0, i] + Et[a, 1] * W[1, i] + Et[a, 2] * W[2, i]
-                            + t * Et[a, i] + W[3 + a, i])  # fmt: skip
+            EW[a, i] = Et[a, 0] * W[0, i] + Et[a, 1] * W[1, i] + Et[a, 2] * W[2, i]
             Vg[a, 8 + i] = Et[a, i]
+    return Ug, Vg, EW
+
+
+@_jit_inline
+def _structured_factor(W: FloatArray, Et: FloatArray, Ug: FloatArray, Vg: FloatArray,
+                       EW: FloatArray, t: float) -> tuple[FloatArray, bool]:  # fmt: skip
+    """:func:`stackik._compiled.linalg.semisep_factor` of ``Z^T (W + t I) Z`` (the
+    reduced Hessian, shifted) from :func:`_reduced_generators`' ``Ug``, ``Vg`` (whose
+    columns 5-7 it fills for ``t``) and ``EW``."""
+    K = W.shape[0] - 3
+    nb = K // 3
+    for a in range(K):
+        for i in range(3):  # (X M)[a] = (E^T (W11 + t I) + W21, E^T)
+            Vg[a, 5 + i] = EW[a, i] + t * Et[a, i] + W[3 + a, i]
     Ad = np.empty((nb, 3, 3))
     for b in range(nb):
         for i in range(3):
@@ -650,11 +654,12 @@ def _structured_kkt_factor(W: FloatArray, AE: FloatArray, P: Any, last_shift: fl
     step from a matrix that is not a factor there."""
     Binv, E, Et = _null_space(AE)
     U5, V5 = _chain_generators(W, AE, P)
+    Ug, Vg, EW = _reduced_generators(W, Et, U5, V5)
     K = W.shape[0] - 3
     shift = 0.0
     ok = False
     if try_plain or not last_shift > 0.0:
-        G, ok = _structured_factor(W, Et, U5, V5, 0.0)
+        G, ok = _structured_factor(W, Et, Ug, Vg, EW, 0.0)
     if not ok:
         scale = 0.0  # max |Hz_aa|, Hz = Z^T W Z: W22 + E^T W21^T + W21 E + E^T W11 E
         for a in range(K):
@@ -666,7 +671,7 @@ def _structured_kkt_factor(W: FloatArray, AE: FloatArray, P: Any, last_shift: fl
             scale = max(scale, abs(acc))
         shift, grow = first_shift(last_shift)
         for _ in range(SHIFT_TRIES):
-            G, ok = _structured_factor(W, Et, U5, V5, shift)
+            G, ok = _structured_factor(W, Et, Ug, Vg, EW, shift)
             if ok or shift_given_up(shift, scale):
                 break
             shift *= grow
