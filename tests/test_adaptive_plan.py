@@ -4,6 +4,7 @@ two at a time until one confirms the best when they do not; the compact-target p
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from types import SimpleNamespace
 from typing import Any
@@ -97,6 +98,47 @@ def test_confirmed() -> None:
     assert not stages.confirmed([run(100.0), run(120.0), run(120.0)], 2e-4)
 
 
+def test_stands() -> None:
+    def run(fn: float) -> Any:
+        return SimpleNamespace(obj=fn**2)
+
+    # the least first found by the second run, five runs after it: stands for 5, not 6
+    runs = [run(107.0), run(100.0), run(107.0), None, run(107.1), run(106.9), run(107.0)]
+    assert stages.stands(runs, 5e-4, 5)
+    assert not stages.stands(runs, 5e-4, 6)
+    # a later run within rtol does not move the first one's place; a lower one does
+    assert stages.stands([run(100.0), run(100.01), run(101.0)], 5e-4, 2)
+    assert not stages.stands([run(100.0), run(101.0), run(99.0)], 5e-4, 1)
+    assert stages.stands([run(100.0), run(101.0), run(99.0)], 5e-4, 0)
+    assert not stages.stands([None, None, None], 5e-4, 0)  # nothing passed
+    assert not stages.stands([], 5e-4, 0)
+
+
+def test_more_starts_stop_when_the_best_stands(
+    spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # no two runs agree, and the first run's pose is reported lowest of all: the plan
+    # stops at the first group boundary ADAPTIVE_STANDS runs after it
+    monkeypatch.setattr(stages, "ADAPTIVE_RTOL", 0.0)
+    monkeypatch.setattr(stages, "ADAPTIVE_STANDS", 3)
+    original = IPMethod.run_many
+    calls = {"n": 0}
+
+    def first_lowest(self: IPMethod, prob: Any, starts: list[Any], *args: Any) -> Any:
+        batch = original(self, prob, starts, *args)
+        calls["n"] += 1
+        if batch.best is not None:  # distinct objectives, the first run's the least
+            batch.best = dataclasses.replace(batch.best, obj=batch.best.obj * (1 + calls["n"]))
+        return batch
+
+    monkeypatch.setattr(IPMethod, "run_many", first_lowest)
+    monkeypatch.setattr(stages, "map_in_threads", lambda f, k, *a: [f(i) for i in range(k)])
+    res = solve_ik(Stack.reference(N_BIG), _target(N_BIG))
+    assert res.success
+    # runs 0, 1 | 2, 3: three after run 0 -> stop at four
+    assert res.n_starts == 4 and calls["n"] == 4
+
+
 def test_early_stop_when_the_first_starts_agree(
     spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -127,6 +169,7 @@ def test_whole_batch_when_no_run_confirms_the_best(
     spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(stages, "ADAPTIVE_RTOL", -1.0)  # never agree
+    monkeypatch.setattr(stages, "ADAPTIVE_STANDS", math.inf)  # nor stand
     stack, target = Stack.reference(N_BIG), _target(N_BIG)
     res = solve_ik(stack, target)
     size = _batch_size(N_BIG)

@@ -109,8 +109,10 @@ def solve_ik(
         the random ones alone, and when both pass the check with FN within 5e-4 of each
         other (relative, :data:`~stackik.solve.policy.ADAPTIVE_RTOL`) returns the better
         of them (``n_starts`` 2); otherwise it runs the others two at a time (the other
-        random ones first) until another run confirms the best FN found, or all 16 ran,
-        and keeps the best pose of all (the adaptive plan,
+        random ones first) until another run confirms the best FN found, or six runs
+        after the one that found it found nothing lower
+        (:data:`~stackik.solve.policy.ADAPTIVE_STANDS`), or all 16 ran, and keeps the
+        best pose of all (the adaptive plan,
         :func:`stackik.solve.stages.ip_stage`); toward a compact target
         (:func:`stackik.starts.reach_fraction` below 0.4,
         :data:`~stackik.solve.policy.COMPACT_REACH`) it runs the whole batch with two

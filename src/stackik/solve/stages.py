@@ -29,6 +29,7 @@ from stackik.solve.nearest import (
 from stackik.solve.policy import (
     ADAPTIVE_N,
     ADAPTIVE_RTOL,
+    ADAPTIVE_STANDS,
     CLEAR_BASIN_MAX_ITER,
     CLEAR_COST_RTOL,
     CLEAR_MU0,
@@ -67,6 +68,7 @@ __all__ = [
     "confirmed",
     "ip_stage",
     "local_stage",
+    "stands",
 ]
 
 #: Planar stacks from this size get the solve's BLAS thread limit in the interior point.
@@ -284,7 +286,10 @@ def _adaptive_batch(
     found the same basin and the solve stops with the better of them. Otherwise the
     other starts run ``len(first)`` at a time (those after ``first`` in ``starts``, the
     batch's other random starts, then those before it) until another run confirms the
-    best pose found so far, or every start ran. The best pose over all runs is kept
+    best pose found so far, or :data:`~stackik.solve.policy.ADAPTIVE_STANDS` runs after
+    the one that found it found nothing lower (:func:`stands`), or every start ran. The
+    decision falls after each group of runs, on the runs in their order, so it does not
+    depend on which thread finished first. The best pose over all runs is kept
     (merged by :func:`_merge`, the same rule as one call: the lowest objective that
     passes, ties to the earlier run). Returns the merged batch and how many starts ran."""
     prob = req.problem
@@ -304,9 +309,27 @@ def _adaptive_batch(
         # side by side on the solve's threads: the same runs as one after another
         parts += map_in_threads(alone, len(chunk), for_problem(prob.n * prob.k))
         ran += len(chunk)
-        if confirmed([p.best for p in parts], ADAPTIVE_RTOL) or req.out_of_time():
+        runs = [p.best for p in parts]
+        if confirmed(runs, ADAPTIVE_RTOL) or stands(runs, ADAPTIVE_RTOL, ADAPTIVE_STANDS):
+            break
+        if req.out_of_time():
             break
     return _merge(parts), ran
+
+
+def stands(runs: list[Run | None], rtol: float, count: float) -> bool:
+    """The least objective among ``runs`` that passed the check was first reached (the
+    earliest run whose square root is within ``rtol`` of the least's, relative) at least
+    ``count`` runs before the last: that many runs after it found nothing lower.
+    False when no run passed."""
+    roots = [None if r is None else float(np.sqrt(max(r.obj, 0.0))) for r in runs]
+    passed = [x for x in roots if x is not None]
+    if not passed:
+        return False
+    least = min(passed)
+    near = least + max(rtol, 0.0) * abs(least)  # (the least itself at least)
+    first = next(i for i, x in enumerate(roots) if x is not None and x <= near)
+    return len(runs) - 1 - first >= count
 
 
 def confirmed(runs: list[Run | None], rtol: float) -> bool:
