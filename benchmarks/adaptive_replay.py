@@ -25,6 +25,7 @@ import re
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -98,18 +99,13 @@ def collect(results: Path) -> list[dict[str, Any]]:
     return out
 
 
-def confirmed(fns: list[float | None]) -> bool:
-    roots = sorted(f for f in fns if f is not None)
-    return len(roots) >= 2 and roots[1] - roots[0] <= ADAPTIVE_RTOL * roots[0]
+# the product's rules (collect() turns them off in stages)
+CONFIRMED = stages.confirmed
+STANDS = stages.stands
 
 
-def stands(fns: list[float | None], count: float) -> bool:
-    ok = [f for f in fns if f is not None]
-    if not ok:
-        return False
-    near = min(ok) * (1 + ADAPTIVE_RTOL)
-    first = next(i for i, f in enumerate(fns) if f is not None and f <= near)
-    return len(fns) - 1 - first >= count
+def _runs(fns: list[float | None]) -> list[Any]:
+    return [None if f is None else SimpleNamespace(obj=f * f) for f in fns]
 
 
 def replay(
@@ -121,7 +117,10 @@ def replay(
     b = 0
     while b < len(runs):
         b = min(b + ADAPTIVE_FIRST, len(runs))
-        if confirmed(fns[:b]) or (stand is not None and stands(fns[:b], stand)):
+        runs_b = _runs(fns[:b])
+        if CONFIRMED(runs_b, ADAPTIVE_RTOL) or (
+            stand is not None and STANDS(runs_b, ADAPTIVE_RTOL, stand)
+        ):
             break
         if cap is not None and b >= cap:
             break
