@@ -14,9 +14,10 @@ The reference ("best known") of a target is the least FN of every method above a
 IPOPT from ``--ref-starts`` starts (five structured, the rest random, another
 seed). A method's run counts "within 0.1 %" when ``solve_ik`` calls it a success (its
 check, :func:`stackik.check_pose`; the outside checks in ``benchmarks/results/outside*``
-re-check poses with code of their own) and its FN is at most 1.001 times the best known. Times are wall-clock per ``solve_ik`` call
-after a warm-up (kernels compiled, IPOPT solvers built), medians per method and n; the
-speed ratios compare medians within the same run.
+re-check poses with code of their own) and its FN is at most 1.001 times the best known.
+Times are wall-clock per ``solve_ik`` call after a warm-up (kernels compiled, IPOPT
+solvers built), medians per method and n; the speed ratios compare medians within the
+same run.
 
 ``--reuse`` keeps the rows of methods already in ``spatial_bench.jsonl`` (for example
 the reference, which takes minutes) and runs only the missing ones; ``--redo NAME``

@@ -141,12 +141,18 @@ def _at_scale(sp: dict[str, Any], sc: dict[str, Any]) -> list[str]:
             f"{_ms(r['default_median_ms'], ms=True)} | {_pct(r['ipopt8_within'] / t)}, "
             f"{_ms(r['ipopt8_median_ms'], ms=True)} | {r['default_speedup_vs_ipopt8']:.0f}x |"
         )
+    refs = [
+        int(m.group(1))
+        for r in sp["summary"]
+        if (m := re.fullmatch(r"ipopt, (\d+) starts \(reference\)", r["method"]))
+    ]
     lines += [
         "",
         f"At scale: spatial from the same `bench_spatial.py` run; planar `{sc['meta']['command']}`"
         f" ({sc['meta']['machine'].split(', ')[-1].split()[0]}); best = the least FN of IPOPT "
-        "from 32 starts and every method of the run; speed-up = median of the per-target "
-        "wall-time ratios against IPOPT from 8 starts.",
+        f"from {max(refs)} (spatial) or {sc['meta']['ref_starts']} (planar) starts and every "
+        "method of the run; speed-up = median of the per-target wall-time ratios against "
+        "IPOPT from 8 starts.",
     ]
     return lines
 
