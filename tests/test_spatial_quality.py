@@ -190,6 +190,7 @@ def test_spatial_starts_order_and_leans() -> None:
 
 def test_spatial_hops_turn_the_top_platforms_only() -> None:
     from stackik.starts import (
+        SPATIAL_ALL_HOPS_NS,
         SPATIAL_HOPS,
         SPATIAL_HOPS_N4,
         SPATIAL_HOPS_N5,
@@ -204,7 +205,9 @@ def test_spatial_hops_turn_the_top_platforms_only() -> None:
     assert len(hops) == len(SPATIAL_HOPS) == 12
     assert spatial_hop_count(4) == len(SPATIAL_HOPS_N4) == 6
     assert spatial_hop_count(6) == len(SPATIAL_HOPS_N5) == 6
-    assert spatial_hop_plan(6) == spatial_hop_plan(16) == SPATIAL_HOPS_N5
+    assert spatial_hop_plan(6) == spatial_hop_plan(9) == spatial_hop_plan(16) == SPATIAL_HOPS_N5
+    assert SPATIAL_ALL_HOPS_NS == (7, 8)
+    assert spatial_hop_plan(7) == spatial_hop_plan(8) == tuple(range(12))
     assert spatial_hop_plan(4) == SPATIAL_HOPS_N4 and spatial_hop_plan(3) == ()
     assert len(spatial_hops(Stack.reference(4), q[:4])) == len(SPATIAL_HOPS)
     for h in hops:
@@ -320,3 +323,20 @@ def test_solve_many_spatial_matches_serial() -> None:
         one = solve_ik(stack, t)
         assert m.success and m.method == one.method == "ip"
         np.testing.assert_array_equal(m.q, one.q)
+
+
+def test_spatial_default_runs_every_hop_at_seven_and_eight_platforms() -> None:
+    # n = 8 (SPATIAL_ALL_HOPS_NS): the 12 starts and all 12 hops (n_starts 24), the same
+    # pose twice, at least as low as the six hops' plan gives
+    from stackik import starts
+
+    stack = Stack.reference(8)
+    target = random_spatial_targets(stack, 1, 9608)[0]
+    r = solve_ik(stack, target)
+    again = solve_ik(stack, target)
+    assert r.success and r.n_starts == spatial_start_count(8) + spatial_hop_count(8) == 24
+    np.testing.assert_array_equal(r.q, again.q)
+    six = starts.SPATIAL_HOPS_N5
+    assert set(six) <= set(starts.spatial_hop_plan(8))
+    no_hops = solve_ik(stack, target, starts=spatial_start_count(8))
+    assert r.frobenius_norm <= no_hops.frobenius_norm * (1 + 1e-9)

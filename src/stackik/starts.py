@@ -23,6 +23,7 @@ __all__ = [
     "SPATIAL_STARTS",
     "SPATIAL_HOPS",
     "SPATIAL_HOPS_N4",
+    "SPATIAL_ALL_HOPS_NS",
     "SPATIAL_HOPS_N5",
     "SPATIAL_START_ORDER",
     "StartSampler",
@@ -314,7 +315,8 @@ def spatial_start_count(n: int) -> int:
     :data:`SPATIAL_HOPS_N4`): 177 of 180 targets of eight sets within 0.1 % (was 175; on
     the two sets drawn after the plan above, seeds 83100 and 84200, 19 and 19 of 20, was 18
     and 18) at 1.3x the iterations; no set of hops instead recovered those misses (all 12
-    hops: 175; docs/benchmarks.md, 2026-12-06)."""
+    hops: 175; docs/benchmarks.md, 2026-12-06). At n = 7 and 8 all 12 hops again since
+    2026-12-07 (:data:`SPATIAL_ALL_HOPS_NS`)."""
     return 8 if n <= 3 else 12
 
 
@@ -387,14 +389,25 @@ SPATIAL_HOPS_N4 = (0, 1, 8, 9, 10, 11)
 #: are the starts').
 SPATIAL_HOPS_N5 = (0, 1, 2, 3, 6, 11)
 
+#: The stack sizes where the spatial default runs all 12 hops instead of
+#: :data:`SPATIAL_HOPS_N5`. On the design targets above, n = 8 99 of 100 within 0.1 %
+#: against 94 (n = 6 97 either way, n = 16 47 of 50 either way; n = 7 not measured, taken
+#: with 8). On fresh seed 268234 (40 targets each, best known with IPOPT from 128 starts
+#: and both plans): n = 8 35 against 33 of 40, at 1.40x the wall time (12.8x IPOPT-8's
+#: against 17.4x); n = 6 37 of 40 either way, at 1.32x (docs/benchmarks.md, 2026-12-07).
+SPATIAL_ALL_HOPS_NS = (7, 8)
+
 
 def spatial_hop_plan(n: int) -> tuple[int, ...]:
     """Which of :data:`SPATIAL_HOPS` the spatial default runs from its best pose (indices
     into :func:`spatial_hops`' list): none up to n = 3, :data:`SPATIAL_HOPS_N4` at n = 4,
-    :data:`SPATIAL_HOPS_N5` from n = 5."""
+    all twelve at the sizes of :data:`SPATIAL_ALL_HOPS_NS`, :data:`SPATIAL_HOPS_N5`
+    otherwise."""
     if n <= 3:
         return ()
-    return SPATIAL_HOPS_N4 if n == 4 else SPATIAL_HOPS_N5
+    if n == 4:
+        return SPATIAL_HOPS_N4
+    return tuple(range(len(SPATIAL_HOPS))) if n in SPATIAL_ALL_HOPS_NS else SPATIAL_HOPS_N5
 
 
 class StartSampler:

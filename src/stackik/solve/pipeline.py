@@ -122,8 +122,9 @@ def solve_ik(
         alone, then two rounds of four perturbations of the best pose so far
         (``n_starts`` 13); in spatial mode
         the interior point's structured starts (:func:`stackik.starts.spatial_starts`: 8
-        up to n = 3, 12 from n = 4; twists, leans and folds; then 6 hops from the best
-        pose from n = 4, :func:`stackik.starts.spatial_hop_plan`), the SQP
+        up to n = 3, 12 from n = 4; twists, leans and folds; then hops from the best
+        pose from n = 4, 12 at n = 7 and 8 and 6 otherwise,
+        :func:`stackik.starts.spatial_hop_plan`), the SQP
         engine's five
         structured and seven random ones; otherwise one. ``starts=K`` in spatial mode
         takes the first K of :func:`stackik.starts.spatial_starts`; spatial ``starts=1``
