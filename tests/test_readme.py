@@ -175,8 +175,8 @@ def test_headline_table_is_generated() -> None:
 
 def test_default_starts() -> None:
     """The README's default starts: "three for planar stacks up to n = 4", "eight for
-    spatial stacks up to n = 3, twelve from n = 4" and six hops, and the command line's
-    same default."""
+    spatial stacks up to n = 3, twelve from n = 4" and six hops (twelve at n = 7 and 8),
+    and the command line's same default."""
     from stackik import PlanarTarget, SpatialTarget, Stack, solve_ik
     from stackik.cli import build_parser
     from stackik.rotations import euler_zyx
@@ -188,10 +188,12 @@ def test_default_starts() -> None:
     stack = Stack.reference(4)
     assert solve_ik(stack, PlanarTarget(600.0, 1000.0, -1.57)).n_starts == 3
     spatial = SpatialTarget(np.array([100.0, 50.0, 1000.0]), euler_zyx([0.1, 0.2, 0.0]))
-    assert 'then six "hops" from the best pose from n = 4' in PROSE
+    assert 'then "hops" from the best pose from n = 4: six, twelve at n = 7 and 8' in PROSE
     assert solve_ik(stack, spatial).n_starts == 12 + 6
     stack6 = Stack.reference(6)
     assert solve_ik(stack6, random_spatial_targets(stack6, 1, 9606)[0]).n_starts == 12 + 6
+    stack8 = Stack.reference(8)
+    assert solve_ik(stack8, random_spatial_targets(stack8, 1, 9608)[0]).n_starts == 12 + 12
     args = build_parser().parse_args(["solve", "--target", "600", "1000", "-1.57"])
     assert args.starts is None  # None: solve_ik's default
 
