@@ -365,7 +365,7 @@ def _turned(q: FloatArray, tops: tuple[int, ...], yaw: float) -> FloatArray:
 def spatial_hop_count(n: int) -> int:
     """How many hops the spatial default runs from its best pose (and the obstacle and
     force rules' search without rows, :func:`stackik.solve.stages._rows_first`): none up
-    to n = 3, 6 from n = 4 (:func:`spatial_hop_plan` says which)."""
+    to n = 3, 6 from n = 4, 12 at n = 7 and 8 (:func:`spatial_hop_plan` says which)."""
     return len(spatial_hop_plan(n))
 
 
