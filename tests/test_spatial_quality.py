@@ -234,17 +234,19 @@ def test_spatial_default_hops_from_its_best_pose() -> None:
             assert r.frobenius_norm < no_hops.frobenius_norm * (1 - 1e-4)
 
 
-def test_spatial_default_deterministic_from_five_platforms() -> None:
-    # n = 6: the 12 starts and the 6 hops (n_starts 18); the same call twice gives the
-    # same pose bit for bit, and the pose is at least the starts' best
-    stack = Stack.reference(6)
-    target = random_spatial_targets(stack, 1, 9606)[0]
+@pytest.mark.parametrize(("n", "starts"), [(6, 18), (8, 24)])
+def test_spatial_default_deterministic_from_five_platforms(n: int, starts: int) -> None:
+    # the 12 starts and the hops: 6 at n = 6 (n_starts 18), all 12 at n = 8
+    # (SPATIAL_ALL_HOPS_NS, n_starts 24); the same call twice gives the same pose bit for
+    # bit, and the pose is at least the starts' best
+    stack = Stack.reference(n)
+    target = random_spatial_targets(stack, 1, 9600 + n)[0]
     r = solve_ik(stack, target)
     again = solve_ik(stack, target)
-    assert r.success and r.n_starts == spatial_start_count(6) + spatial_hop_count(6) == 18
+    assert r.success and r.n_starts == spatial_start_count(n) + spatial_hop_count(n) == starts
     np.testing.assert_array_equal(r.q, again.q)
     assert r.nit == again.nit
-    no_hops = solve_ik(stack, target, starts=spatial_start_count(6))
+    no_hops = solve_ik(stack, target, starts=spatial_start_count(n))
     assert r.frobenius_norm <= no_hops.frobenius_norm * (1 + 1e-9)
 
 
@@ -323,20 +325,3 @@ def test_solve_many_spatial_matches_serial() -> None:
         one = solve_ik(stack, t)
         assert m.success and m.method == one.method == "ip"
         np.testing.assert_array_equal(m.q, one.q)
-
-
-def test_spatial_default_runs_every_hop_at_seven_and_eight_platforms() -> None:
-    # n = 8 (SPATIAL_ALL_HOPS_NS): the 12 starts and all 12 hops (n_starts 24), the same
-    # pose twice, at least as low as the six hops' plan gives
-    from stackik import starts
-
-    stack = Stack.reference(8)
-    target = random_spatial_targets(stack, 1, 9608)[0]
-    r = solve_ik(stack, target)
-    again = solve_ik(stack, target)
-    assert r.success and r.n_starts == spatial_start_count(8) + spatial_hop_count(8) == 24
-    np.testing.assert_array_equal(r.q, again.q)
-    six = starts.SPATIAL_HOPS_N5
-    assert set(six) <= set(starts.spatial_hop_plan(8))
-    no_hops = solve_ik(stack, target, starts=spatial_start_count(8))
-    assert r.frobenius_norm <= no_hops.frobenius_norm * (1 + 1e-9)
