@@ -1,7 +1,7 @@
 """Threads of one solve's interior-point batches (:func:`stackik.solve_ik`'s ``threads``).
 
 A solve runs its interior-point starts in batches (the spatial default: 12 structured
-starts, then 6 hops; the planar default at scale: its random and structured starts).
+starts, then its hops; the planar default at scale: its random and structured starts).
 Each start's run is independent of the others, so a batch can run on several threads
 (the compiled kernels release the GIL) and give the same runs, in the same order, as one
 after another: the pose a solve returns does not depend on the thread count.

@@ -35,7 +35,7 @@ MODES = ("fast", "global")
 #: (the default solve's starts grow with n: planar 3 at n = 4, 19 at n = 8, 35 at n = 16;
 #: this keeps its share of a fast path's time small); spatial paths up to
 #: ``SPATIAL_REANCHOR_N`` platforms only (then 8 starts, ~10 ms, about 20 warm steps, at
-#: n = 4; from n = 5 12 starts and 6 hops, ~100 ms at n = 8, where a check at waypoint
+#: n = 4; from n = 5 12 starts and hops, ~100 ms at n = 8 on 2026-12-06, where a check at waypoint
 #: 40 of the benchmark's and 4 held-out 60-waypoint paths gave no lower FN (mean ratio
 #: 1.0107 -> 1.0113 and 1.0025 -> 1.0027) at 60-70 % of the speed, with the 18 starts
 #: and 12 hops of the plan then).
