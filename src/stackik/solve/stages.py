@@ -322,7 +322,7 @@ def stands(runs: list[Run | None], rtol: float, count: float) -> bool:
     earliest run whose square root is within ``rtol`` of the least's, relative) at least
     ``count`` runs before the last: that many runs after it found nothing lower.
     False when no run passed."""
-    roots = _roots(runs)
+    roots = [None if r is None else float(np.sqrt(max(r.obj, 0.0))) for r in runs]
     passed = [x for x in roots if x is not None]
     if not passed:
         return False
@@ -336,14 +336,8 @@ def confirmed(runs: list[Run | None], rtol: float) -> bool:
     """At least two of ``runs`` passed the check and the least objective among them is
     matched by another: square roots (FN for the default objective) within ``rtol`` of
     it, relative (:data:`stackik.solve.policy.ADAPTIVE_RTOL` in the adaptive plan)."""
-    roots = sorted(x for x in _roots(runs) if x is not None)
+    roots = sorted(float(np.sqrt(max(r.obj, 0.0))) for r in runs if r is not None)
     return len(roots) >= 2 and roots[1] - roots[0] <= rtol * abs(roots[0])
-
-
-def _roots(runs: list[Run | None]) -> list[float | None]:
-    """Each run's objective's square root (FN for the default objective), None for a run
-    that failed the check: what :func:`confirmed` and :func:`stands` compare."""
-    return [None if r is None else float(np.sqrt(max(r.obj, 0.0))) for r in runs]
 
 
 def _merge(parts: list[IPBatch]) -> IPBatch:
