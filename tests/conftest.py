@@ -31,3 +31,21 @@ def _compiled_kernels(tmp_path_factory: pytest.TempPathFactory) -> None:
             warm_up(jobs=jobs)
         finally:
             fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+@pytest.fixture
+def lines_pass_through(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The paper's model on stacks whose legs and plates have no size: a leg's axis may
+    pass through a plate (the check's screen for it, :func:`stackik.clearance.cores_cross`,
+    answers no). For tests that need the least-FN pose of that model (on tall planar
+    stacks it passes legs through plates: docs/clearance.md, "Cores through plates"), or
+    that test the start plan's scheduling apart from the repair of such poses. Stacks with
+    a leg radius, a plate thickness, obstacles or a margin are checked as always."""
+    import stackik.check
+    import stackik.clearance
+
+    def never(*args: object, **kwargs: object) -> bool:
+        return False
+
+    monkeypatch.setattr(stackik.clearance, "cores_cross", never)
+    monkeypatch.setattr(stackik.check, "cores_cross", never)

@@ -218,7 +218,8 @@ def recheck(
     """Check ``result`` against ``target`` and every limit without trusting the solver; with
     legs of a size (or a ``clearance`` margin [mm]), also the distance of every two legs of
     a platform, and every leg and plate (but the base) against every obstacle
-    (:func:`clearance_problems`, :func:`obstacle_problems`), planar and spatial."""
+    (:func:`clearance_problems`, :func:`obstacle_problems`), planar and spatial; always, no
+    leg's axis or plate through a plate (``reference_impl.cores_through_plates``)."""
     reasons: list[str] = []
     planar = isinstance(target, PlanarTarget)
     n, k = stack.n, (3 if planar else 6)
@@ -291,6 +292,9 @@ def recheck(
     reasons += problems
     ob_problems, ob_slack = obstacle_problems(stack, poses, obstacles, clearance)
     reasons += ob_problems
+    O, A = ref.chain(poses)
+    for what, j in ref.cores_through_plates(geoms, O, A, CLEARANCE_TOL):
+        reasons.append(f"{what} passes through plate {j}")
     slack = float(np.fmin(slack, ob_slack))  # (nan: nothing to keep clear)
     reasons += force_problems(stack, poses, load)
     return Recheck(not reasons, reasons, pos, ang, leg_v, joint_v, slack)

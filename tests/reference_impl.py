@@ -317,6 +317,60 @@ def plate_distance(nodes, A, O, a, b):
     return best
 
 
+def _plate_nodes(stack, j):
+    """Nodes (plate frame) of plate j = 0..n: the base nodes of platform 0 for the base, else
+    the top nodes of platform j - 1 and the base nodes of platform j (if any)."""
+    n = len(stack)
+    if j == 0:
+        return np.asarray(stack[0]["base"], float)
+    nodes = np.asarray(stack[j - 1]["top"], float)
+    if j < n:
+        nodes = np.vstack([nodes, np.asarray(stack[j]["base"], float)])
+    return nodes
+
+
+def _through(h, A, O, a, b, tol):
+    """Whether segment a-b passes through the polygon h (plate frame) at (A, O) by more than
+    ``tol``: both ends farther than tol from the plane on opposite sides, and the crossing
+    point farther than tol inside every edge."""
+    la, lb = A.T @ (a - O), A.T @ (b - O)
+    if not (la[2] * lb[2] < 0 and min(abs(la[2]), abs(lb[2])) > tol):
+        return False
+    x = (la + (lb - la) * (la[2] / (la[2] - lb[2])))[:2]
+    e = np.roll(h, -1, axis=0) - h
+    inward = (e[:, 0] * (x[1] - h[:, 1]) - e[:, 1] * (x[0] - h[:, 0])) / np.hypot(e[:, 0], e[:, 1])
+    return bool(np.all(inward > tol))
+
+
+def cores_through_plates(stack, O, A, tol=1e-6):
+    """Every leg axis that passes through a plate it does not join, and every plate edge
+    through another plate, by more than ``tol`` [mm] (:func:`_through`): a collision of
+    legs and plates of no thickness. ``O``, ``A``: plate origins and orientations (n + 1)
+    from :func:`chain`. Returns ``(what, j)`` pairs: ``what`` names the leg or plate."""
+    n = len(stack)
+    hulls = [_hull(_plate_nodes(stack, j)[:, :2]) for j in range(n + 1)]
+    found = []
+    for j in range(n + 1):
+        for i, geom in enumerate(stack):
+            if j in (i, i + 1):  # the two plates platform i's legs join
+                continue
+            for k in range(6):
+                a = O[i] + A[i] @ geom["base"][k]
+                b = O[i + 1] + A[i + 1] @ geom["top"][k]
+                if _through(hulls[j], A[j], O[j], a, b, tol):
+                    found.append((f"platform {i + 1} leg {k}", j))
+        for jj in range(n + 1):
+            if jj == j:
+                continue
+            H = np.column_stack([hulls[jj], np.zeros(len(hulls[jj]))])
+            V = [O[jj] + A[jj] @ v for v in H]
+            for v, w in zip(V, V[1:] + V[:1]):
+                if _through(hulls[j], A[j], O[j], v, w, tol):
+                    found.append((f"plate {jj}", j))
+                    break
+    return found
+
+
 def _box_frame(box):
     R = np.asarray(box.get("rotation", np.eye(3)), float)
     return np.asarray(box["center"], float), np.asarray(box["half_extents"], float), R

@@ -77,7 +77,9 @@ def test_adaptive_first_only_on_the_large_planar_structured_default() -> None:
 
 
 @pytest.mark.parametrize("n", [4, 16])
-def test_below_adaptive_n_the_batch_is_one_call(n: int, spy: list[list[Any]]) -> None:
+def test_below_adaptive_n_the_batch_is_one_call(
+    n: int, spy: list[list[Any]], lines_pass_through: None
+) -> None:
     res = solve_ik(Stack.reference(n), _target(n))
     assert res.success
     assert _counts(spy) == [_batch_size(n)]
@@ -115,7 +117,7 @@ def test_stands() -> None:
 
 
 def test_more_starts_stop_when_the_best_stands(
-    spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch
+    spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch, lines_pass_through: None
 ) -> None:
     # no two runs agree, and the first run's pose is reported lowest of all: the plan
     # stops at the first group boundary ADAPTIVE_STANDS runs after it
@@ -140,7 +142,7 @@ def test_more_starts_stop_when_the_best_stands(
 
 
 def test_early_stop_when_the_first_starts_agree(
-    spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch
+    spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch, lines_pass_through: None
 ) -> None:
     monkeypatch.setattr(stages, "ADAPTIVE_RTOL", 1.0)  # any two passing poses agree
     stack, target = Stack.reference(N_BIG), _target(N_BIG)
@@ -166,7 +168,7 @@ def test_early_stop_when_the_first_starts_agree(
 
 
 def test_whole_batch_when_no_run_confirms_the_best(
-    spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch
+    spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch, lines_pass_through: None
 ) -> None:
     monkeypatch.setattr(stages, "ADAPTIVE_RTOL", -1.0)  # never agree
     monkeypatch.setattr(stages, "ADAPTIVE_STANDS", math.inf)  # nor stand
@@ -192,7 +194,7 @@ def test_whole_batch_when_no_run_confirms_the_best(
 
 
 def test_more_starts_until_one_confirms_the_best(
-    spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch
+    spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch, lines_pass_through: None
 ) -> None:
     # the first two starts disagree (the check refuses the first run), the next two
     # confirm the best found: four starts, the best of them
@@ -274,7 +276,9 @@ def _compact_target(n: int) -> PlanarTarget:
     raise AssertionError("no compact target")
 
 
-def test_compact_targets_take_arcs_the_whole_batch_and_hops(spy: list[list[Any]]) -> None:
+def test_compact_targets_take_arcs_the_whole_batch_and_hops(
+    spy: list[list[Any]], lines_pass_through: None
+) -> None:
     stack, target = Stack.reference(N_BIG), _compact_target(N_BIG)
     res = solve_ik(stack, target)
     size = _batch_size(N_BIG) + 2  # the two arcs
@@ -300,7 +304,7 @@ def test_compact_targets_take_arcs_the_whole_batch_and_hops(spy: list[list[Any]]
 
 
 def test_lean_compact_plan_from_compact_lean_n(
-    spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch
+    spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch, lines_pass_through: None
 ) -> None:
     # the lean plan at N_BIG (its threshold lowered): the arcs and COMPACT_RANDOM random
     # starts alone, then rounds of hops, each from the best pose so far
@@ -329,7 +333,7 @@ def policy_scale(stack: Stack) -> Any:
 
 
 def test_compact_plan_only_on_the_large_planar_structured_default(
-    spy: list[list[Any]],
+    spy: list[list[Any]], lines_pass_through: None
 ) -> None:
     stack, target = Stack.reference(N_BIG), _compact_target(N_BIG)
     solve_ik(stack, target, method="ip", starts=3)  # the user's starts

@@ -62,8 +62,20 @@ def test_segment_and_polygon_distances_match_numpy(seed: int) -> None:
         ref = float(dist.polygon_polygon(poly, dist.Polygon(O2, A2, uv2)))
         got = bd.polygon_polygon(O, A, uv, V, O2, A2, uv2, V2)
         assert got == pytest.approx(ref, abs=TOL)
-    # a segment through the polygon's interior: distance 0
-    O, A, uv = _polygon(rng)
-    c = O + A[:, :2] @ uv.mean(axis=0)
-    a, b = c - 30 * A[:, 2], c + 30 * A[:, 2]
-    assert bd.segment_polygon(a, b, O, A, uv, _world_vertices(O, A, uv)) == 0.0
+    # through the polygon's interior: minus the penetration depth, as the reference's
+    for _ in range(20):
+        O, A, uv = _polygon(rng)
+        c = O + A[:, :2] @ uv.mean(axis=0)
+        a = c - rng.uniform(5, 60) * A[:, 2] + rng.normal(0, 10, 3)
+        b = c + rng.uniform(5, 60) * A[:, 2] + rng.normal(0, 10, 3)
+        poly = dist.Polygon(O, A, uv)
+        ref = float(dist.segment_polygon(a, b, poly))
+        got = bd.segment_polygon(a, b, O, A, uv, _world_vertices(O, A, uv))
+        assert got == pytest.approx(ref, abs=TOL)
+        O2, A2, uv2 = _polygon(rng)
+        O2 = c + rng.normal(0, 10, 3)
+        ref = float(dist.polygon_polygon(poly, dist.Polygon(O2, A2, uv2)))
+        got = bd.polygon_polygon(
+            O, A, uv, _world_vertices(O, A, uv), O2, A2, uv2, _world_vertices(O2, A2, uv2)
+        )
+        assert got == pytest.approx(ref, abs=TOL)

@@ -210,6 +210,7 @@ def test_bad_pose_arguments():
 
 
 def test_zero_radius_legs_are_distances():
+    # no leg's axis passes through a plate of these poses (n = 4: too short to fold back)
     stack = Stack.reference(4)
     assert not needs_clearances(stack)
     assert needs_clearances(stack, clearance=1.0) and needs_clearances(stack, [OBSTACLES[0]])
@@ -217,6 +218,63 @@ def test_zero_radius_legs_are_distances():
     for q in random_feasible_poses(stack, 5, rng=2, phi=PHI):
         c = clearances(stack, q, phi=PHI)
         assert c.self_legs >= 0 and c.non_adjacent >= 0 and c.adjacent_legs >= 0
+
+
+def _through_a_plate():
+    """A planar n = 16 target (the fingerprint's, seed 36) and the least-FN pose of legs as
+    lines that passes through plates (the paper's model: the check's screen off), found by
+    the default as it was before the check knew of it."""
+    from stackik.sampling import random_reachable_targets
+
+    stack = Stack.reference(16)
+    t = random_reachable_targets(stack, 3, rng=36, phi=PHI)[0]
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(stackik.clearance, "cores_cross", lambda *a, **k: False)
+        mp.setattr(stackik.check, "cores_cross", lambda *a, **k: False)
+        q = stackik.solve_ik(stack, t).q
+    return stack, t, q
+
+
+def test_a_leg_through_a_plate_fails_with_no_thickness():
+    """Legs and plates of no size: a leg's axis through a plate is a collision (minus the
+    penetration depth), found by the screen and refused by the check, and the default
+    answers the target with a pose where none passes through (docs/clearance.md, "Cores
+    through plates")."""
+    from stackik.clearance import cores_cross
+
+    stack, t, q = _through_a_plate()
+    assert cores_cross(stack, q, PHI)
+    c = clearances(stack, q, phi=PHI)
+    assert c.non_adjacent < -1.0 and c.minimum == c.non_adjacent
+    assert {c.closest.a.kind, c.closest.b.kind} == {"leg", "plate"}
+    chk = check_pose(stack, t, q)
+    assert not chk.ok and chk.clearances is not None
+    assert chk.clearance_violation == pytest.approx(-c.minimum)
+    assert chk.position_error < 1e-6 and chk.max_violation_mm <= 1e-6  # only that
+    res = stackik.solve_ik(stack, t)
+    assert res.success and not cores_cross(stack, res.q, PHI)
+    assert clearances(stack, res.q, phi=PHI).minimum >= -1e-6
+    assert check_pose(stack, t, res.q).ok
+
+
+def test_cores_cross_is_the_sign_of_the_clearances():
+    """The compiled screen says a pose's cores cross exactly where the exact signed
+    distances (zero radii and thickness) are negative: on poses between one that passes
+    through plates and the default's, both kinds occur."""
+    from stackik.clearance import cores_cross
+
+    stack, t, q = _through_a_plate()
+    clear = stackik.solve_ik(stack, t).q
+    rng = np.random.default_rng(3)
+    seen = set()
+    for k in range(40):
+        x = q + (k / 39) * (clear - q) + rng.normal(0.0, [1.0, 1.0, 0.01], q.shape)
+        neg = clearances(stack, x, phi=PHI).minimum < 0.0
+        assert cores_cross(stack, x, PHI) == neg
+        seen.add(neg)
+    assert seen == {True, False}
+    for x in random_feasible_poses(stack, 5, rng=4, phi=PHI):
+        assert cores_cross(stack, x, PHI) == (clearances(stack, x, phi=PHI).minimum < 0.0)
 
 
 # --- the check ----------------------------------------------------------------------------

@@ -229,6 +229,9 @@ def test_segment_polygon_against_sampling():
         S, cover = _seg_samples(a, b, 5001)
         brute = float(np.min(dist.point_polygon(S, poly)))  # point_polygon: exact, above
         d = float(dist.segment_polygon(a, b, poly))
+        if d < 0.0:  # through the polygon: minus the depth (tested below), distance 0
+            assert brute <= cover + ROUND
+            continue
         assert d <= brute + ROUND
         assert brute - d <= cover + ROUND
 
@@ -242,8 +245,89 @@ def test_polygon_polygon_against_sampling():
         X, cover = _polygon_samples(p, 120)
         brute = float(np.min(dist.point_polygon(X, q)))
         d = float(dist.polygon_polygon(p, q))
-        assert d <= brute + ROUND
-        assert brute - d <= cover + ROUND
+        assert max(d, 0.0) <= brute + ROUND  # through each other: minus the depth (below)
+        assert brute - max(d, 0.0) <= cover + ROUND
+
+
+def _fibonacci_sphere(N):
+    """N unit vectors spread evenly over the sphere; every unit vector is within
+    ``2 sqrt(4 pi / N)`` rad of one of them (a generous bound of the spiral's gaps)."""
+    k = np.arange(N) + 0.5
+    z = 1.0 - 2.0 * k / N
+    ang = np.pi * (1.0 + 5**0.5) * k
+    r = np.sqrt(1.0 - z * z)
+    return np.column_stack([r * np.cos(ang), r * np.sin(ang), z]), 2.0 * np.sqrt(4 * np.pi / N)
+
+
+def _brute_depth(P, Q, N=200_000):
+    """The least over sampled unit directions u of min(h(u), h(-u)), h the support function
+    of P - Q, and its error bound: h is max|P - Q|-Lipschitz in u."""
+    U, gap = _fibonacci_sphere(N)
+    p, q = P @ U.T, Q @ U.T
+    h = np.minimum(p.max(0) - q.min(0), q.max(0) - p.min(0))
+    lip = np.max(np.linalg.norm(P[:, None] - Q[None], axis=-1))
+    return float(h.min()), lip * gap
+
+
+def test_penetration_depth_of_crossing_cores_against_sampled_directions():
+    """A segment through a polygon and two polygons through each other: the signed distance
+    is minus the penetration depth, the least over all directions of the support function
+    of P - Q (0 in P - Q): never above the sampled directions' least and within their
+    resolution of it; and a translation of that length along the best direction found
+    separates them."""
+    rng = np.random.default_rng(11)
+    seen = {"segment": 0, "polygon": 0}
+    for k in range(40):
+        poly = _polygon(rng)
+        n = poly.axes[:, 2]
+        c = poly.vertices().mean(axis=0)
+        if k % 2 == 0:
+            a = c + rng.uniform(5, 60) * n + rng.normal(0, 20, 3)
+            b = c - rng.uniform(5, 60) * n + rng.normal(0, 20, 3)
+            d = float(dist.segment_polygon(a, b, poly))
+            P = np.array([a, b])
+            kind = "segment"
+        else:
+            R = _rotation(rng)
+            other = dist.Polygon(
+                c + rng.normal(0, 10, 3),
+                R,
+                dist.convex_hull_2d(rng.uniform(-80, 80, (7, 2)), size=7),
+            )
+            d = float(dist.polygon_polygon(poly, other))
+            if float(dist.polygon_polygon(other, poly)) != pytest.approx(d, abs=ROUND):
+                raise AssertionError("not symmetric")
+            P = other.vertices()
+            kind = "polygon"
+        if d >= 0.0:
+            continue  # they missed each other
+        seen[kind] += 1
+        brute, err = _brute_depth(P, poly.vertices())
+        assert -d <= brute + ROUND
+        assert brute - (-d) <= err + ROUND
+    assert min(seen.values()) >= 5
+
+
+def test_penetration_depth_closed_forms():
+    """A segment along the normal through a regular hexagon's centre: the depth is the
+    shorter end's height or the inradius; two squares crossing at right angles: the least
+    of the heights of the second square's ends."""
+    ang = np.arange(6) * np.pi / 3
+    hexagon = dist.Polygon(
+        np.zeros(3), np.eye(3), np.column_stack([np.cos(ang), np.sin(ang)]) * 150
+    )
+    inr = 150 * np.cos(np.pi / 6)
+    for lo, hi, want in ((30, 40, 30), (200, 250, inr), (300, 120, 120)):
+        d = float(dist.segment_polygon([0, 0, -lo], [0, 0, hi], hexagon))
+        assert d == pytest.approx(-want, abs=ROUND)
+    sq = np.array([[-50.0, -50], [50, -50], [50, 50], [-50, 50]])
+    flat = dist.Polygon(np.zeros(3), np.eye(3), sq)
+    Rx = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])  # its plane: y = 0
+    for dz, want in ((0.0, 50.0), (20.0, 30.0), (-45.0, 5.0)):
+        upright = dist.Polygon(np.array([10.0, 0, dz]), Rx, sq)
+        assert float(dist.polygon_polygon(flat, upright)) == pytest.approx(-want, abs=ROUND)
+    touching = dist.Polygon(np.array([0.0, 0, 50.0]), Rx, sq)
+    assert float(dist.polygon_polygon(flat, touching)) == pytest.approx(0.0, abs=ROUND)
 
 
 def test_polygon_box_against_sampling():

@@ -49,7 +49,7 @@ def test_bad_fold_is_refused() -> None:
         FoldBand([], 0.35, 0.3, 0.0)
 
 
-def test_fold_of_a_folded_pose_and_of_an_upright_one() -> None:
+def test_fold_of_a_folded_pose_and_of_an_upright_one(lines_pass_through: None) -> None:
     q = sk.solve_ik(REF16, FOLDED).q  # the zero-radius pose: it folds with 12 mm legs
     fold = fold_platforms(FAT16, q, 0.0, FOLDED.phi, FOLD_SCREEN_MM)
     assert fold is not None

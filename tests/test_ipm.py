@@ -297,7 +297,7 @@ def test_kkt_factor_serves_other_right_hand_sides():
     np.testing.assert_allclose(AE.T @ np.linalg.lstsq(AE.T, res, rcond=None)[0], res, atol=1e-8)
 
 
-def test_second_order_corrections_finish_a_tall_stack():
+def test_second_order_corrections_finish_a_tall_stack(lines_pass_through: None):
     """Planar n = 64 from the paper's guess toward a far target: without the barrier
     method's second-order corrections the run crawled in backtracked steps (the rows'
     curvature raised the infeasibility of every full step) to the 300-iteration limit;

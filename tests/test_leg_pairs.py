@@ -188,7 +188,7 @@ def _n16_targets() -> list[sk.PlanarTarget]:
 
 
 @pytest.mark.parametrize(("k", "method"), [(1, "ip"), (0, "sqp")])
-def test_a_folded_tall_stack_is_solved_clear(k: int, method: str) -> None:
+def test_a_folded_tall_stack_is_solved_clear(k: int, method: str, lines_pass_through: None) -> None:
     """A planar n = 16 target whose least-FN pose on legs of zero radius folds into itself
     with 12 mm legs (the check refuses it on non-adjacent bodies alone) is solved with the
     rows, and the independent check (``stackik.clearances``, exact distances) confirms

@@ -193,7 +193,9 @@ def _clear_and_continuous(stack: sk.Stack, path: sk.paths.PathResult) -> None:
 
 
 @pytest.mark.parametrize(("i", "m", "mode"), [(4, 12, "fast"), (6, 4, "global")])
-def test_a_folding_tall_path_goes_through_clear(i: int, m: int, mode: str) -> None:
+def test_a_folding_tall_path_goes_through_clear(
+    i: int, m: int, mode: str, lines_pass_through: None
+) -> None:
     """Planar n = 16 on 12 mm legs: the zero-radius path's poses fold into themselves (the
     check refuses them on non-adjacent bodies alone), and the path with the legs' radius
     (which broke at waypoint 1 (fast) or 2 (global) when its steps had no rows for such

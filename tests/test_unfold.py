@@ -89,7 +89,7 @@ def test_planar_dense_rows_run_under_the_limit(monkeypatch: pytest.MonkeyPatch) 
     assert seen and all(s["threads"] == 1 for s in seen)
 
 
-def test_close_pairs_per_plate_keeps_the_closest_segments() -> None:
+def test_close_pairs_per_plate_keeps_the_closest_segments(lines_pass_through: None) -> None:
     """``close_pairs(..., per_plate=k)``: the screen's leg-leg pairs all, and of each leg's
     pairs with one plate's covering segments the ``k`` closest (least distance over the
     poses), a subset of the full screen; ``k < 1`` is refused."""

@@ -6,8 +6,9 @@ load or a force limit) the leg forces of :mod:`stackik.loads` and the exact dist
 :mod:`stackik.clearance`, sharing no code with any solver. :func:`pose_ok` holds the
 acceptance rule; the compiled twin (:mod:`stackik._compiled.check`) imports only this module (it
 checks the limits and the target, not the forces or clearances: those are needed only
-with a load or force limit, or with obstacles, a leg radius, a plate thickness or a
-margin, see :func:`stackik.clearance.needs_clearances`).
+with a load or force limit, with obstacles, a leg radius, a plate thickness or a margin
+(:func:`stackik.clearance.needs_clearances`), or where a leg's axis passes through a
+plate (:func:`stackik.clearance.cores_cross`)).
 
 A user's constraint families (:mod:`stackik.families`) are the one exception to the
 independence: the check judges their own ``check_values`` (the rows the solvers see,
@@ -22,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from stackik.clearance import Clearances, clearances, needs_clearances
+from stackik.clearance import Clearances, clearances, cores_cross, needs_clearances
 from stackik.families import ConstraintFamily, as_families, check_values_of
 from stackik.geometry import Stack, finite_number
 from stackik.kinematics import planar_forward, spatial_forward
@@ -112,8 +113,8 @@ class PoseCheck:
         were checked (a load was given or some ``force_max`` is finite), else None.
     clearances : Clearances or None
         Signed distances of the pose's bodies and obstacles [mm]; None when the check
-        did not need them (no obstacle, zero leg radii and plate thickness, margin 0:
-        every clearance is then a distance, >= 0 by construction).
+        did not need them (no obstacle, zero leg radii and plate thickness, margin 0, and
+        no leg's axis or plate through a plate: every clearance is then >= 0).
     clearance_violation : float
         ``max(0, clearance - clearances.minimum)`` [mm] (0 when not computed).
     family_violation : float
@@ -185,9 +186,11 @@ def check_pose(
         Keep-out bodies in the base frame [mm].
     clearance : float, optional
         Margin [mm] >= 0 every signed distance must keep (default 0: touching passes, any
-        penetration fails). Legs of zero radius that cross exactly are at distance 0, so
-        with zero radii, zero thickness, no obstacle and margin 0 the clearances cannot
-        fail and are not computed (``PoseCheck.clearances`` is None).
+        penetration fails). Legs of zero radius that cross exactly are at distance 0, but
+        a leg's axis through a plate, or two plates through each other, are at minus their
+        penetration depth even with no thickness: with zero radii, zero thickness, no
+        obstacle and margin 0 the clearances are computed only where such cores cross
+        (:func:`stackik.clearance.cores_cross`; else ``PoseCheck.clearances`` is None).
     constraints : sequence of ConstraintFamily, optional
         A user's constraint families (:mod:`stackik.families`): each row of
         :meth:`~stackik.ConstraintFamily.check_values` must be ``>= -FEAS_TOL`` (in the
@@ -233,7 +236,7 @@ def check_pose(
         ratio = st.peak_force_ratio
         finite = finite and bool(np.all(np.isfinite(st.leg_forces)))
     cl, v_cl = None, 0.0
-    if needs_clearances(stack, obs, margin):
+    if needs_clearances(stack, obs, margin) or (finite and cores_cross(stack, qa, phi)):
         if finite:
             cl = clearances(stack, qa, obs, phi=phi)
             v_cl = max(0.0, margin - cl.minimum)

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from stackik import distance as dist
-from stackik._compiled.body_distances import body_clearances
+from stackik._compiled.body_distances import any_crossing, body_clearances
 from stackik.geometry import Stack
 from stackik.obstacles import Obstacle, as_obstacles
 from stackik.platform import validate_pose_array as _check_q
@@ -50,6 +50,7 @@ __all__ = [
     "ContactPoints",
     "clearances",
     "contact_points",
+    "cores_cross",
     "needs_clearances",
     "plate_frames",
 ]
@@ -387,7 +388,9 @@ def clearances(
 
     Exact (no sampling, no smoothing, no screening threshold): see :mod:`stackik.distance`.
     Negative values are penetrations. With zero leg radii, zero plate thickness and no
-    obstacle every value is >= 0 (two legs that cross exactly are at distance 0).
+    obstacle a value is negative only where a leg's axis passes through a plate or two
+    plates through each other (minus the penetration depth); two legs that cross exactly
+    are at distance 0.
 
     Parameters
     ----------
@@ -415,8 +418,7 @@ def clearances(
     lay: _Layout = stack.derived("clearance_layout", _layout)
     _check_base(stack, obs, float(lay.radius[0]))
     A, O = plate_frames(stack, q, phi)
-    B = O[:-1, None, :] + np.einsum("nij,nkj->nki", A[:-1], stack.base_nodes)  # (n, 6, 3)
-    T = O[1:, None, :] + np.einsum("nij,nkj->nki", A[1:], stack.top_nodes)
+    B, T = _joints(stack, A, O)
     r = lay.radius
     # the bodies of the stack against each other: one compiled call (exact, screened)
     d_self, adj_min, adj_at, non_adj, kind, at = body_clearances(
@@ -516,12 +518,40 @@ def _obstacle_contacts(
     return ob_min, contacts
 
 
+def _joints(stack: Stack, A: FloatArray, O: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Base and top joints of every leg in the base frame, each (n, 6, 3) [mm]."""
+    B = O[:-1, None, :] + np.einsum("nij,nkj->nki", A[:-1], stack.base_nodes)
+    T = O[1:, None, :] + np.einsum("nij,nkj->nki", A[1:], stack.top_nodes)
+    return B, T
+
+
+def cores_cross(stack: Stack, q: ArrayLike, phi: float | None = None) -> bool:
+    """Whether a leg's axis passes through a plate it does not join, or two plates pass
+    through each other: the clearances that are negative even on a stack whose legs and
+    plates have no size (:func:`needs_clearances` False). A compiled screen of a few
+    microseconds; the check measures the clearances of a pose where it is True.
+
+    Parameters
+    ----------
+    q : array_like, shape (n, 6) or (n, 3)
+        A spatial pose, or a planar one with ``phi``.
+    """
+    lay: _Layout = stack.derived("clearance_layout", _layout)
+    if not (len(lay.lp) or len(lay.pp)):
+        return False
+    A, O = plate_frames(stack, q, phi)
+    B, T = _joints(stack, A, O)
+    return bool(any_crossing(B, T, A, O, lay.uv, lay.lp, lay.pp))
+
+
 def needs_clearances(
     stack: Stack, obstacles: Sequence[Obstacle] = (), clearance: float = 0.0
 ) -> bool:
-    """Whether a clearance can be negative or below the margin: False only with no
-    obstacle, zero leg radii and plate thickness and a zero margin (every clearance is then
-    a distance, >= 0 by construction, so the check need not compute it)."""
+    """Whether the check measures every pose's clearances: False only with no obstacle,
+    zero leg radii and plate thickness and a zero margin. Every clearance is then a
+    distance, >= 0, except where cores cross (a leg's axis through a plate, two plates
+    through each other): the check screens for those alone (:func:`cores_cross`) and
+    measures the clearances of a pose where they do."""
     if obstacles or clearance > 0.0:
         return True
     return bool(stack.derived("clearance_bodies", _has_bodies))
@@ -536,7 +566,8 @@ def clearances_can_fail(
 ) -> bool:
     """Whether some pose within the leg limits can fail a clearance: :func:`needs_clearances`
     except that obstacles out of reach of every pose do not count (a solver that checks
-    limits and target apart need not measure them for its verdict).
+    limits and target apart need not measure them for its verdict). With a pose ``q``, also
+    True where its cores cross (:func:`cores_cross`).
 
     Out of reach: the obstacle's signed distance from the base origin exceeds
     :func:`body_reach`. With a pose ``q`` (``phi`` for a planar one), only the obstacles
@@ -545,6 +576,8 @@ def clearances_can_fail(
     joints)."""
     if clearance > 0.0 or bool(stack.derived("clearance_bodies", _has_bodies)):
         return True
+    if q is not None and cores_cross(stack, q, phi):
+        return True
     if not obstacles:
         return False
     reach = body_reach(stack)
@@ -552,11 +585,8 @@ def clearances_can_fail(
     near = [ob for ob in obstacles if bool(ob.point_distance(origin) <= reach)]
     if not near or q is None:
         return bool(near)
-    A, O = plate_frames(stack, q, phi)
-    joints = np.concatenate(
-        [(O[:-1, None] + np.einsum("iab,ikb->ika", A[:-1], stack.base_nodes)).reshape(-1, 3),
-         (O[1:, None] + np.einsum("iab,ikb->ika", A[1:], stack.top_nodes)).reshape(-1, 3)]
-    )  # fmt: skip
+    B, T = _joints(stack, *plate_frames(stack, q, phi))
+    joints = np.concatenate([B.reshape(-1, 3), T.reshape(-1, 3)])
     c = joints.mean(axis=0)
     r = float(np.linalg.norm(joints - c, axis=1).max())
     return any(bool(ob.point_distance(c) <= r) for ob in near)
@@ -768,8 +798,7 @@ def contact_points(
     obs = as_obstacles(obstacles)
     lay: _Layout = stack.derived("clearance_layout", _layout)
     A, O = plate_frames(stack, q, phi)
-    B = O[:-1, None, :] + np.einsum("nij,nkj->nki", A[:-1], stack.base_nodes)
-    T = O[1:, None, :] + np.einsum("nij,nkj->nki", A[1:], stack.top_nodes)
+    B, T = _joints(stack, A, O)
 
     def core(body: Body) -> tuple[Any, float]:
         if body.kind == "leg":

@@ -6,10 +6,13 @@ segments, convex planar polygons, boxes and half-spaces; a body is a core thicke
 radius (a capsule is a segment plus a radius), so the distance of two bodies is the
 distance of their cores minus both radii.
 
-Distances between lower-dimensional cores (points, segments, polygons) are >= 0 (0 when
-they touch or cross). Against a solid core (a box, a half-space) they are *signed*: the
-least of the solid's signed distance function over the other core, negative when it
-enters the solid (minus the depth of its deepest point).
+Distances between points and segments are >= 0 (0 when they touch or cross: two segments
+that cross only touch, there is no depth to a crossing of lines). A segment through a
+polygon, or two polygons through each other, get minus their penetration depth
+(:func:`depth`): a leg through a plate collides even when neither has a thickness.
+Against a solid core (a box, a half-space) distances are *signed*: the least of the
+solid's signed distance function over the other core, negative when it enters the solid
+(minus the depth of its deepest point).
 
 No tolerance is involved: each distance is the least of a few closed-form candidates,
 each the distance of an actual pair of points (so rounding can only err by ~1e-15
@@ -27,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 __all__ = [
     "Polygon",
     "convex_hull_2d",
+    "depth",
     "point_box",
     "point_polygon",
     "point_segment",
@@ -325,16 +329,40 @@ def point_polygon(p: ArrayLike, poly: Polygon) -> FloatArray:
     return np.where(poly.inside(loc[..., :2]), np.abs(loc[..., 2]), edges)  # type: ignore[no-any-return]
 
 
-def segment_polygon(a: ArrayLike, b: ArrayLike, poly: Polygon) -> FloatArray:
-    """Distance from segments ``[a, b]`` (..., 3) to polygons (broadcast), shape (...).
+def _overlap(P: FloatArray, Q: FloatArray, u: FloatArray) -> FloatArray:
+    """``min(h(u), h(-u))`` for the support function ``h`` of ``P - Q``: vertices P (..., k, 3)
+    and Q (..., m, 3), unit directions u (..., c, 3); shape (..., c)."""
+    p = np.einsum("...kj,...cj->...ck", P, u)
+    q = np.einsum("...kj,...cj->...ck", Q, u)
+    return np.minimum(p.max(-1) - q.min(-1), q.max(-1) - p.min(-1))  # type: ignore[no-any-return]
 
-    The least of: the segments' distances to the polygon's edges; an endpoint's height
-    above the plane when it projects inside; 0 when the segment crosses the plane inside
-    the polygon. (Where the closest pair is not on an edge, the polygon's point is
-    interior, so the segment's point is an endpoint or the crossing, or the segment runs
-    parallel to the plane and an endpoint or an edge does as well.)
-    """
-    a, b = _f(a), _f(b)
+
+def depth(P: ArrayLike, EP: ArrayLike, Q: ArrayLike, EQ: ArrayLike, N: ArrayLike) -> FloatArray:
+    """Penetration depth of convex cores that meet (broadcast), shape (...): the length of
+    the shortest translation that separates them, the distance from 0 to the boundary of
+    ``P - Q``.
+
+    ``P`` (..., k, 3) and ``Q`` (..., m, 3) are the cores' vertices, ``EP`` (..., e, 3) and
+    ``EQ`` (..., f, 3) their edge vectors, ``N`` (..., c, 3) the unit normals of their faces
+    (a polygon's normal). Every facet of ``P - Q`` is normal to a face normal or to the cross
+    product of an edge of each, and the distance from 0 to the boundary of a convex
+    polytope holding it is the least of its support function over its facet normals; so
+    the depth is the least of :func:`_overlap` over those directions (0 when they only
+    touch; meaningless when they are apart: there it is clipped at 0)."""
+    P, EP, Q, EQ, N = (_f(x) for x in (P, EP, Q, EQ, N))
+    c = np.cross(EP[..., :, None, :], EQ[..., None, :, :])
+    c = c.reshape(c.shape[:-3] + (-1, 3))
+    nc = _norm(c)
+    scale = (_norm(EP)[..., :, None] * _norm(EQ)[..., None, :]).reshape(nc.shape)
+    ok = nc > 1e-12 * scale  # parallel or zero-length edges make no facet
+    u = c / np.where(ok, nc, 1.0)[..., None]
+    h = np.where(ok, _overlap(P, Q, u), np.inf)
+    return np.maximum(np.minimum(h.min(-1), _overlap(P, Q, N).min(-1)), 0.0)  # type: ignore[no-any-return]
+
+
+def _polygon_gap(a: FloatArray, b: FloatArray, poly: Polygon) -> tuple[FloatArray, FloatArray]:
+    """Distance from segments to polygons (0 when a segment crosses), and whether it crosses
+    the plane inside the polygon."""
     la, lb = poly.local(a), poly.local(b)
     e0, e1 = _edges(poly)
     d = segment_segment(a[..., None, :], b[..., None, :], e0, e1).min(axis=-1)
@@ -345,11 +373,33 @@ def segment_polygon(a: ArrayLike, b: ArrayLike, poly: Polygon) -> FloatArray:
     ins = poly.inside(np.stack(np.broadcast_arrays(la[..., :2], lb[..., :2], x)))
     d = np.where(ins[0], np.minimum(d, np.abs(ha)), d)
     d = np.where(ins[1], np.minimum(d, np.abs(hb)), d)
-    return np.where(crosses & ins[2], 0.0, d)  # type: ignore[no-any-return]
+    through = crosses & ins[2]
+    return np.where(through, 0.0, d), through
+
+
+def segment_polygon(a: ArrayLike, b: ArrayLike, poly: Polygon) -> FloatArray:
+    """Signed distance from segments ``[a, b]`` (..., 3) to polygons (broadcast), shape (...).
+
+    The least of: the segments' distances to the polygon's edges; an endpoint's height
+    above the plane when it projects inside. (Where the closest pair is not on an edge, the
+    polygon's point is interior, so the segment's point is an endpoint or the crossing, or
+    the segment runs parallel to the plane and an endpoint or an edge does as well.) A
+    segment that passes through the polygon gets minus the penetration depth
+    (:func:`depth`).
+    """
+    a, b = _f(a), _f(b)
+    d, through = _polygon_gap(a, b, poly)
+    if not np.any(through):
+        return d
+    e0, e1 = _edges(poly)
+    P = np.stack(np.broadcast_arrays(a, b), axis=-2)
+    pen = depth(P, (b - a)[..., None, :], e0, e1 - e0, poly.axes[..., None, :, 2])
+    return np.where(through, -pen, d)  # type: ignore[no-any-return]
 
 
 def polygon_polygon(p: Polygon, q: Polygon) -> FloatArray:
-    """Distance between polygons (broadcast), shape (...): 0 when they touch or cross.
+    """Signed distance between polygons (broadcast), shape (...): minus the penetration
+    depth (:func:`depth`) when they pass through each other, 0 when they only touch.
 
     The least over each polygon's edges of their distance to the other polygon (of two
     disjoint convex polygons, the closest pair can be taken with one point on an edge;
@@ -359,9 +409,14 @@ def polygon_polygon(p: Polygon, q: Polygon) -> FloatArray:
     qe0, qe1 = _edges(q)
     qx = Polygon(q.origin[..., None, :], q.axes[..., None, :, :], q.uv[..., None, :, :])
     px = Polygon(p.origin[..., None, :], p.axes[..., None, :, :], p.uv[..., None, :, :])
-    return np.minimum(  # type: ignore[no-any-return]
-        segment_polygon(pe0, pe1, qx).min(axis=-1), segment_polygon(qe0, qe1, px).min(axis=-1)
+    d = np.minimum(
+        _polygon_gap(pe0, pe1, qx)[0].min(axis=-1), _polygon_gap(qe0, qe1, px)[0].min(axis=-1)
     )
+    if not np.any(d <= 0.0):
+        return d  # type: ignore[no-any-return]
+    n = np.stack(np.broadcast_arrays(p.axes[..., :, 2], q.axes[..., :, 2]), axis=-2)
+    pen = depth(pe0, pe1 - pe0, qe0, qe1 - qe0, n)
+    return np.where(d <= 0.0, -pen, d)  # type: ignore[no-any-return]
 
 
 def polygon_halfspace(poly: Polygon, point: ArrayLike, normal: ArrayLike) -> FloatArray:

@@ -9,15 +9,18 @@ pairs (legs, plates) cost one compiled call instead of some forty small numpy ca
   not parallel, the distance of their closest points clamped into both segments (exact: the
   minimum over the parameter square lies inside it, where the line candidate is the true
   closest pair, or on its boundary, an endpoint candidate);
-* a segment and a convex plate polygon: the least of the segment's distances to the edges,
-  an endpoint's height when it projects inside, and 0 when the segment crosses the plane
-  inside the polygon;
-* two convex polygons: the least over each one's edges of their distance to the other.
+* a segment and a convex plate polygon: the least of the segment's distances to the edges
+  and an endpoint's height when it projects inside; when the segment passes through the
+  polygon, minus the penetration depth (:func:`depth`: a leg through a plate collides even
+  when both have no thickness);
+* two convex polygons: the least over each one's edges of their distance to the other, or
+  minus the penetration depth when they pass through each other.
 
-Screening keeps it exact: a pair is skipped only when a lower bound of its distance (the
-bounding spheres', or a body wholly on one side of a plate's plane) is at least the least
-distance found so far. Pairs are visited in index order and a later pair replaces the best
-only when strictly closer, so the pair reported is the first closest one in that order.
+Screening keeps it exact: a pair is skipped only when a lower bound of its signed distance
+(the bounding spheres', or a body wholly on one side of a plate's plane; minus a bound of
+the depth when it straddles the plane) is at least the least value found so far. Pairs
+are visited in index order and a later pair replaces the best only when strictly closer,
+so the pair reported is the first closest one in that order.
 
 These kernels share no code with the solvers' clearance rows
 (:mod:`stackik._compiled.self_legs`, :mod:`stackik._compiled.obstacle_rows`): the check
@@ -110,11 +113,12 @@ def _vertices(O: FloatArray, A: FloatArray, uv: FloatArray) -> FloatArray:
 
 
 @_jit
-def segment_polygon(
+def _polygon_gap(
     a: FloatArray, b: FloatArray, O: FloatArray, A: FloatArray, uv: FloatArray, V: FloatArray
-) -> float:
+) -> tuple[float, bool]:
     """Distance [mm] from segment ``[a, b]`` to the convex polygon ``uv`` (M, 2) in the plane
-    ``z = 0`` of the frame ``(O, A)``; ``V`` (M, 3) its vertices in the world frame."""
+    ``z = 0`` of the frame ``(O, A)`` (``V`` (M, 3): its vertices in the world frame), and
+    whether the segment crosses the plane inside the polygon (the distance is then 0)."""
     M = uv.shape[0]
     d = math.inf
     for m in range(M):
@@ -129,8 +133,75 @@ def segment_polygon(
     if ha * hb < 0.0:
         t = ha / (ha - hb)
         if _inside(uv, la[0] + t * (lb[0] - la[0]), la[1] + t * (lb[1] - la[1])):
-            return 0.0
-    return d
+            return 0.0, True
+    return d, False
+
+
+@_jit
+def _overlap(P: FloatArray, Q: FloatArray, u0: float, u1: float, u2: float) -> float:
+    """``min(h(u), h(-u))`` for the support function ``h`` of ``P - Q`` (vertex sets P, Q):
+    the shorter of the two translations along ``+-u`` (unit) that separate them."""
+    pmax, pmin, qmax, qmin = -math.inf, math.inf, -math.inf, math.inf
+    for k in range(P.shape[0]):
+        s = P[k, 0] * u0 + P[k, 1] * u1 + P[k, 2] * u2
+        pmax, pmin = max(pmax, s), min(pmin, s)
+    for k in range(Q.shape[0]):
+        s = Q[k, 0] * u0 + Q[k, 1] * u1 + Q[k, 2] * u2
+        qmax, qmin = max(qmax, s), min(qmin, s)
+    return min(pmax - qmin, qmax - pmin)
+
+
+@_jit
+def depth(P: FloatArray, Q: FloatArray, closed_p: bool, N: FloatArray) -> float:
+    """Penetration depth [mm] of two convex cores that meet: the length of the shortest
+    translation that separates them (the distance from 0 to the boundary of ``P - Q``).
+
+    ``P`` (k, 3) is a segment (k = 2, ``closed_p`` False) or a polygon's vertices
+    (``closed_p`` True), ``Q`` (m, 3) a polygon's vertices (closed), ``N`` (c, 3) the unit
+    normals of the polygons. Every facet of ``P - Q`` is normal to one of ``N`` or to the
+    cross product of an edge of ``P`` and an edge of ``Q``, and the distance from 0 to the
+    boundary of a convex polytope holding it is the least over its facet normals ``u`` of
+    the support function: the least of :func:`_overlap` over those directions (0 when they
+    only touch)."""
+    best = math.inf
+    for c in range(N.shape[0]):
+        best = min(best, _overlap(P, Q, N[c, 0], N[c, 1], N[c, 2]))
+    kp = P.shape[0] if closed_p else P.shape[0] - 1
+    m = Q.shape[0]
+    for i in range(kp):
+        e0 = P[(i + 1) % P.shape[0], 0] - P[i, 0]
+        e1 = P[(i + 1) % P.shape[0], 1] - P[i, 1]
+        e2 = P[(i + 1) % P.shape[0], 2] - P[i, 2]
+        for j in range(m):
+            f0, f1, f2 = (
+                Q[(j + 1) % m, 0] - Q[j, 0],
+                Q[(j + 1) % m, 1] - Q[j, 1],
+                Q[(j + 1) % m, 2] - Q[j, 2],
+            )
+            u0, u1, u2 = e1 * f2 - e2 * f1, e2 * f0 - e0 * f2, e0 * f1 - e1 * f0
+            nu = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+            ne = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2) * math.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
+            if nu > 1e-12 * ne:  # parallel or zero-length edges: no facet
+                best = min(best, _overlap(P, Q, u0 / nu, u1 / nu, u2 / nu))
+    return max(best, 0.0)
+
+
+@_jit
+def segment_polygon(
+    a: FloatArray, b: FloatArray, O: FloatArray, A: FloatArray, uv: FloatArray, V: FloatArray
+) -> float:
+    """Signed distance [mm] from segment ``[a, b]`` to the convex polygon ``uv`` (M, 2) in the
+    plane ``z = 0`` of the frame ``(O, A)``; ``V`` (M, 3) its vertices in the world frame.
+    Minus the penetration depth (:func:`depth`) when the segment passes through the polygon."""
+    d, crosses = _polygon_gap(a, b, O, A, uv, V)
+    if not crosses:
+        return d
+    P = np.empty((2, 3))
+    P[0, :] = a
+    P[1, :] = b
+    N = np.empty((1, 3))
+    N[0, :] = A[:, 2]
+    return -depth(P, V, False, N)
 
 
 @_jit
@@ -138,14 +209,20 @@ def polygon_polygon(
     O1: FloatArray, A1: FloatArray, uv1: FloatArray, V1: FloatArray,
     O2: FloatArray, A2: FloatArray, uv2: FloatArray, V2: FloatArray,
 ) -> float:  # fmt: skip
-    """Distance [mm] between two convex polygons (0 when they touch or cross)."""
+    """Signed distance [mm] between two convex polygons: minus the penetration depth
+    (:func:`depth`) when they meet (0 when they only touch)."""
     d = math.inf
     M1, M2 = uv1.shape[0], uv2.shape[0]
     for m in range(M1):
-        d = min(d, segment_polygon(V1[m], V1[(m + 1) % M1], O2, A2, uv2, V2))
+        d = min(d, _polygon_gap(V1[m], V1[(m + 1) % M1], O2, A2, uv2, V2)[0])
     for m in range(M2):
-        d = min(d, segment_polygon(V2[m], V2[(m + 1) % M2], O1, A1, uv1, V1))
-    return d
+        d = min(d, _polygon_gap(V2[m], V2[(m + 1) % M2], O1, A1, uv1, V1)[0])
+    if d > 0.0:
+        return d
+    N = np.empty((2, 3))
+    N[0, :] = A1[:, 2]
+    N[1, :] = A2[:, 2]
+    return -depth(V1, V2, True, N)
 
 
 @_jit
@@ -243,6 +320,8 @@ def body_clearances(
         ha, hb = _height(B[i, k], O[j], A[j]), _height(T[i, k], O[j], A[j])
         if ha * hb > 0.0:
             lb = max(lb, min(abs(ha), abs(hb)) - r[i] - half_t[j])
+        elif ha * hb < 0.0:  # it may pass through: the depth is at most an end's height
+            lb = min(lb, -min(abs(ha), abs(hb)) - r[i] - half_t[j])
         if lb >= best:
             continue
         d = segment_polygon(B[i, k], T[i, k], O[j], A[j], uv[j], V[j]) - r[i] - half_t[j]
@@ -260,6 +339,8 @@ def body_clearances(
                 least = min(least, abs(h))
             if lo > 0.0 or hi < 0.0:
                 lb = max(lb, least - half_t[j1] - half_t[j2])
+            elif lo < 0.0 < hi:  # they may cross: the depth is at most min(hi, -lo)
+                lb = min(lb, -min(hi, -lo) - half_t[j1] - half_t[j2])
         if lb >= best:
             continue
         d = polygon_polygon(O[j1], A[j1], uv[j1], V[j1], O[j2], A[j2], uv[j2], V[j2])
@@ -267,3 +348,40 @@ def body_clearances(
         if d < best:
             best, at, kind = d, p, 2
     return d_self, adj_min, adj_at, best, kind, at
+
+
+@_jit
+def _through(a: FloatArray, b: FloatArray, O: FloatArray, A: FloatArray, uv: FloatArray) -> bool:
+    """Whether segment ``[a, b]`` crosses the plane ``z = 0`` of the frame ``(O, A)`` inside
+    the polygon ``uv`` (M, 2)."""
+    ha, hb = _height(a, O, A), _height(b, O, A)
+    if not ha * hb < 0.0:
+        return False
+    la, lb = _local(O, A, a), _local(O, A, b)
+    t = ha / (ha - hb)
+    return _inside(uv, la[0] + t * (lb[0] - la[0]), la[1] + t * (lb[1] - la[1]))
+
+
+@_jit
+def any_crossing(
+    B: FloatArray, T: FloatArray, A: FloatArray, O: FloatArray, uv: FloatArray,
+    lp: FloatArray, pp: FloatArray,
+) -> bool:  # fmt: skip
+    """Whether a leg's axis passes through a plate it does not join (pairs ``lp``) or two
+    plates (pairs ``pp``) pass through each other (arguments as :func:`body_clearances`):
+    with zero radii and thickness the only clearances that can be negative. Two convex
+    polygons in distinct planes meet with depth only where an edge of one crosses the
+    other."""
+    for p in range(lp.shape[0]):
+        i, k, j = lp[p, 0], lp[p, 1], lp[p, 2]
+        if _through(B[i, k], T[i, k], O[j], A[j], uv[j]):
+            return True
+    M = uv.shape[1]
+    for p in range(pp.shape[0]):
+        j1, j2 = pp[p, 0], pp[p, 1]
+        for a, b in ((j1, j2), (j2, j1)):
+            V = _vertices(O[a], A[a], uv[a])
+            for m in range(M):
+                if _through(V[m], V[(m + 1) % M], O[b], A[b], uv[b]):
+                    return True
+    return False
