@@ -153,7 +153,14 @@ def markdown(
         "least FN of every method in the table. Within 0.1 % = passes the check and "
         "FN <= 1.001 x best known. Ratios = IPOPT-8's median / the method's median (same "
         "run), of wall-clock time and of CPU time (the process's; BLAS on one thread): on "
-        "a shared, loaded machine the CPU ratio is the steadier one.",
+        "a shared, loaded machine the CPU ratio is the steadier one."
+        + (
+            " With `--reuse`, the rows of methods this command did not run (not in "
+            "`--only`, or not in `--redo`) are an earlier run's on the same targets, kept in "
+            "`spatial_bench.jsonl`; a size a method has no rows for is not in the table for it."
+            if "--reuse" in cmd
+            else ""
+        ),
         "",
         "| n | method | targets | success | within 0.1 % | worst gap | median time "
         "| p90 time | median CPU | vs IPOPT-8 (wall / CPU) | median starts |",
