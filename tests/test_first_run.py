@@ -119,7 +119,12 @@ def _kernels_a_spatial_solve_loads() -> dict[str, object]:
 
     # the planar entry points and every compiled function of the planar kernels' module;
     # of an entry point both modes share (the barrier method), its planar specialisations
-    planar = warmup._dispatchers("planar")
+    # (less the check's body distances, which both solver families compile)
+    planar = [
+        d
+        for d in warmup._dispatchers("planar")
+        if d.py_func.__module__ != "stackik._compiled.body_distances"
+    ]
     planar += [d for d in vars(ipm).values() if hasattr(d, "signatures")]
 
     def not_spatial(sig: tuple) -> bool:

@@ -93,20 +93,25 @@ def _dispatchers(kind: str) -> list[Any]:
         from stackik._compiled import spatial_path as _spatial_ipm_path
 
         return [_spatial_ipm_path.ip_path, _check._spatial_check_many]
+    # the check's screen for legs through plates and its distances, which every check of
+    # a zero-size stack may call (stackik.clearance.cores_cross): in both solver families
+    from stackik._compiled import body_distances as _body
+
+    check = [_body.any_crossing, _body.body_clearances]
     if kind == "planar":
         from stackik._compiled import barrier as _barrier
         from stackik._compiled import check as _check
         from stackik._compiled import planar as _ipm
 
         return [_barrier.ip_multi, _ipm._evaluate, _ipm._lagrangian_hessian,
-                _check._planar_check]  # fmt: skip
+                _check._planar_check, *check]  # fmt: skip
     # (the barrier method's entry points are both modes', compiled once for each)
     from stackik._compiled import barrier as _barrier
     from stackik._compiled import spatial as _spatial_ipm
     from stackik._compiled import spatial_kinematics as _spatial
 
     return [_spatial.spatial_parts, _spatial.block_jacobian, _barrier.ip_multi,
-            _spatial_ipm._evaluate, _spatial_ipm._hessian]  # fmt: skip
+            _spatial_ipm._evaluate, _spatial_ipm._hessian, *check]  # fmt: skip
 
 
 def _row_dispatchers(kind: str) -> list[Any]:
@@ -280,7 +285,7 @@ def _warm(kind: str) -> None:
     from stackik.solve.blas import _blas_controller
 
     _blas_controller()  # threadpoolctl's scan of the loaded libraries (~20 ms), once
-    _, _, _, prob, q0 = _small_problem(planar, rows)
+    stack, pt, _, prob, q0 = _small_problem(planar, rows)
     assert bool(n_dense(prob)) == rows  # the problem data's type is the family's
     prob.evaluate(prob.u_of(q0))
     # two starts: the batch reads its clock before the second (an object-mode call that
@@ -289,6 +294,12 @@ def _warm(kind: str) -> None:
     _warm_sqp_kernels(planar, rows)
     if rows:
         _warm_row_evaluations(prob, q0, planar)
+    else:  # the check's screen and distances (a pose whose legs pass through a plate)
+        from stackik.clearance import clearances, cores_cross
+
+        phi = pt.phi if planar else None
+        cores_cross(stack, q0, phi)
+        clearances(stack, q0, phi=phi)
 
 
 def _warm_row_evaluations(prob: Any, q0: Any, planar: bool) -> None:
