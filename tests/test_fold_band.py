@@ -96,3 +96,35 @@ def test_a_batch_whose_unfolds_find_nothing_gets_the_folds_clear_pose(
     assert sk.clearances(FAT16, res.q, phi=FOLDED.phi).minimum >= -FEAS_TOL
     check = sk.check_pose(FAT16, FOLDED, res.q)
     assert check.ok and check.family_violation == 0.0
+
+
+def test_tall_planar_batches_go_to_the_fold_band_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """From FOLD_BAND_FIRST_N platforms on (planar), a batch whose runs pass legs through
+    plates is not made again run by run: the fold band answers, and only its pose is
+    unfolded once (stages._fold_band); below, and in spatial mode, the batch's runs are."""
+    from stackik.formulation.fold_band import FOLD_BAND_FIRST_N
+    from stackik.formulation.modes import PLANAR, SPATIAL
+    from stackik.solve import stages
+
+    assert PLANAR.band_first(sk.Stack.reference(FOLD_BAND_FIRST_N))
+    assert not PLANAR.band_first(sk.Stack.reference(FOLD_BAND_FIRST_N - 1))
+    assert not SPATIAL.band_first(sk.Stack.reference(64))
+    unfolds: list[int] = []
+    bands: list[int] = []
+    unfold, band = stages._unfold, stages._fold_band
+
+    def spy_unfold(*args: Any, **kwargs: Any) -> Any:
+        unfolds.append(1)
+        return unfold(*args, **kwargs)
+
+    def spy_band(*args: Any, **kwargs: Any) -> Any:
+        bands.append(len(unfolds))  # the unfolds before the band
+        return band(*args, **kwargs)
+
+    monkeypatch.setattr(stages, "_unfold", spy_unfold)
+    monkeypatch.setattr(stages, "_fold_band", spy_band)
+    stack = sk.Stack.reference(FOLD_BAND_FIRST_N)
+    t = random_reachable_targets(stack, 8, rng=15583 + FOLD_BAND_FIRST_N, phi=0.3)[0]
+    res = sk.solve_ik(stack, t)
+    assert res.success and sk.check_pose(stack, t, res.q).ok
+    assert bands == [0] and len(unfolds) == 1

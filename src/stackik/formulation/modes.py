@@ -112,6 +112,11 @@ class Mode:
         rows)."""
         return []
 
+    def band_first(self, stack: Stack) -> bool:
+        """Whether a batch whose runs folded into themselves goes to :meth:`fold_rows` at
+        once, without making those runs again with the non-adjacent bodies' rows."""
+        return False
+
 
 @dataclass(frozen=True)
 class PlanarMode(Mode):
@@ -160,6 +165,11 @@ class PlanarMode(Mode):
         if fold is None:
             return []
         return [FoldBand(fold, band, tilt, target.theta) for band, tilt in FOLD_BANDS]
+
+    def band_first(self, stack: Stack) -> bool:
+        from stackik.formulation.fold_band import FOLD_BAND_FIRST_N
+
+        return stack.n >= FOLD_BAND_FIRST_N
 
 
 @dataclass(frozen=True)

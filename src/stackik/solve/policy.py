@@ -8,6 +8,7 @@ executes them.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -59,7 +60,9 @@ __all__ = [
     "StartPlan",
     "auto_method",
     "compact_hop_rounds",
+    "confirmed",
     "plan_starts",
+    "stands",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -345,3 +348,27 @@ def plan_starts(req: Any) -> StartPlan:
         and reach_fraction(req.stack, req.target) < COMPACT_REACH
     )
     return StartPlan(queue, n_planned, starts, spatial_default, compact)
+
+
+def stands(runs: Sequence[Any], rtol: float, count: float) -> bool:
+    """The least objective among ``runs`` (checked runs: ``Run``, or None where the run
+    failed the check) that passed the check was first reached (the earliest run whose
+    square root is within ``rtol`` of the least's, relative) at least ``count`` runs
+    before the last: that many runs after it found nothing lower. False when no run
+    passed."""
+    roots = [None if r is None else float(np.sqrt(max(r.obj, 0.0))) for r in runs]
+    passed = [x for x in roots if x is not None]
+    if not passed:
+        return False
+    least = min(passed)
+    near = least + max(rtol, 0.0) * abs(least)  # (the least itself at least)
+    first = next(i for i, x in enumerate(roots) if x is not None and x <= near)
+    return len(runs) - 1 - first >= count
+
+
+def confirmed(runs: Sequence[Any], rtol: float) -> bool:
+    """At least two of ``runs`` passed the check and the least objective among them is
+    matched by another: square roots (FN for the default objective) within ``rtol`` of
+    it, relative (:data:`stackik.solve.policy.ADAPTIVE_RTOL` in the adaptive plan)."""
+    roots = sorted(float(np.sqrt(max(r.obj, 0.0))) for r in runs if r is not None)
+    return len(roots) >= 2 and roots[1] - roots[0] <= rtol * abs(roots[0])

@@ -50,6 +50,8 @@ from stackik.solve.policy import (
     UNFOLD_STARTS,
     StartPlan,
     compact_hop_rounds,
+    confirmed,
+    stands,
 )
 from stackik.solve.request import Request
 from stackik.starts import spatial_default_hops
@@ -315,29 +317,6 @@ def _adaptive_batch(
         if req.out_of_time():
             break
     return _merge(parts), ran
-
-
-def stands(runs: list[Run | None], rtol: float, count: float) -> bool:
-    """The least objective among ``runs`` that passed the check was first reached (the
-    earliest run whose square root is within ``rtol`` of the least's, relative) at least
-    ``count`` runs before the last: that many runs after it found nothing lower.
-    False when no run passed."""
-    roots = [None if r is None else float(np.sqrt(max(r.obj, 0.0))) for r in runs]
-    passed = [x for x in roots if x is not None]
-    if not passed:
-        return False
-    least = min(passed)
-    near = least + max(rtol, 0.0) * abs(least)  # (the least itself at least)
-    first = next(i for i, x in enumerate(roots) if x is not None and x <= near)
-    return len(runs) - 1 - first >= count
-
-
-def confirmed(runs: list[Run | None], rtol: float) -> bool:
-    """At least two of ``runs`` passed the check and the least objective among them is
-    matched by another: square roots (FN for the default objective) within ``rtol`` of
-    it, relative (:data:`stackik.solve.policy.ADAPTIVE_RTOL` in the adaptive plan)."""
-    roots = sorted(float(np.sqrt(max(r.obj, 0.0))) for r in runs if r is not None)
-    return len(roots) >= 2 and roots[1] - roots[0] <= rtol * abs(roots[0])
 
 
 def _merge(parts: list[IPBatch]) -> IPBatch:
@@ -639,7 +618,9 @@ def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
     """The interior point's runs that folded into themselves (``batch.folded``: they failed
     the check on non-adjacent bodies alone, at a lower objective than ``batch.best``),
     made again from their starts by :func:`_unfold` (at most :data:`UNFOLD_STARTS`, lowest
-    first, one per basin; initial barrier :data:`UNFOLD_MU0` unless the caller set
+    first, one per basin; none where the mode goes to the fold band at once,
+    :meth:`~stackik.formulation.modes.Mode.band_first`; initial barrier
+    :data:`UNFOLD_MU0` unless the caller set
     ``mu0``; of a leg and a plate the rows of :data:`UNFOLD_PLATE_ROWS` covering segments);
     a passing run of lower objective replaces ``batch.best`` (in place; the
     iterations counted). A batch without such runs is left as it is.
@@ -663,8 +644,9 @@ def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
         return got.best if got.best is not None else got.least
 
     tried: list[float] = []
+    limit = 0 if req.mode.band_first(req.stack) else UNFOLD_STARTS  # 0: the fold band answers
     for run, start in batch.folded:
-        if len(tried) == UNFOLD_STARTS or req.out_of_time():
+        if len(tried) == limit or req.out_of_time():
             break
         if batch.best is not None and not _lower(run, batch.best):
             break
