@@ -672,7 +672,8 @@ def _fold_band(
     :class:`~stackik.formulation.fold_band.FoldBand`, within a band of the end effector's
     angle, each platform turning at most a tilt, for each pair of
     :data:`~stackik.formulation.fold_band.FOLD_BANDS` until one gives a pose; spatial:
-    none), from the paper's guess and from the folded pose. The first pose that passes
+    none), from the paper's guess, the folded pose and the upright one
+    (:meth:`~stackik.formulation.modes.Mode.upright`). The first pose that passes
     the check of the request's problem (without those rows) becomes ``batch.best`` and
     starts one more :func:`_unfold` (rows for the pairs close at it and at the folded
     pose), whose pose replaces it when it passes at a lower objective.
@@ -690,7 +691,8 @@ def _fold_band(
         if req.out_of_time():
             return
         left = req.time_left(time.perf_counter())
-        got = method.run_many(prob.with_families((band,)), [req.q0, run.q], req.options, left)
+        starts = [req.q0, run.q, prob.mode.upright(prob.stack)]
+        got = method.run_many(prob.with_families((band,)), starts, req.options, left)
         batch.nit += got.nit
         if got.best is not None and (check := prob.check(got.best.q)).ok:
             batch.best = dataclasses.replace(got.best, check=check)
