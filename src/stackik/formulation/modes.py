@@ -117,13 +117,11 @@ class Mode:
         once, without making those runs again with the non-adjacent bodies' rows."""
         return False
 
-    def upright(self, stack: Stack) -> FloatArray:
-        """Every platform level, straight above the one below, at its nominal height (legs
-        at 35 % of their range, :func:`stackik.starts.nominal_height`): shape (n, k)."""
-        from stackik.starts import nominal_height
-
-        q = np.zeros((stack.n, self.k))
-        q[:, self.k - self.n_angles - 1] = nominal_height(stack)  # the last translation
+    def upright(self, heights: FloatArray) -> FloatArray:
+        """Every platform level, straight above the one below, at ``heights`` (n,) [mm]
+        (e.g. :func:`stackik.starts.nominal_height`): shape (n, k)."""
+        q = np.zeros((len(heights), self.k))
+        q[:, self.k - self.n_angles - 1] = heights  # the last translation
         return q
 
 

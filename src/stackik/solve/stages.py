@@ -54,7 +54,7 @@ from stackik.solve.policy import (
     stands,
 )
 from stackik.solve.request import Request
-from stackik.starts import spatial_default_hops
+from stackik.starts import nominal_height, spatial_default_hops
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -691,7 +691,7 @@ def _fold_band(
         if req.out_of_time():
             return
         left = req.time_left(time.perf_counter())
-        starts = [req.q0, run.q, prob.mode.upright(prob.stack)]
+        starts = [req.q0, run.q, prob.mode.upright(nominal_height(prob.stack))]
         got = method.run_many(prob.with_families((band,)), starts, req.options, left)
         batch.nit += got.nit
         if got.best is not None and (check := prob.check(got.best.q)).ok:
