@@ -109,6 +109,9 @@ def test_tall_planar_batches_go_to_the_fold_band_at_once(monkeypatch: pytest.Mon
     assert PLANAR.band_first(sk.Stack.reference(FOLD_BAND_FIRST_N))
     assert not PLANAR.band_first(sk.Stack.reference(FOLD_BAND_FIRST_N - 1))
     assert not SPATIAL.band_first(sk.Stack.reference(64))
+    h = np.array([300.0, 310.0, 320.0])  # the band's upright start, at these heights
+    np.testing.assert_array_equal(PLANAR.upright(h), [[0.0, z, 0.0] for z in h])
+    np.testing.assert_array_equal(SPATIAL.upright(h), [[0.0, 0.0, z, 0.0, 0.0, 0.0] for z in h])
     unfolds: list[int] = []
     bands: list[int] = []
     unfold, band = stages._unfold, stages._fold_band
