@@ -618,8 +618,8 @@ def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
     """The interior point's runs that folded into themselves (``batch.folded``: they failed
     the check on non-adjacent bodies alone, at a lower objective than ``batch.best``),
     made again from their starts by :func:`_unfold` (at most :data:`UNFOLD_STARTS`, lowest
-    first, one per basin; none where the mode goes to the fold band at once,
-    :meth:`~stackik.formulation.modes.Mode.band_first`; initial barrier
+    first, one per basin; where the mode goes to the fold band first,
+    :meth:`~stackik.formulation.modes.Mode.band_first`, only when it gives no pose; initial barrier
     :data:`UNFOLD_MU0` unless the caller set
     ``mu0``; of a leg and a plate the rows of :data:`UNFOLD_PLATE_ROWS` covering segments);
     a passing run of lower objective replaces ``batch.best`` (in place; the
@@ -643,10 +643,12 @@ def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
         batch.nit += got.nit
         return got.best if got.best is not None else got.least
 
+    first = req.mode.band_first(req.stack)  # the fold band first; the unfolds if it fails
+    if first and batch.best is None:
+        _fold_band(req, method, batch, solve)
     tried: list[float] = []
-    limit = 0 if req.mode.band_first(req.stack) else UNFOLD_STARTS  # 0: the fold band answers
     for run, start in batch.folded:
-        if len(tried) == limit or req.out_of_time():
+        if len(tried) == UNFOLD_STARTS or req.out_of_time() or (first and batch.best is not None):
             break
         if batch.best is not None and not _lower(run, batch.best):
             break
@@ -656,7 +658,7 @@ def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
         got = _unfold(req, run, start, solve, UNFOLD_PLATE_ROWS)
         if got is not None and got.ok and (batch.best is None or _lower(got, batch.best)):
             batch.best = got
-    if batch.best is None and not req.out_of_time():
+    if batch.best is None and not first and not req.out_of_time():
         _fold_band(req, method, batch, solve)
 
 
