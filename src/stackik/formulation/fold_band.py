@@ -56,15 +56,16 @@ IntArray = NDArray[np.int64]
 #: plates), and (0.25, 0.2) from the folded and the upright pose (+2.7-3.2 %); so the band
 #: also starts upright, and (0.25, 0.2) comes last.
 FOLD_BANDS = ((0.5, 0.4), (0.35, 0.3), (0.25, 0.2))
-#: From this many platforms on, a planar batch whose runs folded goes to the fold band at
-#: once: its folded runs are not made again with the non-adjacent bodies' rows first
-#: (:func:`stackik.solve.stages._unfold_batch`; :meth:`Mode.band_first
-#: <stackik.formulation.modes.Mode.band_first>`). On the tall targets of two fresh seeds
-#: (15583: n = 32 and 64, 14 targets; 349716: 20) those unfolds gave the answer on none:
-#: the same pose on 29 of 34 (the fold band's, after 2-20 s of unfolds), lower without
-#: them on 2 (-4.4 % and -0.004 %), higher on 3 (+0.03 to +0.53 %), each solve 2-10x
-#: faster; at n = 16 they do give the answer (on 12 of 20 targets of seed 15583 a pose
-#: lower by up to 2.7 %).
+#: From this many platforms on, a planar batch whose runs folded goes to the fold band
+#: first, and makes its folded runs again with the non-adjacent bodies' rows
+#: (:func:`stackik.solve.stages._unfold_batch`) only when the band gives no pose
+#: (:meth:`Mode.band_first <stackik.formulation.modes.Mode.band_first>`). On the tall
+#: targets of two fresh seeds (15583: n = 32 and 64, 14 targets; 349716: 20) the
+#: unfolds before the band gave the answer on none: the same pose on 29 of 34, lower
+#: without them on 2 (-4.4 % and -0.004 %), higher on 3 (+0.03 to +0.53 %), each solve
+#: 2-10x faster; at n = 16 they do give the answer (on 12 of 20 targets of seed 15583 a
+#: pose lower by up to 2.7 %). Where the band fails they still rescue a pose (seed
+#: 698528, n = 64: 3 of 10 targets, 19-59 s).
 FOLD_BAND_FIRST_N = 32
 #: The fold of a folded pose: the platforms from the lowest plate of a pair of bodies of
 #: non-adjacent platforms within this [mm] of their least distance (:func:`fold_platforms`):

@@ -113,8 +113,9 @@ class Mode:
         return []
 
     def band_first(self, stack: Stack) -> bool:
-        """Whether a batch whose runs folded into themselves goes to :meth:`fold_rows` at
-        once, without making those runs again with the non-adjacent bodies' rows."""
+        """Whether a batch whose runs folded into themselves goes to :meth:`fold_rows`
+        first, making those runs again with the non-adjacent bodies' rows only when the
+        fold rows give no pose."""
         return False
 
     def upright(self, heights: FloatArray) -> FloatArray:
