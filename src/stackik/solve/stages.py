@@ -619,9 +619,9 @@ def _unfold_batch(req: Request, method: IPMethod, batch: IPBatch) -> None:
     the check on non-adjacent bodies alone, at a lower objective than ``batch.best``),
     made again from their starts by :func:`_unfold` (at most :data:`UNFOLD_STARTS`, lowest
     first, one per basin; where the mode goes to the fold band first,
-    :meth:`~stackik.formulation.modes.Mode.band_first`, only when it gives no pose; initial barrier
-    :data:`UNFOLD_MU0` unless the caller set
-    ``mu0``; of a leg and a plate the rows of :data:`UNFOLD_PLATE_ROWS` covering segments);
+    :meth:`~stackik.formulation.modes.Mode.band_first`, only when it gives no pose;
+    initial barrier :data:`UNFOLD_MU0` unless the caller set ``mu0``; of a leg and a
+    plate the rows of :data:`UNFOLD_PLATE_ROWS` covering segments);
     a passing run of lower objective replaces ``batch.best`` (in place; the
     iterations counted). A batch without such runs is left as it is.
 
