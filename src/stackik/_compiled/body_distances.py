@@ -130,11 +130,20 @@ def _polygon_gap(
         d = min(d, abs(ha))
     if _inside(uv, lb[0], lb[1]):
         d = min(d, abs(hb))
-    if ha * hb < 0.0:
-        t = ha / (ha - hb)
-        if _inside(uv, la[0] + t * (lb[0] - la[0]), la[1] + t * (lb[1] - la[1])):
-            return 0.0, True
+    if _crosses_inside(uv, la, lb):
+        return 0.0, True
     return d, False
+
+
+@_jit
+def _crosses_inside(uv: FloatArray, la: FloatArray, lb: FloatArray) -> bool:
+    """Whether the segment between the points ``la``, ``lb`` (a plate's frame) crosses
+    its plane ``z = 0`` inside the polygon ``uv`` (M, 2)."""
+    ha, hb = la[2], lb[2]
+    if not ha * hb < 0.0:
+        return False
+    t = ha / (ha - hb)
+    return _inside(uv, la[0] + t * (lb[0] - la[0]), la[1] + t * (lb[1] - la[1]))
 
 
 @_jit
@@ -354,12 +363,9 @@ def body_clearances(
 def _through(a: FloatArray, b: FloatArray, O: FloatArray, A: FloatArray, uv: FloatArray) -> bool:
     """Whether segment ``[a, b]`` crosses the plane ``z = 0`` of the frame ``(O, A)`` inside
     the polygon ``uv`` (M, 2)."""
-    ha, hb = _height(a, O, A), _height(b, O, A)
-    if not ha * hb < 0.0:
+    if not _height(a, O, A) * _height(b, O, A) < 0.0:  # (no frame change: most pairs)
         return False
-    la, lb = _local(O, A, a), _local(O, A, b)
-    t = ha / (ha - hb)
-    return _inside(uv, la[0] + t * (lb[0] - la[0]), la[1] + t * (lb[1] - la[1]))
+    return _crosses_inside(uv, _local(O, A, a), _local(O, A, b))
 
 
 @_jit
@@ -377,11 +383,13 @@ def any_crossing(
         if _through(B[i, k], T[i, k], O[j], A[j], uv[j]):
             return True
     M = uv.shape[1]
+    V = np.empty((O.shape[0], M, 3))  # every plate's vertices, once
+    for j in range(O.shape[0]):
+        V[j] = _vertices(O[j], A[j], uv[j])
     for p in range(pp.shape[0]):
         j1, j2 = pp[p, 0], pp[p, 1]
         for a, b in ((j1, j2), (j2, j1)):
-            V = _vertices(O[a], A[a], uv[a])
             for m in range(M):
-                if _through(V[m], V[(m + 1) % M], O[b], A[b], uv[b]):
+                if _through(V[a, m], V[a, (m + 1) % M], O[b], A[b], uv[b]):
                     return True
     return False
