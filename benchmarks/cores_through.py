@@ -24,6 +24,7 @@ the median and largest wall time of each.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import sys
 import time
@@ -33,8 +34,6 @@ from typing import Any
 import numpy as np
 from _results import write_results
 
-import stackik.check
-import stackik.clearance
 from stackik import Stack, solve_ik
 from stackik.bench import machine_info
 from stackik.sampling import random_reachable_targets, random_spatial_targets
@@ -42,6 +41,7 @@ from stackik.sampling import random_reachable_targets, random_spatial_targets
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 import fuzz_cases  # noqa: E402
 import reference_impl as ref  # noqa: E402
+from helpers import screen_off  # noqa: E402
 
 PHI = 0.3
 SIZES = ["planar:4:20", "planar:8:20", "planar:16:20", "planar:32:8", "planar:64:6",
@@ -58,19 +58,10 @@ def _through(stack: Stack, q: Any, planar: bool) -> int:
 
 
 def _solve(stack: Stack, target: Any, lines: bool) -> tuple[Any, float]:
-    saved = stackik.clearance.cores_cross, stackik.check.cores_cross
-    if lines:
-
-        def never(*args: Any, **kwargs: Any) -> bool:
-            return False
-
-        stackik.clearance.cores_cross = stackik.check.cores_cross = never
-    try:
+    with screen_off() if lines else contextlib.nullcontext():
         t0 = time.perf_counter()
         r = solve_ik(stack, target)
         return r, time.perf_counter() - t0
-    finally:
-        stackik.clearance.cores_cross, stackik.check.cores_cross = saved
 
 
 def run_case(mode: str, n: int, count: int, seed: int) -> tuple[dict[str, Any], list[Any]]:

@@ -1,5 +1,7 @@
 """Test session set-up."""
 
+from collections.abc import Iterator
+
 import pytest
 
 
@@ -34,18 +36,13 @@ def _compiled_kernels(tmp_path_factory: pytest.TempPathFactory) -> None:
 
 
 @pytest.fixture
-def lines_pass_through(monkeypatch: pytest.MonkeyPatch) -> None:
+def lines_pass_through() -> Iterator[None]:
     """The paper's model on stacks whose legs and plates have no size: a leg's axis may
-    pass through a plate (the check's screen for it, :func:`stackik.clearance.cores_cross`,
-    answers no). For tests that need the least-FN pose of that model (on tall planar
-    stacks it passes legs through plates: docs/clearance.md, "Cores through plates"), or
-    that test the start plan's scheduling apart from the repair of such poses. Stacks with
-    a leg radius, a plate thickness, obstacles or a margin are checked as always."""
-    import stackik.check
-    import stackik.clearance
+    pass through a plate (:func:`helpers.screen_off`). For tests that need the least-FN
+    pose of that model (on tall planar stacks it passes legs through plates:
+    docs/clearance.md, "Cores through plates"), or that test the start plan's scheduling
+    apart from the repair of such poses."""
+    from helpers import screen_off
 
-    def never(*args: object, **kwargs: object) -> bool:
-        return False
-
-    monkeypatch.setattr(stackik.clearance, "cores_cross", never)
-    monkeypatch.setattr(stackik.check, "cores_cross", never)
+    with screen_off():
+        yield

@@ -224,13 +224,13 @@ def _through_a_plate():
     """A planar n = 16 target (the fingerprint's, seed 36) and the least-FN pose of legs as
     lines that passes through plates (the paper's model: the check's screen off), found by
     the default as it was before the check knew of it."""
+    from helpers import screen_off
+
     from stackik.sampling import random_reachable_targets
 
     stack = Stack.reference(16)
     t = random_reachable_targets(stack, 3, rng=36, phi=PHI)[0]
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(stackik.clearance, "cores_cross", lambda *a, **k: False)
-        mp.setattr(stackik.check, "cores_cross", lambda *a, **k: False)
+    with screen_off():
         q = stackik.solve_ik(stack, t).q
     return stack, t, q
 
