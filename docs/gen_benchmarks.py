@@ -135,6 +135,8 @@ def _at_scale(sp: dict[str, Any], sc: dict[str, Any]) -> list[str]:
             f"{_ms(d['median_time_s'])} | {_pct(i['within_0.1%'])}, {_ms(i['median_time_s'])} "
             f"| {d['ipopt8_time_ratio']:.1f}x |"
         )
+    ref = sc["meta"]["ref_starts"]  # merged parts: "a, b"
+    planar_ref = set(str(ref).split(", ")) != {"0"}  # IPOPT from many starts was run
     for r in sc["summary"]:
         t = r["targets"]
         ran = math.isfinite(r["ipopt8_median_ms"])  # bench_scale.py --ipopt-max-n
@@ -146,7 +148,7 @@ def _at_scale(sp: dict[str, Any], sc: dict[str, Any]) -> list[str]:
         speedup = f"{r['default_speedup_vs_ipopt8']:.0f}x" if ran else "-"
         solved = "" if r["default_success"] == t else f" ({r['default_success']}/{t} solved)"
         within = _pct(r["default_within"] / t) + solved
-        if not ran and set(str(sc["meta"]["ref_starts"]).split(", ")) == {"0"}:
+        if not ran and not planar_ref:
             # best known from the default's own runs alone: no quality figure
             within = f"no outside reference ({r['default_success']}/{t} solved)"
         lines.append(
@@ -164,8 +166,7 @@ def _at_scale(sp: dict[str, Any], sc: dict[str, Any]) -> list[str]:
         for k in sorted(set(refs.values()) - {0}, reverse=True)
     ]
     none = [f"spatial n = {n}" for n in refs if refs[n] == 0]
-    ref = sc["meta"]["ref_starts"]  # merged parts: "a, b"
-    if set(str(ref).split(", ")) != {"0"}:
+    if planar_ref:
         many.append(f"IPOPT from {ref} starts (planar)")
     else:
         none.append("planar")
