@@ -88,7 +88,7 @@ def collect(results: Path) -> list[dict[str, Any]]:
     stages.map_in_threads = lambda f, k, *a: [f(i) for i in range(k)]  # type: ignore[assignment]
     out = []
     for (seed, count, n, k), best in sorted(best_known(results).items()):
-        stack = stackik.Stack.reference(n)
+        stack = stackik.Stack.reference(n, leg_radius=0.0)
         target = targets(True, stack, count, seed)[k]
         if reach_fraction(stack, target) < COMPACT_REACH:
             continue

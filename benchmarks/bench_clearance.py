@@ -196,7 +196,7 @@ def _warm_up(planar: bool, thin: Stack, fat: Stack, args: Any) -> None:
 
 def run_case(name: str, args: Any) -> list[dict[str, Any]]:
     planar, n = CASES[name]
-    thin = Stack.reference(n)
+    thin = Stack.reference(n, leg_radius=0.0)
     fat = Stack.uniform(PlatformGeometry.hexagonal(leg_radius=args.radius), n)
     _warm_up(planar, thin, fat, args)
     rows: list[dict[str, Any]] = []

@@ -52,7 +52,7 @@ SAME_FN = 1e-6
 
 
 def run_mode(mode: str, count: int, repeats: int, seed: int) -> dict[str, Any]:
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     rng = np.random.default_rng(seed)
     targets = (
         random_spatial_targets(stack, count, rng=rng)

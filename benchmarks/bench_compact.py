@@ -38,7 +38,7 @@ WITHIN = 1e-3  # "best known" within 0.1 %
 
 def compact_targets(n: int, count: int, seed: int) -> list[tuple[int, Any]]:
     """``count`` compact targets of ``Stack.reference(n)`` as ``(k, target)``."""
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     out: list[tuple[int, Any]] = []
     k = 0
     while len(out) < count:
@@ -51,7 +51,7 @@ def compact_targets(n: int, count: int, seed: int) -> list[tuple[int, Any]]:
 
 
 def run(n: int, count: int, seed: int, ref_starts: int) -> list[dict[str, Any]]:
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     rows = []
     for k, t in compact_targets(n, count, seed):
         row: dict[str, Any] = {"n": n, "k": k, "reach": reach_fraction(stack, t)}

@@ -32,6 +32,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -58,7 +59,7 @@ SAME_FN = 1e-9
 
 
 def _targets(mode: str, n: int, count: int, seed: int) -> list[Any]:
-    st = Stack.reference(n)
+    st = Stack.reference(n, leg_radius=0.0)  # the targets drawn as before the 12 mm default
     if mode == "spatial":
         return random_spatial_targets(st, count, rng=np.random.default_rng(seed + n))
     return random_reachable_targets(st, count, rng=seed + n, phi=0.3)
@@ -85,7 +86,7 @@ def _solve(stack: Stack, t: Any, kw: dict[str, Any]) -> dict[str, Any]:
 def run_case(
     mode: str, n: int, count: int, seed: int, ipopt: bool, best: int = 0
 ) -> list[dict[str, Any]]:
-    st0 = Stack.reference(n)
+    st0 = Stack.reference(n, leg_radius=0.0)
     st12 = Stack.uniform(PlatformGeometry.hexagonal(leg_radius=RADIUS), n)
     rows = []
     targets = _targets(mode, n, count, seed)
@@ -158,11 +159,14 @@ def summarise(rows: list[dict[str, Any]], ipopt: bool) -> list[dict[str, Any]]:
     return out
 
 
-def markdown(summary: list[dict[str, Any]], seed: int, info: dict[str, Any]) -> str:
+def markdown(
+    summary: list[dict[str, Any]], seed: int, info: dict[str, Any], command: str = ""
+) -> str:
     keys = list(dict.fromkeys(k for s in summary for k in s))  # (no IPOPT past IPOPT_MAX_N)
     lines = [
         f"# Non-adjacent leg rows: 12 mm legs against 0 mm (seed {seed})",
         "",
+        *([f"`{command}`, {info['date']}.", ""] if command else []),
         "Default `solve_ik`; `ok_*`: successes (the check, exact distances); `false_r12`: "
         "12 mm successes with a negative clearance by `stackik.clearances`; `changed`: "
         "12 mm poses whose FN differs from the 0 mm pose's by more than 1e-9 (relative); "
@@ -221,12 +225,20 @@ def main() -> None:
         w = csv.DictWriter(fh, fieldnames=list(dict.fromkeys(k for r in rows for k in r)))
         w.writeheader()
         w.writerows(rows)
+    command = "python benchmarks/bench_nonadj.py " + " ".join(sys.argv[1:])
     (args.out / "nonadj_bench.json").write_text(
         json.dumps(
-            {"seed": args.seed, "machine": info, "summary": summary, "rows": rows}, indent=1
+            {
+                "command": command,
+                "seed": args.seed,
+                "machine": info,
+                "summary": summary,
+                "rows": rows,
+            },
+            indent=1,
         )  # fmt: skip
     )
-    text = markdown(summary, args.seed, info)
+    text = markdown(summary, args.seed, info, command)
     (args.out / "nonadj_bench.md").write_text(text)
     print(text)
 

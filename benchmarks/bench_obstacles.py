@@ -221,7 +221,7 @@ def _warm_up(planar: bool, kind: str, stack: Stack, args: Any) -> None:
 
 def run_case(name: str, args: Any) -> tuple[list[dict[str, Any]], int]:
     planar, kind, n = CASES[name]
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     assert all(g.leg_radius == 0 and g.plate_thickness == 0 for g in stack)
     _warm_up(planar, kind, stack, args)
     rows: list[dict[str, Any]] = []

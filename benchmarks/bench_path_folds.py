@@ -43,7 +43,7 @@ def main() -> None:
     args = ap.parse_args()
     rows: list[dict[str, Any]] = []
     for kind, n, straight, curved, m in CASES:
-        ref = Stack.reference(n)
+        ref = Stack.reference(n, leg_radius=0.0)
         fat = Stack.uniform(PlatformGeometry.hexagonal(leg_radius=RADIUS), n)
         for idx, (shape, ts) in enumerate(make_paths(kind, ref, straight, curved, 0, m, SEED)):
             phi = getattr(ts[0], "phi", None)

@@ -33,7 +33,7 @@ def main() -> None:
     ap.add_argument("--cases", type=int, default=1000)
     ap.add_argument("--seed", type=int, default=2992)
     args = ap.parse_args()
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     rng = np.random.default_rng(args.seed)
     successes = false = 0
     statuses: dict[str, int] = {}

@@ -38,7 +38,7 @@ def _run(stack: Stack, target: Any, ob: Any, rule: bool) -> tuple[Any, float]:
 def main() -> None:
     seed, count, kind, n = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3], int(sys.argv[4])
     ref = int(sys.argv[5]) if len(sys.argv) > 5 else 32
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     within = {"old": 0, "new": 0}
     for k in range(count):
         target = bo._target(True, stack, k, count, seed)

@@ -59,7 +59,7 @@ OBSTACLES = [
 
 
 def _targets(mode: str, count: int, seed: int) -> list[Any]:
-    stack = Stack.reference(N)
+    stack = Stack.reference(N, leg_radius=0.0)
     if mode == "spatial":
         return [random_spatial_targets(stack, 1, rng=seed + k)[0] for k in range(count)]
     phis = [2 * math.pi * k / count for k in range(count)]
@@ -100,7 +100,7 @@ def _stats(values: list[float]) -> dict[str, float]:
 
 
 def run_mode(mode: str, count: int, seed: int, radius: float) -> dict[str, Any]:
-    thin = Stack.reference(N)
+    thin = Stack.reference(N, leg_radius=0.0)
     fat = Stack.uniform(PlatformGeometry.hexagonal(leg_radius=radius), N)
     rows = []
     for k, target in enumerate(_targets(mode, count, seed)):
@@ -152,7 +152,7 @@ def run_mode(mode: str, count: int, seed: int, radius: float) -> dict[str, Any]:
 def random_adjacent_gaps(count: int, seed: int) -> dict[str, Any]:
     """Adjacent-leg axis gaps over random feasible poses: planar (phi spread) and spatial
     (every variable uniform in a wide box, kept within the limits)."""
-    stack = Stack.reference(N)
+    stack = Stack.reference(N, leg_radius=0.0)
     gen = np.random.default_rng(seed)
     planar = []
     phis = gen.uniform(0, 2 * math.pi, 20)
@@ -161,7 +161,7 @@ def random_adjacent_gaps(count: int, seed: int) -> dict[str, Any]:
             planar.append(adjacent_leg_gap(stack, q, float(phi)))
     # spatial: the limits of a platform depend on its own variables only, so each
     # platform's row is drawn until it is feasible on its own
-    one = Stack.reference(1)
+    one = Stack.reference(1, leg_radius=0.0)
     rows: list[np.ndarray] = []
     while len(rows) < count * N:
         cand = np.column_stack(

@@ -66,7 +66,7 @@ def _solve(stack: Stack, target: Any, lines: bool) -> tuple[Any, float]:
 
 def run_case(mode: str, n: int, count: int, seed: int) -> tuple[dict[str, Any], list[Any]]:
     planar = mode == "planar"
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     if planar:
         targets = random_reachable_targets(stack, count, rng=seed + n, phi=PHI)
     else:

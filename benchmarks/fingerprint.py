@@ -33,7 +33,7 @@ def _cases() -> list[tuple[str, Any, Any, dict[str, Any]]]:
     from stackik.sampling import random_reachable_targets
 
     out: list[tuple[str, Any, Any, dict[str, Any]]] = []
-    st4 = Stack.reference(4)
+    st4 = Stack.reference(4, leg_radius=0.0)
     paper = [(600.0, 1000.0, -1.57), (145.0, 1500.0, -0.207), (-319.0, 1532.0, 0.332)]
     tg4 = [PlanarTarget(*t) for t in paper]
     tg4 += list(random_reachable_targets(st4, 6, rng=11, phi=0.0))
@@ -71,14 +71,15 @@ def _cases() -> list[tuple[str, Any, Any, dict[str, Any]]]:
             x0 = np.column_stack([np.zeros(4), np.full(4, 330.0), np.full(4, t.theta / 4)])
             out.append((f"n4/{i}/x0", st4, t, {"x0": x0}))
     for n in (1, 2, 8, 16):
-        st = Stack.reference(n)
+        st = Stack.reference(n, leg_radius=0.0)
         for i, t in enumerate(random_reachable_targets(st, 3, rng=20 + n, phi=0.3)):
             out.append((f"n{n}/{i}/default", st, t, {}))
             out.append((f"n{n}/{i}/ip1", st, t, {"method": "ip", "starts": 1}))
     g = PlatformGeometry.hexagonal(
         base_radius=170.0, top_radius=130.0, leg_min=240.0, leg_max=460.0
     )
-    mixed = Stack((g, PlatformGeometry.reference(), g, PlatformGeometry.reference(), g, g))
+    line = PlatformGeometry.reference(leg_radius=0.0)
+    mixed = Stack((g, line, g, line, g, g))
     for i, t in enumerate(random_reachable_targets(mixed, 4, rng=31, phi=-1.7)):
         out.append((f"mixed6/{i}/default", mixed, t, {}))
     # unreachable: inside the reach bound and far beyond it
@@ -86,7 +87,7 @@ def _cases() -> list[tuple[str, Any, Any, dict[str, Any]]]:
     out.append(("unreach/in/sqp", st4, PlanarTarget(1500.0, 300.0, 0.0), {"method": "sqp"}))
     out.append(("unreach/far", st4, PlanarTarget(6000.0, 1000.0, 0.0), {}))
     # spatial
-    st3 = Stack.reference(3)
+    st3 = Stack.reference(3, leg_radius=0.0)
     gen = np.random.default_rng(5)
     sp = []
     while len(sp) < 3:
@@ -116,7 +117,7 @@ def _row_cases() -> list[tuple[str, Any, Any, dict[str, Any]]]:
     from stackik.sampling import random_reachable_targets, random_spatial_targets
 
     out: list[tuple[str, Any, Any, dict[str, Any]]] = []
-    st4 = Stack.reference(4)
+    st4 = Stack.reference(4, leg_radius=0.0)
     sphere = Sphere(np.array([300.0, 0.0, 500.0]), 50.0)
     truss = Capsule(np.array([-500.0, 200.0, 600.0]), np.array([500.0, 200.0, 600.0]), 20.0)
     planar = random_reachable_targets(st4, 4, rng=41, phi=0.0)

@@ -58,7 +58,7 @@ def _quantiles(values: list[float]) -> dict[str, float]:
 def solve_rows(mode: str, count: int) -> list[dict[str, Any]]:
     """One row per target and objective: status, FN and the statics of the pose."""
     stack = massive_stack(4)
-    ref = Stack.reference(4)
+    ref = Stack.reference(4, leg_radius=0.0)
     if mode == "spatial":
         targets: list[Any] = random_spatial_targets(ref, count, rng=SEED)
     else:

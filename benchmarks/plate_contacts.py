@@ -50,7 +50,7 @@ RADIUS = 12.0
 
 
 def _targets(mode: str, n: int, count: int, seed: int) -> list[Any]:
-    st = Stack.reference(n)
+    st = Stack.reference(n, leg_radius=0.0)
     if mode == "spatial":
         return random_spatial_targets(st, count, rng=np.random.default_rng(seed + n))
     return random_reachable_targets(st, count, rng=seed + n, phi=0.3)

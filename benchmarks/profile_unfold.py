@@ -126,7 +126,7 @@ def main() -> None:
     report: list[dict[str, Any]] = []
     sums = []
     for n in args.n:
-        st0 = Stack.reference(n)
+        st0 = Stack.reference(n, leg_radius=0.0)
         st12 = Stack.uniform(PlatformGeometry.hexagonal(leg_radius=12.0), n)
         targets = random_reachable_targets(st0, args.count, rng=args.seed + n, phi=0.3)
         solve_ik(st12, targets[0])  # kernels and caches warm

@@ -68,7 +68,7 @@ def main() -> None:
     a = ap.parse_args()
     BlasLimit(1).apply()  # as a solve does: threaded BLAS on the rows' products is slow
     n = a.n
-    zero, fat = Stack.reference(n), Stack.reference(n, leg_radius=RADIUS)
+    zero, fat = Stack.reference(n, leg_radius=0.0), Stack.reference(n, leg_radius=RADIUS)
     targets = random_reachable_targets(zero, a.count, rng=a.seed + n, phi=PHI)
     solve_ik(fat, targets[0], method="ip", starts=1, max_time=5)  # kernels loaded
     print("| target | fold | band: FN vs 0 mm, clear, s "

@@ -7,7 +7,7 @@ import numpy as np
 
 from stackik import PlanarTarget, Stack, check_pose, solve_ik
 
-stack = Stack.reference(4)  # r = 150 mm, legs 250-450 mm, joints >= 20 deg (chosen)
+stack = Stack.reference(4)  # r = 150 mm, legs 250-450 mm (12 mm thick), joints >= 20 deg
 target = PlanarTarget(rho=600.0, z=1000.0, theta=-1.57)  # phi = 0: the x-z plane
 
 result = solve_ik(stack, target)  # objective="frobenius", method="auto"

@@ -52,7 +52,7 @@ def _counts(seen: list[list[Any]]) -> list[int]:
 
 
 def _target(n: int, seed: int = 5) -> PlanarTarget:
-    return random_planar_targets(Stack.reference(n), 1, rng=seed, phis=(0.3,))[0]
+    return random_planar_targets(Stack.reference(n, leg_radius=0.0), 1, rng=seed, phis=(0.3,))[0]
 
 
 def _batch_size(n: int) -> int:
@@ -80,7 +80,7 @@ def test_adaptive_first_only_on_the_large_planar_structured_default() -> None:
 def test_below_adaptive_n_the_batch_is_one_call(
     n: int, spy: list[list[Any]], lines_pass_through: None
 ) -> None:
-    res = solve_ik(Stack.reference(n), _target(n))
+    res = solve_ik(Stack.reference(n, leg_radius=0.0), _target(n))
     assert res.success
     assert _counts(spy) == [_batch_size(n)]
     assert res.n_starts == _batch_size(n)
@@ -135,7 +135,7 @@ def test_more_starts_stop_when_the_best_stands(
 
     monkeypatch.setattr(IPMethod, "run_many", first_lowest)
     monkeypatch.setattr(stages, "map_in_threads", lambda f, k, *a: [f(i) for i in range(k)])
-    res = solve_ik(Stack.reference(N_BIG), _target(N_BIG))
+    res = solve_ik(Stack.reference(N_BIG, leg_radius=0.0), _target(N_BIG))
     assert res.success
     # runs 0, 1 | 2, 3: three after run 0 -> stop at four
     assert res.n_starts == 4 and calls["n"] == 4
@@ -145,7 +145,7 @@ def test_early_stop_when_the_first_starts_agree(
     spy: list[list[Any]], monkeypatch: pytest.MonkeyPatch, lines_pass_through: None
 ) -> None:
     monkeypatch.setattr(stages, "ADAPTIVE_RTOL", 1.0)  # any two passing poses agree
-    stack, target = Stack.reference(N_BIG), _target(N_BIG)
+    stack, target = Stack.reference(N_BIG, leg_radius=0.0), _target(N_BIG)
     res = solve_ik(stack, target)
     assert res.success
     assert _counts(spy) == [1] * ADAPTIVE_FIRST
@@ -172,7 +172,7 @@ def test_whole_batch_when_no_run_confirms_the_best(
 ) -> None:
     monkeypatch.setattr(stages, "ADAPTIVE_RTOL", -1.0)  # never agree
     monkeypatch.setattr(stages, "ADAPTIVE_STANDS", math.inf)  # nor stand
-    stack, target = Stack.reference(N_BIG), _target(N_BIG)
+    stack, target = Stack.reference(N_BIG, leg_radius=0.0), _target(N_BIG)
     res = solve_ik(stack, target)
     size = _batch_size(N_BIG)
     assert res.success
@@ -198,7 +198,7 @@ def test_more_starts_until_one_confirms_the_best(
 ) -> None:
     # the first two starts disagree (the check refuses the first run), the next two
     # confirm the best found: four starts, the best of them
-    stack, target = Stack.reference(N_BIG), _target(N_BIG)
+    stack, target = Stack.reference(N_BIG, leg_radius=0.0), _target(N_BIG)
     monkeypatch.setattr(stages, "ADAPTIVE_RTOL", 1.0)  # any two passing poses agree
     original = IPMethod.run_many
     calls = {"n": 0}
@@ -218,7 +218,7 @@ def test_more_starts_until_one_confirms_the_best(
 
 
 def test_default_at_adaptive_n_is_reproducible(spy: list[list[Any]]) -> None:
-    stack, target = Stack.reference(N_BIG), _target(N_BIG, seed=7)
+    stack, target = Stack.reference(N_BIG, leg_radius=0.0), _target(N_BIG, seed=7)
     a = solve_ik(stack, target)
     b = solve_ik(stack, target)
     assert a.success and b.success
@@ -236,11 +236,11 @@ def test_explicit_starts_and_rows_outside_the_ip_keep_one_call(
     # (stages._fold_band, tests/test_fold_band.py); here neither does
     monkeypatch.setattr(stages, "UNFOLD_STARTS", 0)
     monkeypatch.setattr(stages, "_fold_band", lambda *a, **k: None)
-    stack, target = Stack.reference(N_BIG), _target(N_BIG)
+    stack, target = Stack.reference(N_BIG, leg_radius=0.0), _target(N_BIG)
     solve_ik(stack, target, method="ip", starts=3)
     assert _counts(spy) == [3]
     spy.clear()
-    g = PlatformGeometry.reference()
+    g = PlatformGeometry.reference(leg_radius=0.0)
     g = PlatformGeometry(**{**g.to_dict(), "leg_radius": 1.0})  # planar self-leg rows
     fat = Stack((g,) * N_BIG)
     solve_ik(fat, target, method="ip")
@@ -248,7 +248,7 @@ def test_explicit_starts_and_rows_outside_the_ip_keep_one_call(
 
 
 def test_reach_fraction_and_arc_starts() -> None:
-    stack = Stack.reference(N_BIG)
+    stack = Stack.reference(N_BIG, leg_radius=0.0)
     target = PlanarTarget(300.0, 400.0, 1.0)
     assert reach_fraction(stack, target) == pytest.approx(500.0 / np.sum(nominal_height(stack)))
     q0 = paper_initial_guess(stack, target)
@@ -260,15 +260,17 @@ def test_reach_fraction_and_arc_starts() -> None:
         np.testing.assert_allclose(q[:m, 0] - q0[:m, 0], -sign * a, rtol=0, atol=1e-12)
         np.testing.assert_array_equal(q[:m, 1], q0[:m, 1])
         np.testing.assert_array_equal(q[m:], q0[m:])
-    short = Stack.reference(3)  # fewer platforms than ARC_PLATFORMS: all of them bend
+    short = Stack.reference(
+        3, leg_radius=0.0
+    )  # fewer platforms than ARC_PLATFORMS: all of them bend
     q3 = paper_initial_guess(short, target)
     np.testing.assert_allclose(arc_starts(short, q3)[0][:, 2] - q3[:, 2], ARC_TURN, atol=1e-12)
 
 
 def _compact_target(n: int) -> PlanarTarget:
-    """A reachable target of ``Stack.reference(n)`` with a reach fraction below
+    """A reachable target of ``Stack.reference(n, leg_radius=0.0)`` with a reach fraction below
     COMPACT_REACH (the first such seed of random_planar_targets in the plane 0.3)."""
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     for seed in range(200):
         t = random_planar_targets(stack, 1, rng=seed, phis=(0.3,))[0]
         if reach_fraction(stack, t) < policy.COMPACT_REACH:
@@ -279,7 +281,7 @@ def _compact_target(n: int) -> PlanarTarget:
 def test_compact_targets_take_arcs_the_whole_batch_and_hops(
     spy: list[list[Any]], lines_pass_through: None
 ) -> None:
-    stack, target = Stack.reference(N_BIG), _compact_target(N_BIG)
+    stack, target = Stack.reference(N_BIG, leg_radius=0.0), _compact_target(N_BIG)
     res = solve_ik(stack, target)
     size = _batch_size(N_BIG) + 2  # the two arcs
     assert res.success
@@ -311,7 +313,7 @@ def test_lean_compact_plan_from_compact_lean_n(
     monkeypatch.setattr(policy, "COMPACT_LEAN_N", N_BIG)
     assert policy.compact_hop_rounds(N_BIG) == [policy.COMPACT_LEAN_HOPS] * policy.COMPACT_ROUNDS
     assert policy.compact_hop_rounds(N_BIG - 1) == [policy.COMPACT_HOPS]
-    stack, target = Stack.reference(N_BIG), _compact_target(N_BIG)
+    stack, target = Stack.reference(N_BIG, leg_radius=0.0), _compact_target(N_BIG)
     res = solve_ik(stack, target)
     size = 2 + policy.COMPACT_RANDOM
     hops = policy.compact_hop_rounds(N_BIG)
@@ -335,13 +337,13 @@ def policy_scale(stack: Stack) -> Any:
 def test_compact_plan_only_on_the_large_planar_structured_default(
     spy: list[list[Any]], lines_pass_through: None
 ) -> None:
-    stack, target = Stack.reference(N_BIG), _compact_target(N_BIG)
+    stack, target = Stack.reference(N_BIG, leg_radius=0.0), _compact_target(N_BIG)
     solve_ik(stack, target, method="ip", starts=3)  # the user's starts
     assert _counts(spy) == [3]
     spy.clear()
     solve_ik(stack, target, x0=paper_initial_guess(stack, target))  # x0: one start
     assert _counts(spy) == [1]
-    small = Stack.reference(N_BIG // 2)
+    small = Stack.reference(N_BIG // 2, leg_radius=0.0)
     spy.clear()
     res = solve_ik(small, _compact_target(N_BIG // 2))  # below ADAPTIVE_N: unchanged
     assert _counts(spy) == [_batch_size(N_BIG // 2)]

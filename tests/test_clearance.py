@@ -191,12 +191,14 @@ def test_obstacles_that_collide_with_the_base_are_refused():
         clearances(stack, q, [HalfSpace([0, 0, 0], [0, 0, 1])], phi=0.0)  # a floor at z = 0
     c = clearances(stack, q, [HalfSpace([0, 0, -12], [0, 0, 1])], phi=0.0)  # 12 mm lower: ok
     assert c.obstacles[0] >= 0
-    thin = Stack.reference(2)  # legs of zero radius may touch a floor through the base joints
+    thin = Stack.reference(
+        2, leg_radius=0.0
+    )  # legs of zero radius may touch a floor through the base joints
     assert clearances(thin, q, [HalfSpace([0, 0, 0], [0, 0, 1])], phi=0.0).obstacles[0] >= 0
 
 
 def test_bad_pose_arguments():
-    stack = Stack.reference(2)
+    stack = Stack.reference(2, leg_radius=0.0)
     with pytest.raises(ValueError, match="phi: required"):
         clearances(stack, np.zeros((2, 3)))
     with pytest.raises(ValueError, match="phi: only a planar"):
@@ -211,7 +213,7 @@ def test_bad_pose_arguments():
 
 def test_zero_radius_legs_are_distances():
     # no leg's axis passes through a plate of these poses (n = 4: too short to fold back)
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     assert not needs_clearances(stack)
     assert needs_clearances(stack, clearance=1.0) and needs_clearances(stack, [OBSTACLES[0]])
     assert needs_clearances(Stack.uniform(GEOM, 2))
@@ -228,7 +230,7 @@ def _through_a_plate():
 
     from stackik.sampling import random_reachable_targets
 
-    stack = Stack.reference(16)
+    stack = Stack.reference(16, leg_radius=0.0)
     t = random_reachable_targets(stack, 3, rng=36, phi=PHI)[0]
     with screen_off():
         q = stackik.solve_ik(stack, t).q
@@ -286,7 +288,7 @@ def _planar_case(geom, n=3, seed=4):
 
 
 def test_check_without_bodies_is_unchanged():
-    stack, target, q = _planar_case(PlatformGeometry.reference())
+    stack, target, q = _planar_case(PlatformGeometry.reference(leg_radius=0.0))
     chk = check_pose(stack, target, q)
     assert chk.ok and chk.clearances is None and chk.clearance_violation == 0.0
     far = check_pose(stack, target, q, obstacles=[Sphere([0, 0, 1e5], 1)])
@@ -338,7 +340,7 @@ def test_solve_never_claims_a_colliding_pose(planar):
     from stackik import solve_ik
     from stackik.sampling import random_spatial_targets
 
-    thin = Stack.reference(4)
+    thin = Stack.reference(4, leg_radius=0.0)
     if planar:
         q0 = random_feasible_poses(thin, 1, rng=21, phi=0.0)[0]
         y = planar_forward(q0)

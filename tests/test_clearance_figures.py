@@ -34,7 +34,7 @@ def test_pose_figures_draw_the_closest_pair_with_its_distance(tmp_path):
     fig3 = figures.plot_spatial_pose(stack, q, phi=0.0, obstacles=OBS, path=tmp_path / "s.png")
     assert any(f"{d:.1f} mm" in t.get_text() for t in fig3.axes[0].texts)
     # no bodies, no obstacle, no margin: the figure is the one it was (no pair marked)
-    plain = figures.plot_pose_diagram(Stack.reference(3), [q], 0.0)
+    plain = figures.plot_pose_diagram(Stack.reference(3, leg_radius=0.0), [q], 0.0)
     assert not [t for t in plain.axes[0].texts if t.get_text().endswith(" mm")]
 
 
@@ -47,7 +47,7 @@ def test_html_view_has_the_closest_pair_trace():
     (pair,) = [t for t in fig.data if t.name == "closest pair"]
     assert pair.text[0].endswith(" mm") and pair.line.color == "#d62728"  # below the margin
     assert "closest pair" not in [
-        t.name for t in viz.pose_figure(Stack.reference(3), q, phi=0.0).data
+        t.name for t in viz.pose_figure(Stack.reference(3, leg_radius=0.0), q, phi=0.0).data
     ]
 
 
@@ -75,7 +75,7 @@ def test_path_animation_marks_the_closest_pair_per_frame(tmp_path):
     from stackik.paths import solve_path
     from stackik.paths.animate import animate_path
 
-    stack = Stack.reference(2)
+    stack = Stack.reference(2, leg_radius=0.0)
     targets = [PlanarTarget(100.0 + 20 * k, 600.0, 0.0, 0.0) for k in range(3)]
     res = solve_path(stack, targets, max_jump=(60.0, 0.3))
     assert res.completed > 0

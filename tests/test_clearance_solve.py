@@ -13,7 +13,7 @@ from stackik.sampling import random_spatial_targets
 
 RADIUS = 12.0
 FAT = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=RADIUS), 4)
-REF = sk.Stack.reference(4)
+REF = sk.Stack.reference(4, leg_radius=0.0)
 #: targets (random_spatial_targets(REF, 12, rng=4242)) whose least-FN default pose on
 #: zero-radius legs puts two legs of a platform within 2 x 12 mm
 COLLIDING = (1, 3, 9)
@@ -25,7 +25,7 @@ def _targets() -> list[sk.SpatialTarget]:
 
 def _problem(n: int, seed: int, margin: float = 0.0) -> tuple[Problem, np.ndarray]:
     stack = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=RADIUS), n)
-    target = random_spatial_targets(sk.Stack.reference(n), 1, seed)[0]
+    target = random_spatial_targets(sk.Stack.reference(n, leg_radius=0.0), 1, seed)[0]
     prob = Problem(stack, target, "frobenius", None, clearance=margin)
     rng = np.random.default_rng(seed)
     q = sk.paper_initial_guess(stack, target)
@@ -223,7 +223,7 @@ def test_auto_goes_around_a_sphere_on_a_leg() -> None:
 def test_no_clear_pose_is_infeasible_with_the_least_penetrating_pose() -> None:
     """A sphere around the end effector that every top joint lies in: no pose is clear;
     the result is infeasible, not a crash, with the pose and its clearances."""
-    stack = sk.Stack.reference(1)
+    stack = sk.Stack.reference(1, leg_radius=0.0)
     t = random_spatial_targets(stack, 1, rng=3)[0]
     r = sk.solve_ik(stack, t, obstacles=[sk.Sphere(t.position, 200.0)])
     assert r.status is sk.IKStatus.INFEASIBLE and not r.success

@@ -268,7 +268,15 @@ def test_geometry_write_validate_roundtrip(
     assert Stack.from_file(path) == Stack.reference(2)
     rc, out, err = _run(capsys, "geometry", "validate", str(path))
     assert rc == 0 and out.startswith("valid")
-    assert "warning" in err and "leg_radius" in err  # the reference legs have no radius
+    assert "warning" not in err  # the reference's legs have a radius (12 mm)
+    lines = tmp_path / f"lines{suffix}"  # a file whose legs have none
+    (
+        Stack.reference(2, leg_radius=0.0).to_toml
+        if suffix == ".toml"
+        else Stack.reference(2, leg_radius=0.0).to_json
+    )(lines)
+    rc, out, err = _run(capsys, "geometry", "validate", str(lines))
+    assert rc == 0 and "warning" in err and "leg_radius" in err
     # no silent overwrite
     rc, _, err = _run(capsys, "geometry", "write", str(path))
     _assert_one_line_error(rc, err)

@@ -18,7 +18,7 @@ from stackik.sampling import random_reachable_targets
 from stackik.solve import stages
 from tests import fd
 
-REF16 = sk.Stack.reference(16)
+REF16 = sk.Stack.reference(16, leg_radius=0.0)
 FAT16 = sk.Stack.reference(16, leg_radius=12.0)
 #: the fingerprint's planar n = 16 target whose default pose folds with 12 mm legs
 #: (tests/test_unfold.py)
@@ -106,9 +106,9 @@ def test_tall_planar_batches_go_to_the_fold_band_at_once(monkeypatch: pytest.Mon
     from stackik.formulation.modes import PLANAR, SPATIAL
     from stackik.solve import stages
 
-    assert PLANAR.band_first(sk.Stack.reference(FOLD_BAND_FIRST_N))
-    assert not PLANAR.band_first(sk.Stack.reference(FOLD_BAND_FIRST_N - 1))
-    assert not SPATIAL.band_first(sk.Stack.reference(64))
+    assert PLANAR.band_first(sk.Stack.reference(FOLD_BAND_FIRST_N, leg_radius=0.0))
+    assert not PLANAR.band_first(sk.Stack.reference(FOLD_BAND_FIRST_N - 1, leg_radius=0.0))
+    assert not SPATIAL.band_first(sk.Stack.reference(64, leg_radius=0.0))
     h = np.array([300.0, 310.0, 320.0])  # the band's upright start, at these heights
     np.testing.assert_array_equal(PLANAR.upright(h), [[0.0, z, 0.0] for z in h])
     np.testing.assert_array_equal(SPATIAL.upright(h), [[0.0, 0.0, z, 0.0, 0.0, 0.0] for z in h])
@@ -126,7 +126,7 @@ def test_tall_planar_batches_go_to_the_fold_band_at_once(monkeypatch: pytest.Mon
 
     monkeypatch.setattr(stages, "_unfold", spy_unfold)
     monkeypatch.setattr(stages, "_fold_band", spy_band)
-    stack = sk.Stack.reference(FOLD_BAND_FIRST_N)
+    stack = sk.Stack.reference(FOLD_BAND_FIRST_N, leg_radius=0.0)
     t = random_reachable_targets(stack, 8, rng=15583 + FOLD_BAND_FIRST_N, phi=0.3)[0]
     res = sk.solve_ik(stack, t)
     assert res.success and sk.check_pose(stack, t, res.q).ok

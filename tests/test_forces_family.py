@@ -80,7 +80,7 @@ def test_force_rows_values_and_jacobian(planar: bool, seed: int) -> None:
 def test_no_force_limit_no_rows() -> None:
     """Without a finite force_max a problem has exactly the 24 n limit rows (every solve is
     unchanged), with or without a load."""
-    stack = Stack.reference(3)
+    stack = Stack.reference(3, leg_radius=0.0)
     target = PlanarTarget(300.0, 900.0, 0.3)
     for load in (None, LOAD):
         prob = Problem(stack, target, "frobenius", None, load=load)
@@ -148,7 +148,9 @@ def test_a_load_no_pose_can_carry_is_not_a_success() -> None:
 
 def test_load_must_be_a_load() -> None:
     with pytest.raises(ValueError, match="load"):
-        solve_ik(Stack.reference(2), PlanarTarget(0.0, 700.0, 0.0), load={"mass": 1.0})
+        solve_ik(
+            Stack.reference(2, leg_radius=0.0), PlanarTarget(0.0, 700.0, 0.0), load={"mass": 1.0}
+        )
 
 
 def test_result_carries_leg_forces_margins_and_singularity() -> None:
@@ -170,7 +172,7 @@ def test_result_carries_leg_forces_margins_and_singularity() -> None:
     assert r.peak_force == pytest.approx(st.peak_force)
     back = IKResult.from_record(json.loads(json.dumps(r.to_record())))
     np.testing.assert_array_equal(back.leg_forces, r.leg_forces)
-    free = solve_ik(Stack.reference(2), PlanarTarget(0.0, 700.0, 0.0))
+    free = solve_ik(Stack.reference(2, leg_radius=0.0), PlanarTarget(0.0, 700.0, 0.0))
     assert free.leg_forces is None and free.peak_force is None
     assert free.to_dict()["leg_forces"] is None
 
@@ -217,7 +219,7 @@ def test_payload_capacity_brackets_the_largest_payload() -> None:
     over = solve_ik(stack, target, load=dataclasses.replace(Load(), mass=cap.upper))
     assert not over.success
     with pytest.raises(ValueError, match="force_max"):
-        payload_capacity(Stack.reference(2), PlanarTarget(0.0, 700.0, 0.0))
+        payload_capacity(Stack.reference(2, leg_radius=0.0), PlanarTarget(0.0, 700.0, 0.0))
     with pytest.raises(ValueError, match="tol"):
         payload_capacity(stack, target, tol=0.0)
 

@@ -68,7 +68,8 @@ def test_hexagonal_node_angles(a, b):
 
 def test_reference_geometry():
     g = PlatformGeometry.reference()
-    assert g == PlatformGeometry.hexagonal()
+    assert g == PlatformGeometry.hexagonal(leg_radius=12.0)  # realistic actuators
+    assert PlatformGeometry.reference(leg_radius=0.0) == PlatformGeometry.hexagonal()
     assert (g.leg_min, g.leg_max) == (250.0, 450.0)
     assert g.joint_min == pytest.approx(math.radians(20.0), rel=1e-15)
     h = ref.hexagonal_geometry()  # r = 150, a = b = 15 deg
@@ -285,8 +286,9 @@ def test_to_json_to_toml_without_path():
 
 
 def test_from_dict_uniform_and_hexagonal_forms(tmp_path):
+    # a file's hexagonal table: the reference's layout and limits, bodies of no size
     s = Stack.from_dict({"platform": {"hexagonal": {}}, "n": 3})
-    assert s == Stack.reference(3)
+    assert s == Stack.reference(3, leg_radius=0.0)
     spec = {"base_radius": 120.0, "top_half_angle": 0.2, "leg_max": 500.0}
     s = Stack.from_dict(
         {"platforms": [{"hexagonal": spec}, PlatformGeometry.reference().to_dict()]}
@@ -442,10 +444,13 @@ def test_derived_cache_is_kept_and_bounded():
 
 # --- clearance fields (docs/clearance.md) ------------------------------------------------
 def test_clearance_fields_default_zero_and_keep_the_old_forms():
-    g = PlatformGeometry.reference()
+    g = PlatformGeometry.hexagonal()
     assert (g.leg_radius, g.plate_thickness) == (0.0, 0.0)
     assert "leg_radius" not in g.to_dict() and "plate_thickness" not in g.to_dict()
-    assert "leg_radius" not in Stack.reference(2).to_toml()
+    assert "leg_radius" not in Stack.reference(2, leg_radius=0.0).to_toml()
+    # the reference's actuators are written, and read back
+    assert "leg_radius = 12.0" in Stack.reference(2).to_toml()
+    assert Stack.from_dict(Stack.reference(2).to_dict()) == Stack.reference(2)
 
 
 @pytest.mark.parametrize("field", ["leg_radius", "plate_thickness"])
@@ -490,7 +495,7 @@ def test_geometry_show_names_the_clearance_sizes():
 
     text = describe_stack(Stack.uniform(PlatformGeometry.hexagonal(leg_radius=12), 2))
     assert "leg radius 12 mm" in text and "plate thickness" not in text
-    assert "radius" not in describe_stack(Stack.reference(2)).splitlines()[1]
+    assert "radius" not in describe_stack(Stack.reference(2, leg_radius=0.0)).splitlines()[1]
 
 
 def test_reference_with_a_leg_radius():
@@ -499,6 +504,7 @@ def test_reference_with_a_leg_radius():
     g = PlatformGeometry.reference(leg_radius=ACTUATOR_RADIUS)
     assert g == PlatformGeometry.hexagonal(leg_radius=12.0)
     assert Stack.reference(3, leg_radius=12.0) == Stack.uniform(g, 3)
-    assert Stack.reference(2, leg_radius=0.0) == Stack.reference(2)
+    assert Stack.reference(2) == Stack.reference(2, leg_radius=ACTUATOR_RADIUS)
+    assert Stack.reference(2, leg_radius=0.0) == Stack.uniform(PlatformGeometry.hexagonal(), 2)
     with pytest.raises(GeometryError, match="leg_radius"):
         Stack.reference(2, leg_radius=-1.0)

@@ -15,7 +15,7 @@ from stackik.result import IKStatus
 from stackik.starts import paper_initial_guess
 
 PAPER_TARGETS = [(600.0, 1000.0, -1.57), (145.0, 1500.0, -0.207), (-319.0, 1532.0, 0.332)]
-STACK4 = sk.Stack.reference(4)
+STACK4 = sk.Stack.reference(4, leg_radius=0.0)
 
 
 @pytest.mark.parametrize("target", PAPER_TARGETS)
@@ -355,7 +355,7 @@ def test_so3_log_fast_matches_scipy():
 @pytest.mark.derivatives
 def test_problem_derivatives_spatial():
     t = sk.PlanarTarget(*PAPER_TARGETS[0], phi=0.2).to_spatial()
-    st = sk.Stack.reference(3)
+    st = sk.Stack.reference(3, leg_radius=0.0)
     p = Problem(st, t, "frobenius", None)
     rng = np.random.default_rng(11)
     u = p.u_of(paper_initial_guess(st, t)) + 0.02 * rng.standard_normal(18)
@@ -364,7 +364,7 @@ def test_problem_derivatives_spatial():
 
 @pytest.mark.parametrize("n", [1, 2, 8, 16])
 def test_other_stack_sizes(n):
-    st = sk.Stack.reference(n)
+    st = sk.Stack.reference(n, leg_radius=0.0)
     q_true = np.tile([10.0, 330.0, -0.1], (n, 1))
     y = sk.planar_forward(q_true)
     t = sk.PlanarTarget(y[0], y[1], y[2], phi=0.7)
@@ -426,7 +426,7 @@ def test_planar_interior_point_limits_blas_threads_on_tall_stacks(monkeypatch):
     monkeypatch.setattr(blas.BlasLimit, "apply", lambda self: (applied.append(1), real(self)))
     for n, expect in ((4, False), (stages.PLANAR_BLAS_N, True)):
         applied.clear()
-        stack = sk.Stack.reference(n)
+        stack = sk.Stack.reference(n, leg_radius=0.0)
         r = sk.solve_ik(stack, random_planar_targets(stack, 1, rng=n)[0], starts=1)
         assert r.success and bool(applied) is expect
 
@@ -441,6 +441,6 @@ def test_planar_kernels_load_before_the_clock_for_every_method(monkeypatch, meth
     loaded: list[str] = []
     real = pipeline.ensure_kernels
     monkeypatch.setattr(pipeline, "ensure_kernels", lambda kind: loaded.append(kind) or real(kind))
-    stack = sk.Stack.reference(2)
+    stack = sk.Stack.reference(2, leg_radius=0.0)
     sk.solve_ik(stack, sk.PlanarTarget(0.0, 1000.0, 0.0), method=method, starts=1)
     assert "planar" in loaded

@@ -14,7 +14,7 @@ from stackik.kinematics import spatial_chain
 from stackik.methods.ip import spatial_problem_arrays
 from stackik.sampling import random_spatial_targets
 
-REF = sk.Stack.reference(4)
+REF = sk.Stack.reference(4, leg_radius=0.0)
 NONE = np.empty(0)
 
 

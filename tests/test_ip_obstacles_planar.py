@@ -16,7 +16,7 @@ from stackik.formulation import Problem
 from stackik.methods.ip import problem_arrays
 from stackik.sampling import random_planar_targets
 
-REF = sk.Stack.reference(4)
+REF = sk.Stack.reference(4, leg_radius=0.0)
 NONE = np.empty(0)
 
 

@@ -20,12 +20,12 @@ from stackik.sampling import random_stack
 from stackik.starts import paper_initial_guess
 
 PAPER_TARGETS = [(600.0, 1000.0, -1.57), (145.0, 1500.0, -0.207), (-319.0, 1532.0, 0.332)]
-STACK4 = sk.Stack.reference(4)
+STACK4 = sk.Stack.reference(4, leg_radius=0.0)
 
 
 def random_problem(n: int, seed: int, phi: float, objective: str = "frobenius"):
     rng = np.random.default_rng(seed)
-    st = random_stack(n, seed) if seed % 2 else Stack.reference(n)
+    st = random_stack(n, seed) if seed % 2 else Stack.reference(n, leg_radius=0.0)
     t = sk.PlanarTarget(300 * rng.standard_normal(), 300 * n + 100 * rng.random(), 0.3, phi)
     prob = Problem(st, t, objective, None)
     q = paper_initial_guess(st, t)
@@ -302,7 +302,7 @@ def test_second_order_corrections_finish_a_tall_stack(lines_pass_through: None):
     method's second-order corrections the run crawled in backtracked steps (the rows'
     curvature raised the infeasibility of every full step) to the 300-iteration limit;
     with them it converges in about 60 (docs/benchmarks.md, 2026-12-06)."""
-    stack = Stack.reference(64)
+    stack = Stack.reference(64, leg_radius=0.0)
     t = sk.PlanarTarget(12532.055335141049, 13229.59741863084, -1.309481835825551,
                         4.39822971502571)  # fmt: skip
     prob = Problem(stack, t, "frobenius", None)

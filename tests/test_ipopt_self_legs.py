@@ -82,7 +82,7 @@ def test_casadi_rows_parallel_and_clamped_cases() -> None:
 def test_ipopt_keeps_the_legs_apart() -> None:
     """On 12 mm legs, a target whose unconstrained optimum self-collides: IPOPT returns a
     success whose legs are at least 24 mm apart (axis to axis)."""
-    thin = Stack.reference(4)
+    thin = Stack.reference(4, leg_radius=0.0)
     fat = Stack.uniform(PlatformGeometry.hexagonal(leg_radius=12.0), 4)
     target = random_spatial_targets(thin, 1, rng=COLLIDING_SEED)[0]
     free = solve_ik(thin, target, method="ipopt", starts=8)

@@ -80,7 +80,7 @@ def test_plate_segments_cover_the_plate() -> None:
     segments, and ``kappa`` is nearly reached (to twice the samples' spacing), so the
     leg-plate rows hold only where the check's leg-plate distance does: sampled points
     (uniform in the polygon's bounding box, kept inside)."""
-    stack = sk.Stack.reference(3)
+    stack = sk.Stack.reference(3, leg_radius=0.0)
     table = pair_table(stack)
     rng = np.random.default_rng(0)
     q = np.tile([0.0, 330.0, 0.0], (3, 1))
@@ -178,7 +178,7 @@ def test_no_rows_have_the_kernel_types_of_rows_and_the_table_its_pairs() -> None
     np.testing.assert_allclose(t.rho, [w[2] for w in want], rtol=1e-15)
 
 
-REF16 = sk.Stack.reference(16)
+REF16 = sk.Stack.reference(16, leg_radius=0.0)
 FAT16 = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 16)
 
 
@@ -216,7 +216,7 @@ def test_nothing_close_is_the_solve_without_rows(monkeypatch: pytest.MonkeyPatch
         raise AssertionError("rows for non-adjacent pairs where none is close")
 
     monkeypatch.setattr(Problem, "with_leg_pairs", refuse)
-    ref = sk.Stack.reference(4)
+    ref = sk.Stack.reference(4, leg_radius=0.0)
     fat = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 4)
     targets = random_reachable_targets(ref, 4, rng=np.random.default_rng(2929), phi=0.3)
     for t in targets:

@@ -518,10 +518,17 @@ def test_bad_pose_or_load_argument():
 def test_geometry_statics_defaults_change_nothing():
     g = PlatformGeometry.reference()
     assert (g.plate_mass, g.leg_mass, g.force_max) == (0.0, 0.0, math.inf)
-    assert set(g.to_dict()) == {"base_nodes", "top_nodes", "leg_min", "leg_max", "joint_min"}
-    assert "mass" not in Stack.reference(2).to_toml() and "limit" not in describe_stack(
-        Stack.reference(2)
-    )
+    assert set(g.to_dict()) == {
+        "base_nodes",
+        "top_nodes",
+        "leg_min",
+        "leg_max",
+        "joint_min",
+        "leg_radius",
+    }
+    assert "mass" not in Stack.reference(
+        2, leg_radius=0.0
+    ).to_toml() and "limit" not in describe_stack(Stack.reference(2))
 
 
 @pytest.mark.parametrize(
@@ -567,7 +574,7 @@ def test_geometry_statics_fields_round_trip(tmp_path):
     spec = {"platform": {"hexagonal": {"plate_mass": 2, "force_max": 50}}, "n": 2}
     assert Stack.from_dict(spec).force_max.tolist() == [50.0, 50.0]
     assert json.loads(stack.to_json())["platforms"][1] == {
-        **PlatformGeometry.reference().to_dict(),
+        **PlatformGeometry.hexagonal().to_dict(),
         "leg_mass": 0.5,
     }
     assert "plate 5 kg, each leg 1.5 kg, leg force limit 300 N" in describe_stack(stack)

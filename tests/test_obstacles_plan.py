@@ -26,13 +26,13 @@ from bench_obstacles import obstacle_gap, place  # noqa: E402
 def _planar(n: int, rng: int, k: int = 0, count: int = 12) -> Any:
     """Target k of bench_obstacles' planar construction (plane 2 pi k / count)."""
     phi = 2 * np.pi * (k % count) / count
-    return random_planar_targets(Stack.reference(n), 1, rng=rng + k, phis=(phi,))[0]
+    return random_planar_targets(Stack.reference(n, leg_radius=0.0), 1, rng=rng + k, phis=(phi,))[0]
 
 
 def _truss(n: int, seed: int, k: int) -> tuple[Stack, Any, Any, Capsule]:
     """bench_obstacles' planar truss case k of ``seed``: the stack, target, obstacle-free
     default solve and the truss member across its leg."""
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     target = _planar(n, seed, k)
     free = solve_ik(stack, target)
     assert free.success
@@ -82,7 +82,7 @@ def test_only_the_default_with_obstacle_rows(calls: list[bool]) -> None:
 
 
 def test_an_obstacle_that_does_not_bind_changes_nothing(calls: list[bool]) -> None:
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     target = _planar(4, 4290, 2)
     free = solve_ik(stack, target)
     assert free.success
@@ -148,7 +148,7 @@ def test_costly_obstacles_run_the_batch_too(
 
 def _spatial_truss(n: int, seed: int, k: int) -> tuple[Stack, Any, Any, Capsule]:
     """bench_obstacles' spatial truss case k of ``seed`` (as :func:`_truss`)."""
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     target = random_spatial_targets(stack, 1, rng=seed + k)[0]
     free = solve_ik(stack, target)
     assert free.success

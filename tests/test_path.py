@@ -40,7 +40,7 @@ OUT = PlanarTarget(2500.0, 1000.0, 0.0)  # outside the workspace of 4 platforms
 
 @pytest.fixture(scope="module")
 def stack4() -> Stack:
-    return Stack.reference(4)
+    return Stack.reference(4, leg_radius=0.0)
 
 
 @pytest.fixture(scope="module")
@@ -266,7 +266,7 @@ def test_global_mode_walks_back_onto_a_better_branch_by_bounded_steps():
     # the earlier ones (warm steps backwards end); bounded steps walk it back to where the
     # path can join it. With warm backward steps only, global mode's mean FN was 0.61 %
     # above the per-waypoint optima's (1.0061), with bounded ones 0.08 % (1.0008)
-    stack = Stack.reference(8)
+    stack = Stack.reference(8, leg_radius=0.0)
     a = PlanarTarget(1390.8039151039927, 1779.7111301941143, -0.673168814752579)
     b = PlanarTarget(-47.16246724719099, 1943.202911548691, 0.9149009681258974)
     pts = interpolate_targets([a, b], steps=19)
@@ -414,7 +414,7 @@ def test_fast_mode_leaves_a_branch_that_ends_at_a_limit_wall(tmp_path, monkeypat
     def transit_only(*args, **kw):
         return None if kw.get("goal") is None else sqp_step(*args, **kw)
 
-    stack = Stack.reference(8)
+    stack = Stack.reference(8, leg_radius=0.0)
     a = PlanarTarget(1390.7857889700388, 1760.292531041743, -2.023119966011402)
     b = PlanarTarget(178.77968731850942, 2078.076457656921, -0.022992853149510606)
     pts = interpolate_targets([a, b], steps=59)
@@ -476,7 +476,7 @@ def test_too_coarse_steps_break_as_jump_and_refine_gets_through(stack4):
 
 
 def test_spatial_path():
-    stack = Stack.reference(2)
+    stack = Stack.reference(2, leg_radius=0.0)
     qa = np.array([[0, 0, 380, 0, 0, 0], [0, 0, 380, 0, 0, 0.0]])
     qb = np.array([[30, -20, 360, 0.1, 0.05, -0.05], [40, 10, 370, 0.15, -0.05, 0.1]])
     ta, tb = (SpatialTarget(*spatial_forward(q)) for q in (qa, qb))
@@ -585,7 +585,7 @@ def test_csv_round_trip(stack4, fast_result, tmp_path):
 
 
 def test_spatial_csv_round_trip(tmp_path):
-    stack = Stack.reference(2)
+    stack = Stack.reference(2, leg_radius=0.0)
     q = np.array([[0, 0, 380, 0, 0, 0], [10, 0, 380, 0.1, 0, 0.0]])
     t = SpatialTarget(*spatial_forward(q))
     r = solve_path(stack, [t], start=q)
@@ -796,7 +796,7 @@ def test_spatial_default_reanchoring_up_to_four_platforms():
     from stackik.paths.request import _request
 
     for n, every in ((2, 20), (4, 20), (5, 0), (8, 0), (16, 0)):
-        stack = Stack.reference(n)
+        stack = Stack.reference(n, leg_radius=0.0)
         t = SpatialTarget(*spatial_forward(np.tile([0.0, 0.0, 380.0, 0.0, 0.0, 0.0], (n, 1))))
         req = _request(stack, [t, t], MAX_JUMP, "fast", 0.0, False, 1, None, None, None, 6,
                        None, None)  # fmt: skip
@@ -860,7 +860,7 @@ def test_unreachable_first_waypoint_keeps_every_waypoint(mode, refine):
     """Waypoint 0 outside the workspace: every mode reports all the input waypoints, none
     reached, and says where it breaks (global mode with refine=True once raised on the
     refining pass's empty waypoint list; fast mode reported no waypoints)."""
-    stack = Stack.reference(2)
+    stack = Stack.reference(2, leg_radius=0.0)
     pts = interpolate_targets(
         [PlanarTarget(5000.0, 600.0, 0.0), PlanarTarget(300.0, 600.0, 0.0)], steps=4
     )

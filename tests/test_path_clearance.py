@@ -19,7 +19,7 @@ from stackik.paths import interpolate_targets
 from stackik.rotations import euler_zyx
 from stackik.sampling import random_reachable_targets, random_spatial_targets
 
-REF = sk.Stack.reference(4)
+REF = sk.Stack.reference(4, leg_radius=0.0)
 FAT = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 4)
 
 
@@ -79,7 +79,7 @@ def test_path_clearance_bad_input() -> None:
 def test_path_breaks_where_no_clear_pose_exists() -> None:
     """A sphere around the waypoints' end-effector plates: the path breaks at once, and
     says that clearances, not the workspace, stop it."""
-    stack = sk.Stack.reference(1)
+    stack = sk.Stack.reference(1, leg_radius=0.0)
     a = sk.SpatialTarget((0.0, 0.0, 330.0), np.eye(3))
     b = sk.SpatialTarget((20.0, 0.0, 330.0), np.eye(3))
     ts = interpolate_targets([a, b], steps=3)
@@ -170,7 +170,7 @@ def test_planar_path_beside_a_wall() -> None:
         assert not sk.solve_ik(REF, ts[k], obstacles=[wall]).success
 
 
-REF16 = sk.Stack.reference(16)
+REF16 = sk.Stack.reference(16, leg_radius=0.0)
 FAT16 = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 16)
 
 
@@ -237,7 +237,7 @@ def test_a_folding_spatial_path_goes_through_clear() -> None:
     non-adjacent bodies) goes through, every waypoint clear."""
     from stackik.solve.policy import spatial_start_count
 
-    ref = sk.Stack.reference(12)
+    ref = sk.Stack.reference(12, leg_radius=0.0)
     fat = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 12)
     keys = random_spatial_targets(ref, 15, rng=2024)
     ts = interpolate_targets([keys[0], keys[1]], steps=7)

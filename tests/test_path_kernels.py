@@ -38,7 +38,7 @@ _NO_BOX = (np.zeros(0), np.zeros(0), np.zeros(0), 0.0)
 
 
 def _planar(n: int, seed: int):
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     t = random_reachable_targets(stack, 1, rng=seed)[0]
     prob = Problem(stack, t, "frobenius", None)
     rng = np.random.default_rng(seed)
@@ -49,7 +49,7 @@ def _planar(n: int, seed: int):
 
 
 def _spatial(n: int, seed: int):
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     t = random_spatial_targets(stack, 1, seed)[0]
     prob = Problem(stack, t, "frobenius", None)
     rng = np.random.default_rng(seed)
@@ -61,7 +61,7 @@ def _spatial(n: int, seed: int):
 def _straight_run(n: int, seed: int):
     """A straight planar path in 15 mm / 0.03 rad steps, the default solve's pose at its
     first waypoint, that waypoint's problem and kernel arrays."""
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     a, b = random_reachable_targets(stack, 2, rng=seed)
     pts = interpolate_targets([a, b], max_step=(15.0, 0.03))
     q0 = solve_ik(stack, pts[0]).q
@@ -122,7 +122,7 @@ def test_extended_problem_derivatives_by_finite_differences(planar, n, seed):
 
 
 def test_ip_box_stays_in_its_box_and_ip_path_repeats_the_one_start_solve():
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     a, b = random_reachable_targets(stack, 2, rng=5)
     pts = interpolate_targets([a, b], steps=12)
     q0 = solve_ik(stack, pts[0]).q
@@ -160,7 +160,7 @@ def test_ip_box_stays_in_its_box_and_ip_path_repeats_the_one_start_solve():
 
 
 def test_batch_check_matches_the_check_pose_by_pose():
-    stack = Stack.reference(3)
+    stack = Stack.reference(3, leg_radius=0.0)
     ts = random_reachable_targets(stack, 4, rng=8, phi=0.4)
     Q = np.stack([solve_ik(stack, t).q for t in ts])
     Q[2, 1, 0] += 1.0  # misses its target
@@ -253,7 +253,7 @@ def test_continuation_step_keeps_a_platform_in_a_corner_of_dependent_limits():
     variables): the continuation step at its own target keeps the dependent rows and
     verifies the point without moving it (it failed there, with a singular KKT matrix,
     moving the point by 2.8)."""
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     t = random_reachable_targets(stack, 1, rng=30)[0]
     prob = Problem(stack, t, "frobenius", None)
     P = problem_arrays(prob)
@@ -356,7 +356,7 @@ def test_ip_path_marks_a_stop_where_the_barrier_solve_left_its_basin():
 def test_spatial_batch_check_matches_the_check_pose():
     """The compiled spatial check: the values of check_pose (to rounding) and its verdicts,
     on solved poses and poses moved off them by 1e-12 .. 1 times a typical step."""
-    stack = Stack.reference(3)
+    stack = Stack.reference(3, leg_radius=0.0)
     rng = np.random.default_rng(4)
     ts, Q = [], []
     for t in random_spatial_targets(stack, 3, 6):
@@ -391,7 +391,7 @@ def test_spatial_continuation_step_keeps_a_platform_in_a_corner_of_dependent_lim
     keeps the dependent rows and verifies the point without moving it (it released
     limits with negative multipliers of a singular KKT system until its change limit:
     ok=False, and at n = 8 moved the point by 7e-3)."""
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     t = random_spatial_targets(stack, 10 if n == 4 else 5, seed)[k]
     prob = Problem(stack, t, "frobenius", None)
     P = spatial_problem_arrays(prob)
@@ -421,7 +421,7 @@ def test_spatial_continuation_step_budget_and_early_exit():
     converging. On a straight spatial path (n = 4) from the default pose of its first
     waypoint: the step to the next waypoint needs 12 (it failed with 8), the step to the
     last one (far) gives up after a few iterations instead of spending the budget."""
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     a, b = random_spatial_targets(stack, 10, 2027)[:2]
     pts = interpolate_targets([a, b], steps=15)
     none = np.empty(0)
@@ -469,7 +469,7 @@ def test_spatial_ip_path_steps_are_checked_and_deterministic():
     continuation steps on a finely sampled path, every point passes the check and is
     within its jump, the objective of a continuation step is that of the barrier solve
     from the previous point (a per mille), deterministic."""
-    stack = Stack.reference(3)
+    stack = Stack.reference(3, leg_radius=0.0)
     a, b = random_spatial_targets(stack, 2, 8)
     pts = interpolate_targets([a, b], steps=40)
     q0 = solve_ik(stack, pts[0]).q

@@ -16,7 +16,7 @@ import pytest
 
 import stackik as sk
 
-STACK = sk.Stack.reference(6)
+STACK = sk.Stack.reference(6, leg_radius=0.0)
 PLANAR = [sk.PlanarTarget(400.0, 1500.0, -0.8), sk.PlanarTarget(-200.0, 1700.0, 0.4, 0.7)]
 
 
@@ -49,7 +49,7 @@ def _solve_in_worker(payload: bytes) -> dict:
 
 
 def test_a_pickled_used_stack_comes_back_without_caches():
-    stack = sk.Stack.reference(3)
+    stack = sk.Stack.reference(3, leg_radius=0.0)
     sk.solve_ik(stack, sk.PlanarTarget(0.0, 900.0, 0.0))
     assert stack._derived and stack._arrays  # used: caches filled
     for protocol in (2, 4, pickle.HIGHEST_PROTOCOL):
@@ -62,7 +62,7 @@ def test_a_pickled_used_stack_comes_back_without_caches():
 @pytest.mark.parametrize("kind", ["planar", "spatial"])
 def test_spawned_worker_returns_the_parents_pose_without_recompiling(kind):
     target = PLANAR[0] if kind == "planar" else _spatial_target()
-    stack = STACK if kind == "planar" else sk.Stack.reference(3)
+    stack = STACK if kind == "planar" else sk.Stack.reference(3, leg_radius=0.0)
     parent = sk.solve_ik(stack, target)  # also fills the stack's caches
     payload = pickle.dumps((stack, target), protocol=4)
     with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
@@ -103,7 +103,7 @@ def _path_kernels_in_fresh_process() -> dict:
                 for k, v in vars(m).items() if hasattr(v, "signatures")}  # fmt: skip
 
     before = count()
-    stack = sk.Stack.reference(3)
+    stack = sk.Stack.reference(3, leg_radius=0.0)
     for planar in (True, False):
         keys = [sk.PlanarTarget(0.0, 1000.0, 0.0), sk.PlanarTarget(150.0, 950.0, 0.2)]
         targets = sk.interpolate_targets(

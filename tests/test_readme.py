@@ -189,11 +189,17 @@ def test_default_starts() -> None:
     assert solve_ik(stack, PlanarTarget(600.0, 1000.0, -1.57)).n_starts == 3
     spatial = SpatialTarget(np.array([100.0, 50.0, 1000.0]), euler_zyx([0.1, 0.2, 0.0]))
     assert 'then "hops" from the best pose from n = 4: six, twelve at n = 7 and 8' in PROSE
-    assert solve_ik(stack, spatial).n_starts == 12 + 6
-    stack6 = Stack.reference(6)
+    lines = Stack.reference(4, leg_radius=0.0)  # the plan without self-leg rows
+    assert solve_ik(lines, spatial).n_starts == 12 + 6
+    stack6 = Stack.reference(6, leg_radius=0.0)
     assert solve_ik(stack6, random_spatial_targets(stack6, 1, 9606)[0]).n_starts == 12 + 6
-    stack8 = Stack.reference(8)
+    stack8 = Stack.reference(8, leg_radius=0.0)
     assert solve_ik(stack8, random_spatial_targets(stack8, 1, 9608)[0]).n_starts == 12 + 12
+    # the reference's 12 mm legs: the same search first, then runs with the self-leg rows
+    # where its pose brings two legs of a platform together
+    assert "the spatial default runs this search without the self-leg rows first" in PROSE
+    thick = solve_ik(stack, spatial)
+    assert thick.success and thick.n_starts >= 12 + 6
     args = build_parser().parse_args(["solve", "--target", "600", "1000", "-1.57"])
     assert args.starts is None  # None: solve_ik's default
 

@@ -90,7 +90,7 @@ def test_problem_carries_self_leg_rows():
     geom = sk.PlatformGeometry.hexagonal(leg_radius=12.0)
     stack = sk.Stack.uniform(geom, 3)
     tgt = sk.SpatialTarget(position=(10.0, -20.0, 420.0), rotation=np.eye(3))
-    plain = Problem(sk.Stack.reference(3), tgt, "frobenius", None)
+    plain = Problem(sk.Stack.reference(3, leg_radius=0.0), tgt, "frobenius", None)
     assert plain.self_legs is None and plain.n_ineq == 72
     p = Problem(stack, tgt, "frobenius", None, clearance=1.5)
     assert p.self_legs is not None and p.n_ineq == 72 + 3 * 15
@@ -154,7 +154,7 @@ def test_planar_problem_carries_self_leg_rows():
     t = sk.PlanarTarget(600.0, 1000.0, -1.57)
     prob = Problem(stack, t, "frobenius", None)
     assert prob.self_legs is not None and prob.dense_rows and prob.n_ineq == 96 + 60
-    q = sk.solve_ik(sk.Stack.reference(4), t).q
+    q = sk.solve_ik(sk.Stack.reference(4, leg_radius=0.0), t).q
     cin = prob.evaluate(prob.u_of(q))[4]
     d = np.sqrt(cin[96:].reshape(4, 15) * prob.self_legs.scale[:, None] + 60.0**2)
     by = sk.clearances(stack, q, phi=t.phi).self_legs_by_platform
@@ -163,7 +163,7 @@ def test_planar_problem_carries_self_leg_rows():
     assert not r.success or (r.clearances is not None and r.clearances.minimum >= -1e-6)
     # IPOPT has the planar rows too: its pose keeps each platform's legs apart, where
     # the same start on zero-radius legs does not (adjacent legs still collide: no success)
-    r0 = sk.solve_ik(sk.Stack.reference(4), t, method="ipopt", starts=1)
+    r0 = sk.solve_ik(sk.Stack.reference(4, leg_radius=0.0), t, method="ipopt", starts=1)
     assert sk.clearances(stack, r0.q, phi=t.phi).self_legs < 0
     r1 = sk.solve_ik(stack, t, method="ipopt", starts=1)
     assert r1.target_error < 1e-6 and r1.max_violation <= 1e-6
@@ -180,7 +180,7 @@ def test_handover_only_for_what_the_rows_cover():
     stack = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=30.0), 4)
     t = sk.PlanarTarget(600.0, 1000.0, -1.57)
     prob = Problem(stack, t, "frobenius", None)
-    q = sk.solve_ik(sk.Stack.reference(4), t).q
+    q = sk.solve_ik(sk.Stack.reference(4, leg_radius=0.0), t).q
     chk = prob.check(q)
     cl = chk.clearances
     assert cl is not None and cl.self_legs < 0 and cl.adjacent_legs < 0
@@ -200,13 +200,13 @@ def test_planar_self_leg_rows_are_lazy() -> None:
     import stackik as sk
     from stackik.sampling import random_planar_targets
 
-    ref = sk.Stack.reference(4)
+    ref = sk.Stack.reference(4, leg_radius=0.0)
     fat = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 4)
     t = random_planar_targets(ref, 1, rng=np.random.default_rng(7))[0]
     for method in ("sqp", "slsqp"):
         a, b = sk.solve_ik(ref, t, method=method), sk.solve_ik(fat, t, method=method)
         assert b.success and np.array_equal(a.q, b.q) and a.nit == b.nit
-    ref2 = sk.Stack.reference(2)
+    ref2 = sk.Stack.reference(2, leg_radius=0.0)
     t = random_planar_targets(ref2, 8, rng=np.random.default_rng(3))[6]
     d = sk.clearances(ref2, sk.solve_ik(ref2, t).q, phi=t.phi).self_legs
     thick = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=d / 2 + 2.0), 2)

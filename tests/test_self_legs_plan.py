@@ -14,7 +14,7 @@ from stackik.sampling import random_spatial_targets
 from stackik.solve.policy import spatial_start_count
 
 THICK4 = Stack.reference(4, leg_radius=ACTUATOR_RADIUS)
-THIN4 = Stack.reference(4)
+THIN4 = Stack.reference(4, leg_radius=0.0)
 
 
 @pytest.fixture

@@ -45,7 +45,7 @@ def test_ipopt_spatial_matches_sqp(n: int, radius: float) -> None:
 
 @pytest.mark.skipif(not HAVE_IPOPT, reason="casadi not installed")
 def test_ipopt_spatial_weighted_and_feasible() -> None:
-    stack = Stack.reference(3)
+    stack = Stack.reference(3, leg_radius=0.0)
     target = random_spatial_targets(stack, 1, 9311)[0]
     w = solve_ik(
         stack, target, method="ipopt", starts=1, objective="weighted",
@@ -61,7 +61,7 @@ def test_ipopt_spatial_weighted_and_feasible() -> None:
 # tolerances from tests/fd.py: step, scale and rounding)
 # =========================================================================================
 def _case(n: int, seed: int) -> tuple[Stack, SpatialTarget, Problem, np.ndarray]:
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     target = random_spatial_targets(stack, 1, seed)[0]
     prob = Problem(stack, target, "frobenius", None)
     rng = np.random.default_rng(seed)
@@ -140,7 +140,7 @@ def test_spatial_ip_evaluation_and_lagrangian_hessian(n: int) -> None:
 # The default in spatial mode
 # =========================================================================================
 def test_spatial_default_is_the_interior_point_and_passes_the_check() -> None:
-    stack = Stack.reference(3)
+    stack = Stack.reference(3, leg_radius=0.0)
     for target in random_spatial_targets(stack, 3, 9601):
         r = solve_ik(stack, target)
         assert r.success and r.method == "ip" and r.n_starts == spatial_start_count(3)
@@ -155,7 +155,7 @@ def test_spatial_default_keeps_the_least_fn_of_its_starts() -> None:
     # unpolished violation happens to be smallest (a selection bug once cost 0.1-1.3 %)
     from stackik.starts import spatial_starts
 
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     targets = random_spatial_targets(stack, 12, 5004)
     for target in (targets[6], targets[11]):  # two where the old rule chose worse
         r = solve_ik(stack, target)
@@ -170,12 +170,13 @@ def test_spatial_default_keeps_the_least_fn_of_its_starts() -> None:
 def test_spatial_starts_order_and_leans() -> None:
     from stackik.starts import SPATIAL_START_ORDER, spatial_starts
 
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     q0 = np.zeros((4, 6))
     a = spatial_starts(stack, q0, 0.0)
     b = spatial_starts(stack, q0, np.pi / 2)
     assert (
-        len(a) == len(SPATIAL_START_ORDER) and len(spatial_starts(Stack.reference(2), q0[:2])) == 9
+        len(a) == len(SPATIAL_START_ORDER)
+        and len(spatial_starts(Stack.reference(2, leg_radius=0.0), q0[:2])) == 9
     )
     assert np.array_equal(a[0], q0)
     i_t, i_b = SPATIAL_START_ORDER.index("leanT0"), SPATIAL_START_ORDER.index("lean0")
@@ -199,7 +200,7 @@ def test_spatial_hops_turn_the_top_platforms_only() -> None:
         spatial_hops,
     )
 
-    stack = Stack.reference(6)
+    stack = Stack.reference(6, leg_radius=0.0)
     q = np.arange(36.0).reshape(6, 6)
     hops = spatial_hops(stack, q)
     assert len(hops) == len(SPATIAL_HOPS) == 12
@@ -209,12 +210,12 @@ def test_spatial_hops_turn_the_top_platforms_only() -> None:
     assert SPATIAL_ALL_HOPS_NS == (7, 8)
     assert spatial_hop_plan(7) == spatial_hop_plan(8) == tuple(range(12))
     assert spatial_hop_plan(4) == SPATIAL_HOPS_N4 and spatial_hop_plan(3) == ()
-    assert len(spatial_hops(Stack.reference(4), q[:4])) == len(SPATIAL_HOPS)
+    assert len(spatial_hops(Stack.reference(4, leg_radius=0.0), q[:4])) == len(SPATIAL_HOPS)
     for h in hops:
         d = h - q
         assert np.all(d[:, [0, 1, 2, 4, 5]] == 0.0) and np.all(d[:3] == 0.0)
         assert np.count_nonzero(d) in (1, 2)
-    assert len(spatial_hops(Stack.reference(2), q[:2])) == len(SPATIAL_HOPS) - 2
+    assert len(spatial_hops(Stack.reference(2, leg_radius=0.0), q[:2])) == len(SPATIAL_HOPS) - 2
 
 
 def test_spatial_default_hops_from_its_best_pose() -> None:
@@ -222,7 +223,7 @@ def test_spatial_default_hops_from_its_best_pose() -> None:
     # and on the first target the hops find a lower minimum than all 12 starts, 0.06 %
     # (seed 9633: the first of seeds 9600-9699 where they do, with the 12 starts and 6
     # hops of 2026-12-06; the second target is 9629's)
-    stack = Stack.reference(5)
+    stack = Stack.reference(5, leg_radius=0.0)
     targets = [random_spatial_targets(stack, 1, seed)[0] for seed in (9633, 9629)]
     for k, target in enumerate(targets):
         r = solve_ik(stack, target)
@@ -239,7 +240,7 @@ def test_spatial_default_deterministic_from_five_platforms(n: int, starts: int) 
     # the 12 starts and the hops: 6 at n = 6 (n_starts 18), all 12 at n = 8
     # (SPATIAL_ALL_HOPS_NS, n_starts 24); the same call twice gives the same pose bit for
     # bit, and the pose is at least the starts' best
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     target = random_spatial_targets(stack, 1, 9600 + n)[0]
     r = solve_ik(stack, target)
     again = solve_ik(stack, target)
@@ -252,12 +253,12 @@ def test_spatial_default_deterministic_from_five_platforms(n: int, starts: int) 
 
 def test_spatial_hops_and_recentring_respect_max_time() -> None:
     # past the budget no hop batch and no re-centring run starts
-    target5 = random_spatial_targets(Stack.reference(5), 1, 9605)[0]
-    r = solve_ik(Stack.reference(5), target5, max_time=1e-9)
+    target5 = random_spatial_targets(Stack.reference(5, leg_radius=0.0), 1, 9605)[0]
+    r = solve_ik(Stack.reference(5, leg_radius=0.0), target5, max_time=1e-9)
     # the batch's first run keeps 1 ms (Request.time_left); where that cuts it short of a
     # pose that passes, "auto" hands the target to the SQP engine for one start (not a hop)
     assert r.n_starts <= spatial_start_count(5) + (r.method == "sqp")
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     target = random_spatial_targets(stack, 1, 9611)[0]
     quick = solve_ik(stack, target, starts=1, max_time=1e-9)
     plain = solve_ik(stack, target, method="ip", x0=paper_initial_guess(stack, target), starts=1)
@@ -270,7 +271,7 @@ def test_spatial_single_start_recentres_from_its_pose() -> None:
     # starts=1 from the paper's guess: restarts from its own pose never make it worse (and
     # on the seventh target find a lower minimum); an explicit x0 or mu0 is one plain run
     # (paths rely on that to stay in the basin they follow)
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     targets = random_spatial_targets(stack, 7, 9611)
     for k in (0, 1, 6):
         target = targets[k]
@@ -289,7 +290,7 @@ def test_spatial_single_start_recentres_from_its_pose() -> None:
 def test_spatial_weighted_objective() -> None:
     from stackik.kinematics import spatial_chain
 
-    stack = Stack.reference(3)
+    stack = Stack.reference(3, leg_radius=0.0)
     target = random_spatial_targets(stack, 1, 9701)[0]
     st_, sth = np.array([0.1, 0.5, 1.0]), np.array([0.01, 0.02, 0.03])
     kw = {"objective": "weighted", "sigma_t": st_, "sigma_theta": sth}
@@ -308,7 +309,7 @@ def test_spatial_weighted_objective() -> None:
 def test_spatial_unreachable_targets_get_a_limit_respecting_pose() -> None:
     from scipy.spatial.transform import Rotation
 
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     rot = Rotation.from_rotvec([0.3, -0.2, 0.1]).as_matrix()
     for pos in ([1500.0, 0.0, 200.0], [0.0, 0.0, 5000.0]):  # inside / beyond the reach bound
         r = solve_ik(stack, SpatialTarget(np.array(pos), rot))
@@ -318,7 +319,7 @@ def test_spatial_unreachable_targets_get_a_limit_respecting_pose() -> None:
 
 
 def test_solve_many_spatial_matches_serial() -> None:
-    stack = Stack.reference(2)
+    stack = Stack.reference(2, leg_radius=0.0)
     targets = random_spatial_targets(stack, 3, 9801)
     many = solve_many(stack, targets)
     for t, m in zip(targets, many, strict=True):

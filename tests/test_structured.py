@@ -16,7 +16,7 @@ from stackik.starts import paper_initial_guess
 
 @pytest.mark.parametrize("n", [2, 5])
 def test_reduced_sparse_equals_dense(n: int) -> None:
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     target = random_planar_targets(stack, 1, rng=3)[0]
     prob = Problem(stack, target, "frobenius", None)
     nlp = ReducedPlanarNLP(prob)
@@ -36,7 +36,7 @@ def test_reduced_sparse_equals_dense(n: int) -> None:
 
 @pytest.mark.parametrize("qp", ["osqp", "clarabel"])
 def test_sqp_sparse_backends_solve_paper_target(qp: str) -> None:
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     target = PlanarTarget(600.0, 1000.0, -1.57)
     res = solve_ik(stack, target, method="sqp", qp_solver=qp, starts=1)
     assert res.success
@@ -49,7 +49,7 @@ def test_sqp_sparse_backends_solve_paper_target(qp: str) -> None:
 
 
 def _lifted_case(n: int) -> tuple[Problem, LiftedPlanarNLP, np.ndarray]:
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     target = random_planar_targets(stack, 1, rng=3)[0]
     prob = Problem(stack, target, "frobenius", None)
     rng = np.random.default_rng(0)
@@ -115,7 +115,7 @@ def test_lifted_derivatives(psd: bool) -> None:
 
 @pytest.mark.parametrize("form", ["lifted", "lifted-exact"])
 def test_sqp_lifted_solves(form: str) -> None:
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     target = PlanarTarget(600.0, 1000.0, -1.57)
     res = solve_ik(
         stack, target, method="sqp", qp_solver="clarabel", starts=1, options={"formulation": form}
@@ -125,7 +125,7 @@ def test_sqp_lifted_solves(form: str) -> None:
 
 
 def test_sqp_barrier_start_solves() -> None:
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     target = PlanarTarget(600.0, 1000.0, -1.57)
     for qp in ("daqp", "clarabel"):
         res = solve_ik(
@@ -141,7 +141,7 @@ def test_sqp_barrier_start_hands_over_when_the_barrier_steps_jam() -> None:
     # in four runs); now the SQP takes over with a fresh radius and reaches the target
     from stackik.sampling import random_planar_targets
 
-    stack = Stack.reference(16)
+    stack = Stack.reference(16, leg_radius=0.0)
     target = random_planar_targets(stack, 5, rng=777 + 16)[4]
     res = solve_ik(
         stack, target, method="sqp", qp_solver="osqp", starts=1, options={"barrier_start": True}
@@ -155,7 +155,7 @@ def test_sqp_formulation_option_checked() -> None:
 
     with pytest.raises(OptionError, match="formulation"):
         solve_ik(
-            Stack.reference(2),
+            Stack.reference(2, leg_radius=0.0),
             PlanarTarget(0.0, 700.0, 0.0),
             method="sqp",
             options={"formulation": "nope"},
@@ -169,7 +169,7 @@ def test_compiled_planar_nlp_equals_reduced(objective: str, n: int) -> None:
     # values, sparsity pattern and Hessian
     from stackik.methods._sqp_compiled import CompiledNLP, compiled_supported
 
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     target = random_planar_targets(stack, 1, rng=3)[0]
     prob = Problem(stack, target, objective, None)
     assert compiled_supported(prob)
@@ -200,7 +200,7 @@ def test_qp_screening_off_gives_the_same_pose() -> None:
     assert CLARABEL_SCREEN_FROM > 4
     with pytest.raises(ValueError, match="qp_screening"):
         SQPOptions(qp_screening=1)  # type: ignore[arg-type]
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     target = PlanarTarget(600.0, 1000.0, -1.57)
     runs = [
         solve_ik(stack, target, method="sqp", qp_solver=qp, starts=1, options=opts)
@@ -223,7 +223,7 @@ def test_compiled_spatial_nlp_has_the_problems_values(objective: str) -> None:
     from stackik.sampling import random_spatial_targets
 
     n = 3
-    stack = Stack.reference(n)
+    stack = Stack.reference(n, leg_radius=0.0)
     target = random_spatial_targets(stack, 1, rng=5)[0]
     prob = Problem(stack, target, objective, None)
     assert compiled_supported(prob)
@@ -252,7 +252,7 @@ def test_sqp_spatial_exact_hessian_by_default() -> None:
     # iterations on the same target (deterministic counts, no timing)
     from stackik.sampling import random_spatial_targets
 
-    stack = Stack.reference(4)
+    stack = Stack.reference(4, leg_radius=0.0)
     target = random_spatial_targets(stack, 1, rng=60621)[0]
     nit = {}
     for qp in ("daqp", "clarabel", "osqp"):

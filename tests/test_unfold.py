@@ -20,7 +20,7 @@ from stackik.methods.ip import IPMethod
 from stackik.sampling import random_reachable_targets
 from stackik.solve.policy import UNFOLD_MU0
 
-REF16 = sk.Stack.reference(16)
+REF16 = sk.Stack.reference(16, leg_radius=0.0)
 FAT16 = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 16)
 #: the fingerprint's planar n = 16 target whose default pose folds with 12 mm legs
 #: (tests/test_leg_pairs.py)
@@ -79,7 +79,7 @@ def test_planar_dense_rows_run_under_the_limit(monkeypatch: pytest.MonkeyPatch) 
     """A planar batch with dense rows (an obstacle across the stack's legs, n = 4) runs
     under the solve's BLAS thread limit."""
     seen = _spy(monkeypatch)
-    stack = sk.Stack.reference(4)
+    stack = sk.Stack.reference(4, leg_radius=0.0)
     t = random_reachable_targets(stack, 1, rng=29, phi=0.3)[0]
     free = sk.solve_ik(stack, t)
     A, O = plate_frames(stack, free.q, phi=t.phi)

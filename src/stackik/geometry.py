@@ -29,8 +29,7 @@ REF_HALF_ANGLE = math.radians(15.0)  # [rad] a = b
 REF_LEG_MIN = 250.0  # [mm]
 REF_LEG_MAX = 450.0  # [mm]
 REF_JOINT_MIN = math.radians(20.0)  # [rad]
-#: [mm] a realistic actuator radius (chosen, not given), for
-#: ``Stack.reference(n, leg_radius=ACTUATOR_RADIUS)``
+#: [mm] a realistic actuator radius (chosen, not given): the reference geometry's legs
 ACTUATOR_RADIUS = 12.0
 
 
@@ -251,13 +250,13 @@ class PlatformGeometry:
         )
 
     @classmethod
-    def reference(cls, *, leg_radius: float = 0.0) -> PlatformGeometry:
+    def reference(cls, *, leg_radius: float = ACTUATOR_RADIUS) -> PlatformGeometry:
         """The reference geometry of DESIGN §2 (chosen, not published by the paper).
 
-        ``r_b = r_t = 150`` mm, ``a = b = 15`` deg, legs 250-450 mm, joints >= 20 deg;
-        ``leg_radius`` [mm] sizes the actuators for the clearance check (0: the paper's
-        legs as lines; :data:`ACTUATOR_RADIUS` = 12 mm is a realistic actuator, the one
-        the clearance benchmarks use).
+        ``r_b = r_t = 150`` mm, ``a = b = 15`` deg, legs 250-450 mm, joints >= 20 deg,
+        actuators of radius ``leg_radius`` [mm]: :data:`ACTUATOR_RADIUS` = 12 mm by
+        default (a realistic actuator, chosen, not given), ``leg_radius=0`` for the
+        paper's model (legs as lines).
         """
         return cls.hexagonal(leg_radius=leg_radius)
 
@@ -387,9 +386,10 @@ class Stack(Sequence[PlatformGeometry]):
         return cls(tuple([geometry] * int(n)))
 
     @classmethod
-    def reference(cls, n: int = 4, *, leg_radius: float = 0.0) -> Stack:
+    def reference(cls, n: int = 4, *, leg_radius: float = ACTUATOR_RADIUS) -> Stack:
         """``n`` reference platforms (:meth:`PlatformGeometry.reference`), legs of radius
-        ``leg_radius`` [mm] (0 by default, the paper's legs as lines)."""
+        ``leg_radius`` [mm] (:data:`ACTUATOR_RADIUS` = 12 mm by default; 0 for the paper's
+        legs as lines)."""
         return cls.uniform(PlatformGeometry.reference(leg_radius=leg_radius), n)
 
     # --- sequence protocol ----------------------------------------------------------

@@ -1,7 +1,7 @@
 """Reproduce the paper's numerical results (Tables 1-2, figures, FN-ratio regression).
 
 ``reproduce(out_dir)`` runs, for the reference geometry (DESIGN §2, chosen, not given by
-the paper), n = 4 and phi = 0:
+the paper) with the paper's legs as lines (``leg_radius=0``), n = 4 and phi = 0:
 
 1. the optimal pose (``objective="frobenius"``) and two non-optimal poses of each of the
    paper's three targets: the first two successful ``objective="feasible"`` runs from the
@@ -289,7 +289,7 @@ def reproduce(
     s = settings
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    stack = Stack.reference(s.n)
+    stack = Stack.reference(s.n, leg_radius=0.0)  # the paper's model: legs as lines
     targets = [PlanarTarget(rho=a, z=b, theta=c, phi=s.phi) for a, b, c in PAPER_TARGETS]
     with ExitStack() as cleanup:
         if executor is None and s.workers > 1:
