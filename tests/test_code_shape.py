@@ -149,7 +149,10 @@ MODE_BRANCH_CAPS: dict[str, tuple[int, str]] = {
     "paths/solve.py": (2, "which kernels to load before the clock"),
     "solve/many.py": (2, "kernel sets a worker loads (before the targets are validated)"),
     "solve/nearest.py": (2, "a spatial target is reached through its vertical plane"),
-    "solve/pipeline.py": (2, "kernels to load before the clock (before validation)"),
+    "solve/pipeline.py": (
+        3,
+        "kernels to load before the clock (before validation; a planar solve's body rows lazy)",
+    ),
     "solve/policy.py": (2, "the automatic method and starts per mode"),
     "solve/request.py": (2, "the automatic method per mode"),
     "analysis/capacity.py": (1, "a planar-only study validates its targets"),

@@ -48,7 +48,7 @@ def _what_first_calls_cost() -> dict[str, tuple[list[str], list[str]]]:
 
     sk.warm_up()
     solve_path, interpolate = sk.solve_path, sk.interpolate_targets  # (lazy attributes)
-    stack = sk.Stack.reference(4)
+    stack = sk.Stack.reference(4, leg_radius=0.0)
     fat = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(leg_radius=12.0), 4)
     keys = [sk.PlanarTarget(0.0, 1000.0, 0.0), sk.PlanarTarget(150.0, 950.0, 0.2)]
     paper = sk.PlanarTarget(600.0, 1000.0, -1.57)
@@ -60,11 +60,11 @@ def _what_first_calls_cost() -> dict[str, tuple[list[str], list[str]]]:
         "planar": lambda: sk.solve_ik(stack, sk.PlanarTarget(600.0, 1000.0, -1.57)),
         "spatial": lambda: sk.solve_ik(stack, _spatial_target(4)),
         "spatial unreachable": lambda: sk.solve_ik(
-            sk.Stack.reference(3), sk.SpatialTarget([0.0, 0.0, 200.0], np.eye(3))
+            sk.Stack.reference(3, leg_radius=0.0), sk.SpatialTarget([0.0, 0.0, 200.0], np.eye(3))
         ),
         "planar sqp": lambda: sk.solve_ik(stack, keys[0], method="sqp", starts=1),
         "spatial sqp": lambda: sk.solve_ik(
-            sk.Stack.reference(3), _spatial_target(3), method="sqp", starts=1
+            sk.Stack.reference(3, leg_radius=0.0), _spatial_target(3), method="sqp", starts=1
         ),
         "planar slsqp": lambda: sk.solve_ik(stack, keys[1], method="slsqp", starts=1),
         "planar path": lambda: solve_path(stack, interpolate(keys, steps=3)),
@@ -113,7 +113,7 @@ def _kernels_a_spatial_solve_loads() -> dict[str, object]:
     """Runs in a fresh process: one reachable spatial solve (no warm-up); which kernel
     families are loaded and which planar entry points got a specialisation."""
 
-    r = sk.solve_ik(sk.Stack.reference(3), _spatial_target(3))
+    r = sk.solve_ik(sk.Stack.reference(3, leg_radius=0.0), _spatial_target(3))
     from stackik._compiled import planar as ipm
     from stackik._compiled.spatial import SpatialData
 
@@ -144,12 +144,41 @@ def test_a_spatial_solve_loads_no_planar_kernel():
     assert out == {"status": "success", "ready": ["spatial"], "planar specialisations": 0}
 
 
+def _families_a_reference_planar_solve_loads() -> list[str]:
+    """Runs in a fresh process: the README's first solve on the reference stack (12 mm
+    legs), no warm-up; the kernel families it loaded."""
+    assert sk.solve_ik(sk.Stack.reference(4), sk.PlanarTarget(600.0, 1000.0, -1.57)).success
+    return sorted(warmup._READY)
+
+
+def test_a_planar_solve_on_legs_of_a_size_loads_the_planar_family_alone():
+    # its self-leg rows are lazy and outside the interior point: no _rows twin compiled
+    # for a newcomer's first solve (rows_needed(..., planar_solve=True))
+    assert _in_fresh_process(_families_a_reference_planar_solve_loads) == ["planar"]
+
+
+def test_a_folded_planar_solve_loads_the_rows_family_off_the_clock(monkeypatch):
+    # a tall stack's batch folds; the unfold's rows beyond the limits load their family
+    # through Request.load_kernels (whose seconds move the solve's clock on)
+    from stackik.sampling import random_reachable_targets
+    from stackik.solve.request import Request
+
+    loaded: list[str] = []
+    load = Request.load_kernels
+    monkeypatch.setattr(
+        Request, "load_kernels", lambda self, kind: (loaded.append(kind), load(self, kind))[1]
+    )
+    stack = sk.Stack.reference(16)
+    assert sk.solve_ik(stack, random_reachable_targets(stack, 1, rng=1)[0]).success
+    assert "planar_rows" in loaded
+
+
 def _families_solves_and_paths_load() -> dict[str, object]:
     """Runs in a fresh process: a planar solve, then a planar path, then a spatial path
     (no warm-up); after each, the families loaded and how many specialisations the
     path families' entry points got."""
     solve_path, interpolate = sk.solve_path, sk.interpolate_targets  # (lazy attributes)
-    stack = sk.Stack.reference(3)
+    stack = sk.Stack.reference(3, leg_radius=0.0)
     keys = [sk.PlanarTarget(0.0, 800.0, 0.0), sk.PlanarTarget(100.0, 780.0, 0.1)]
     steps = {
         "planar solve": lambda: sk.solve_ik(stack, keys[0]),
@@ -277,7 +306,7 @@ def test_an_unreachable_spatial_target_loads_the_planar_kernels_off_the_clock(mo
         return 1000.0
 
     monkeypatch.setattr(request, "ensure_kernels", fake)
-    stack = sk.Stack.reference(3)
+    stack = sk.Stack.reference(3, leg_radius=0.0)
     r = sk.solve_ik(stack, _spatial_target(3))
     assert r.success and loaded == []  # reachable: no planar kernel needed
     r = sk.solve_ik(stack, sk.SpatialTarget([0.0, 0.0, 200.0], np.eye(3)))  # stalls
@@ -345,7 +374,7 @@ def _rows_code_a_plain_solve_compiles() -> dict[str, object]:
 
     from stackik._compiled import dense_rows, obstacle_rows
 
-    stack = sk.Stack.reference(4)
+    stack = sk.Stack.reference(4, leg_radius=0.0)
     target = sk.PlanarTarget(600.0, 1000.0, -1.57)
     sphere = sk.Sphere(np.array([300.0, 0.0, 500.0]), 50.0)
     out: dict[str, object] = {}
@@ -375,11 +404,14 @@ def test_a_solve_without_dense_rows_compiles_none_of_their_code():
 def test_rows_needed_names_every_source_of_dense_rows():
     import numpy as np
 
-    ref = sk.Stack.reference(3)
+    ref = sk.Stack.reference(3, leg_radius=0.0)
     assert not warmup.rows_needed(ref)
     assert warmup.rows_needed(ref, obstacles=sk.Sphere(np.zeros(3) + 500.0, 10.0))
     assert warmup.rows_needed(ref, clearance=5.0)
     assert warmup.rows_needed(sk.Stack.reference(3, leg_radius=12.0))
+    # a planar solve's body rows are lazy: their family loads with the first fold
+    assert not warmup.rows_needed(sk.Stack.reference(3), planar_solve=True)
+    assert warmup.rows_needed(sk.Stack.reference(3), clearance=5.0, planar_solve=True)
     assert warmup.rows_needed(ref, force_weight=1.0)
     assert warmup.rows_needed(ref, objective="force")
     limited = sk.Stack.uniform(sk.PlatformGeometry.hexagonal(force_max=1e3), 3)
@@ -405,7 +437,7 @@ def test_the_lean_type_is_the_problem_data_without_rows_beyond_the_limits():
     from stackik.formulation import Problem
     from stackik.methods.ip import problem_arrays, spatial_problem_arrays
 
-    st = sk.Stack.reference(3)
+    st = sk.Stack.reference(3, leg_radius=0.0)
     fat = sk.Stack.reference(3, leg_radius=12.0)
     pt = sk.PlanarTarget(0.0, 900.0, 0.0)
     sphere = sk.Sphere(np.array([0.0, 0.0, 500.0]), 20.0)

@@ -199,7 +199,10 @@ def solve_ik(
         compiled twin :func:`stackik._compiled.check.planar_check`, tested to agree, does the
         check).
     """
-    rows = rows_needed(stack, obstacles, clearance, constraints, force_weight, objective)
+    rows = rows_needed(
+        stack, obstacles, clearance, constraints, force_weight, objective,
+        planar_solve=isinstance(target, PlanarTarget),
+    )  # fmt: skip
     for kind in _kernels_needed(stack, target, rows):
         ensure_kernels(kind)  # load or compile before the clock starts
     n_threads = resolve_threads(threads)

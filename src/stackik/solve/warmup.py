@@ -144,21 +144,34 @@ def rows_needed(
     constraints: Any = (),
     force_weight: Any = 0.0,
     objective: Any = "frobenius",
+    *,
+    planar_solve: bool = False,
 ) -> bool:
     """Whether a request on ``stack`` with these arguments (those of
     :func:`stackik.solve_ik`) can carry rows beyond the leg and joint limits, so that it
     needs the ``_rows`` kernel families: obstacles, a clearance margin, legs or plates with
     a size (the spatial self-leg rows; the non-adjacent bodies' rows a folded pose gets),
     constraint families, finite force limits or a force term. Arguments the request's
-    validation will refuse count as none (it reports them)."""
+    validation will refuse count as none (it reports them).
+
+    ``planar_solve``: for a planar :func:`stackik.solve_ik`, legs and plates of a size do
+    not count. Its self-leg rows are lazy and outside the interior point, and its
+    non-adjacent bodies' rows come only with a folded pose, whose unfold loads the family
+    then, off the solve's clock (``stages._unfold``; on the reference geometry's 12 mm legs
+    no planar solve of 30 targets at n = 4 nor 10 at n = 8 called for it): a first solve
+    of the reference stack compiles the planar family alone, as for legs as lines."""
     from stackik.clearance import needs_clearances
     from stackik.formulation.forces import force_limited
 
     try:
         if obstacles is not None and not isinstance(obstacles, list | tuple):
             obstacles = (obstacles,)
+        obstacles, margin = tuple(obstacles or ()), float(clearance or 0.0)
+        bodies = needs_clearances(stack, obstacles, margin)
+        if planar_solve:
+            bodies = bool(obstacles) or margin > 0.0
         return bool(
-            needs_clearances(stack, tuple(obstacles or ()), float(clearance or 0.0))
+            bodies
             or constraints
             or force_limited(stack)
             or float(force_weight or 0.0) > 0.0
