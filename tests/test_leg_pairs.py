@@ -226,6 +226,32 @@ def test_nothing_close_is_the_solve_without_rows(monkeypatch: pytest.MonkeyPatch
             np.testing.assert_array_equal(a.q, b.q)
 
 
+def test_ipopt_bounds_and_does_not_cache_the_pair_rows(monkeypatch: pytest.MonkeyPatch) -> None:
+    """An IPOPT run carries at most ``IPOPT_MAX_PAIR_ROW_PLATFORMS`` rows for non-adjacent
+    bodies times platforms (beyond, it is not made: memory grows by MBs a row at n >= 16),
+    and the solver of a run with
+    such rows is not kept in the solver cache (each unfold round has rows of its own)."""
+    pytest.importorskip("casadi")
+    from stackik.methods import ipopt
+
+    rng = np.random.default_rng(12)
+    q = _pose(FAT, None, rng)
+    every = LegPairRows(FAT, np.arange(pair_table(FAT).pairs.shape[0]), 0.0, None)
+    pairs = close_pairs(FAT, [q], 1.0, None, float(np.quantile(every.distances(q), 0.2)))
+    prob = Problem(FAT, sk.SpatialTarget(*spatial_forward(q)), "frobenius", None)
+    prob = prob.with_leg_pairs(pairs)
+    size = prob.clearance.leg_pairs.size
+    assert size > 1
+    u0 = prob.u_of(q)
+    before = ipopt._spatial_solver.cache_info().currsize
+    u, nit, status = ipopt.run_ipopt(prob, u0, {"max_iter": 5})
+    assert nit > 0 and status != "too many rows"
+    assert ipopt._spatial_solver.cache_info().currsize == before
+    monkeypatch.setattr(ipopt, "IPOPT_MAX_PAIR_ROW_PLATFORMS", size * FAT.n - 1)
+    u, nit, status = ipopt.run_ipopt(prob, u0, {"max_iter": 5})
+    assert (nit, status) == (0, "too many rows") and np.array_equal(u, u0)
+
+
 def test_ipopt_pair_rows_are_the_kernels() -> None:
     """IPOPT's symbolic rows for bodies of non-adjacent platforms equal the kernel's in
     value and Jacobian (spatial poses, legs and plates' covering segments)."""

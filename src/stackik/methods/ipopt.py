@@ -599,6 +599,16 @@ def _spatial_solver(
     return solver, lbg, ubg
 
 
+#: The most rows for bodies of non-adjacent platforms times platforms an IPOPT run
+#: carries; with more the run is not made (status "too many rows"; the fold stays, the
+#: check refuses it). CasADi's symbolic rows and the Hessian it derives grow with the
+#: rows and with the depth of the plate frames' expressions, about 0.12 MB a row and
+#: platform (planar n = 16: 334 rows, 0.86 GB in all; n = 32: three unfold rounds of 482,
+#: 694 and 908 rows, 3.7 GB): a ``stackik bench`` at n = 64 on 12 mm legs (thousands of
+#: rows) was killed by the OOM killer at 24 GB, its solvers cached. Runs with such rows
+#: build their solver uncached.
+IPOPT_MAX_PAIR_ROW_PLATFORMS = 20_000
+
 #: Keys of the solvers built in this process (their last ``_BUILT_MAX``) and, per stack
 #: and obstacle set, how long its last build took [s].
 _BUILT: set[Any] = set()
@@ -636,7 +646,9 @@ def run_ipopt(
     ``options`` are IPOPT options (``max_iter``, ``tol``, ...). ``time_left`` [s] becomes
     IPOPT's ``max_wall_time``, rounded down to a power of two so that cached solvers are
     reused. When building the CasADi solver (seconds with box obstacles' rows) used up
-    ``time_left``, IPOPT does not run: ``u0``, 0 iterations, status ``"max_time"``.
+    ``time_left``, IPOPT does not run: ``u0``, 0 iterations, status ``"max_time"``; nor
+    with rows for bodies of non-adjacent platforms beyond
+    :data:`IPOPT_MAX_PAIR_ROW_PLATFORMS` (status ``"too many rows"``).
     """
     t_start = time.perf_counter()
     target = prob.target
@@ -653,6 +665,9 @@ def run_ipopt(
         raise OptionError("options: IPOPT option values must be numbers or strings") from None
     load = None if prob.forces is None else prob.forces.load
     obstacles = obstacle_key(prob)
+    lp = prob.clearance.leg_pairs
+    if lp is not None and lp.size * prob.n > IPOPT_MAX_PAIR_ROW_PLATFORMS:
+        return u0, 0, "too many rows"
     build: Any
     if isinstance(target, PlanarTarget):
         build = _solver
@@ -676,6 +691,8 @@ def run_ipopt(
                 [prob.c0, prob.fscale],
             ]
         )
+    if lp is not None:  # a solver of its own unfold round: not kept (hundreds of MB)
+        build = build.__wrapped__
     built = _built(build, time_left, (prob.stack, obstacles), *args)
     if built is None:
         return u0, 0, "max_time"
