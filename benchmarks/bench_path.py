@@ -436,6 +436,7 @@ def main(argv: list[str] | None = None) -> int:
         "total_s": time.perf_counter() - t_all,
         "max_jump": MAX_JUMP,
         "seed": SEED,
+        "leg_radius": Stack.reference().platforms[0].leg_radius,  # [mm]
     }
     args.out.mkdir(parents=True, exist_ok=True)
     name = "path_bench_quick" if args.quick else "path_bench"

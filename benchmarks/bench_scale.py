@@ -266,6 +266,7 @@ def main() -> None:
             "command": " + ".join(part["meta"]["command"] for part in parts),
             "machine": parts[0]["meta"]["machine"],
             "ref_starts": ", ".join(str(part["meta"]["ref_starts"]) for part in parts),
+            "leg_radius": parts[0]["meta"].get("leg_radius", 0.0),
         }
     else:
         solve_ik(Stack.reference(4), PlanarTarget(600.0, 1000.0, -1.57))  # kernels loaded
@@ -298,6 +299,7 @@ def main() -> None:
             + (f" --reuse {args.reuse} (run on {old['meta']['machine']})" if args.reuse else ""),
             "machine": "{cpus} CPUs ({cpu}), {date}".format(**machine_info()),
             "ref_starts": args.ref_starts,
+            "leg_radius": Stack.reference().platforms[0].leg_radius,  # [mm]
         }
     lines = summary(rows)
     write_results(args.out, args.stem, meta, lines, rows, markdown(lines, meta))

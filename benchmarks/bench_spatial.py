@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from stackik.bench import machine_info
-from stackik.geometry import Stack
+from stackik.geometry import ACTUATOR_RADIUS, Stack
 from stackik.sampling import random_spatial_targets
 from stackik.solve import solve_ik
 
@@ -61,7 +61,7 @@ METHODS: list[tuple[str, dict[str, Any]]] = [
 
 
 def targets(
-    n: int, count: int, seed: int = SEED, leg_radius: float = 0.0
+    n: int, count: int, seed: int = SEED, leg_radius: float = ACTUATOR_RADIUS
 ) -> tuple[Stack, list[Any]]:
     stack = Stack.reference(n, leg_radius=leg_radius)
     return stack, random_spatial_targets(stack, count, seed + n)
@@ -186,7 +186,10 @@ def main(argv: list[str] | None = None) -> None:
         "--seed", type=int, default=SEED, help="targets' seed (+ n); another for an outside check"
     )
     ap.add_argument(
-        "--leg-radius", type=float, default=0.0, help="legs' radius [mm] of the reference stack"
+        "--leg-radius",
+        type=float,
+        default=ACTUATOR_RADIUS,
+        help="legs' radius [mm] of the reference stack (its own, 12 mm, by default)",
     )
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results"))
     ap.add_argument("--reuse", action="store_true", help="keep rows already computed")
@@ -235,7 +238,8 @@ def main(argv: list[str] | None = None) -> None:
     summary = summarise(rows, sizes)
     cmd = "python benchmarks/bench_spatial.py " + " ".join(argv or [])
     (args.out / "spatial_bench.json").write_text(
-        json.dumps({"machine": info, "summary": summary}, indent=1) + "\n"
+        json.dumps({"machine": info, "leg_radius": args.leg_radius, "summary": summary}, indent=1)
+        + "\n"
     )
     with (args.out / "spatial_bench.csv").open("w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(summary[0]))

@@ -47,6 +47,17 @@ def _pct(x: float) -> str:
     return f"{100 * x:.1f} %"
 
 
+def _legs(radius: float) -> str:
+    """The legs a run measured: files written before the reference geometry got 12 mm
+    legs (2026-12-07) carry no ``leg_radius``, and were measured on legs as lines."""
+    return "legs as lines" if radius == 0.0 else f"{radius:g} mm legs"
+
+
+def _radius(data: dict[str, Any]) -> float:
+    """A results file's ``leg_radius`` [mm] (top level or in its ``meta``; 0 if absent)."""
+    return float(data.get("leg_radius", data.get("meta", {}).get("leg_radius", 0.0)))
+
+
 def _row(rows: list[dict[str, Any]], **match: Any) -> dict[str, Any]:
     found = [r for r in rows if all(r.get(k) == v for k, v in match.items())]
     if len(found) != 1:
@@ -71,6 +82,7 @@ def headline(results: Path = RESULTS) -> str:
     ik = json.loads((results / "ik_bench.json").read_text())
     sp = json.loads((results / "spatial_bench.json").read_text())
     pa = json.loads((results / "path_bench.json").read_text())
+    sc = json.loads((results / "scale.json").read_text())
     planar = [r for r in ik["summary"] if r["section"] == "planar" and r["n"] == 4]
     spatial = [r for r in sp["summary"] if r["n"] == 4]
     lines = [
@@ -86,7 +98,8 @@ def headline(results: Path = RESULTS) -> str:
     ):
         r = _row(planar, method=method)
         lines.append(
-            f"| planar, {r['targets']} targets | {label} | {_pct(r['success_rate'])} "
+            f"| planar, {r['targets']} targets, {_legs(_radius(ik))} | {label} "
+            f"| {_pct(r['success_rate'])} "
             f"| {_pct(r['within_0.1%'])} | {_ms(r['median_ms'], ms=True)} |"
         )
     for method, label in (
@@ -95,7 +108,8 @@ def headline(results: Path = RESULTS) -> str:
     ):
         r = _row(spatial, method=method)
         lines.append(
-            f"| spatial, {r['targets']} targets | {label} | {_pct(r['success'])} "
+            f"| spatial, {r['targets']} targets, {_legs(_radius(sp))} | {label} "
+            f"| {_pct(r['success'])} "
             f"| {_pct(r['within_0.1%'])} | {_ms(r['median_time_s'])} |"
         )
     fast = _row(pa["summary"], kind="planar", n=4, mode="fast")
@@ -113,9 +127,46 @@ def headline(results: Path = RESULTS) -> str:
         "shared 2-core VM (the spatial default runs its starts on both cores, IPOPT's "
         "starts run in turn): compare ratios.",
         "",
-        *_at_scale(sp, json.loads((results / "scale.json").read_text())),
+        *_at_scale(sp, sc),
+        *_radius_note(results, [ik, sp, pa, sc]),
     ]
     return "\n".join(lines)
+
+
+def _radius_note(results: Path, measured: list[dict[str, Any]]) -> list[str]:
+    """Where the tables were measured on legs as lines: what the reference geometry's 12 mm
+    legs change, from ``nonadj_bench.json`` (``benchmarks/bench_nonadj.py``: the default
+    on 0 and 12 mm legs, interleaved)."""
+    if all(_radius(d) > 0.0 for d in measured):
+        return []
+    nb = json.loads((results / "nonadj_bench.json").read_text())
+    parts = []
+    for s in nb["summary"]:
+        both = min(s["ok_r0"], s["ok_r12"])
+        cost = (
+            f", FN {100 * s['cost_median']:+.2f} % median ({100 * s['cost_max']:+.2f} % at most)"
+            if s["changed"]
+            else ""
+        )
+        ipopt = (
+            f", IPOPT from 8 starts with the same rows > 0.5 % lower on {s['ipopt8_vs_r12']}"
+            if "ipopt8_vs_r12" in s
+            else ""
+        )
+        parts.append(
+            f"{s['case'].replace('n=', 'n = ')}: {s['ok_r12']}/{s['targets']} solved, "
+            f"{s['changed']} of {both} poses changed{cost}, {s['time_ratio']:.1f}x the time, "
+            f"{s['false_r12']} colliding{ipopt}"
+        )
+    command = nb.get("command", f"python benchmarks/bench_nonadj.py --seed {nb['seed']}")
+    return [
+        "",
+        "Rows on *legs as lines* were measured before the reference geometry got 12 mm "
+        "legs (`leg_radius = 0`, the paper's model). What the 12 mm legs change, "
+        f"the default on both (`{command}`, {nb['machine']['date'].split()[0]}): "
+        + "; ".join(parts)
+        + ".",
+    ]
 
 
 def _at_scale(sp: dict[str, Any], sc: dict[str, Any]) -> list[str]:
@@ -131,7 +182,8 @@ def _at_scale(sp: dict[str, Any], sc: dict[str, Any]) -> list[str]:
         d = _row(sp["summary"], n=n, method="stackik default")
         i = _row(sp["summary"], n=n, method="ipopt, 8 starts")
         lines.append(
-            f"| spatial n = {n}, {d['targets']} targets | {_pct(d['within_0.1%'])}, "
+            f"| spatial n = {n}, {d['targets']} targets, {_legs(_radius(sp))} "
+            f"| {_pct(d['within_0.1%'])}, "
             f"{_ms(d['median_time_s'])} | {_pct(i['within_0.1%'])}, {_ms(i['median_time_s'])} "
             f"| {d['ipopt8_time_ratio']:.1f}x |"
         )
@@ -152,7 +204,7 @@ def _at_scale(sp: dict[str, Any], sc: dict[str, Any]) -> list[str]:
             # best known from the default's own runs alone: no quality figure
             within = f"no outside reference ({r['default_success']}/{t} solved)"
         lines.append(
-            f"| planar n = {r['n']}, {t} targets | {within}, "
+            f"| planar n = {r['n']}, {t} targets, {_legs(_radius(sc))} | {within}, "
             f"{_ms(r['default_median_ms'], ms=True)} | {ipopt} | {speedup} |"
         )
     # the most starts of an IPOPT reference in the spatial rows of each size (0: none)

@@ -62,7 +62,8 @@ def test_headline_reads_the_results(gen: ModuleType, tmp_path: Path) -> None:
     import json
     import shutil
 
-    for name in ("ik_bench.json", "spatial_bench.json", "path_bench.json", "scale.json"):
+    names = ("ik_bench.json", "spatial_bench.json", "path_bench.json", "scale.json")
+    for name in (*names, "nonadj_bench.json"):
         shutil.copy(RESULTS / name, tmp_path / name)
     data = json.loads((tmp_path / "ik_bench.json").read_text())
     for row in data["summary"]:
@@ -71,6 +72,33 @@ def test_headline_reads_the_results(gen: ModuleType, tmp_path: Path) -> None:
     (tmp_path / "ik_bench.json").write_text(json.dumps(data))
     assert "| 123 ms |" in gen.headline(tmp_path)
     assert "| 123 ms |" not in gen.headline(RESULTS)
+
+
+def test_headline_says_which_legs_each_run_measured(gen: ModuleType, tmp_path: Path) -> None:
+    """Rows name the legs of their run (files without ``leg_radius``: legs as lines, the
+    reference before its 12 mm legs); while any run is on legs as lines, the 12 mm
+    comparison (``nonadj_bench.json``) follows the tables, and not once all are on 12 mm."""
+    import json
+    import shutil
+
+    names = ("ik_bench.json", "spatial_bench.json", "path_bench.json", "scale.json")
+    for name in (*names, "nonadj_bench.json"):
+        shutil.copy(RESULTS / name, tmp_path / name)
+    for name, key in zip(names, (None, None, "meta", "meta"), strict=True):
+        data = json.loads((tmp_path / name).read_text())
+        data.pop("leg_radius", None)
+        data.get("meta", {}).pop("leg_radius", None)
+        (data[key] if key else data)["leg_radius"] = 12.0
+        (tmp_path / name).write_text(json.dumps(data))
+    text = gen.headline(tmp_path)
+    assert "legs as lines" not in text and "| planar, " in text
+    assert all("12 mm legs" in line for line in text.splitlines() if line.startswith("| planar"))
+    data = json.loads((tmp_path / "scale.json").read_text())
+    data["meta"]["leg_radius"] = 0.0
+    (tmp_path / "scale.json").write_text(json.dumps(data))
+    text = gen.headline(tmp_path)
+    assert "planar n = 64, 10 targets, legs as lines" in text
+    assert "What the 12 mm legs change" in text
 
 
 def test_every_example_is_on_the_examples_page() -> None:

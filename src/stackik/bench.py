@@ -280,6 +280,7 @@ def run_benchmark(
     ratios = _ratios(summary)
     result = {
         "machine": machine,
+        "leg_radius": stack[0].leg_radius,  # [mm] the reference stack's legs
         "config": cfg.__dict__,
         "summary": summary,
         "exponents": fits,
