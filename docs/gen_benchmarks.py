@@ -120,7 +120,8 @@ def headline(results: Path = RESULTS) -> str:
         f"Planar: `stackik bench` ({date_ik}, {n_planar} targets); spatial: "
         f"`python benchmarks/bench_spatial.py` ({date_sp}); best = the least FN any method "
         "in the run found. Paths (`python benchmarks/bench_path.py`, "
-        f"{pa['meta']['date'].split()[0]}): planar n = 4, {fast['paths']} paths of "
+        f"{pa['meta']['date'].split()[0]}, {_legs(_radius(pa))}): planar n = 4, "
+        f"{fast['paths']} paths of "
         f"{fast['waypoints']} waypoints, fast mode {fast['complete']}/{fast['paths']} "
         f"complete, mean FN {fast['fn_ratio_mean']:.4f} x that of independent solves, "
         f"{fast['speedup']:.1f}x their speed, no step above `max_jump`. Timings are from a "
@@ -157,7 +158,7 @@ def _radius_note(results: Path, measured: list[dict[str, Any]]) -> list[str]:
     command = nb.get("command", f"python benchmarks/bench_nonadj.py --seed {nb['seed']}")
     return [
         "",
-        "Rows on *legs as lines* were measured before the reference geometry got 12 mm "
+        "Runs on *legs as lines* were measured before the reference geometry got 12 mm "
         "legs (`leg_radius = 0`, the paper's model). What the 12 mm legs change, the "
         f"default on both (`{command}`, {nb['machine']['date'].split()[0]}; FN cost and "
         "time of the 12 mm solve against legs as lines):",
