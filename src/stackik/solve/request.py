@@ -73,6 +73,12 @@ class Request:
         before its clock starts): ``t_start`` moves on by them."""
         self.t_start += ensure_kernels(kind)
 
+    def load_row_kernels(self) -> None:
+        """Load the mode's ``_rows`` family (:meth:`load_kernels`, off the clock) before a
+        run with rows the solve did not load it for: a planar solve's body rows, which
+        come lazily (:func:`stackik.solve.warmup.rows_needed` with ``planar_solve``)."""
+        self.load_kernels(f"{self.mode.name}_rows")
+
     def without_force_weight(self) -> Request:
         """The same request without its force weight (its objective alone, the method
         ``"auto"`` picks for it, the same clock, starts and randomness): the pose

@@ -736,8 +736,8 @@ def _unfold(
         return {int(p) for p in found}
 
     pairs = close([start, run.q])
-    if pairs:  # rows beyond the limits: their kernels load now, off the clock (rows_needed)
-        req.load_kernels(f"{req.mode.name}_rows")
+    if pairs:
+        req.load_row_kernels()
     out: Run | None = None
     for _ in range(UNFOLD_ROUNDS):
         if not pairs or req.out_of_time():
@@ -804,7 +804,7 @@ def _lazy_self_legs(
         return run
     if req.out_of_time():  # no second run past the budget
         return run
-    req.load_kernels(f"{req.mode.name}_rows")  # the rows' kernels (rows_needed), off the clock
+    req.load_row_kernels()
     again = method.run(prob, qs, options, req.time_left(time.perf_counter()), req.qp_solver)
     return dataclasses.replace(again, nit=run.nit + again.nit)
 

@@ -167,9 +167,11 @@ def rows_needed(
         if obstacles is not None and not isinstance(obstacles, list | tuple):
             obstacles = (obstacles,)
         obstacles, margin = tuple(obstacles or ()), float(clearance or 0.0)
-        bodies = needs_clearances(stack, obstacles, margin)
-        if planar_solve:
-            bodies = bool(obstacles) or margin > 0.0
+        bodies = (
+            bool(obstacles) or margin > 0.0  # (needs_clearances less the bodies' sizes)
+            if planar_solve
+            else needs_clearances(stack, obstacles, margin)
+        )
         return bool(
             bodies
             or constraints
