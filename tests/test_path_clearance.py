@@ -212,6 +212,27 @@ def test_a_folding_tall_path_goes_through_clear(
     assert path.info["unfold"] > 0
 
 
+@pytest.mark.parametrize("mode", ["fast", "global"])
+def test_a_path_on_legs_as_lines_unfolds_a_leg_through_a_plate(mode: str) -> None:
+    """Planar n = 16 on legs as lines (the first waypoints of bench_path's first n = 16
+    path): a warm step passes a leg's axis through a plate, which the check refuses even
+    with no thickness. The step is made again with rows for the pairs close there
+    (``info["unfold"]``), and the path goes through, every waypoint checked. (Fast mode
+    broke at waypoint 1 when steps on zero-size bodies never carried such rows.)"""
+    ts = [
+        sk.PlanarTarget(2031.211485117825, 4260.49252751689, -2.0315615264045315),
+        sk.PlanarTarget(2017.4921807466478, 4267.40157708351, -1.9804929610169741),
+        sk.PlanarTarget(2003.7728763754708, 4274.31062665013, -1.9294243956294166),
+    ]
+    path = sk.solve_path(REF16, ts, mode=mode, max_jump=(60.0, 0.3))
+    assert path.success and path.completed == 3, path.message
+    assert path.info["unfold"] > 0
+    for t, q in zip(ts, path.q):
+        assert sk.check_pose(REF16, t, q).ok
+    d = np.abs(np.diff(path.q, axis=0))
+    assert np.all(d[..., :2] <= 60.0) and np.all(d[..., 2] <= 0.3)
+
+
 def test_a_path_that_never_folds_has_no_pair_rows(monkeypatch: pytest.MonkeyPatch) -> None:
     """Planar n = 4 on 12 mm legs: no non-adjacent pair comes close, so no step gets rows for
     one (``with_leg_pairs`` is never called) and the poses are the zero-radius path's, bit

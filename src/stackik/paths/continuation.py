@@ -20,7 +20,8 @@ that the check refuses only for bodies of non-adjacent platforms (the stack fold
 itself, :func:`stackik.methods.ip.folds_only`) has the rung made again from the same pose
 with rows for the pairs of such bodies close there or at the refused pose, as
 :func:`stackik.solve.stages._unfold` does for a solve; and every step carries rows for the
-pairs close at its start (:meth:`Tracker._pairs`, solve_ik's screen). A path on which no
+pairs close at its start (:meth:`Tracker._pairs`, solve_ik's screen; on legs as lines,
+zero-thickness plates and no margin only the rows found after a fold). A path on which no
 such pair comes close has no such rows: it is the path without them, bit for bit.
 """
 
@@ -146,10 +147,11 @@ class Tracker:
         #: the carried state of a second pose followed beside the path (a fast path's
         #: goal basin, :meth:`follow`)
         self._side_carry: tuple[Any, ...] | None = None
-        #: rows for bodies of non-adjacent platforms (:meth:`_pairs`): whether any can be
-        #: needed (legs or plates of a size, or a margin: else such bodies are never
-        #: closer than 0), and the pairs close at the poses that folded from a start
-        #: (keyed by its bytes)
+        #: rows for bodies of non-adjacent platforms (:meth:`_pairs`): whether a step
+        #: carries them before any fold (legs or plates of a size, or a margin: else such
+        #: bodies come closer than 0 only where a leg's axis passes through a plate, which
+        #: a step's rows keep from happening again once it has), and the pairs close at
+        #: the poses that folded from a start (keyed by its bytes)
         self._sized = self.clearance > 0.0 or any(
             g.leg_radius > 0.0 or g.plate_thickness > 0.0 for g in self.stack
         )
@@ -197,12 +199,15 @@ class Tracker:
     def _pairs(self, q: FloatArray, target: Target) -> tuple[int, ...]:
         """The pairs of bodies of non-adjacent platforms a step from ``q`` to ``target``
         keeps apart (sorted): those close at ``q`` (:meth:`_close`) and those close at the
-        poses that folded from ``q`` (:meth:`_folded`); none when no such pair can come
-        closer than the margin (zero radii, thickness and margin). A function of ``q`` and
-        the rungs from it: a path resumed from a checkpoint carries the same rows."""
+        poses that folded from ``q`` (:meth:`_folded`). With zero radii, thickness and
+        margin only the latter: such bodies are then never closer than 0 except where a
+        leg's axis passes through a plate, and the rows come after the check refused that
+        (as solve_ik's :func:`~stackik.solve.stages._unfold`). A function of ``q`` and the
+        rungs from it: a path resumed from a checkpoint carries the same rows."""
+        more = self._more.get(q.tobytes(), frozenset())
         if not self._sized:
-            return ()
-        return tuple(sorted(self._more.get(q.tobytes(), frozenset()) | self._close([q], target)))
+            return tuple(sorted(more))
+        return tuple(sorted(more | self._close([q], target)))
 
     def _folded(
         self, q: FloatArray, target: Target, q_bad: FloatArray | None, used: tuple[int, ...]
