@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 
 from stackik import check
 from stackik._arrays import readonly
+from stackik.clearance import needs_clearances
 from stackik.formulation.modes import mode_of
 from stackik.geometry import Stack
 from stackik.paths.bounded import bounded_ip, bounded_step
@@ -152,9 +153,7 @@ class Tracker:
         #: bodies come closer than 0 only where a leg's axis passes through a plate, which
         #: a step's rows keep from happening again once it has), and the pairs close at
         #: the poses that folded from a start (keyed by its bytes)
-        self._sized = self.clearance > 0.0 or any(
-            g.leg_radius > 0.0 or g.plate_thickness > 0.0 for g in self.stack
-        )
+        self._sized = needs_clearances(self.stack, (), self.clearance)
         self._more: dict[bytes, frozenset[int]] = {}
         #: the full check that refused the last pose :meth:`_clear` was given (else None;
         #: a caller clears it before the checks whose refusal it reads)
