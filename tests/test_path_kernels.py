@@ -503,6 +503,42 @@ def test_spatial_ip_path_steps_are_checked_and_deterministic():
         u = X[j]
 
 
+def test_twins_compares_rows_within_their_platform_whatever_its_row_count():
+    """``_twins`` with R = 24 + 4 rows a platform (spatial limits and self-leg rows): a row
+    that copies an earlier row of its own platform gets it as parent, rows of another
+    platform never do. (It took 24 rows a platform: with self-leg rows it compared rows
+    of the wrong platform and read past ``D``, so a path's continuation steps on legs of
+    a size differed from run to run.)"""
+    rng = np.random.default_rng(5)
+    n, R = 3, 28
+    D = rng.normal(size=(n, R, 6))
+    cI = rng.normal(size=n * R)
+    r_a, r_b = R + 1, R + 26  # platform 1: limit row 1 and self-leg row 26
+    D[1, 26] = D[1, 1]
+    cI[r_b] = cI[r_a]
+    D[2, 3] = D[1, 1]  # the same row on platform 2: not a copy
+    cI[2 * R + 3] = cI[r_a]
+    act = np.zeros(n * R, dtype=bool)
+    act[[r_a, r_b, 2 * R + 3, n * R - 1]] = True
+    parent = _ip_paths._twins(act, cI, D)
+    assert parent[r_b] == r_a
+    assert parent[r_a] == -1 and parent[2 * R + 3] == -1 and parent[n * R - 1] == -1
+
+
+def test_a_spatial_path_on_legs_of_a_size_is_deterministic():
+    """A fast spatial path on the 12 mm reference (its steps carry the self-leg rows and
+    continuation steps): the same poses, bit for bit, run after run."""
+    from stackik.paths import solve_path
+
+    stack = Stack.reference(4)
+    keys = random_spatial_targets(stack, 10, rng=2027)
+    ts = interpolate_targets([keys[2], keys[3]], steps=15)
+    runs = [solve_path(stack, ts, max_jump=(60.0, 0.3)) for _ in range(4)]
+    assert runs[0].success and runs[0].info["pc"] > 0
+    for r in runs[1:]:
+        np.testing.assert_array_equal(r.q, runs[0].q)
+
+
 def test_ip_path_secant_history_starts_with_a_known_target():
     """The secant predictor needs the targets of the last two points: a run from a point
     without history returns only the last target after one step (the target before u0

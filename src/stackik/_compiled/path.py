@@ -48,19 +48,21 @@ PC_DEPENDENT = 1e-6
 def _twins(act: FloatArray, cI: FloatArray, D: FloatArray) -> FloatArray:
     """For each limit row of the set ``act``: -1 when it enters the Newton system, else
     the earlier row of the set it copies (mirror legs: the same value and gradient to
-    rounding, i.e. the same function)."""
+    rounding, i.e. the same function). ``D`` (n, R, nv): R rows a platform (its 24 limits
+    and, spatial on legs of a size, its self-leg rows), compared within each platform."""
     m = cI.size
+    R = D.shape[1]
     nv = D.shape[2]
     parent = np.full(m, -1)
     for r in range(m):
         if not act[r]:
             continue
-        i = r // 24
-        for r2 in range(24 * i, r):
+        i = r // R
+        for r2 in range(R * i, r):
             same = act[r2] and parent[r2] < 0 and abs(cI[r2] - cI[r]) <= 1e-12
             for k in range(nv):
-                dk = D[i, r % 24, k]
-                same = same and abs(D[i, r2 % 24, k] - dk) <= 1e-9 * (1.0 + abs(dk))
+                dk = D[i, r % R, k]
+                same = same and abs(D[i, r2 % R, k] - dk) <= 1e-9 * (1.0 + abs(dk))
             if same:
                 parent[r] = r2
                 break
