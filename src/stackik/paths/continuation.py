@@ -149,10 +149,10 @@ class Tracker:
         #: goal basin, :meth:`follow`)
         self._side_carry: tuple[Any, ...] | None = None
         #: rows for bodies of non-adjacent platforms (:meth:`_pairs`): whether a step
-        #: carries them before any fold (legs or plates of a size, or a margin: else such
-        #: bodies come closer than 0 only where a leg's axis passes through a plate, which
-        #: a step's rows keep from happening again once it has), and the pairs close at
-        #: the poses that folded from a start (keyed by its bytes)
+        #: carries them before any fold (legs or plates of a size, or a margin; else such
+        #: bodies come closer than 0 only where a leg's axis passes through a plate, and
+        #: the rows come once the check has refused that), and the pairs close at the
+        #: poses that folded from a start (keyed by its bytes)
         self._sized = needs_clearances(self.stack, (), self.clearance)
         self._more: dict[bytes, frozenset[int]] = {}
         #: the full check that refused the last pose :meth:`_clear` was given (else None;
