@@ -43,12 +43,11 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))  # the oracle lives with the fuzz tests
 import fuzz_cases  # noqa: E402
 import reference_impl as ref  # noqa: E402
+from bench_path import MAX_JUMP, jump_ratio  # noqa: E402
 
 import stackik as sk  # noqa: E402
 from stackik.paths import interpolate_targets  # noqa: E402
 from stackik.sampling import random_reachable_targets, random_spatial_targets  # noqa: E402
-
-MAX_JUMP = (60.0, 0.3)
 
 
 class _HangError(Exception):
@@ -117,12 +116,7 @@ def run_case(rng: np.random.Generator, index: int, args: argparse.Namespace) -> 
     rec.update(status=first.status.value, completed=k, success=first.success)
     rec["same"] = bool(np.array_equal(first.q, second.q, equal_nan=True))
     rec["bad"] = _bad_poses(stack, first, planar)
-    rec["max_step"] = 0.0
-    if k > 1:
-        d = np.abs(np.diff(first.q[:k], axis=0))
-        nt = 2 if planar else 3
-        lim = np.array([MAX_JUMP[0]] * nt + [MAX_JUMP[1]] * (d.shape[2] - nt))
-        rec["max_step"] = float((d / lim).max())
+    rec["max_step"] = float(jump_ratio(first.q[:k], first.q.shape[2]).max()) if k > 1 else 0.0
     if not first.success:
         rec["message"] = first.message
     return rec
